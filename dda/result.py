@@ -1,0 +1,93 @@
+"""What a run returns: frames (snapshots of the blocks), events and a summary."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+
+# contact states, as stored in ``Contacts.state``
+OPEN, SLIDING, LOCKED = 0, 1, 2
+STATE_NAMES = {OPEN: "open", SLIDING: "sliding", LOCKED: "locked"}
+
+
+@dataclass(frozen=True)
+class Contacts:
+    """Contacts of one frame, one row each (struct of arrays).
+
+    ``block_a`` holds the row (in the frame's block arrays) of the block whose
+    vertex touches; ``block_b`` the row of the block whose edge is touched.
+    Forces are per unit thickness; ``normal_force`` > 0 is compression,
+    ``penetration`` > 0 is overlap. ``state`` is OPEN, SLIDING or LOCKED.
+    """
+
+    block_a: np.ndarray  # (m,) int
+    block_b: np.ndarray  # (m,) int
+    points: np.ndarray  # (m, 2) contact vertex position
+    normals: np.ndarray  # (m, 2) unit normal, from block_b towards block_a
+    normal_force: np.ndarray  # (m,)
+    shear_force: np.ndarray  # (m,) along the edge direction of block_b
+    penetration: np.ndarray  # (m,)
+    state: np.ndarray  # (m,) int8
+
+    @classmethod
+    def empty(cls) -> Contacts:
+        z = np.zeros(0)
+        i = np.zeros(0, dtype=np.int64)
+        return cls(i, i, np.zeros((0, 2)), np.zeros((0, 2)), z, z, z, np.zeros(0, np.int8))
+
+    def __len__(self) -> int:
+        return len(self.block_a)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """The block system at one instant. Row k of every array is one block."""
+
+    time: float
+    step: int
+    names: tuple[str, ...]
+    ids: np.ndarray  # (n,) stable integer ids
+    centroids: np.ndarray  # (n, 2)
+    rotations: np.ndarray  # (n,) accumulated rotation, rad
+    velocities: np.ndarray  # (n, 3) vx, vy, omega at the centroid
+    stresses: np.ndarray  # (n, 3) sxx, syy, sxy
+    displacements: np.ndarray  # (n, 2) centroid displacement since the start
+    vertices: list[np.ndarray]  # (k_i, 2) each, counter-clockwise
+    areas: np.ndarray  # (n,)
+    fixed: np.ndarray  # (n,) bool
+    contacts: Contacts = field(default_factory=Contacts.empty)
+
+    def block(self, name: str) -> int:
+        """Row of the block called ``name``."""
+        return self.names.index(name)
+
+
+class FractureEvent(NamedTuple):
+    """One block breaking: ``mode`` is "shear" or "tension"."""
+
+    step: int
+    time: float
+    parent: str
+    children: tuple[str, ...]
+    mode: str
+
+
+@dataclass
+class Result:
+    """Frames kept during the run, fracture events and a summary dict.
+
+    ``summary`` keys: steps, time, wall_seconds, iterations (total solves),
+    iterations_per_step, max_penetration, active_effects, stage_seconds,
+    contact_method, cut_steps, status.
+    """
+
+    frames: list[Frame]
+    fracture_events: list[FractureEvent] = field(default_factory=list)
+    summary: dict[str, Any] = field(default_factory=dict)
+    history: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def final(self) -> Frame:
+        return self.frames[-1]
