@@ -1,0 +1,97 @@
+"""Polygon integrals and checks on packed polygons (THEORY.md section 2).
+
+Polygons are stored packed: ``vertices`` (NV, 2) with ``offsets`` (n+1,) so
+that block i owns rows ``offsets[i]:offsets[i+1]``. All functions are
+vectorised over every polygon at once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def next_vertex_index(offsets: np.ndarray) -> np.ndarray:
+    """Index of the next vertex (cyclic within each polygon) for every vertex."""
+    counts = np.diff(offsets)
+    nxt = np.arange(offsets[-1]) + 1
+    last = offsets[1:] - 1
+    nxt[last] = offsets[:-1]
+    nxt[last[counts == 0]] = last[counts == 0]
+    return nxt
+
+
+def previous_vertex_index(offsets: np.ndarray) -> np.ndarray:
+    """Index of the previous vertex (cyclic within each polygon)."""
+    prv = np.arange(offsets[-1]) - 1
+    prv[offsets[:-1]] = offsets[1:] - 1
+    return prv
+
+
+def owner_of_vertex(offsets: np.ndarray) -> np.ndarray:
+    """Polygon index of every packed vertex."""
+    return np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
+
+
+def polygon_moments(vertices: np.ndarray, offsets: np.ndarray) -> dict[str, np.ndarray]:
+    """Area integrals of every polygon by Green's theorem.
+
+    Returns S = ∫dA, the centroid (x0, y0) = (∫x dA, ∫y dA)/S and the second
+    moments about the centroid Ixx = ∫(x-x0)² dA, Iyy = ∫(y-y0)² dA,
+    Ixy = ∫(x-x0)(y-y0) dA. Edge terms use the exact polygon formulas
+    (per edge with c = x_k y_{k+1} - x_{k+1} y_k):
+    S = Σc/2, Sx = Σ(x_k+x_{k+1})c/6, Sxx = Σ(x_k²+x_k x_{k+1}+x_{k+1}²)c/12,
+    Sxy = Σ(x_k y_{k+1} + 2x_k y_k + 2x_{k+1} y_{k+1} + x_{k+1} y_k)c/24.
+    Counter-clockwise polygons have S > 0; concave polygons are fine.
+    """
+    n = len(offsets) - 1
+    owner = owner_of_vertex(offsets)
+    nxt = next_vertex_index(offsets)
+    # shift to a per-polygon reference point for round-off safety
+    ref = vertices[offsets[:-1]]
+    p = vertices - ref[owner]
+    q = p[nxt]
+    x0, y0, x1, y1 = p[:, 0], p[:, 1], q[:, 0], q[:, 1]
+    c = x0 * y1 - x1 * y0
+
+    def total(values: np.ndarray) -> np.ndarray:
+        return np.bincount(owner, weights=values, minlength=n)
+
+    s = total(c) / 2.0
+    sx = total((x0 + x1) * c) / 6.0
+    sy = total((y0 + y1) * c) / 6.0
+    sxx = total((x0 * x0 + x0 * x1 + x1 * x1) * c) / 12.0
+    syy = total((y0 * y0 + y0 * y1 + y1 * y1) * c) / 12.0
+    sxy = total((x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c) / 24.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx, cy = sx / s, sy / s
+    return {
+        "area": s,
+        "centroid": np.column_stack([cx, cy]) + ref,
+        "ixx": sxx - s * cx * cx,
+        "iyy": syy - s * cy * cy,
+        "ixy": sxy - s * cx * cy,
+    }
+
+
+def pack_polygons(polygons: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Pack a list of (k_i, 2) arrays into ``(vertices, offsets)``."""
+    counts = np.array([len(p) for p in polygons], dtype=np.int64)
+    offsets = np.zeros(len(polygons) + 1, dtype=np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    if len(polygons) == 0:
+        return np.zeros((0, 2)), offsets
+    return np.concatenate([np.asarray(p, dtype=float) for p in polygons]), offsets
+
+
+def unpack_polygons(vertices: np.ndarray, offsets: np.ndarray) -> list[np.ndarray]:
+    """Split packed vertices back into one array per polygon (copies)."""
+    return [vertices[a:b].copy() for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
+
+
+def reflex_vertices(vertices: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """True where the interior angle of a counter-clockwise polygon exceeds 180°."""
+    prv = vertices[previous_vertex_index(offsets)]
+    nxt = vertices[next_vertex_index(offsets)]
+    a = vertices - prv
+    b = nxt - vertices
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0.0
