@@ -11,8 +11,8 @@ from dda.scene import Scene, load_scene
 
 
 def simulate(scene, progress: bool = False, **kwargs) -> Result:
-    """Run a scene (``Scene``, path, TOML text or dict); see :mod:`dda.simulate`."""
-    from dda.simulate import run
+    """Run a scene (``Scene``, path, TOML text or dict); see :func:`dda.simulation.run`."""
+    from dda.simulation import run
 
     if not isinstance(scene, Scene):
         scene = load_scene(scene)

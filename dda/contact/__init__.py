@@ -1,0 +1,1 @@
+"""Contact pipeline: broad phase -> narrow phase -> persistent contact set -> law."""

@@ -1,0 +1,124 @@
+"""The persistent contact set: one row per (vertex, edge) pair, struct of arrays.
+
+A contact keeps its state, multipliers, penalty and shear reference point
+from step to step while the same vertex touches the same edge (matched by a
+key built from the blocks' stable ids and local vertex/edge numbers).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.result import LOCKED, OPEN
+
+_LOCAL = 1 << 10  # vertices per block allowed in a key
+_IDS = 1 << 20  # block ids allowed in a key
+
+
+@dataclass
+class ContactSet:
+    """Contacts of the current step.
+
+    vertex, edge : global vertex index of P1 and of the edge's start P2
+    block_a, block_b : rows of the vertex's block and of the edge's block
+    key : (m,) int64 persistent identity
+    state : OPEN / SLIDING / LOCKED
+    normal_multiplier, shear_multiplier : λn (compression > 0), λt (AL)
+    penalty : per-contact normal penalty p (variable in AL)
+    reference : edge parameter of the shear reference point P0 on P2P3
+    slide_direction : +1 / -1 sign of sliding along P2->P3 (when sliding)
+    intact : cohesion and tensile strength still there (lost once it slips or opens)
+    normal_force, shear_force, penetration : results of the last solve
+    """
+
+    vertex: np.ndarray
+    edge: np.ndarray
+    block_a: np.ndarray
+    block_b: np.ndarray
+    key: np.ndarray
+    state: np.ndarray
+    normal_multiplier: np.ndarray
+    shear_multiplier: np.ndarray
+    penalty: np.ndarray
+    reference: np.ndarray
+    slide_direction: np.ndarray
+    intact: np.ndarray
+    normal_force: np.ndarray
+    shear_force: np.ndarray
+    penetration: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.vertex)
+
+    @classmethod
+    def empty(cls) -> ContactSet:
+        i = np.zeros(0, dtype=np.int64)
+        f = np.zeros(0)
+        return cls(i, i, i, i, i, np.zeros(0, np.int8), f, f, f, f, f, f,
+                   np.zeros(0, bool), f, f)
+
+    def copy(self) -> ContactSet:
+        return ContactSet(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
+
+    def subset(self, rows: np.ndarray) -> ContactSet:
+        return ContactSet(**{f.name: getattr(self, f.name)[rows] for f in fields(self)})
+
+
+def contact_keys(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
+    """Stable int64 key of each (vertex, edge) pair from block ids and local numbers."""
+    owner = blocks.vertex_owner
+    va, eb = owner[vertex], owner[edge]
+    local_v = vertex - blocks.offsets[va]
+    local_e = edge - blocks.offsets[eb]
+    if blocks.ids.max(initial=0) >= _IDS or np.diff(blocks.offsets).max(initial=0) >= _LOCAL:
+        raise ValueError("contact keys need block ids < 2**20 and < 1024 vertices per block")
+    left = blocks.ids[va] * _LOCAL + local_v
+    right = blocks.ids[eb] * _LOCAL + local_e
+    return left * (_IDS * _LOCAL) + right
+
+
+def merge(
+    previous: ContactSet,
+    blocks: BlockSet,
+    vertex: np.ndarray,
+    edge: np.ndarray,
+    initial_penetration: np.ndarray,
+    initial_penalty: float,
+    initial_parameter: np.ndarray,
+    touch_tolerance: float,
+) -> ContactSet:
+    """Build this step's set, carrying over what persists from ``previous``.
+
+    New contacts start LOCKED when touching (penetration ≥ -``touch_tolerance``), else
+    OPEN; multipliers 0; penalty ``initial_penalty``; shear reference at the
+    vertex's current projection ``initial_parameter``.
+    """
+    owner = blocks.vertex_owner
+    m = len(vertex)
+    keys = contact_keys(blocks, vertex, edge)
+    new = ContactSet(
+        vertex=vertex,
+        edge=edge,
+        block_a=owner[vertex],
+        block_b=owner[edge],
+        key=keys,
+        state=np.where(initial_penetration >= -touch_tolerance, LOCKED, OPEN).astype(np.int8),
+        normal_multiplier=np.zeros(m),
+        shear_multiplier=np.zeros(m),
+        penalty=np.full(m, float(initial_penalty)),
+        reference=np.asarray(initial_parameter, float).copy(),
+        slide_direction=np.zeros(m),
+        intact=np.ones(m, bool),
+        normal_force=np.zeros(m),
+        shear_force=np.zeros(m),
+        penetration=np.zeros(m),
+    )
+    if len(previous) and m:
+        _, new_rows, old_rows = np.intersect1d(keys, previous.key, return_indices=True)
+        for name in ("state", "normal_multiplier", "shear_multiplier", "penalty", "reference",
+                     "slide_direction", "intact", "normal_force", "shear_force", "penetration"):
+            getattr(new, name)[new_rows] = getattr(previous, name)[old_rows]
+    return new

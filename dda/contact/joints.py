@@ -1,0 +1,62 @@
+"""Which joint each contact uses: interface override, else the edge's joint, else default."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact.contact_set import ContactSet
+from dda.contact.law import JointProperties
+
+
+class JointTable:
+    """Joint properties as arrays, plus the ``[[interfaces]]`` overrides by block id pair."""
+
+    def __init__(
+        self,
+        names: list[str],
+        friction_angle: np.ndarray,
+        cohesion: np.ndarray,
+        tensile: np.ndarray,
+        interface_ids: np.ndarray,
+        interface_joint: np.ndarray,
+    ) -> None:
+        self.names = names
+        self.tan_friction = np.tan(np.radians(friction_angle))
+        self.cohesion = np.asarray(cohesion, float)
+        self.tensile = np.asarray(tensile, float)
+        self.default = names.index("default")
+        keys = self._pair_keys(interface_ids[:, 0], interface_ids[:, 1]) if len(
+            interface_ids) else np.zeros(0, np.int64)
+        order = np.argsort(keys)
+        self.interface_keys = keys[order]
+        self.interface_joint = np.asarray(interface_joint, np.int64)[order]
+
+    @staticmethod
+    def _pair_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        return lo.astype(np.int64) * (1 << 31) + hi
+
+    @property
+    def has_friction(self) -> bool:
+        return bool(np.any(self.tan_friction > 0) or np.any(self.cohesion > 0))
+
+    def rows_for(self, blocks: BlockSet, contacts: ContactSet) -> np.ndarray:
+        """Joint row of each contact."""
+        rows = blocks.edge_joint[contacts.edge]
+        rows = np.where(rows >= 0, rows, self.default)
+        if len(self.interface_keys) and len(contacts):
+            keys = self._pair_keys(blocks.ids[contacts.block_a], blocks.ids[contacts.block_b])
+            at = np.clip(np.searchsorted(self.interface_keys, keys), 0,
+                         len(self.interface_keys) - 1)
+            hit = self.interface_keys[at] == keys
+            rows = np.where(hit, self.interface_joint[at], rows)
+        return rows
+
+    def properties(self, rows: np.ndarray, contact_length: np.ndarray) -> JointProperties:
+        """tan φ and the cohesion and tensile forces c·l, T·l of each contact."""
+        return JointProperties(
+            friction=self.tan_friction[rows],
+            cohesion=self.cohesion[rows] * contact_length,
+            tensile=self.tensile[rows] * contact_length,
+        )

@@ -1,0 +1,199 @@
+"""Contact laws: open-close with Coulomb friction, penalty or augmented Lagrangian.
+
+Per closed contact the energy is λn d + p d²/2 (paper eq. 8) in the normal
+direction and, while locked, λt s + ps s²/2 in the shear direction
+(ps = shear_ratio · p). The pure penalty method is the same with λ ≡ 0.
+A sliding contact instead carries a friction force λt = ±(μ N + c l) as a
+pair of point loads. Contributions (eqs. 16-21):
+
+    K_ii += p EᵀE, K_ij += p EᵀG, K_ji += p GᵀE, K_jj += p GᵀG
+    F_i  -= (λ + p S0/l) Eᵀ,  F_j -= (λ + p S0/l) Gᵀ
+
+After each solve, d = S0/l + E D_i + G D_j and s likewise; the law updates
+states and multipliers (λ_{k+1} = λ_k + p d, eq. 7) and, in AL mode, raises
+the penalty of contacts whose penetration does not shrink fast enough.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dda.contact.contact_set import ContactSet
+from dda.contact.rows import ContactRows
+from dda.result import LOCKED, OPEN, SLIDING
+
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """Settings of the contact law.
+
+    augmented : augmented Lagrangian (True) or pure penalty (False)
+    tolerance : AL convergence: largest |d| (closed) and |s| (locked) accepted
+    shear_ratio : ps / p
+    friction : False when no joint has friction or cohesion (every closed
+        contact then slides freely and no shear spring is built)
+    penalty_growth : factor applied to a contact's penalty when its
+        penetration did not shrink below ``shrink_target`` of its previous value
+    max_penalty : the penalty is never raised above this
+    """
+
+    augmented: bool
+    tolerance: float
+    shear_ratio: float
+    friction: bool
+    penalty_growth: float = 10.0
+    shrink_target: float = 0.25
+    max_penalty: float = np.inf
+
+
+@dataclass
+class JointProperties:
+    """Per contact: tan φ, cohesion force c·l and tensile force T·l capacities."""
+
+    friction: np.ndarray
+    cohesion: np.ndarray
+    tensile: np.ndarray
+
+
+@dataclass
+class LawOutcome:
+    """What one law update decided."""
+
+    settled: bool  # nothing changed and every tolerance met
+    stiffness_changed: bool  # states or penalties changed: K must be rebuilt
+    state_changes: int
+    max_violation: float
+
+
+def contact_coefficients(contacts: ContactSet, rows: ContactRows, law: ContactLaw):
+    """Per-contact stiffness (normal, shear) and force coefficients (normal, shear).
+
+    The generalised force is F -= coef·(row); the stiffness is k·rowᵀrow.
+    """
+    closed = contacts.state != OPEN
+    locked = contacts.state == LOCKED
+    p = np.where(closed, contacts.penalty, 0.0)
+    ps = np.where(locked, law.shear_ratio * contacts.penalty, 0.0)
+    lam_n = contacts.normal_multiplier if law.augmented else 0.0
+    normal_force = np.where(closed, lam_n + p * rows.penetration, 0.0)
+    lam_t_locked = contacts.shear_multiplier if law.augmented else 0.0
+    shear_force = np.where(
+        locked,
+        lam_t_locked + ps * rows.slip,
+        np.where(contacts.state == SLIDING, contacts.shear_multiplier, 0.0),
+    )
+    return p, ps, normal_force, shear_force
+
+
+def update(
+    contacts: ContactSet,
+    rows: ContactRows,
+    d: np.ndarray,
+    s: np.ndarray,
+    previous_d: np.ndarray | None,
+    joint: JointProperties,
+    law: ContactLaw,
+) -> LawOutcome:
+    """Apply the law after a solve; edits ``contacts`` in place.
+
+    ``d`` and ``s`` are the normal penetration and the shear position of each
+    contact after the solve; ``previous_d`` those of the previous iteration.
+    """
+    state = contacts.state
+    closed = state != OPEN
+    p = contacts.penalty
+    lam_n = contacts.normal_multiplier if law.augmented else np.zeros_like(p)
+    normal = lam_n + p * d  # trial normal force (compression > 0)
+    tensile = np.where(contacts.intact, joint.tensile, 0.0)
+    cohesion = np.where(contacts.intact, joint.cohesion, 0.0)
+
+    opens = closed & (normal < -tensile)
+    closes = ~closed & (d > 0.0)
+    new_state = state.copy()
+    new_state[opens] = OPEN
+    new_state[closes] = LOCKED
+
+    shear_capacity = np.maximum(joint.friction * normal, 0.0) + cohesion
+    lam_t = contacts.shear_multiplier if law.augmented else np.zeros_like(p)
+    trial_shear = lam_t + law.shear_ratio * p * s
+    still_closed = closed & ~opens
+    if law.friction:
+        slips = still_closed & (state == LOCKED) & (np.abs(trial_shear) > shear_capacity)
+        sticks = still_closed & (state == SLIDING) & (contacts.slide_direction * s < 0.0)
+        new_state[slips] = SLIDING
+        new_state[sticks] = LOCKED
+        contacts.slide_direction[slips] = np.sign(trial_shear[slips])
+    else:
+        slips = still_closed & (state == LOCKED)
+        sticks = np.zeros_like(slips)
+        new_state[slips] = SLIDING
+        contacts.slide_direction[still_closed] = np.sign(s[still_closed])
+    contacts.intact &= ~(opens | slips)
+
+    now_closed = new_state != OPEN
+    now_sliding = new_state == SLIDING
+    now_locked = new_state == LOCKED
+    normal = np.where(now_closed, normal, 0.0)
+    friction_force = contacts.slide_direction * (
+        np.maximum(joint.friction * normal, 0.0) + np.where(contacts.intact, cohesion, 0.0)
+    )
+    friction_force = np.where(law.friction, friction_force, 0.0)
+    if law.augmented:
+        contacts.normal_multiplier = np.where(now_closed & ~closes, normal, 0.0)
+    shear_out = np.where(now_sliding, friction_force, np.where(now_locked, trial_shear, 0.0))
+    contacts.shear_multiplier = np.where(
+        now_sliding, friction_force, np.where(now_locked & law.augmented, trial_shear, 0.0)
+    )
+    contacts.shear_multiplier[sticks] = np.where(law.augmented, friction_force[sticks], 0.0)
+
+    contacts.normal_force = normal
+    contacts.shear_force = shear_out
+    contacts.penetration = d
+
+    changes = int(np.count_nonzero(new_state != state))
+    contacts.state = new_state
+    violation = _violation(d, s, new_state, law)
+    penalty_raised = False
+    if law.augmented and changes == 0:
+        penalty_raised = _raise_penalties(contacts, d, previous_d, now_closed, law)
+    settled = changes == 0 and (not law.augmented or violation <= law.tolerance)
+    return LawOutcome(
+        settled=settled,
+        stiffness_changed=changes > 0 or penalty_raised,
+        state_changes=changes,
+        max_violation=violation,
+    )
+
+
+def _violation(d: np.ndarray, s: np.ndarray, state: np.ndarray, law: ContactLaw) -> float:
+    """Largest |d| over closed contacts and |s| over locked ones."""
+    closed = state != OPEN
+    parts = [np.abs(d[closed])]
+    if law.friction:
+        parts.append(np.abs(s[state == LOCKED]))
+    values = np.concatenate(parts)
+    return float(values.max()) if len(values) else 0.0
+
+
+def _raise_penalties(contacts, d, previous_d, closed, law) -> bool:
+    """Variable penalty: p ← growth·p where |d| > tol and |d| > target·|d_prev|.
+
+    Each augmentation shrinks the penetration by about k/(k+p) (k: the
+    contact's stiffness without the spring); when that ratio is poor, a
+    larger p is worth one re-factorisation.
+    """
+    if previous_d is None:
+        return False
+    slow = (
+        closed
+        & (np.abs(d) > law.tolerance)
+        & (np.abs(d) > law.shrink_target * np.abs(previous_d))
+        & (contacts.penalty < law.max_penalty)
+    )
+    if not slow.any():
+        return False
+    contacts.penalty[slow] = np.minimum(contacts.penalty[slow] * law.penalty_growth,
+                                        law.max_penalty)
+    return True

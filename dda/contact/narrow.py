@@ -1,0 +1,167 @@
+"""Narrow phase: vertex-edge and vertex-vertex contacts between candidate pairs.
+
+Penetration is positive: for vertex P1 and the counter-clockwise edge P2P3 of
+the other block, d = ((P3 - P2) × (P1 - P2)) / l (paper eq. 9), which is > 0
+when P1 lies on the inner side of the edge.
+
+* Vertex-edge (V-E): P1 projects inside the edge, away from its end points
+  by more than the vertex radius; |d| within the search distance; P1 is not
+  a reflex vertex and both its edges leave it away from the other block
+  (the angle test).
+* Vertex-vertex (V-V): P1 within the vertex radius of a vertex P2 of the
+  other block. One contact per pair: of the four edges meeting at P1 and
+  P2, take the one that best separates the opposite vertex's fan of edges
+  (largest min over the fan of u·n_out): the edge the vertex will enter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertices
+
+ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
+
+
+@dataclass
+class Detected:
+    """Contacts found this step: global vertex index and global edge start index."""
+
+    vertex: np.ndarray
+    edge: np.ndarray
+    vertex_vertex: np.ndarray  # bool
+
+
+def _expand(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For counts c_k: (k repeated c_k times, 0..c_k-1 for each k)."""
+    owner = np.repeat(np.arange(len(counts)), counts)
+    starts = np.cumsum(counts) - counts
+    return owner, np.arange(counts.sum()) - starts[owner]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=1)
+    return v / np.where(n > 0, n, 1.0)[:, None]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+class VertexFans:
+    """Unit vectors along the two edges leaving each vertex, and reflex flags."""
+
+    def __init__(self, blocks: BlockSet) -> None:
+        v = blocks.vertices
+        self.next = next_vertex_index(blocks.offsets)
+        self.prev = previous_vertex_index(blocks.offsets)
+        self.to_next = _unit(v[self.next] - v)
+        self.to_prev = _unit(v[self.prev] - v)
+        self.reflex = reflex_vertices(v, blocks.offsets)
+
+    def separation(self, vertex: np.ndarray, outward: np.ndarray) -> np.ndarray:
+        """min(u_prev·n, u_next·n): ≥ 0 when the fan stays outside the edge's line."""
+        return np.minimum(
+            np.einsum("ij,ij->i", self.to_next[vertex], outward),
+            np.einsum("ij,ij->i", self.to_prev[vertex], outward),
+        )
+
+
+def _vertex_edge_candidates(blocks, pairs, search):
+    """All (vertex of a, edge of b) combinations with the vertex near b's box."""
+    a = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    b = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    counts = np.diff(blocks.offsets)
+    p, local = _expand(counts[a])
+    vertex = blocks.offsets[a][p] + local
+    lo = np.minimum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) - search
+    hi = np.maximum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) + search
+    pos = blocks.vertices[vertex]
+    near = np.all((pos >= lo[b[p]]) & (pos <= hi[b[p]]), axis=1)
+    p, vertex = p[near], vertex[near]
+    q, local = _expand(counts[b[p]])
+    edge = blocks.offsets[b[p]][q] + local
+    return a[p][q], b[p][q], vertex[q], edge
+
+
+def detect(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float) -> Detected:
+    """Vertex-edge and vertex-vertex contacts for candidate block pairs."""
+    empty = np.zeros(0, dtype=np.int64)
+    if len(pairs) == 0:
+        return Detected(empty, empty, np.zeros(0, bool))
+    fans = VertexFans(blocks)
+    a, b, vertex, edge = _vertex_edge_candidates(blocks, pairs, search)
+    v = blocks.vertices
+    p1, p2, p3 = v[vertex], v[edge], v[fans.next[edge]]
+    e = p3 - p2
+    length = np.linalg.norm(e, axis=1)
+    inward = np.column_stack([-e[:, 1], e[:, 0]]) / length[:, None]
+    t = np.einsum("ij,ij->i", p1 - p2, e) / length**2
+    d = _cross(e, p1 - p2) / length
+    r2 = np.linalg.norm(p1 - p2, axis=1)
+    r3 = np.linalg.norm(p1 - p3, axis=1)
+    size = np.sqrt(np.minimum(blocks.area[a], blocks.area[b]))
+    max_depth = np.maximum(search, 0.3 * size)
+
+    ve = (
+        ~fans.reflex[vertex]
+        & (t > 0.0)
+        & (t < 1.0)
+        & (r2 > vertex_radius)
+        & (r3 > vertex_radius)
+        & (d >= -search)
+        & (d <= max_depth)
+        & (fans.separation(vertex, -inward) >= -ANGLE_TOLERANCE)
+    )
+    vv = (a < b) & (r2 <= vertex_radius)
+    vv_vertex, vv_edge = _resolve_vertex_vertex(blocks, fans, vertex[vv], edge[vv])
+    vertex_all = np.concatenate([vertex[ve], vv_vertex])
+    edge_all = np.concatenate([edge[ve], vv_edge])
+    kind = np.concatenate([np.zeros(ve.sum(), bool), np.ones(len(vv_vertex), bool)])
+    keep = _first_of_each(vertex_all, edge_all)
+    return Detected(vertex_all[keep], edge_all[keep], kind[keep])
+
+
+def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.ndarray:
+    e = blocks.vertices[fans.next[edge]] - blocks.vertices[edge]
+    return _unit(np.column_stack([e[:, 1], -e[:, 0]]))
+
+
+def _resolve_vertex_vertex(blocks, fans, p1, p2):
+    """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
+
+    Candidates: the two edges at p2 (vertex p1 enters them) and the two edges
+    at p1 (vertex p2 enters them). A reflex vertex never is the entering one.
+    """
+    if len(p1) == 0:
+        return p1, p2
+    candidates = [
+        (p1, p2),  # p1 onto edge starting at p2
+        (p1, fans.prev[p2]),  # p1 onto edge ending at p2
+        (p2, p1),
+        (p2, fans.prev[p1]),
+    ]
+    scores = np.column_stack(
+        [
+            np.where(
+                fans.reflex[vert], -np.inf, fans.separation(vert, _outward_normal(blocks, fans, ed))
+            )
+            for vert, ed in candidates
+        ]
+    )
+    best = np.argmax(scores, axis=1)
+    verts = np.column_stack([c[0] for c in candidates])
+    edges = np.column_stack([c[1] for c in candidates])
+    rows = np.arange(len(p1))
+    return verts[rows, best], edges[rows, best]
+
+
+def _first_of_each(vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
+    """Indices keeping one row per (vertex, edge) pair."""
+    if len(vertex) == 0:
+        return np.zeros(0, dtype=np.int64)
+    _, first = np.unique(np.column_stack([vertex, edge]), axis=0, return_index=True)
+    return np.sort(first)

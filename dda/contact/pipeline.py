@@ -1,0 +1,44 @@
+"""One contact refresh per step: broad phase, narrow phase, carry-over."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact.broad import candidate_pairs
+from dda.contact.contact_set import ContactSet, merge
+from dda.contact.narrow import detect
+from dda.contact.rows import edge_projection
+from dda.result import SLIDING
+
+
+def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> ContactSet:
+    """Contacts at the start of a step, keeping what persists from ``previous``.
+
+    Sliding contacts get their shear reference point moved under the vertex:
+    their slip is measured from the step start.
+    """
+    pairs = candidate_pairs(blocks, settings.search_distance)
+    found = detect(blocks, pairs, settings.search_distance, settings.vertex_radius)
+    penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
+    contacts = merge(
+        previous,
+        blocks,
+        found.vertex,
+        found.edge,
+        initial_penetration=penetration,
+        initial_penalty=settings.initial_penalty,
+        initial_parameter=parameter,
+        touch_tolerance=settings.touch_tolerance,
+    )
+    sliding = contacts.state == SLIDING
+    contacts.reference[sliding] = parameter[sliding]
+    contacts.penetration = penetration
+    return contacts
+
+
+def pair_count(contacts: ContactSet) -> int:
+    """Number of distinct block pairs in contact."""
+    if not len(contacts):
+        return 0
+    return len(np.unique(np.column_stack([contacts.block_a, contacts.block_b]), axis=0))

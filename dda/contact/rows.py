@@ -1,0 +1,102 @@
+"""Linearised contact distances (paper eqs. 9-13) for all contacts at once.
+
+Normal: d = S0/l + E D_i + G D_j, penetration positive, with
+e_r = [(y2-y3) t1r(P1) + (x3-x2) t2r(P1)] / l and
+g_r = [(y3-y1) t1r(P2) + (x1-x3) t2r(P2) + (y1-y2) t1r(P3) + (x2-x1) t2r(P3)] / l.
+
+Shear: s = s0 + Es D_i + Gs D_j, the position of P1 along the edge
+direction t = (P3-P2)/l relative to the reference point P0 = P2 + r (P3-P2)
+of the edge: s0 = (P1-P0)·t, Es = tᵀ T_i(P1), Gs = -tᵀ T_j(P0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact.contact_set import ContactSet
+from dda.geometry import next_vertex_index, previous_vertex_index
+from dda.kinematics import displacement_matrices
+
+
+@dataclass
+class ContactRows:
+    """Gap values at the step start and their gradients with respect to D."""
+
+    penetration: np.ndarray  # S0 / l at the step start, > 0 is overlap (m,)
+    normal_i: np.ndarray  # E (m, 6)
+    normal_j: np.ndarray  # G (m, 6)
+    slip: np.ndarray  # s0, position of P1 from the reference point (m,)
+    shear_i: np.ndarray  # Es (m, 6)
+    shear_j: np.ndarray  # Gs (m, 6)
+    parameter: np.ndarray  # projection of P1 on the edge, in [0, 1] along P2->P3
+    normals: np.ndarray  # (m, 2) unit normal out of the edge's block
+    tangents: np.ndarray  # (m, 2) unit edge direction
+    length: np.ndarray  # contact length carried by the vertex (for c and T)
+    points: np.ndarray  # (m, 2) P1
+
+
+def edge_projection(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
+    """Penetration d = (P3-P2)×(P1-P2)/l and parameter t of P1 on the edge."""
+    nxt = next_vertex_index(blocks.offsets)
+    p1, p2, p3 = blocks.vertices[vertex], blocks.vertices[edge], blocks.vertices[nxt[edge]]
+    e = p3 - p2
+    length = np.linalg.norm(e, axis=1)
+    w = p1 - p2
+    d = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / length
+    t = np.einsum("ij,ij->i", w, e) / length**2
+    return d, t
+
+
+def contact_rows(blocks: BlockSet, contacts: ContactSet) -> ContactRows:
+    """E, G, Es, Gs and the gaps of every contact at the current positions."""
+    offsets, v = blocks.offsets, blocks.vertices
+    nxt, prv = next_vertex_index(offsets), previous_vertex_index(offsets)
+    i, j = contacts.block_a, contacts.block_b
+    p1, p2, p3 = v[contacts.vertex], v[contacts.edge], v[nxt[contacts.edge]]
+    ci, cj = blocks.centroid[i], blocks.centroid[j]
+    e = p3 - p2
+    length = np.linalg.norm(e, axis=1)
+    tangent = e / length[:, None]
+    inward = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+
+    t1 = displacement_matrices(p1, ci)
+    t2 = displacement_matrices(p2, cj)
+    t3 = displacement_matrices(p3, cj)
+    normal_i = np.einsum("mk,mkr->mr", inward, t1)
+    a2 = np.column_stack([p3[:, 1] - p1[:, 1], p1[:, 0] - p3[:, 0]])
+    a3 = np.column_stack([p1[:, 1] - p2[:, 1], p2[:, 0] - p1[:, 0]])
+    normal_j = (np.einsum("mk,mkr->mr", a2, t2) + np.einsum("mk,mkr->mr", a3, t3)) / length[:, None]
+    w = p1 - p2
+    penetration = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / length
+
+    p0 = p2 + contacts.reference[:, None] * e
+    shear_i = np.einsum("mk,mkr->mr", tangent, t1)
+    shear_j = -np.einsum("mk,mkr->mr", tangent, displacement_matrices(p0, cj))
+    slip = np.einsum("mk,mk->m", p1 - p0, tangent)
+
+    return ContactRows(
+        penetration=penetration,
+        normal_i=normal_i,
+        normal_j=normal_j,
+        slip=slip,
+        shear_i=shear_i,
+        shear_j=shear_j,
+        parameter=np.einsum("ij,ij->i", w, e) / length**2,
+        normals=-inward,
+        tangents=tangent,
+        length=_carried_length(v, contacts.vertex, nxt, prv, tangent),
+        points=p1,
+    )
+
+
+def _carried_length(v, vertex, nxt, prv, tangent):
+    """Half the vertex's own edge that lies along the contact edge (for c·l, T·l)."""
+    a = v[nxt[vertex]] - v[vertex]
+    b = v[prv[vertex]] - v[vertex]
+    la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    ca = np.abs(np.einsum("ij,ij->i", a, tangent)) / np.where(la > 0, la, 1)
+    cb = np.abs(np.einsum("ij,ij->i", b, tangent)) / np.where(lb > 0, lb, 1)
+    return 0.5 * np.where(ca >= cb, la, lb)

@@ -1,0 +1,45 @@
+"""The interface every block-diagonal effect implements."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dda.blocks import BlockSet
+
+
+@dataclass
+class StepContext:
+    """What an effect may read during one step attempt."""
+
+    dt: float  # step length
+    time: float  # time at the end of the step
+    step: int  # index of the step being computed (1-based)
+    static: bool
+    extras: dict = field(default_factory=dict)
+
+
+class Effect:
+    """One physical term. Subclasses override what they contribute.
+
+    ``stiffness`` returns (n, 6, 6) diagonal blocks of K (or None);
+    ``forces`` returns (n, 6) additions to F (or None); both are evaluated
+    once per step attempt. ``after_step`` lets an effect move its own state
+    (tracked material points, ...) once a step is accepted.
+    """
+
+    name = "effect"
+
+    def stiffness(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray | None:
+        return None
+
+    def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray | None:
+        return None
+
+    def after_step(self, blocks: BlockSet, d: np.ndarray, ctx: StepContext) -> None:
+        return None
+
+    def on_blocks_replaced(self, old: BlockSet, new: BlockSet, parent_of: np.ndarray) -> None:
+        """Blocks were split: ``parent_of[k]`` is the old row of new block k."""
+        return None

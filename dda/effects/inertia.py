@@ -1,0 +1,49 @@
+"""Inertia (dynamic analysis, and the damping of static analysis)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.effects.base import Effect, StepContext
+
+
+def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
+    """M_i = ρ ∫ T_iᵀ T_i dA about the centroid (THEORY.md section 3), (n, 6, 6)."""
+    s, ixx, iyy, ixy = blocks.area, blocks.ixx, blocks.iyy, blocks.ixy
+    m = np.zeros((blocks.count, 6, 6))
+    m[:, 0, 0] = m[:, 1, 1] = s
+    m[:, 2, 2] = ixx + iyy
+    m[:, 2, 3] = m[:, 3, 2] = -ixy
+    m[:, 2, 4] = m[:, 4, 2] = ixy
+    m[:, 2, 5] = m[:, 5, 2] = (ixx - iyy) / 2
+    m[:, 3, 3] = ixx
+    m[:, 4, 4] = iyy
+    m[:, 3, 5] = m[:, 5, 3] = ixy / 2
+    m[:, 4, 5] = m[:, 5, 4] = ixy / 2
+    m[:, 5, 5] = (ixx + iyy) / 4
+    return density[:, None, None] * m
+
+
+class Inertia(Effect):
+    """Shi's constant-acceleration scheme: K += (2/Δt²) M, F += (2/Δt) M v0.
+
+    Static analysis sets v0 = 0 at every step (the mass term then only
+    damps the approach to equilibrium).
+    """
+
+    name = "inertia"
+
+    def __init__(self, material_density: np.ndarray) -> None:
+        self.material_density = material_density
+
+    def masses(self, blocks: BlockSet) -> np.ndarray:
+        return mass_matrices(self.material_density[blocks.material], blocks)
+
+    def stiffness(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray:
+        return (2.0 / ctx.dt**2) * self.masses(blocks)
+
+    def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray | None:
+        if ctx.static:
+            return None
+        return (2.0 / ctx.dt) * np.einsum("nij,nj->ni", self.masses(blocks), blocks.velocity)

@@ -1,0 +1,47 @@
+"""Snapshots of the block system for the Result."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact.contact_set import ContactSet
+from dda.contact.rows import contact_rows
+from dda.geometry import unpack_polygons
+from dda.result import Contacts, Frame
+
+
+def frame_contacts(blocks: BlockSet, contacts: ContactSet) -> Contacts:
+    """Public view of the contact set (rows refer to the frame's blocks)."""
+    if not len(contacts):
+        return Contacts.empty()
+    rows = contact_rows(blocks, contacts)
+    return Contacts(
+        block_a=contacts.block_a.copy(),
+        block_b=contacts.block_b.copy(),
+        points=rows.points.copy(),
+        normals=rows.normals.copy(),
+        normal_force=contacts.normal_force.copy(),
+        shear_force=contacts.shear_force.copy(),
+        penetration=contacts.penetration.copy(),
+        state=contacts.state.copy(),
+    )
+
+
+def make_frame(blocks: BlockSet, contacts: ContactSet, time: float, step: int) -> Frame:
+    """Copy the current state into an immutable Frame."""
+    return Frame(
+        time=float(time),
+        step=int(step),
+        names=tuple(blocks.names),
+        ids=blocks.ids.copy(),
+        centroids=blocks.centroid.copy(),
+        rotations=blocks.rotation.copy(),
+        velocities=blocks.velocity[:, :3].copy(),
+        stresses=blocks.stress.copy(),
+        displacements=blocks.displacement.copy(),
+        vertices=unpack_polygons(blocks.vertices, blocks.offsets),
+        areas=blocks.area.copy(),
+        fixed=blocks.fixed.copy(),
+        contacts=frame_contacts(blocks, contacts),
+    )

@@ -1,0 +1,244 @@
+"""The time loop: contacts, step solve, step control, update, frames, events."""
+
+from __future__ import annotations
+
+import logging
+import time as wallclock
+from collections.abc import Callable
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact.contact_set import ContactSet
+from dda.contact.pipeline import refresh_contacts
+from dda.effects.base import StepContext
+from dda.errors import SimulationError
+from dda.frames import make_frame
+from dda.model import Model, build
+from dda.result import Frame, FractureEvent, Result
+from dda.scene import Scene
+from dda.step import StepSolution, solve_step
+from dda.timing import StageTimer
+from dda.update import apply_step, vertex_displacements
+
+log = logging.getLogger(__name__)
+
+MAX_CUTS = 40  # halvings of one step before the run gives up
+GROWTH = 1.5  # time-step growth after a step that had to be cut
+MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
+
+
+class _Run:
+    """Mutable state of one run (kept out of the public API)."""
+
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        self.blocks: BlockSet = model.blocks.copy()
+        self.contacts = ContactSet.empty()
+        self.time = 0.0
+        self.step = 0
+        self.dt = model.max_time_step
+        self.timer = StageTimer()
+        self.iterations = 0
+        self.factorisations = 0
+        self.cut_steps = 0
+        self.max_iterations_step = 0
+        self.max_penetration = 0.0
+        self.events: list[FractureEvent] = []
+        self.history: dict[str, list[float]] = {
+            k: [] for k in ("time", "dt", "iterations", "max_penetration", "kinetic_energy")
+        }
+
+    def finished(self) -> bool:
+        m = self.model
+        if m.steps is not None:
+            return self.step >= m.steps
+        return self.time >= m.duration * (1 - 1e-12)
+
+    def remaining(self) -> float:
+        m = self.model
+        return np.inf if m.steps is not None else m.duration - self.time
+
+
+def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | None, float, str]:
+    """Solve one step of length dt; return (solution or None, factor to cut dt, reason)."""
+    m = run.model
+    ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
+    solution = solve_step(m, run.blocks, start.copy(), ctx, run.timer)
+    run.iterations += solution.iterations
+    run.factorisations += solution.factorisations
+    if not np.all(np.isfinite(solution.d)):
+        return None, 0.25, "non-finite solution"
+    if not solution.converged:
+        return None, 0.5, "contacts did not settle"
+    moved = np.abs(vertex_displacements(run.blocks, solution.d, m.exact_rotation)).max(
+        initial=0.0
+    )
+    if moved > m.allowed_displacement * (1 + 1e-9):
+        return None, max(0.1, 0.9 * m.allowed_displacement / moved), "displacement above g2"
+    return solution, 1.0, ""
+
+
+def _advance(run: _Run) -> None:
+    """Compute and apply one step, cutting Δt until it is acceptable."""
+    m = run.model
+    if m.contact is not None:
+        with run.timer("contact_search"):
+            run.contacts = refresh_contacts(run.blocks, run.contacts, m.contact)
+    dt = min(run.dt, run.remaining())
+    for cut in range(MAX_CUTS + 1):
+        solution, factor, reason = _attempt(run, run.contacts, dt)
+        if solution is not None:
+            break
+        if cut == MAX_CUTS or dt * factor < MIN_STEP_FRACTION * m.max_time_step:
+            raise SimulationError(
+                f"step {run.step + 1} at t = {run.time:.6g}: {reason} after {cut + 1} "
+                f"attempts (last Δt = {dt:.3g}); the run cannot go on"
+            )
+        log.debug("step %d: %s, Δt %.3g -> %.3g", run.step + 1, reason, dt, dt * factor)
+        dt *= factor
+        run.cut_steps += 1
+    with run.timer("update"):
+        ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
+        for effect in m.effects:
+            effect.after_step(run.blocks, solution.d, ctx)
+        apply_step(run.blocks, solution.d, dt, m.elastic, m.static, m.exact_rotation)
+        if not np.all(np.isfinite(run.blocks.vertices)):
+            raise SimulationError(f"step {run.step + 1}: non-finite block positions")
+    run.contacts = solution.contacts
+    run.time += dt
+    run.step += 1
+    run.dt = m.max_time_step if cut == 0 else min(m.max_time_step, dt * GROWTH)
+    run.max_iterations_step = max(run.max_iterations_step, solution.iterations)
+    run.max_penetration = max(run.max_penetration, solution.max_penetration)
+    _record(run, dt, solution)
+    if m.fracture is not None:
+        with run.timer("fracture"):
+            _fracture(run, ctx)
+
+
+def _record(run: _Run, dt: float, solution: StepSolution) -> None:
+    h = run.history
+    h["time"].append(run.time)
+    h["dt"].append(dt)
+    h["iterations"].append(solution.iterations)
+    h["max_penetration"].append(solution.max_penetration)
+    h["kinetic_energy"].append(kinetic_energy(run.model, run.blocks))
+
+
+def kinetic_energy(model: Model, blocks: BlockSet) -> float:
+    """½ Σ vᵀ M v over the blocks (Shi's six velocity components)."""
+    masses = model.inertia.masses(blocks)
+    return float(0.5 * np.einsum("ni,nij,nj->", blocks.velocity, masses, blocks.velocity))
+
+
+def _fracture(run: _Run, ctx: StepContext) -> None:
+    """Let the fracture effect split blocks; re-home contacts and tracked points."""
+    old = run.blocks
+    new, events = run.model.fracture.after_step(old, ctx)
+    if not events:
+        return
+    parent_of = np.array(
+        [old.names.index(name.rsplit("/", 1)[0]) if name not in old.names else
+         old.names.index(name) for name in new.names], dtype=np.int64)
+    for effect in run.model.effects:
+        effect.on_blocks_replaced(old, new, parent_of)
+    run.blocks = new
+    run.contacts = ContactSet.empty()  # rebuilt from the new geometry next step
+    run.events.extend(events)
+
+
+def run(
+    scene: Scene,
+    progress: bool | Callable[[float, dict], None] = False,
+    on_frame: Callable[[Frame], None] | None = None,
+) -> Result:
+    """Run a scene to its end.
+
+    Parameters
+    ----------
+    scene : a validated Scene
+    progress : True for a progress bar on stderr, or a callable(fraction, info)
+    on_frame : called with every kept frame as the run proceeds (for writers)
+    """
+    start = wallclock.perf_counter()
+    model = build(scene)
+    state = _Run(model)
+    frames = [make_frame(state.blocks, state.contacts, 0.0, 0)]
+    if on_frame:
+        on_frame(frames[0])
+    report = _progress_reporter(progress, model)
+    status = "finished"
+    try:
+        while not state.finished():
+            _advance(state)
+            last = state.finished()
+            if state.step % model.save_every == 0 or last:
+                with state.timer("output"):
+                    frames.append(make_frame(state.blocks, state.contacts, state.time, state.step))
+                    if on_frame:
+                        on_frame(frames[-1])
+            if report:
+                report(_fraction(state), {"step": state.step, "time": state.time})
+    except SimulationError:
+        status = "failed"
+        raise
+    finally:
+        if report and hasattr(report, "close"):
+            report.close()
+        state.summary = _summary(state, wallclock.perf_counter() - start, status)  # type: ignore[attr-defined]
+    return Result(
+        frames=frames,
+        fracture_events=state.events,
+        summary=state.summary,  # type: ignore[attr-defined]
+        history={k: np.asarray(v) for k, v in state.history.items()},
+    )
+
+
+def _fraction(state: _Run) -> float:
+    m = state.model
+    if m.steps is not None:
+        return state.step / max(m.steps, 1)
+    return min(state.time / m.duration, 1.0)
+
+
+def _progress_reporter(progress, model: Model):
+    if callable(progress):
+        return progress
+    if not progress:
+        return None
+    from dda.progress import ProgressBar
+
+    bar = ProgressBar(1.0, label=model.scene.title or "dda")
+
+    class _Bar:
+        def __call__(self, fraction: float, info: dict) -> None:
+            bar.update(fraction, **info)
+
+        def close(self) -> None:
+            bar.close()
+
+    return _Bar()
+
+
+def _summary(state: _Run, wall: float, status: str) -> dict:
+    m = state.model
+    steps = max(state.step, 1)
+    return {
+        "title": m.scene.title,
+        "status": status,
+        "steps": state.step,
+        "time": state.time,
+        "wall_seconds": round(wall, 6),
+        "blocks": state.blocks.count,
+        "iterations": state.iterations,
+        "factorisations": state.factorisations,
+        "iterations_per_step": state.iterations / steps,
+        "max_iterations_step": state.max_iterations_step,
+        "max_penetration": state.max_penetration,
+        "cut_steps": state.cut_steps,
+        "contact_method": None if m.contact is None else m.scene.contact.method,
+        "active_effects": list(m.active_effects),
+        "stage_seconds": state.timer.as_dict(),
+        "fracture_events": len(state.events),
+    }
