@@ -32,6 +32,14 @@ def spinner_area(result):
     return float(result.final.areas[0])
 
 
+def total_normal_force(result):
+    return float(result.final.contacts.normal_force.sum())
+
+
+def top_block_x(result):
+    return float(result.final.displacements[_row(result.final, "top"), 0])
+
+
 def block_syy(name):
     return lambda result: float(result.final.stresses[_row(result.final, name), 1])
 
@@ -46,6 +54,10 @@ EXPECTED = {
     "self_weight": ({}, block_syy("block"), -26487.0, 0.01),
     # -rho g (4 + 1/2) h, after 0.2 s (the full 1 s case is the same to 1e-5)
     "stack": ({"duration": 0.2}, block_syy("block1"), -119191.5, 0.01),
+    # W + V = 4.0405 * 32.174 * 32 + 1000 = 5160.0 lb carried by the contacts
+    "paper_two_blocks": ({}, total_normal_force, 5160.0, 1e-3),
+    # regression: the soft penalty lets the block bounce and slide 1.6289 ft in 90 steps
+    "paper_two_blocks_penalty": ({}, top_block_x, 1.62879, 1e-3),
 }
 
 
