@@ -1,0 +1,117 @@
+"""Atomic file writes: a reader never sees a half-written file.
+
+Everything goes to a temporary file in the destination's directory first and
+is then moved over the destination with :func:`os.replace`, which is atomic
+on POSIX and Windows when both names are on the same file system. A run that
+is interrupted leaves either the previous complete file or the new complete
+file, plus at worst a stray ``*.tmp-*`` file, never a truncated one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import secrets
+from collections.abc import Iterator
+from pathlib import Path
+
+TEMP_MARK = ".tmp-"
+
+
+def temp_path_for(path: str | os.PathLike[str]) -> Path:
+    """A fresh temporary name beside ``path`` that keeps its extension.
+
+    ``frames/blocks_000010.vtu`` gives ``frames/blocks_000010.tmp-3f9a1c2e.vtu``:
+    writers that choose the format from the extension (meshio, VTK's PNG
+    writer) still recognise it.
+
+    Parameters
+    ----------
+    path
+        The destination file.
+
+    Returns
+    -------
+    Path
+        A name in the same directory that does not exist yet.
+    """
+    path = Path(path)
+    while True:
+        candidate = path.with_name(f"{path.stem}{TEMP_MARK}{secrets.token_hex(4)}{path.suffix}")
+        if not candidate.exists():
+            return candidate
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Give a writer a temporary path; move it over ``path`` if the block succeeds.
+
+    Parameters
+    ----------
+    path
+        The destination file. Its directory must exist.
+
+    Yields
+    ------
+    Path
+        The temporary path to write to. If the ``with`` block raises, or
+        writes nothing, the temporary file is removed and ``path`` is left as
+        it was.
+
+    Examples
+    --------
+    >>> with atomic_path("mesh.vtu") as tmp:  # doctest: +SKIP
+    ...     meshio.write(tmp, mesh)
+    """
+    path = Path(path)
+    tmp = temp_path_for(path)
+    try:
+        yield tmp
+        if not tmp.exists():
+            raise FileNotFoundError(f"the writer produced no file for {path}")
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically.
+
+    Parameters
+    ----------
+    path
+        The destination file. Its directory must exist.
+    data
+        The whole content.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with open(tmp, "xb") as stream:
+            stream.write(data)
+    return path
+
+
+def write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically (``newline`` characters kept as given).
+
+    Parameters
+    ----------
+    path
+        The destination file. Its directory must exist.
+    text
+        The whole content.
+    encoding
+        Text encoding.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    return write_bytes(path, text.encode(encoding))

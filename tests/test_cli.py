@@ -1,0 +1,235 @@
+"""The ``dda`` command line and the progress bar."""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+import subprocess
+import sys
+import textwrap
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dda
+from dda import cli
+from dda.progress import ProgressBar
+from dda.result import Frame, Result
+
+SMALL_SCENE = """\
+title = "Block on a base"
+
+[analysis]
+mode = "dynamic"
+time_step = 0.001
+steps = 6
+gravity = [0.0, -9.81]
+save_every = 3
+
+[materials.rock]
+density = 2700.0
+young = 5.0e9
+poisson = 0.25
+
+[joints.default]
+friction_angle = 30.0
+
+[[blocks]]
+name = "base"
+material = "rock"
+fixed = true
+vertices = [[0.0, 0.0], [4.0, 0.0], [4.0, 1.0], [0.0, 1.0]]
+
+[[blocks]]
+name = "top"
+material = "rock"
+vertices = [[1.0, 1.0], [2.0, 1.0], [2.0, 2.0], [1.0, 2.0]]
+"""
+
+
+def square_frame(step: int = 0, time: float = 0.0) -> Frame:
+    vertices = [np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]) + [x, 0.0]
+                for x in (0.0, 1.5)]  # fmt: skip
+    return Frame(
+        time=time, step=step, names=("a", "b"), ids=np.array([0, 1]),
+        centroids=np.array([[0.5, 0.5], [2.0, 0.5]]), rotations=np.zeros(2),
+        velocities=np.zeros((2, 3)), stresses=np.array([[0.0, -1.0, 0.0], [1.0, -3.0, 0.5]]),
+        displacements=np.zeros((2, 2)), vertices=vertices, areas=np.ones(2),
+        fixed=np.array([True, False]),
+    )  # fmt: skip
+
+
+@pytest.fixture
+def case(tmp_path, monkeypatch) -> Path:
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL_SCENE)
+    return path
+
+
+# ------------------------------------------------------------------ refused input
+
+
+@pytest.mark.parametrize(
+    "text",
+    [SMALL_SCENE + "\nbogus_key = 1\n", "title = [unclosed\n"],
+    ids=["unknown-key", "bad-toml"],
+)
+def test_run_refuses_a_bad_scene_and_writes_nothing(tmp_path, monkeypatch, capsys, text):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.toml").write_text(text)
+    assert cli.main(["run", "bad.toml", "--quiet"]) == 2
+    assert "bad.toml" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+def test_run_refuses_a_missing_file(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", "absent.toml"]) == 2
+    assert "absent.toml" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ dda run, engine replaced
+
+
+def test_run_failure_keeps_partial_output_and_exits_3(case, monkeypatch, capsys):
+    def failing(scene, progress=False, on_frame=None):
+        on_frame(square_frame(0))
+        on_frame(square_frame(3, 0.003))
+        raise dda.SimulationError("step 4 at t = 0.004: contact did not settle")
+
+    monkeypatch.setattr(dda, "simulate", failing)
+    assert cli.main(["run", str(case), "-o", "out", "--quiet"]) == 3
+    assert "did not settle" in capsys.readouterr().err
+    summary = json.loads(Path("out/summary.json").read_text())
+    assert summary["status"] == "failed" and "did not settle" in summary["error"]
+    assert summary["steps"] == 3 and summary["frames_written"] == 2
+    assert Path("out/blocks.pvd").is_file() and Path("out/history.csv").is_file()
+
+
+def test_run_passes_options_to_the_engine(case, monkeypatch, capsys):
+    seen = {}
+
+    def fake(scene, progress=False, on_frame=None):
+        seen.update(save_every=scene.analysis.save_every, progress=progress)
+        frames = [square_frame(0), square_frame(7, 0.007)]
+        for frame in frames:
+            on_frame(frame)
+        return Result(
+            frames=frames,
+            summary={
+                "steps": 7,
+                "time": 0.007,
+                "wall_seconds": 0.1,
+                "max_penetration": 1e-7,
+                "status": "finished",
+            },
+        )
+
+    monkeypatch.setattr(dda, "simulate", fake)
+    assert cli.main(["run", str(case), "--save-every", "7"]) == 0
+    assert seen == {"save_every": 7, "progress": True}
+    out = capsys.readouterr().out
+    assert "7 steps" in out and "out/small" in out.replace("\\", "/")
+    assert Path("out/small/final.png").is_file()
+
+
+# ------------------------------------------------------------------ dda run, real engine
+
+
+def test_run_writes_all_outputs(case, capsys):
+    assert cli.main(["run", str(case), "-o", "result"]) == 0
+    out = Path("result")
+    assert (out / "blocks.pvd").is_file() and (out / "contacts.pvd").is_file()
+    assert len(list((out / "frames").glob("blocks_*.vtu"))) == 3  # steps 0, 3, 6
+    assert len(list((out / "frames").glob("contacts_*.vtu"))) == 3
+    assert (out / "history.csv").read_text().count("\n") == 1 + 3 * 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "finished" and summary["steps"] == 6
+    assert (out / "final.png").stat().st_size > 1000
+    assert "Block on a base" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ dda render
+
+
+def test_render_a_written_run(tmp_path, capsys):
+    from dda.io import RunWriter
+
+    writer = RunWriter(tmp_path / "run", image=False)
+    writer.add_frame(square_frame(0))
+    writer.add_frame(square_frame(4, 0.4))
+    png = tmp_path / "pic.png"
+    args = ["render", str(tmp_path / "run"), "-o", str(png), "--scalars", "von_mises"]
+    assert cli.main([*args, "--size", "300", "200"]) == 0
+    assert png.stat().st_size > 1000
+    vtu = tmp_path / "run" / "frames" / "blocks_000000.vtu"
+    assert cli.main(["render", str(vtu), "--size", "300", "200"]) == 0
+    assert (tmp_path / "run" / "blocks_000000_syy.png").is_file()
+    assert cli.main(["render", str(tmp_path / "missing")]) == 2
+
+
+# ------------------------------------------------------------------ plugins
+
+
+def test_plugins_register_and_a_missing_module_is_skipped(tmp_path, monkeypatch, caplog):
+    (tmp_path / "hello_plugin.py").write_text(
+        textwrap.dedent(
+            """
+            def register(subparsers):
+                parser = subparsers.add_parser("hello")
+                parser.set_defaults(func=lambda args: 7)
+            """
+        )
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    entries = [
+        metadata.EntryPoint("ghost", "no_such_module_for_dda:register", cli.PLUGIN_GROUP),
+        metadata.EntryPoint("hello", "hello_plugin:register", cli.PLUGIN_GROUP),
+        metadata.EntryPoint("clash", "hello_plugin:register", cli.PLUGIN_GROUP),
+    ]
+    monkeypatch.setattr(cli.metadata, "entry_points", lambda group: entries)
+    with caplog.at_level(logging.WARNING, logger="dda.cli"):
+        assert cli.main(["hello"]) == 7
+    messages = " ".join(r.getMessage() for r in caplog.records)
+    assert "ghost" in messages and "clash" in messages
+
+
+def test_the_cli_does_not_import_verify():
+    code = "import dda.cli, sys; print(any(m.split('.')[0] == 'verify' for m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.stdout.strip() == "False", out.stderr
+
+
+# ------------------------------------------------------------------ progress bar
+
+
+class FakeTerminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_in_a_log_writes_about_every_five_percent():
+    stream = io.StringIO()
+    bar = ProgressBar(total=2.0, label="run", stream=stream)
+    for k in range(1, 1001):
+        bar.update(2.0 * k / 1000, step=k, time=0.001 * k)
+    bar.close()
+    lines = stream.getvalue().splitlines()
+    assert 20 <= len(lines) <= 22
+    assert "\r" not in stream.getvalue()
+    assert lines[-1].startswith("run [") and "100.0%" in lines[-1] and "step=1000" in lines[-1]
+
+
+def test_progress_bar_on_a_terminal_redraws_in_place():
+    stream = FakeTerminal()
+    with ProgressBar(total=10, label="run", stream=stream) as bar:
+        for k in range(11):
+            bar.update(k, contacts=3)
+    text = stream.getvalue()
+    assert text.startswith("\r") and text.endswith("\n") and text.count("\n") == 1
+    assert "100.0%" in text.rsplit("\r", 1)[-1]
