@@ -180,17 +180,21 @@ def run(
                         on_frame(frames[-1])
             if report:
                 report(_fraction(state), {"step": state.step, "time": state.time})
-    except SimulationError:
+    except SimulationError as exc:
         status = "failed"
+        exc.result = _result(state, frames, start, status)  # what was computed, for writers
         raise
     finally:
         if report and hasattr(report, "close"):
             report.close()
-        state.summary = _summary(state, wallclock.perf_counter() - start, status)  # type: ignore[attr-defined]
+    return _result(state, frames, start, status)
+
+
+def _result(state: _Run, frames: list[Frame], start: float, status: str) -> Result:
     return Result(
         frames=frames,
         fracture_events=state.events,
-        summary=state.summary,  # type: ignore[attr-defined]
+        summary=_summary(state, wallclock.perf_counter() - start, status),
         history={k: np.asarray(v) for k, v in state.history.items()},
     )
 
