@@ -1,6 +1,9 @@
 """Penalty against augmented Lagrangian on the contact cases (docs/contact.md).
 
-Run:  python bench/contact_methods.py [--out docs/contact_table.md] [--picture docs/images/paper_two_blocks.png]
+Run::
+
+    python bench/contact_methods.py --out docs/contact_table.md \
+        --picture docs/images/paper_two_blocks.png
 
 For each case and method it reports the largest penetration over the run, the
 solves (open-close iterations plus augmentations) per step, the

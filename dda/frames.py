@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import contact_rows

@@ -19,8 +19,13 @@ def rectangle(x0: float, y0: float, x1: float, y1: float) -> list[list[float]]:
     return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
 
 
-def slope_scene(friction: float, method: str = "augmented-lagrangian", angle: float = 30.0,
-                duration: float = 1.0, time_step: float = 0.01) -> dict:
+def slope_scene(
+    friction: float,
+    method: str = "augmented-lagrangian",
+    angle: float = 30.0,
+    duration: float = 1.0,
+    time_step: float = 0.01,
+) -> dict:
     """A 1 x 0.5 block resting on a fixed slab inclined at ``angle`` degrees."""
     return {
         "title": "slope",
@@ -29,9 +34,16 @@ def slope_scene(friction: float, method: str = "augmented-lagrangian", angle: fl
         "materials": {"rock": ROCK},
         "joints": {"default": {"friction_angle": friction}},
         "blocks": [
-            {"name": "slope", "material": "rock", "fixed": True,
-             "vertices": rotated(rectangle(0, -1, 10, 0), angle)},
-            {"name": "slider", "material": "rock",
-             "vertices": rotated(rectangle(4, 0, 5, 0.5), angle)},
+            {
+                "name": "slope",
+                "material": "rock",
+                "fixed": True,
+                "vertices": rotated(rectangle(0, -1, 10, 0), angle),
+            },
+            {
+                "name": "slider",
+                "material": "rock",
+                "vertices": rotated(rectangle(4, 0, 5, 0.5), angle),
+            },
         ],
     }

@@ -6,17 +6,27 @@ import numpy as np
 import pytest
 
 import dda
-from tests.helpers import G, ROCK, rectangle, slope_scene
+from tests.helpers import ROCK, G, rectangle, slope_scene
 
 
 def test_projectile_is_exact_for_constant_acceleration():
     """Shi's scheme integrates free fall exactly: error < 1e-9 m after 1 s."""
     scene = {
-        "analysis": {"time_step": 0.01, "duration": 1.0, "gravity": [0.0, -G],
-                     "max_displacement_ratio": 0.9},
+        "analysis": {
+            "time_step": 0.01,
+            "duration": 1.0,
+            "gravity": [0.0, -G],
+            "max_displacement_ratio": 0.9,
+        },
         "materials": {"rock": ROCK},
-        "blocks": [{"name": "b", "material": "rock", "vertices": rectangle(0, 0, 1, 1),
-                    "velocity": [3.0, 4.0, 0.0]}],
+        "blocks": [
+            {
+                "name": "b",
+                "material": "rock",
+                "vertices": rectangle(0, 0, 1, 1),
+                "velocity": [3.0, 4.0, 0.0],
+            }
+        ],
     }
     final = dda.simulate(scene).final
     expected = np.array([0.5 + 3.0, 0.5 + 4.0 - G / 2])
@@ -44,11 +54,21 @@ def test_block_holds_on_slope_when_friction_exceeds_slope(method):
 
 def spinning_scene(rotation: str) -> dict:
     return {
-        "analysis": {"time_step": 0.01, "steps": 628, "rotation": rotation,
-                     "max_displacement_ratio": 0.5},
+        "analysis": {
+            "time_step": 0.01,
+            "steps": 628,
+            "rotation": rotation,
+            "max_displacement_ratio": 0.5,
+        },
         "materials": {"rock": ROCK},
-        "blocks": [{"name": "b", "material": "rock", "vertices": rectangle(-0.5, -0.5, 0.5, 0.5),
-                    "velocity": [0.0, 0.0, 1.0]}],
+        "blocks": [
+            {
+                "name": "b",
+                "material": "rock",
+                "vertices": rectangle(-0.5, -0.5, 0.5, 0.5),
+                "velocity": [0.0, 0.0, 1.0],
+            }
+        ],
     }
 
 
@@ -73,7 +93,12 @@ def test_static_block_under_self_weight_has_half_the_base_stress():
         "materials": {"rock": ROCK},
         "joints": {"default": {"friction_angle": 30.0}},
         "blocks": [
-            {"name": "base", "material": "rock", "fixed": True, "vertices": rectangle(-1, -1, 3, 0)},
+            {
+                "name": "base",
+                "material": "rock",
+                "fixed": True,
+                "vertices": rectangle(-1, -1, 3, 0),
+            },
             {"name": "b", "material": "rock", "vertices": rectangle(0, 0, 1, h)},
         ],
     }
@@ -82,10 +107,13 @@ def test_static_block_under_self_weight_has_half_the_base_stress():
 
 
 def stack_scene(method: str, penalty: float = 5e10) -> dict:
-    blocks = [{"name": "base", "material": "rock", "fixed": True,
-               "vertices": rectangle(-1, -1, 2, 0)}]
-    blocks += [{"name": f"b{k}", "material": "rock", "vertices": rectangle(0, k, 1, k + 1)}
-               for k in range(5)]
+    blocks = [
+        {"name": "base", "material": "rock", "fixed": True, "vertices": rectangle(-1, -1, 2, 0)}
+    ]
+    blocks += [
+        {"name": f"b{k}", "material": "rock", "vertices": rectangle(0, k, 1, k + 1)}
+        for k in range(5)
+    ]
     return {
         "analysis": {"time_step": 0.001, "duration": 1.0, "gravity": [0.0, -G]},
         "contact": {"method": method, "penalty": penalty},

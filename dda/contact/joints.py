@@ -26,8 +26,11 @@ class JointTable:
         self.cohesion = np.asarray(cohesion, float)
         self.tensile = np.asarray(tensile, float)
         self.default = names.index("default")
-        keys = self._pair_keys(interface_ids[:, 0], interface_ids[:, 1]) if len(
-            interface_ids) else np.zeros(0, np.int64)
+        keys = (
+            self._pair_keys(interface_ids[:, 0], interface_ids[:, 1])
+            if len(interface_ids)
+            else np.zeros(0, np.int64)
+        )
         order = np.argsort(keys)
         self.interface_keys = keys[order]
         self.interface_joint = np.asarray(interface_joint, np.int64)[order]
@@ -47,8 +50,9 @@ class JointTable:
         rows = np.where(rows >= 0, rows, self.default)
         if len(self.interface_keys) and len(contacts):
             keys = self._pair_keys(blocks.ids[contacts.block_a], blocks.ids[contacts.block_b])
-            at = np.clip(np.searchsorted(self.interface_keys, keys), 0,
-                         len(self.interface_keys) - 1)
+            at = np.clip(
+                np.searchsorted(self.interface_keys, keys), 0, len(self.interface_keys) - 1
+            )
             hit = self.interface_keys[at] == keys
             rows = np.where(hit, self.interface_joint[at], rows)
         return rows

@@ -1,0 +1,122 @@
+"""Effects: the mass matrix, elasticity, and that absent effects never run."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import dda
+from dda.blocks import BlockSet
+from dda.effects.elastic import elasticity_matrices
+from dda.effects.inertia import mass_matrices
+from dda.geometry import pack_polygons
+from dda.kinematics import displacement_matrices
+from tests.helpers import ROCK, rectangle
+
+
+def one_block(polygon: np.ndarray) -> BlockSet:
+    v, o = pack_polygons([polygon])
+    z = np.zeros
+    return BlockSet(
+        ["b"],
+        np.array([0]),
+        np.array([0]),
+        v,
+        o,
+        np.full(len(v), -1),
+        z((1, 6)),
+        z((1, 3)),
+        z(1),
+        z((1, 2)),
+        np.array([False]),
+    )
+
+
+def test_mass_matrix_matches_quadrature_on_a_concave_polygon():
+    """M = ρ ∫ TᵀT dA, checked by Monte-Carlo-free midpoint quadrature on a fine grid."""
+    import shapely
+
+    poly = np.array([[0, 0], [3, 0], [3, 1], [1, 1], [1, 2.5], [0, 2.5]], float)
+    blocks = one_block(poly)
+    m = mass_matrices(np.array([2.0]), blocks)[0]
+    h = 0.005
+    xs, ys = np.meshgrid(np.arange(h / 2, 3, h), np.arange(h / 2, 2.5, h))
+    pts = np.column_stack([xs.ravel(), ys.ravel()])
+    inside = shapely.contains_xy(shapely.Polygon(poly), pts[:, 0], pts[:, 1])
+    pts = pts[inside]
+    t = displacement_matrices(pts, np.repeat(blocks.centroid, len(pts), axis=0))
+    quad = 2.0 * np.einsum("mki,mkj->ij", t, t) * h * h
+    np.testing.assert_allclose(m, quad, rtol=2e-3, atol=2e-3 * np.abs(m).max())
+
+
+def test_polygon_moments_of_a_rectangle():
+    blocks = one_block(np.array(rectangle(1, 2, 3, 3), float))
+    assert blocks.area[0] == pytest.approx(2.0)
+    np.testing.assert_allclose(blocks.centroid[0], [2.0, 2.5])
+    assert blocks.ixx[0] == pytest.approx(2.0**3 * 1.0 / 12)
+    assert blocks.iyy[0] == pytest.approx(2.0 * 1.0**3 / 12)
+    assert blocks.ixy[0] == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("plane", ["stress", "strain"])
+def test_elasticity_inverts_hooke(plane):
+    e, nu = 5e9, 0.25
+    c = elasticity_matrices(np.array([e]), np.array([nu]), plane)[0]
+    sxx = 1e6
+    if plane == "stress":  # uniaxial stress: ex = s/E, ey = -nu s/E
+        strain = np.array([sxx / e, -nu * sxx / e, 0.0])
+    else:  # plane strain uniaxial stress in x: ex = (1-nu²) s/E, ey = -nu(1+nu) s/E
+        strain = np.array([(1 - nu**2) * sxx / e, -nu * (1 + nu) * sxx / e, 0.0])
+    np.testing.assert_allclose(c @ strain, [sxx, 0.0, 0.0], atol=1e-6 * sxx)
+    shear = c @ np.array([0.0, 0.0, 1e-4])
+    assert shear[2] == pytest.approx(e / (2 * (1 + nu)) * 1e-4)
+
+
+def single_block_scene() -> dict:
+    return {
+        "analysis": {"time_step": 0.01, "steps": 5},
+        "materials": {"rock": ROCK},
+        "blocks": [{"name": "b", "material": "rock", "vertices": rectangle(0, 0, 1, 1)}],
+    }
+
+
+def test_only_declared_effects_are_active():
+    summary = dda.simulate(single_block_scene()).summary
+    assert summary["active_effects"] == ["elastic", "inertia"]
+    assert "contact_search" not in summary["stage_seconds"]
+
+
+def test_undeclared_effects_never_run(monkeypatch):
+    """Gravity, loads, fixed points, contact and fracture code is not even called."""
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("an undeclared effect ran")
+
+    import dda.contact.pipeline
+    import dda.effects.fixed_points
+    import dda.effects.gravity
+    import dda.effects.loads
+    import dda.simulation
+
+    monkeypatch.setattr(dda.effects.gravity.Gravity, "forces", forbidden)
+    monkeypatch.setattr(dda.effects.loads.PointLoads, "forces", forbidden)
+    monkeypatch.setattr(dda.effects.fixed_points.FixedPoints, "stiffness", forbidden)
+    monkeypatch.setattr(dda.simulation, "refresh_contacts", forbidden)
+    monkeypatch.setattr(dda.simulation, "_fracture", forbidden)
+    result = dda.simulate(single_block_scene())
+    assert result.summary["steps"] == 5
+
+
+def test_static_mode_names_its_mass_term_damping():
+    scene = single_block_scene()
+    scene["analysis"]["mode"] = "static"
+    assert dda.simulate(scene).summary["active_effects"] == ["elastic", "static_damping"]
+
+
+def test_frictionless_joints_build_no_friction():
+    scene = single_block_scene()
+    scene["blocks"].append(
+        {"name": "base", "material": "rock", "fixed": True, "vertices": rectangle(-1, -1, 2, 0)}
+    )
+    active = dda.simulate(scene).summary["active_effects"]
+    assert "contact_augmented" in active and "friction" not in active
