@@ -1,0 +1,85 @@
+"""``dda verify [CASES...] [-o DIR] [--quick]``: the FEM verification suite.
+
+Registered with the ``dda`` command through the ``dda.commands`` entry point
+(``verify = "verify.cli:register"``); also ``python -m verify``.
+Exit status 0 when every case is within its stated tolerances, 1 otherwise,
+2 for unknown case names.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+EXIT_OK, EXIT_FAILED, EXIT_INPUT = 0, 1, 2
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of the verify command."""
+    parser.add_argument("cases", nargs="*", help="case names (default: all in cases/verify)")
+    parser.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        default=Path("verify-report"),
+        help="output directory (default: verify-report)",
+    )
+    parser.add_argument("--quick", action="store_true", help="only the quick cases")
+    parser.add_argument("--no-images", action="store_true", help="skip the pictures")
+    parser.add_argument(
+        "--no-convergence", action="store_true", help="skip the FEM convergence study"
+    )
+    parser.add_argument(
+        "--cases-dir",
+        type=Path,
+        default=None,
+        help="directory of NAME.toml + NAME.expect.toml (default: cases/verify)",
+    )
+
+
+def register(subparsers) -> None:
+    """Add ``verify`` to the ``dda`` command's sub-parsers."""
+    parser = subparsers.add_parser(
+        "verify",
+        help="compare DDA with FEM (scikit-fem) on the verification cases",
+        description=__doc__.split("\n\n")[0],
+    )
+    add_arguments(parser)
+    parser.set_defaults(func=run_verify)
+
+
+def run_verify(args: argparse.Namespace) -> int:
+    """Run the suite, print the table, write the report; non-zero when a check fails."""
+    from verify.report import format_console
+    from verify.suite import run_suite
+
+    try:
+        output = run_suite(
+            names=args.cases or None,
+            outdir=args.output,
+            quick=args.quick,
+            images=not args.no_images,
+            convergence=not args.no_convergence,
+            cases_dir=args.cases_dir,
+        )
+    except KeyError as exc:
+        print(f"dda verify: {exc.args[0]}", file=sys.stderr)
+        return EXIT_INPUT
+    print(format_console(output.results))
+    print(f"report: {Path(args.output) / 'report.md'}")
+    return EXIT_OK if output.passed else EXIT_FAILED
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``python -m verify``."""
+    parser = argparse.ArgumentParser(prog="python -m verify", description=__doc__.split("\n\n")[0])
+    add_arguments(parser)
+    parser.add_argument("-v", "--verbose", action="store_true", help="log progress")
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    return run_verify(args)

@@ -1,0 +1,263 @@
+"""Static linear elasticity of the free blocks in scikit-fem, with penalty contact.
+
+The FEM model of a scene, term by term as the DDA sees it:
+
+- elasticity per block, plane stress or plane strain as ``[analysis] plane``
+  says (plane stress uses λ* = Eν/(1−ν²), μ = E/(2(1+ν)); both give the
+  DDA's E matrix of THEORY.md section 3);
+- gravity as the body force ρ g;
+- point loads on the node at the load point (load points on a block
+  boundary are mesh nodes, see :mod:`verify.geometry`);
+- fixed points as springs of the DDA's fixed-point penalty
+  (``[analysis] fixed_point_penalty``, default 100 x the largest E) on the
+  node at the point;
+- fixed blocks are rigid and not meshed: the contact with them is against a
+  rigid segment, as the DDA removes fixed blocks from its unknowns;
+- contact between touching blocks: :mod:`verify.contact`, with an
+  active-set loop (a slave point whose gap opens is dropped and the system
+  solved again, until the set no longer changes).
+
+A block held by frictionless contact only can still translate along the
+contact; a mass-proportional stabiliser ``α ∫ u·v`` with
+``α = stabiliser · E_max / L²`` (default 1e-8) makes the matrix regular.
+It changes a loaded (elastic) displacement by about 1e-8 relative and does
+nothing to an unloaded rigid mode, which then stays at zero, as in the
+static DDA (it starts every step from rest).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from skfem import (
+    Basis,
+    BilinearForm,
+    CellBasis,
+    ElementTriP1,
+    ElementTriP2,
+    ElementVector,
+    LinearForm,
+)
+from skfem.helpers import ddot, dot, sym_grad, trace
+
+from dda.scene import Scene
+from verify.contact import ContactPoints, build_contact_points, default_penalty
+from verify.geometry import geometric_tolerance, scene_size
+from verify.interfaces import Interface, find_interfaces
+from verify.mesh import BlockMesh, mesh_blocks
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class FemOptions:
+    """Discretisation and solver settings of the FEM model."""
+
+    order: int = 2  # 1 (P1) or 2 (P2) Lagrange elements
+    size: float | None = None  # longest element edge; default: see mesh.default_size
+    stabiliser: float = 1e-8  # relative mass-proportional regularisation
+    max_active_set: int = 30  # active-set iterations before giving up
+
+
+@dataclass
+class FemSolution:
+    """The solved FEM model of a scene."""
+
+    scene: Scene
+    block_mesh: BlockMesh
+    basis: CellBasis
+    u: np.ndarray  # (N,) displacement DOFs
+    lam: np.ndarray  # (M,) Lamé λ (λ* in plane stress) per element
+    mu: np.ndarray  # (M,) shear modulus per element
+    interfaces: list[Interface]
+    contact: ContactPoints
+    active: np.ndarray  # (m,) bool, closed contact points
+    iterations: int  # active-set iterations
+    penalty: float
+
+
+def lame_parameters(young: float, poisson: float, plane: str) -> tuple[float, float]:
+    """(λ, μ) for the 2-D model; ``plane`` is "stress" or "strain"."""
+    mu = young / (2 * (1 + poisson))
+    if plane == "strain":
+        return young * poisson / ((1 + poisson) * (1 - 2 * poisson)), mu
+    return young * poisson / (1 - poisson**2), mu
+
+
+def element_materials(scene: Scene, bm: BlockMesh) -> dict[str, np.ndarray]:
+    """Per-element λ, μ and density from each block's material."""
+    table = {}
+    for i in bm.blocks:
+        m = scene.materials[scene.blocks[i].material]
+        table[i] = (*lame_parameters(m.young, m.poisson, scene.analysis.plane), m.density)
+    rows = np.array([table[i] for i in bm.element_block])
+    return {"lam": rows[:, 0], "mu": rows[:, 1], "rho": rows[:, 2]}
+
+
+@BilinearForm
+def elasticity(u, v, w):
+    """Linear elasticity: 2μ ε(u):ε(v) + λ tr ε(u) tr ε(v)."""
+    eu, ev = sym_grad(u), sym_grad(v)
+    return 2.0 * w.mu * ddot(eu, ev) + w.lam * trace(eu) * trace(ev)
+
+
+@BilinearForm
+def vector_mass(u, v, w):
+    """∫ u · v."""
+    return dot(u, v)
+
+
+@LinearForm
+def body_force(v, w):
+    """∫ ρ g · v."""
+    return w.fx * v[0] + w.fy * v[1]
+
+
+def per_quadrature_point(values: np.ndarray, basis: CellBasis) -> np.ndarray:
+    """Spread one value per element over the element's quadrature points."""
+    return np.repeat(values[:, None], basis.X.shape[1], axis=1)
+
+
+def node_dof_pairs(basis: CellBasis) -> np.ndarray:
+    """(2, K) x- and y-DOF of every node: mesh vertices, then P2 mid-side nodes."""
+    return np.hstack([basis.nodal_dofs, basis.facet_dofs])
+
+
+def nearest_node_dofs(
+    basis: CellBasis, bm: BlockMesh, block: int, point, tol: float
+) -> tuple[int, int]:
+    """(x, y) DOFs of the node of ``block`` closest to ``point``."""
+    pairs = node_dof_pairs(basis)
+    own = np.unique(basis.element_dofs[:, bm.element_block == block])
+    pairs = pairs[:, np.isin(pairs[0], own)]
+    distance = np.linalg.norm(basis.doflocs[:, pairs[0]].T - np.asarray(point), axis=1)
+    k = int(distance.argmin())
+    if distance[k] > tol:
+        log.warning("point %s is %.3g from the nearest node of its block", point, distance[k])
+    return int(pairs[0, k]), int(pairs[1, k])
+
+
+def point_load_vector(scene: Scene, bm: BlockMesh, basis: CellBasis) -> np.ndarray:
+    """Point loads on the nodes at the load points (full value: static analysis)."""
+    f = np.zeros(basis.N)
+    index = {b.name: i for i, b in enumerate(scene.blocks)}
+    for load in scene.loads:
+        block = index[load.block]
+        if scene.blocks[block].fixed:
+            continue
+        if load.history is not None:
+            log.warning("load on %s: history ignored, full value applied", load.block)
+        dx, dy = nearest_node_dofs(basis, bm, block, load.point, geometric_tolerance(scene))
+        f[dx] += load.force[0]
+        f[dy] += load.force[1]
+    return f
+
+
+def fixed_point_springs(scene: Scene, bm: BlockMesh, basis: CellBasis) -> sp.csr_matrix:
+    """Diagonal springs of the fixed-point penalty at every fixed point of a free block."""
+    penalty = scene.analysis.fixed_point_penalty
+    if penalty is None:
+        penalty = 100.0 * max(m.young for m in scene.materials.values())
+    diagonal = np.zeros(basis.N)
+    for i in bm.blocks:
+        for point in scene.blocks[i].fixed_points:
+            dofs = nearest_node_dofs(basis, bm, i, point, geometric_tolerance(scene))
+            diagonal[list(dofs)] += penalty
+    return sp.diags(diagonal).tocsr()
+
+
+def base_system(scene: Scene, bm: BlockMesh, basis: CellBasis, options: FemOptions):
+    """Stiffness (elastic + fixed points + stabiliser) and load without contact."""
+    materials = element_materials(scene, bm)
+    lam = per_quadrature_point(materials["lam"], basis)
+    mu = per_quadrature_point(materials["mu"], basis)
+    stiffness = elasticity.assemble(basis, lam=lam, mu=mu)
+    young = max(m.young for m in scene.materials.values())
+    alpha = options.stabiliser * young / scene_size(scene) ** 2
+    stiffness = stiffness + alpha * vector_mass.assemble(basis)
+    stiffness = stiffness + fixed_point_springs(scene, bm, basis)
+    gx, gy = scene.analysis.gravity
+    rho = per_quadrature_point(materials["rho"], basis)
+    load = body_force.assemble(basis, fx=rho * gx, fy=rho * gy)
+    load = load + point_load_vector(scene, bm, basis)
+    return stiffness.tocsr(), load, materials
+
+
+def make_basis(bm: BlockMesh, order: int) -> CellBasis:
+    """Vector Lagrange basis of the given order on the block mesh."""
+    element = ElementTriP2() if order == 2 else ElementTriP1()
+    return Basis(bm.mesh, ElementVector(element))
+
+
+def solve_with_contact(
+    stiffness: sp.csr_matrix, load: np.ndarray, contact: ContactPoints, max_iterations: int
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Active-set loop: solve with the closed points, drop opened ones, re-add penetrating ones.
+
+    Returns the displacement, the final active set and the number of solves.
+    """
+    active = np.ones(len(contact), dtype=bool)
+    for iteration in range(1, max_iterations + 1):
+        matrix = (stiffness + contact.stiffness(active)).tocsc()
+        u = spla.spsolve(matrix, load + contact.load(active))
+        new_active = contact.gaps(u) < 0.0
+        if np.array_equal(new_active, active):
+            return u, active, iteration
+        log.debug("active set: %d -> %d closed points", active.sum(), new_active.sum())
+        active = new_active
+    log.warning("active set did not settle in %d iterations", max_iterations)
+    return u, active, max_iterations
+
+
+def solve_fem(
+    scene: Scene,
+    interfaces: list[Interface] | None = None,
+    options: FemOptions | None = None,
+) -> FemSolution:
+    """Mesh and solve the free blocks of a scene (static, small displacements).
+
+    Parameters
+    ----------
+    scene : the scene (its analysis is treated as static)
+    interfaces : the contacts to model; default every touching pair
+        (:func:`verify.interfaces.find_interfaces`); pass the DDA's closed
+        ones (:func:`verify.interfaces.with_dda_contacts`) to match a run
+    options : element order, size, stabiliser
+    """
+    options = options or FemOptions()
+    if scene.analysis.mode != "static":
+        log.info("%s: dynamic scene solved as a static FEM problem", scene.title)
+    if any(any(b.stress) for b in scene.blocks):
+        log.warning("initial block stresses are ignored by the FEM model")
+    interfaces = find_interfaces(scene) if interfaces is None else interfaces
+    bm = mesh_blocks(scene, options.size)
+    basis = make_basis(bm, options.order)
+    stiffness, load, materials = base_system(scene, bm, basis, options)
+    penalty = default_penalty(scene)
+    contact = build_contact_points(scene, bm, basis, interfaces, penalty)
+    u, active, iterations = solve_with_contact(stiffness, load, contact, options.max_active_set)
+    log.info(
+        "FEM %s: %d DOFs, %d contact points (%d closed), %d solves",
+        scene.title,
+        basis.N,
+        len(contact),
+        active.sum(),
+        iterations,
+    )
+    return FemSolution(
+        scene=scene,
+        block_mesh=bm,
+        basis=basis,
+        u=u,
+        lam=materials["lam"],
+        mu=materials["mu"],
+        interfaces=interfaces,
+        contact=contact,
+        active=active,
+        iterations=iterations,
+        penalty=penalty,
+    )
