@@ -120,7 +120,8 @@ def render_side_by_side(
         raise ValueError("give one title (or None) per frame, and at least one frame")
     if any(len(f.vertices) == 0 for f in frames):
         raise ValueError("cannot draw a frame without blocks")
-    values = [scalar_field(f, scalars) for f in frames]
+    # fixed blocks carry no computed field: grey (NaN), outside the colour range
+    values = [np.where(f.fixed, np.nan, scalar_field(f, scalars)) for f in frames]
     info = SCALARS[scalars]
     clim, cmap = color_range(np.concatenate(values), info.signed, clim)
     size = window_size or (700 * len(frames), 600)
