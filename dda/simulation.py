@@ -12,10 +12,11 @@ from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.effects.base import StepContext
+from dda.energy import TERMS, EnergyAccount
 from dda.errors import SimulationError
 from dda.frames import make_frame
 from dda.model import Model, build
-from dda.result import Frame, FractureEvent, Result
+from dda.result import FractureEvent, Frame, Result
 from dda.scene import Scene
 from dda.step import StepSolution, solve_step
 from dda.timing import StageTimer
@@ -26,6 +27,8 @@ log = logging.getLogger(__name__)
 MAX_CUTS = 40  # halvings of one step before the run gives up
 GROWTH = 1.5  # time-step growth after a step that had to be cut
 MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
+# energy columns of Result.history (dda.energy): stored terms, their total, work of the loads
+HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_work")
 
 
 class _Run:
@@ -45,8 +48,9 @@ class _Run:
         self.max_iterations_step = 0
         self.max_penetration = 0.0
         self.events: list[FractureEvent] = []
+        self.energy = EnergyAccount(model, self.blocks)
         self.history: dict[str, list[float]] = {
-            k: [] for k in ("time", "dt", "iterations", "max_penetration", "kinetic_energy")
+            k: [] for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
         }
 
     def finished(self) -> bool:
@@ -100,6 +104,7 @@ def _advance(run: _Run) -> None:
         run.cut_steps += 1
     with run.timer("update"):
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
+        run.energy.add_step_work(run.blocks, solution.d, ctx.time)
         for effect in m.effects:
             effect.after_step(run.blocks, solution.d, ctx)
         apply_step(run.blocks, solution.d, dt, m.elastic, m.static, m.exact_rotation)
@@ -123,13 +128,11 @@ def _record(run: _Run, dt: float, solution: StepSolution) -> None:
     h["dt"].append(dt)
     h["iterations"].append(solution.iterations)
     h["max_penetration"].append(solution.max_penetration)
-    h["kinetic_energy"].append(kinetic_energy(run.model, run.blocks))
-
-
-def kinetic_energy(model: Model, blocks: BlockSet) -> float:
-    """½ Σ vᵀ M v over the blocks (Shi's six velocity components)."""
-    masses = model.inertia.masses(blocks)
-    return float(0.5 * np.einsum("ni,nij,nj->", blocks.velocity, masses, blocks.velocity))
+    with run.timer("energy"):
+        terms = run.energy.measure(run.blocks, run.contacts).as_dict()
+    for name, value in terms.items():
+        h[f"{name}_energy"].append(value)
+    h["external_work"].append(run.energy.work)
 
 
 def _fracture(run: _Run, ctx: StepContext) -> None:
@@ -245,4 +248,6 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "active_effects": list(m.active_effects),
         "stage_seconds": state.timer.as_dict(),
         "fracture_events": len(state.events),
+        "initial_energy": state.energy.initial.total,
+        "external_work": state.energy.work,
     }

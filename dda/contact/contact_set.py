@@ -31,7 +31,8 @@ class ContactSet:
     reference : edge parameter of the shear reference point P0 on P2P3
     slide_direction : +1 / -1 sign of sliding along P2->P3 (when sliding)
     intact : cohesion and tensile strength still there (lost once it slips or opens)
-    normal_force, shear_force, penetration : results of the last solve
+    normal_force, shear_force, penetration, slip : results of the last solve
+        (slip: shear position of P1 from the reference point, along P2->P3)
     """
 
     vertex: np.ndarray
@@ -49,6 +50,7 @@ class ContactSet:
     normal_force: np.ndarray
     shear_force: np.ndarray
     penetration: np.ndarray
+    slip: np.ndarray
 
     def __len__(self) -> int:
         return len(self.vertex)
@@ -58,7 +60,7 @@ class ContactSet:
         i = np.zeros(0, dtype=np.int64)
         f = np.zeros(0)
         return cls(i, i, i, i, i, np.zeros(0, np.int8), f, f, f, f, f, f,
-                   np.zeros(0, bool), f, f)
+                   np.zeros(0, bool), f, f, f)
 
     def copy(self) -> ContactSet:
         return ContactSet(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
@@ -115,6 +117,7 @@ def merge(
         normal_force=np.zeros(m),
         shear_force=np.zeros(m),
         penetration=np.zeros(m),
+        slip=np.zeros(m),
     )
     if len(previous) and m:
         _, new_rows, old_rows = np.intersect1d(keys, previous.key, return_indices=True)

@@ -151,6 +151,7 @@ def update(
     contacts.normal_force = normal
     contacts.shear_force = shear_out
     contacts.penetration = d
+    contacts.slip = s
 
     changes = int(np.count_nonzero(new_state != state))
     contacts.state = new_state
