@@ -1,0 +1,106 @@
+"""Blocks smaller than ``min_block_area`` join the neighbour they share the longest edge with.
+
+Slivers come from joints crossing very close to each other or to a corner;
+they would make the contact solver stiff and the time step tiny.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import shapely
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from dda.errors import SceneError
+
+log = logging.getLogger(__name__)
+
+MAX_ROUNDS = 20
+
+
+def merge_small(
+    faces: np.ndarray, region: np.ndarray, min_area: float, mode: str, source: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Merge (``mode="merge"``) or refuse (``"refuse"``) blocks below ``min_area``."""
+    for _ in range(MAX_ROUNDS):
+        area = shapely.area(faces)
+        small = np.flatnonzero(area < min_area)
+        if len(small) == 0:
+            return faces, region
+        if mode == "refuse":
+            _refuse(faces, area, small, min_area, source)
+        target = _best_neighbours(faces, region, small, min_area, source)
+        faces, region = _union_groups(faces, region, small, target)
+        log.info("merged %d block(s) smaller than %g", len(small), min_area)
+    raise SceneError(source, "cutting.min_block_area", "blocks still too small after merging")
+
+
+def _refuse(
+    faces: np.ndarray, area: np.ndarray, small: np.ndarray, min_area: float, source: str
+) -> None:
+    worst = small[np.argmin(area[small])]
+    x, y = shapely.get_coordinates(shapely.point_on_surface(faces[worst]))[0]
+    raise SceneError(
+        source,
+        "cutting.min_block_area",
+        f"{len(small)} block(s) smaller than {min_area:g} (smallest {area[worst]:.3g} "
+        f"near ({x:.4g}, {y:.4g})); move the joints, lower min_block_area "
+        'or set cutting.small_blocks = "merge"',
+    )
+
+
+def _best_neighbours(
+    faces: np.ndarray, region: np.ndarray, small: np.ndarray, min_area: float, source: str
+) -> np.ndarray:
+    """For each small face, the neighbour sharing the longest edge (same region first)."""
+    tree = shapely.STRtree(faces)
+    rows, other = tree.query(faces[small], predicate="intersects")
+    mine = small[rows]
+    keep = mine != other
+    rows, mine, other = rows[keep], mine[keep], other[keep]
+    shared = shapely.length(
+        shapely.intersection(shapely.boundary(faces[mine]), shapely.boundary(faces[other]))
+    )
+    score = shared + np.where(region[mine] == region[other], shared.max(initial=0.0) + 1.0, 0.0)
+    score[shared <= 0.0] = -1.0
+    best = np.full(len(small), -1)
+    best_score = np.full(len(small), -1.0)
+    order = np.argsort(score, kind="stable")  # later (higher) scores overwrite
+    best[rows[order]] = other[order]
+    best_score[rows[order]] = score[order]
+    lonely = np.flatnonzero(best_score < 0.0)
+    if len(lonely):
+        face = faces[small[lonely[0]]]
+        x, y = shapely.get_coordinates(shapely.point_on_surface(face))[0]
+        raise SceneError(
+            source,
+            "cutting.min_block_area",
+            f"a block of area {face.area:.3g} near ({x:.4g}, {y:.4g}) is smaller than "
+            f"{min_area:g} and shares no edge with another block",
+        )
+    return best
+
+
+def _union_groups(
+    faces: np.ndarray, region: np.ndarray, small: np.ndarray, target: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Union every connected group of (small face -> target) links into one face."""
+    n = len(faces)
+    graph = coo_matrix((np.ones(len(small)), (small, target)), shape=(n, n))
+    count, label = connected_components(graph, directed=False)
+    sizes = np.bincount(label, minlength=count)
+    area = shapely.area(faces)
+    out_faces, out_region = [], []
+    for group in np.flatnonzero(sizes > 1):
+        members = np.flatnonzero(label == group)
+        merged = shapely.union_all(faces[members])
+        out_faces.extend(shapely.get_parts(merged))
+        dominant = region[members[np.argmax(area[members])]]
+        out_region.extend([dominant] * shapely.get_num_geometries(merged))
+    alone = sizes[label] == 1
+    return (
+        np.concatenate([faces[alone], np.array(out_faces, dtype=object)]),
+        np.concatenate([region[alone], np.array(out_region, dtype=region.dtype)]),
+    )

@@ -1,0 +1,470 @@
+"""Rock masses from joint sets: block cutting, excavations, per-joint properties."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import tomllib
+from importlib.metadata import entry_points
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from dda.errors import SceneError
+from dda.rockmass import expand_rock_mass
+from dda.rockmass.cli import register
+from dda.rockmass.toml_writer import dumps
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = ROOT / "cases"
+
+
+def base_scene(**extra) -> dict:
+    """A rectangle 10 x 6 of one rock with two named joints."""
+    raw = {
+        "title": "test",
+        "materials": {"rock": {"density": 2600.0, "young": 5e9, "poisson": 0.25}},
+        "joints": {
+            "bed": {"friction_angle": 20.0},
+            "cross": {"friction_angle": 35.0},
+            "fault": {"friction_angle": 10.0},
+        },
+        "regions": [{"polygon": [[0, 0], [10, 0], [10, 6], [0, 6]], "material": "rock"}],
+    }
+    raw.update(extra)
+    return raw
+
+
+def polygons(out: dict) -> np.ndarray:
+    return np.array([shapely.Polygon(b["vertices"]) for b in out["blocks"]], dtype=object)
+
+
+def assert_tiles(blocks: np.ndarray, rock: shapely.Geometry) -> None:
+    """Blocks are valid simple CCW polygons that tile ``rock`` exactly."""
+    assert shapely.is_valid(blocks).all()
+    assert (shapely.get_num_interior_rings(blocks) == 0).all()
+    assert shapely.is_ccw(shapely.get_exterior_ring(blocks)).all()
+    total = shapely.area(blocks).sum()
+    assert abs(total - rock.area) <= 1e-9 * rock.area
+    tree = shapely.STRtree(blocks)
+    left, right = tree.query(blocks, predicate="intersects")
+    pair = left < right
+    shared = shapely.area(shapely.intersection(blocks[left[pair]], blocks[right[pair]]))
+    assert shared.max(initial=0.0) <= 1e-9 * rock.area / len(blocks)
+    assert shapely.union_all(blocks).symmetric_difference(rock).area <= 1e-9 * rock.area
+
+
+# --- tiling -------------------------------------------------------------------------------
+
+
+def test_cut_blocks_tile_the_rock_minus_the_excavations():
+    slope = [[0, 0], [70, 0], [70, 40], [40, 40], [20, 10], [0, 10]]
+    raw = base_scene(
+        regions=[{"polygon": slope, "material": "rock"}],
+        joint_sets=[
+            {"dip": 35.0, "spacing": 5.0, "joint": "bed"},
+            {
+                "dip": 110.0,
+                "spacing": 6.0,
+                "trace_length": 15.0,
+                "bridge_length": 3.0,
+                "stagger": "random",
+                "joint": "cross",
+            },
+        ],
+        joint_lines=[{"points": [[0, 3], [70, 25]], "joint": "fault"}],
+        excavations=[
+            {"center": [50, 20], "radius": 4.0, "segments": 48},
+            {"polygon": [[60, 35], [75, 35], [75, 45], [60, 45]]},
+        ],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    circle = shapely.Polygon(
+        [(50 + 4 * math.cos(a), 20 + 4 * math.sin(a)) for a in 2 * math.pi * np.arange(48) / 48]
+    )
+    rock = (
+        shapely.Polygon(slope)
+        .difference(circle)
+        .difference(shapely.Polygon([[60, 35], [75, 35], [75, 45], [60, 45]]))
+    )
+    assert_tiles(polygons(out), rock)
+    assert len(out["blocks"]) > 30
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    width=st.floats(2.0, 50.0),
+    height=st.floats(2.0, 50.0),
+    dips=st.lists(st.floats(-180.0, 180.0), min_size=1, max_size=3),
+    spacing_ratio=st.floats(0.08, 0.6),
+    seed=st.integers(0, 1000),
+)
+def test_random_joint_sets_tile_any_rectangle(width, height, dips, spacing_ratio, seed):
+    size = min(width, height)
+    rect = [[0, 0], [width, 0], [width, height], [0, height]]
+    sets = [
+        {
+            "dip": d,
+            "spacing": spacing_ratio * size,
+            "offset": 0.1 * k * size,
+            "dip_std": 3.0,
+            "seed": seed + k,
+        }
+        for k, d in enumerate(dips)
+    ]
+    raw = base_scene(
+        regions=[{"polygon": rect}],
+        joint_sets=sets,
+        excavations=[{"center": [width / 2, height / 2], "radius": size / 5}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    circle = shapely.Polygon(
+        [
+            (width / 2 + size / 5 * math.cos(a), height / 2 + size / 5 * math.sin(a))
+            for a in 2 * math.pi * np.arange(36) / 36
+        ]
+    )
+    assert_tiles(polygons(out), shapely.Polygon(rect).difference(circle))
+
+
+def test_two_regions_keep_their_materials():
+    raw = base_scene(
+        materials={
+            "rock": {"density": 2600.0, "young": 5e9, "poisson": 0.25},
+            "soft": {"density": 2200.0, "young": 1e9, "poisson": 0.3},
+        },
+        regions=[
+            {"polygon": [[0, 0], [10, 0], [10, 3], [0, 3]], "material": "rock"},
+            {"polygon": [[0, 3], [10, 3], [10, 6], [0, 6]], "material": "soft"},
+        ],
+        joint_sets=[{"dip": 90.0, "spacing": 2.0, "offset": 1.0}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    assert len(out["blocks"]) == 12  # traces at x = 1, 3, 5, 7, 9 (normal (-1, 0))
+    for b in out["blocks"]:
+        cy = shapely.Polygon(b["vertices"]).centroid.y
+        assert b["material"] == ("rock" if cy < 3 else "soft")
+
+
+# --- counts and persistence ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("width", "height", "spacing", "offset", "expected"),
+    [(10, 6, 1.5, 0.25, 5), (10, 6, 1.0, 0.5, 7), (10, 6, 2.0, 0.0, 3), (3, 20, 0.7, 0.1, 30)],
+)
+def test_fully_persistent_set_gives_the_expected_number_of_blocks(
+    width, height, spacing, offset, expected
+):
+    rect = [[0, 0], [width, 0], [width, height], [0, height]]
+    raw = base_scene(
+        regions=[{"polygon": rect}], joint_sets=[{"dip": 0.0, "spacing": spacing, "offset": offset}]
+    )
+    out = expand_rock_mass(raw, "<t>")
+    assert len(out["blocks"]) == expected
+    # layers strictly inside: floor((h - offset)/s) + 1 traces minus those on the boundary
+    inside = [offset + k * spacing for k in range(-10, 100)]
+    assert expected == 1 + sum(0 < y < height for y in inside)
+
+
+@pytest.mark.parametrize("turn", [0.0, 30.0, 137.0])
+def test_two_orthogonal_sets_cut_a_grid_in_any_orientation(turn):
+    c, s = math.cos(math.radians(turn)), math.sin(math.radians(turn))
+    rot = np.array([[c, -s], [s, c]])
+    rect = (np.array([[0, 0], [10, 0], [10, 6], [0, 6]], float) @ rot.T).tolist()
+    raw = base_scene(
+        regions=[{"polygon": rect}],
+        joint_sets=[{"dip": turn, "spacing": 1.0}, {"dip": turn + 90.0, "spacing": 1.0}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    assert len(out["blocks"]) == 60
+    assert np.allclose(shapely.area(polygons(out)), 1.0)
+
+
+def test_joints_with_bridges_longer_than_the_blocks_cut_nothing():
+    columns = {"dip": 90.0, "spacing": 2.0, "joint": "cross"}  # x = 0, 2, .., 10
+    broken = {
+        "dip": 0.0,
+        "spacing": 1.0,
+        "offset": 0.5,
+        "trace_length": 1.5,
+        "bridge_length": 4.0,
+        "stagger": 0.7,
+        "joint": "bed",
+    }
+    alone = expand_rock_mass(base_scene(joint_sets=[broken]), "<t>")
+    assert len(alone["blocks"]) == 1  # no joint crosses the rock: no cut at all
+    both = expand_rock_mass(base_scene(joint_sets=[columns, broken]), "<t>")
+    assert len(both["blocks"]) == 5  # only the persistent columns cut
+    assert all("bed" not in b["edge_joints"] for b in both["blocks"])
+    for b in both["blocks"]:  # dangling joints leave no extra vertex on the edges
+        assert len(b["vertices"]) == 4
+
+
+def test_persistent_bridges_shorter_than_the_blocks_do_cut():
+    columns = {"dip": 90.0, "spacing": 2.0, "offset": 1.0}
+    stepped = {
+        "dip": 0.0,
+        "spacing": 1.0,
+        "offset": 0.5,
+        "trace_length": 2.5,
+        "bridge_length": 0.5,
+        "stagger": 0.0,
+        "joint": "bed",
+    }
+    out = expand_rock_mass(base_scene(joint_sets=[columns, stepped]), "<t>")
+    assert len(out["blocks"]) > 6
+    assert any("bed" in b["edge_joints"] for b in out["blocks"])
+
+
+def test_same_seed_same_blocks_other_seed_other_blocks():
+    def cut(seed):
+        js = {
+            "dip": 60.0,
+            "spacing": 1.2,
+            "dip_std": 5.0,
+            "spacing_std": 0.3,
+            "trace_length": 4.0,
+            "bridge_length": 1.0,
+            "stagger": "random",
+            "seed": seed,
+        }
+        js2 = {"dip": -20.0, "spacing": 1.5, "seed": seed + 1, "dip_std": 2.0}
+        out = expand_rock_mass(base_scene(joint_sets=[js, js2]), "<t>")
+        return [b["vertices"] for b in out["blocks"]]
+
+    assert cut(7) == cut(7)
+    assert cut(7) != cut(8)
+
+
+def test_spacing_scatter_keeps_the_mean_spacing():
+    raw = base_scene(
+        regions=[{"polygon": [[0, 0], [1, 0], [1, 400], [0, 400]]}],
+        joint_sets=[{"dip": 0.0, "spacing": 2.0, "spacing_std": 0.5, "seed": 3}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    heights = shapely.area(polygons(out))[1:-1]
+    assert abs(heights.mean() - 2.0) < 0.1
+    assert abs(heights.std() - 0.5) < 0.1
+
+
+# --- edge joints --------------------------------------------------------------------------
+
+
+def test_edge_joints_name_the_joint_each_edge_lies_on():
+    raw = base_scene(
+        regions=[{"polygon": [[0, 0], [4, 0], [4, 2], [0, 2]]}],
+        joint_sets=[{"dip": 0.0, "spacing": 10.0, "offset": 1.0, "joint": "bed"}],
+        joint_lines=[{"name": "F1", "points": [[2, -1], [2, 3]], "joint": "fault"}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    assert len(out["blocks"]) == 4
+    for b in out["blocks"]:
+        v = np.array(b["vertices"])
+        assert len(b["edge_joints"]) == len(v) == 4
+        for k, joint in enumerate(b["edge_joints"]):
+            mx, my = 0.5 * (v[k] + v[(k + 1) % len(v)])
+            expected = "fault" if abs(mx - 2) < 1e-9 else "bed" if abs(my - 1) < 1e-9 else ""
+            assert joint == expected, (b["name"], k, (mx, my))
+
+
+def test_edge_joints_on_excavation_and_region_boundaries_are_default():
+    raw = base_scene(
+        joint_sets=[{"dip": 45.0, "spacing": 1.5, "joint": "cross"}],
+        excavations=[{"center": [5, 3], "radius": 1.5}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    hole = shapely.Point(5, 3).buffer(1.5, 64).exterior
+    outer = shapely.Polygon([[0, 0], [10, 0], [10, 6], [0, 6]]).exterior
+    for b in out["blocks"]:
+        v = np.array(b["vertices"])
+        mid = shapely.points(0.5 * (v + np.roll(v, -1, axis=0)))
+        on_boundary = shapely.dwithin(hole, mid, 0.02) | shapely.dwithin(outer, mid, 1e-9)
+        tags = np.array(b["edge_joints"])
+        assert (tags[on_boundary] == "").all()
+        assert (tags[~on_boundary] == "cross").all()
+
+
+# --- small blocks, holes, selections ------------------------------------------------------
+
+
+def test_slivers_merge_into_the_neighbour_with_the_longest_edge():
+    js = {"dip": 0.0, "spacing": 100.0, "offset": 1e-4}  # a 1e-4 thick sliver at the base
+    out = expand_rock_mass(base_scene(joint_sets=[js], cutting={"min_block_area": 0.01}), "<t>")
+    assert len(out["blocks"]) == 1
+    assert shapely.area(polygons(out)).sum() == pytest.approx(60.0, rel=1e-12)
+    with pytest.raises(SceneError) as err:
+        expand_rock_mass(
+            base_scene(joint_sets=[js], cutting={"min_block_area": 0.01, "small_blocks": "refuse"}),
+            "<t>",
+        )
+    assert err.value.key == "cutting.min_block_area"
+    assert "smaller than 0.01" in err.value.reason
+
+
+def test_a_block_around_a_hole_is_split_or_refused():
+    raw = base_scene(
+        regions=[
+            {
+                "polygon": [[0, 0], [10, 0], [10, 6], [0, 6]],
+                "holes": [[[4, 2], [6, 2], [6, 4], [4, 4]]],
+            }
+        ],
+        joint_sets=[{"dip": 90.0, "spacing": 10.0, "offset": 1.0}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    rock = shapely.Polygon([[0, 0], [10, 0], [10, 6], [0, 6]], [[[4, 2], [6, 2], [6, 4], [4, 4]]])
+    assert_tiles(polygons(out), rock)
+    assert len(out["blocks"]) == 3
+    with pytest.raises(SceneError) as err:
+        expand_rock_mass(dict(raw, cutting={"holes": "refuse"}), "<t>")
+    assert err.value.key == "cutting.holes"
+
+
+def test_fix_and_groups_select_blocks():
+    raw = base_scene(
+        joint_sets=[{"dip": 0.0, "spacing": 1.0}, {"dip": 90.0, "spacing": 1.0}],
+        fix=[{"sides": ["bottom"]}, {"polygon": [[9, 5], [11, 5], [11, 7], [9, 7]]}],
+        groups={
+            "top": {"touching": [[0, 6], [10, 6]]},
+            "middle": {"polygon": [[3, 2], [7, 2], [7, 4], [3, 4]]},
+            "listed": ["b1", "b2"],
+        },
+        loads=[{"point": [5.5, 5.5], "force": [0.0, -1.0]}],
+    )
+    out = expand_rock_mass(raw, "<t>")
+    fixed = [b for b in out["blocks"] if b["fixed"]]
+    assert len(fixed) == 10 + 1
+    assert len(out["groups"]["top"]) == 10
+    assert len(out["groups"]["middle"]) == 8  # centroids x in 3.5..6.5, y in 2.5, 3.5
+    assert out["groups"]["listed"] == ["b1", "b2"]
+    by_name = {b["name"]: b for b in out["blocks"]}
+    loaded = shapely.Polygon(by_name[out["loads"][0]["block"]]["vertices"])
+    assert loaded.contains(shapely.Point(5.5, 5.5))
+    assert not {"regions", "joint_sets", "fix", "cutting"} & set(out)
+
+
+def test_blocks_are_named_bottom_up():
+    raw = base_scene(joint_sets=[{"dip": 0.0, "spacing": 1.0, "offset": 0.5}])
+    out = expand_rock_mass(raw, "<t>")
+    ys = [shapely.Polygon(b["vertices"]).centroid.y for b in out["blocks"]]
+    assert ys == sorted(ys)
+    assert [b["name"] for b in out["blocks"]] == [f"b{i}" for i in range(1, 8)]
+
+
+# --- refusals -----------------------------------------------------------------------------
+
+BAD = [
+    ({"joint_sets": [{"dip": 10.0, "spacing": 0.0}]}, "joint_sets[0].spacing"),
+    (
+        {"joint_sets": [{"dip": 10.0, "spacing": 1.0}, {"dip": 0.0, "spacing": -2.0}]},
+        "joint_sets[1].spacing",
+    ),
+    ({"joint_sets": [{"dip": math.nan, "spacing": 1.0}]}, "joint_sets[0].dip"),
+    ({"joint_sets": [{"dip": 0.0, "spacing": 1.0, "joint": "nope"}]}, "joint_sets[0].joint"),
+    (
+        {"joint_sets": [{"dip": 0.0, "spacing": 1.0, "bridge_length": 1.0}]},
+        "joint_sets[0].bridge_length",
+    ),
+    ({"joint_sets": [{"dip": 0.0, "spacing": 1e-7}]}, "joint_sets[0].spacing"),
+    ({"joint_sets": [{"dip": 0.0, "spacing": 1.0, "colour": "red"}]}, "joint_sets[0].colour"),
+    ({"excavations": [{"center": [50.0, 50.0], "radius": 2.0}]}, "excavations[0]"),
+    ({"excavations": [{"polygon": [[-1, -1], [11, -1], [11, 7], [-1, 7]]}]}, "excavations"),
+    ({"regions": [{"polygon": [[0, 0], [4, 4], [4, 0], [0, 4]]}]}, "regions[0].polygon"),
+    (
+        {"regions": [{"polygon": [[0, 0], [4, 0], [4, 4]], "material": "granite"}]},
+        "regions[0].material",
+    ),
+    (
+        {
+            "regions": [
+                {"polygon": [[0, 0], [4, 0], [4, 4], [0, 4]]},
+                {"polygon": [[2, 2], [6, 2], [6, 6], [2, 6]]},
+            ]
+        },
+        "regions[1].polygon",
+    ),
+    ({"regions": []}, "regions"),
+    ({"joint_lines": [{"points": [[0, 0]]}]}, "joint_lines[0].points"),
+    ({"groups": {"crown": {"polygon": [[20, 20], [21, 20], [21, 21]]}}}, "groups.crown"),
+    ({"fix": [{"sides": ["front"]}]}, "fix[0].sides[0]"),
+    ({"cutting": {"small_blocks": "drop"}}, "cutting.small_blocks"),
+]
+
+
+@pytest.mark.parametrize(("change", "key"), BAD, ids=[k for _, k in BAD])
+def test_bad_input_is_refused_by_name(change, key):
+    raw = base_scene(**change)
+    with pytest.raises(SceneError) as err:
+        expand_rock_mass(raw, "scene.toml")
+    assert err.value.key == key
+    assert err.value.source == "scene.toml"
+
+
+# --- TOML writer and the `dda cut` command ------------------------------------------------
+
+toml_keys = st.text(min_size=1, max_size=8)
+toml_scalars = (
+    st.booleans()
+    | st.integers(-(2**63), 2**63 - 1)
+    | st.text(max_size=12)
+    | st.floats(allow_nan=False)
+)
+toml_values = st.recursive(
+    toml_scalars,
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(toml_keys, inner, max_size=4),
+    max_leaves=12,
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.dictionaries(toml_keys, toml_values, max_size=5))
+def test_toml_writer_round_trips(data):
+    assert tomllib.loads(dumps(data)) == data
+
+
+def run_cli(*argv: str) -> int:
+    parser = argparse.ArgumentParser(prog="dda")
+    register(parser.add_subparsers())
+    args = parser.parse_args(list(argv))
+    return args.func(args)
+
+
+def write_scene(path: Path, raw: dict) -> Path:
+    path.write_text(dumps(raw))
+    return path
+
+
+def test_cut_command_writes_the_explicit_scene_and_a_picture(tmp_path):
+    raw = base_scene(
+        joint_sets=[{"dip": 30.0, "spacing": 1.5, "joint": "bed"}], fix=[{"sides": ["bottom"]}]
+    )
+    scene = write_scene(tmp_path / "mass.toml", raw)
+    out = tmp_path / "blocks.toml"
+    assert run_cli("cut", str(scene), "-o", str(out)) == 0
+    written = tomllib.loads(out.read_text())
+    assert written == expand_rock_mass(raw, str(scene))
+    assert (tmp_path / "blocks.png").stat().st_size > 1000
+    from dda.scene import load_scene
+
+    assert len(load_scene(out).blocks) == len(written["blocks"])
+
+
+@pytest.mark.parametrize(
+    ("change", "key"), BAD[:4] + BAD[7:10], ids=[k for _, k in BAD[:4] + BAD[7:10]]
+)
+def test_cut_command_refuses_bad_input_and_writes_nothing(tmp_path, capsys, change, key):
+    scene = write_scene(tmp_path / "bad.toml", base_scene(**change))
+    out = tmp_path / "blocks.toml"
+    assert run_cli("cut", str(scene), "-o", str(out)) == 2
+    assert key in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+def test_cut_is_an_entry_point_of_the_dda_command():
+    names = {ep.name: ep.value for ep in entry_points(group="dda.commands")}
+    assert names.get("cut") == "dda.rockmass.cli:register"
