@@ -19,7 +19,7 @@ from verify.compare import Row, compare, max_errors
 from verify.dda_side import DdaSide
 from verify.expect import Expectation, load_expectation
 from verify.fem import FemOptions, FemSolution, solve_fem
-from verify.interfaces import find_interfaces, with_dda_contacts
+from verify.interfaces import find_interfaces, joint_between, sticks, with_dda_contacts
 
 log = logging.getLogger(__name__)
 
@@ -111,6 +111,15 @@ def run_fem(scene: Scene, side: DdaSide, options: FemOptions) -> FemSolution:
     unmatched = set(side.closed_pairs()) - {i.pair for i in geometric}
     if unmatched:
         log.warning("DDA contacts between blocks that do not share a boundary: %s", unmatched)
+    for interface in interfaces:
+        a, b = scene.blocks[interface.a].name, scene.blocks[interface.b].name
+        if not interface.locked and sticks(joint_between(scene, a, b)):
+            log.warning(
+                "%s|%s slides with friction in the DDA: the FEM treats it as "
+                "frictionless (Coulomb sliding is not modelled)",
+                a,
+                b,
+            )
     return solve_fem(scene, interfaces, options)
 
 

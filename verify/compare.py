@@ -27,7 +27,8 @@ Quantities (each row one number from each side, and their difference):
 Errors are absolute differences divided by a scale per quantity and case:
 the largest FEM magnitude of that quantity in the case (the largest stress
 component of any block, the largest displacement, the largest interface
-force or penetration). A component that is zero in both models then has
+force or penetration; for penetration with the augmented Lagrangian, at
+least the contact tolerance). A component that is zero in both models then has
 error zero, and a small component is not blown up by its own size.
 """
 
@@ -40,7 +41,7 @@ import numpy as np
 from dda.geometry import polygon_moments
 from verify import fields
 from verify.dda_side import DdaSide
-from verify.fem import FemSolution
+from verify.fem import FemSolution, contact_tolerance_of
 
 CHECKED = ("stress", "centroid", "vertex", "contact_force", "penetration")
 
@@ -120,7 +121,10 @@ def contact_rows(dda: DdaSide, fem: FemSolution) -> list[Row]:
     names = [b.name for b in fem.scene.blocks]
     forces = fields.interface_forces(fem)
     force_scale = _scale([f["normal_force"] for f in forces])
-    pen_scale = _scale([f["penetration"] for f in forces])
+    # with the augmented Lagrangian both penetrations are within the tolerance
+    pen_scale = max(
+        _scale([f["penetration"] for f in forces]), contact_tolerance_of(fem.scene) or 0
+    )
     rows = []
     for f in forces:
         a, b = f["blocks"]

@@ -76,9 +76,21 @@ class ContactPoints:
         kt = sp.diags(self.k_shear * active)
         return (self.g_normal.T @ kn @ self.g_normal + self.g_shear.T @ kt @ self.g_shear).tocsr()
 
-    def load(self, active: np.ndarray) -> np.ndarray:
-        """Load vector of the initial gaps of the active points."""
-        return -(self.g_normal.T @ (self.k_normal * active * self.gap0))
+    def load(self, active: np.ndarray, multipliers: np.ndarray | None = None) -> np.ndarray:
+        """Load vector of the initial gaps (and multipliers λ) of the active points."""
+        force = self.k_normal * self.gap0
+        if multipliers is not None:
+            force = force + multipliers
+        return -(self.g_normal.T @ (active * force))
+
+    def normal_forces(
+        self, u: np.ndarray, active: np.ndarray, multipliers: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Compressive normal force −(λ + k g) of every active point (0 elsewhere)."""
+        force = -self.k_normal * self.gaps(u)
+        if multipliers is not None:
+            force = force - multipliers
+        return np.where(active, force, 0.0)
 
 
 def default_penalty(scene: Scene) -> float:

@@ -44,6 +44,12 @@ class DdaSide:
     def from_result(cls, result: Result, scene: Scene) -> DdaSide:
         """Collect the final frame of ``result`` in scene order."""
         first, final = result.frames[0], result.final
+        missing = [b.name for b in scene.blocks if b.name not in final.names]
+        if missing:
+            raise ValueError(
+                f"blocks {missing} are not in the final frame (broken?): "
+                "the FEM comparison needs the scene's blocks intact"
+            )
         rows = [final.block(b.name) for b in scene.blocks]
         first_rows = [first.block(b.name) for b in scene.blocks]
         vertex_displacement = tuple(

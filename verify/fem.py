@@ -14,8 +14,11 @@ The FEM model of a scene, term by term as the DDA sees it:
 - fixed blocks are rigid and not meshed: the contact with them is against a
   rigid segment, as the DDA removes fixed blocks from its unknowns;
 - contact between touching blocks: :mod:`verify.contact`, with an
-  active-set loop (a slave point whose gap opens is dropped and the system
-  solved again, until the set no longer changes).
+  active-set loop (a slave point whose force would be tensile is dropped, a
+  penetrating one added, and the system solved again, until the set no
+  longer changes); for a scene with the augmented-Lagrangian method, the
+  springs also carry multipliers, augmented until no closed point
+  penetrates more than the scene's contact tolerance.
 
 A block held by frictionless contact only can still translate along the
 contact; a mass-proportional stabiliser ``α ∫ u·v`` with
@@ -76,7 +79,8 @@ class FemSolution:
     interfaces: list[Interface]
     contact: ContactPoints
     active: np.ndarray  # (m,) bool, closed contact points
-    iterations: int  # active-set iterations
+    multipliers: np.ndarray  # (m,) augmented-Lagrangian multipliers (0: pure penalty)
+    iterations: int  # linear solves (active-set iterations and augmentations)
     penalty: float
 
 
@@ -194,23 +198,59 @@ def make_basis(bm: BlockMesh, order: int) -> CellBasis:
 
 
 def solve_with_contact(
-    stiffness: sp.csr_matrix, load: np.ndarray, contact: ContactPoints, max_iterations: int
-) -> tuple[np.ndarray, np.ndarray, int]:
-    """Active-set loop: solve with the closed points, drop opened ones, re-add penetrating ones.
+    stiffness: sp.csr_matrix,
+    load: np.ndarray,
+    contact: ContactPoints,
+    max_iterations: int,
+    tolerance: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Active-set loop, with augmented-Lagrangian updates when ``tolerance`` is given.
 
-    Returns the displacement, the final active set and the number of solves.
+    Solve with the closed points; open those whose force would be tensile,
+    close those that penetrate; repeat until the set no longer changes. With
+    a tolerance (augmented Lagrangian, as the DDA's THEORY.md section 5), each
+    closed point also carries a multiplier λ, updated λ ← λ + k g with the
+    same factorisation until no closed point penetrates more than the
+    tolerance.
+
+    Returns the displacement, the active set, the multipliers and the number
+    of solves.
     """
     active = np.ones(len(contact), dtype=bool)
-    for iteration in range(1, max_iterations + 1):
-        matrix = (stiffness + contact.stiffness(active)).tocsc()
-        u = spla.spsolve(matrix, load + contact.load(active))
-        new_active = contact.gaps(u) < 0.0
+    multipliers = np.zeros(len(contact))
+    solves = 0
+    for _ in range(max_iterations):
+        solve = spla.factorized((stiffness + contact.stiffness(active)).tocsc())
+        u = solve(load + contact.load(active, multipliers))
+        solves += 1
+        for _ in range(100 if tolerance is not None else 0):
+            gaps = contact.gaps(u)
+            if -gaps[active].min(initial=0.0) <= tolerance:
+                break
+            multipliers = np.where(active, multipliers + contact.k_normal * gaps, 0.0)
+            u = solve(load + contact.load(active, multipliers))
+            solves += 1
+        new_active = contact.normal_forces(u, np.ones_like(active), multipliers) > 0.0
         if np.array_equal(new_active, active):
-            return u, active, iteration
+            return u, active, multipliers, solves
         log.debug("active set: %d -> %d closed points", active.sum(), new_active.sum())
         active = new_active
+        multipliers[~active] = 0.0
     log.warning("active set did not settle in %d iterations", max_iterations)
-    return u, active, max_iterations
+    return u, active, multipliers, solves
+
+
+def contact_tolerance_of(scene: Scene) -> float | None:
+    """The DDA's augmented-Lagrangian tolerance (None for the pure penalty method).
+
+    As the engine: ``[contact] tolerance``, else 1e-4 of the model's larger extent.
+    """
+    if scene.contact.method != "augmented-lagrangian":
+        return None
+    if scene.contact.tolerance is not None:
+        return float(scene.contact.tolerance)
+    points = np.concatenate([np.asarray(b.vertices) for b in scene.blocks])
+    return 1e-4 * float((points.max(axis=0) - points.min(axis=0)).max())
 
 
 def solve_fem(
@@ -239,7 +279,9 @@ def solve_fem(
     stiffness, load, materials = base_system(scene, bm, basis, options)
     penalty = default_penalty(scene)
     contact = build_contact_points(scene, bm, basis, interfaces, penalty)
-    u, active, iterations = solve_with_contact(stiffness, load, contact, options.max_active_set)
+    u, active, multipliers, iterations = solve_with_contact(
+        stiffness, load, contact, options.max_active_set, contact_tolerance_of(scene)
+    )
     log.info(
         "FEM %s: %d DOFs, %d contact points (%d closed), %d solves",
         scene.title,
@@ -258,6 +300,7 @@ def solve_fem(
         interfaces=interfaces,
         contact=contact,
         active=active,
+        multipliers=multipliers,
         iterations=iterations,
         penalty=penalty,
     )

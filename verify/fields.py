@@ -128,7 +128,7 @@ def interface_forces(solution: FemSolution) -> list[dict]:
     """
     contact, u, active = solution.contact, solution.u, solution.active
     gaps, slips = contact.gaps(u), contact.slips(u)
-    normal = contact.k_normal * np.where(active, -gaps, 0.0)
+    normal = contact.normal_forces(u, active, solution.multipliers)
     shear = contact.k_shear * np.where(active, slips, 0.0)
     out = []
     for row, interface in enumerate(solution.interfaces):

@@ -63,6 +63,19 @@ def fem_polydata(result: CaseResult, component: int, magnification: float):
     return grid
 
 
+def fem_outlines(result: CaseResult, magnification: float):
+    """Boundary edges of every meshed block, deformed (lines)."""
+    import pyvista as pv
+
+    fem = result.fem
+    mesh = fem.block_mesh.mesh
+    facets = mesh.facets[:, mesh.boundary_facets()].T  # (f, 2)
+    xy = mesh.p.T + magnification * fields.nodal_displacement(fem)
+    points = np.column_stack([xy, np.full(len(xy), 1e-6)])
+    lines = np.column_stack([np.full(len(facets), 2), facets]).ravel()
+    return pv.PolyData(points, lines=lines)
+
+
 def dda_polygons(result: CaseResult, magnification: float) -> list[np.ndarray]:
     """DDA blocks in scene order, displacements magnified."""
     return [
@@ -95,6 +108,16 @@ def colour_range(result: CaseResult, component: int) -> tuple[float, float]:
     return float(low), float(high)
 
 
+def _leave_room_for_the_bar(camera, fraction: float = 0.16) -> None:
+    """Parallel view, zoomed out and moved so the scene sits above the colour bar."""
+    camera.parallel_projection = True
+    camera.parallel_scale *= 1.0 + fraction
+    shift = fraction * camera.parallel_scale
+    (fx, fy, fz), (px, py, pz) = camera.focal_point, camera.position
+    camera.focal_point = (fx, fy - shift, fz)
+    camera.position = (px, py - shift, pz)
+
+
 def _add_fixed(plotter, result: CaseResult) -> None:
     fixed = [np.asarray(b.vertices) for b in result.scene.blocks if b.fixed]
     if fixed:
@@ -125,7 +148,7 @@ def case_image(
         "title_font_size": 14,
         "label_font_size": 13,
         "position_x": 0.15,
-        "position_y": 0.03,
+        "position_y": 0.08,
         "width": 0.7,
         "height": 0.07,
     }
@@ -189,6 +212,11 @@ def case_image(
     plotter.add_text("FEM - DDA, block averages", font_size=10, color="black")
     plotter.view_xy()
 
+    for actor in plotter.scalar_bars.values():
+        actor.SetTextPositionToPrecedeScalarBar()  # labels under the bar, title above
+    for index in range(3):
+        plotter.subplot(0, index)
+        _leave_room_for_the_bar(plotter.camera)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     plotter.screenshot(str(path))

@@ -68,6 +68,8 @@ def case_section(result: CaseResult, image: str | None) -> list[str]:
         for v in result.verdicts
     ]
     lines += _markdown_table(["quantity", "error", "tolerance", "result", "why"], verdicts)
+    for quantity, note in e.notes.items():
+        lines += ["", f"*{quantity}*: " + note.replace("\n", " ")]
     stress = [r for r in result.rows if r.quantity in ("stress", "contact_force", "penetration")]
     lines += [
         "",
