@@ -124,4 +124,9 @@ def merge(
         for name in ("state", "normal_multiplier", "shear_multiplier", "penalty", "reference",
                      "slide_direction", "intact", "normal_force", "shear_force", "penetration"):
             getattr(new, name)[new_rows] = getattr(previous, name)[old_rows]
+    # An open contact has no shear reference yet: measure from the vertex's current
+    # projection, so a contact that closes during the step does not start with the
+    # slip accumulated since it was first detected (a spurious shear spring force).
+    still_open = new.state == OPEN
+    new.reference[still_open] = np.asarray(initial_parameter, float)[still_open]
     return new

@@ -12,6 +12,8 @@ when P1 lies on the inner side of the edge.
   other block. One contact per pair: of the four edges meeting at P1 and
   P2, take the one that best separates the opposite vertex's fan of edges
   (largest min over the fan of u·n_out): the edge the vertex will enter.
+  Scores within ``ANGLE_TIE`` of the best are a tie, broken by position: the
+  edge whose line the vertex lies furthest outside of (least penetration).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from dda.blocks import BlockSet
 from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertices
 
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
+ANGLE_TIE = 0.05  # vertex-vertex: edge scores this close are a tie, decided by position
 
 
 @dataclass
@@ -152,11 +155,21 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2):
             for vert, ed in candidates
         ]
     )
-    best = np.argmax(scores, axis=1)
+    depth = np.column_stack([_depth(blocks, fans, vert, ed) for vert, ed in candidates])
+    # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
+    # the edge whose line the vertex is furthest outside of (least penetration)
+    tied = scores >= scores.max(axis=1, keepdims=True) - ANGLE_TIE
+    best = np.argmin(np.where(tied, depth, np.inf), axis=1)
     verts = np.column_stack([c[0] for c in candidates])
     edges = np.column_stack([c[1] for c in candidates])
     rows = np.arange(len(p1))
     return verts[rows, best], edges[rows, best]
+
+
+def _depth(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):
+    """Signed depth of each vertex behind the line of each edge (> 0: inside)."""
+    v = blocks.vertices
+    return np.einsum("ij,ij->i", v[edge] - v[vertex], _outward_normal(blocks, fans, edge))
 
 
 def _first_of_each(vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
