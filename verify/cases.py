@@ -35,6 +35,7 @@ class Case:
     expect_path: Path
 
     def load(self) -> tuple[Scene, Expectation]:
+        """The scene and its expectations."""
         return dda.load_scene(self.scene_path), load_expectation(self.expect_path)
 
 
@@ -49,6 +50,7 @@ class Verdict:
 
     @property
     def passed(self) -> bool:
+        """Whether every check is within its tolerance."""
         return bool(np.isfinite(self.error) and self.error <= self.tolerance)
 
 
@@ -67,6 +69,7 @@ class CaseResult:
 
     @property
     def passed(self) -> bool:
+        """Whether every check is within its tolerance."""
         return all(v.passed for v in self.verdicts)
 
 

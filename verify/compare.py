@@ -70,6 +70,7 @@ class Row:
         return abs(self.fem - self.dda) / self.scale
 
     def as_dict(self) -> dict:
+        """The row as a plain dict, with its error."""
         return {**asdict(self), "error": self.error}
 
 
@@ -80,6 +81,7 @@ def _scale(values) -> float:
 
 
 def stress_rows(dda: DdaSide, fem: FemSolution) -> list[Row]:
+    """DDA block stress against the FEM block average, every free block and component."""
     names = [b.name for b in fem.scene.blocks]
     average = fields.block_average_stress(fem)
     free = list(fem.block_mesh.blocks)
@@ -118,6 +120,7 @@ def block_centroid(vertices: np.ndarray) -> np.ndarray:
 
 
 def contact_rows(dda: DdaSide, fem: FemSolution) -> list[Row]:
+    """Normal force, mean penetration and closed fraction of every FEM interface."""
     names = [b.name for b in fem.scene.blocks]
     forces = fields.interface_forces(fem)
     force_scale = _scale([f["normal_force"] for f in forces])

@@ -65,9 +65,11 @@ class ContactPoints:
         return len(self.interface)
 
     def gaps(self, u: np.ndarray) -> np.ndarray:
+        """Normal gap of every point (negative: penetration)."""
         return self.gap0 + self.g_normal @ u
 
     def slips(self, u: np.ndarray) -> np.ndarray:
+        """Tangential displacement of every point relative to its master point."""
         return self.g_shear @ u
 
     def stiffness(self, active: np.ndarray) -> sp.csr_matrix:
@@ -94,7 +96,20 @@ class ContactPoints:
 
 
 def default_penalty(scene: Scene) -> float:
-    """The DDA's normal penalty: the scene's, else 10 x the largest Young's modulus."""
+    """The DDA's initial normal penalty for this scene.
+
+    Read from the engine's model (``dda.model.build``) so that the two stay
+    the same; if that is not available, the documented rule: the scene's
+    ``[contact] penalty``, else 10 x the largest Young's modulus.
+    """
+    try:
+        from dda.model import build
+
+        contact = build(scene).contact
+        if contact is not None:
+            return float(contact.initial_penalty)
+    except (ImportError, AttributeError):
+        pass
     if scene.contact.penalty is not None:
         return float(scene.contact.penalty)
     return 10.0 * max(m.young for m in scene.materials.values())

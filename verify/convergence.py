@@ -98,12 +98,14 @@ def solve_closed_form_problem(order: int, size: float):
 
     @LinearForm
     def gravity(v, w):
+        """Body force ρg, downwards."""
         return -DENSITY * GRAVITY * v[1]
 
     base = FacetBasis(bm.mesh, element, facets=bm.mesh.facets_satisfying(lambda x: x[1] < 1e-12))
 
     @LinearForm
     def base_pressure(v, w):
+        """Uniform pressure ρgh pushing the base up."""
         return DENSITY * GRAVITY * HEIGHT * v[1]
 
     load = gravity.assemble(basis) + base_pressure.assemble(base)
@@ -158,6 +160,7 @@ def relative_errors(basis, u, lam, mu) -> tuple[float, float]:
     se = exact_stress(x)
 
     def norm(f):
+        """L² norm over the block."""
         return np.sqrt((f**2 * dx).sum())
 
     return norm(without_rigid_motion(uh - ue, x, dx)) / norm(ue), norm(sh - se) / norm(se)

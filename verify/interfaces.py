@@ -38,6 +38,7 @@ class Interface:
 
     @property
     def pair(self) -> tuple[int, int]:
+        """(a, b), the key of the DDA's contact groups."""
         return (self.a, self.b)
 
 

@@ -23,6 +23,7 @@ class SuiteOutput:
 
     @property
     def passed(self) -> bool:
+        """Whether every check is within its tolerance."""
         return all(r.passed for r in self.results)
 
 
