@@ -9,9 +9,13 @@ when P1 lies on the inner side of the edge.
   a reflex vertex and both its edges leave it away from the other block
   (the angle test).
 * Vertex-vertex (V-V): P1 within the vertex radius of a vertex P2 of the
-  other block. One contact per pair: of the four edges meeting at P1 and
-  P2, take the one that best separates the opposite vertex's fan of edges
-  (largest min over the fan of u·n_out): the edge the vertex will enter.
+  other block. The radius of a pair is the smaller of the two vertices'
+  radii, each at most ``VERTEX_RADIUS_FRACTION`` of the shortest edge at the
+  vertex (a search distance larger than a small block's edges must not pair
+  vertices across the block); the V-E test excludes the same zones. One
+  contact per pair: of the four edges meeting at P1 and P2, take the one
+  that best separates the opposite vertex's fan of edges (largest min over
+  the fan of u·n_out): the edge the vertex will enter.
   Scores within ``ANGLE_TIE`` of the best are a tie, broken by position: the
   edge whose line the vertex lies furthest outside of (least penetration).
 """
@@ -27,6 +31,7 @@ from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertic
 
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
 ANGLE_TIE = 0.05  # vertex-vertex: edge scores this close are a tie, decided by position
+VERTEX_RADIUS_FRACTION = 0.25  # vertex radius ≤ this x the shortest edge at either vertex
 
 
 @dataclass
@@ -64,6 +69,8 @@ class VertexFans:
         self.to_next = _unit(v[self.next] - v)
         self.to_prev = _unit(v[self.prev] - v)
         self.reflex = reflex_vertices(v, blocks.offsets)
+        edge_length = np.linalg.norm(v[self.next] - v, axis=1)
+        self.shortest = np.minimum(edge_length, edge_length[self.prev])  # edges at the vertex
 
     def separation(self, vertex: np.ndarray, outward: np.ndarray) -> np.ndarray:
         """min(u_prev·n, u_next·n): ≥ 0 when the fan stays outside the edge's line."""
@@ -108,18 +115,21 @@ def detect(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: fl
     r3 = np.linalg.norm(p1 - p3, axis=1)
     size = np.sqrt(np.minimum(blocks.area[a], blocks.area[b]))
     max_depth = np.maximum(search, 0.3 * size)
+    radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
+    radius2 = np.minimum(radius[vertex], radius[edge])  # the zone around P2 ...
+    radius3 = np.minimum(radius[vertex], radius[fans.next[edge]])  # ... and around P3
 
     ve = (
         ~fans.reflex[vertex]
         & (t > 0.0)
         & (t < 1.0)
-        & (r2 > vertex_radius)
-        & (r3 > vertex_radius)
+        & (r2 > radius2)
+        & (r3 > radius3)
         & (d >= -search)
         & (d <= max_depth)
         & (fans.separation(vertex, -inward) >= -ANGLE_TOLERANCE)
     )
-    vv = (a < b) & (r2 <= vertex_radius)
+    vv = (a < b) & (r2 <= radius2)
     vv_vertex, vv_edge = _resolve_vertex_vertex(blocks, fans, vertex[vv], edge[vv])
     vertex_all = np.concatenate([vertex[ve], vv_vertex])
     edge_all = np.concatenate([edge[ve], vv_edge])
