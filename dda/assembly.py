@@ -1,14 +1,29 @@
-"""Global stiffness matrix from 6x6 blocks: block-sparse, straight to CSR/CSC.
+"""Global stiffness matrix from 6x6 blocks, scattered straight into CSR.
 
-Diagonal blocks come from the effects and contacts (n, 6, 6); off-diagonal
-blocks from contacts between two free blocks, summed per block pair before
-the matrix is built. Fixed blocks are removed from the unknowns.
+K has one 6x6 block per free block (effects and contacts, on the diagonal)
+and one per pair of free blocks in contact (off the diagonal). Fixed blocks
+are removed from the unknowns. A :class:`BlockPattern` is built once per
+contact graph: the block numbering (a fill-reducing ordering), the CSR
+structure and, for every contact, where its four 6x6 parts land. Each
+assembly then only writes numbers into a preallocated CSR data array:
+no COO duplicates, no sorting, no ``np.add.at``.
+
+A contact term with spring constant k and gradient rows r_i, r_j (w.r.t.
+D_i, D_j) adds (THEORY.md section 4)::
+
+    K_ii += k r_iᵀ r_i,  K_ij += k r_iᵀ r_j,  K_ji += k r_jᵀ r_i,  K_jj += k r_jᵀ r_j
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
 import numpy as np
 import scipy.sparse as sp
+
+from dda.jit import kernel
+
+BLOCK = 6  # unknowns per block
 
 
 def free_rows(fixed: np.ndarray) -> np.ndarray:
@@ -17,69 +32,255 @@ def free_rows(fixed: np.ndarray) -> np.ndarray:
     return np.where(fixed, -1, rows)
 
 
-def add_pair_terms(
-    diagonal: np.ndarray,
-    block_i: np.ndarray,
-    block_j: np.ndarray,
-    row_i: np.ndarray,
-    row_j: np.ndarray,
-    stiffness: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Add k·[r_i; r_j][r_i; r_j]ᵀ for each term; return off-diagonal blocks.
+class BlockPattern:
+    """Sparsity of K for one contact graph, in a given block order.
 
     Parameters
     ----------
-    diagonal : (n, 6, 6) accumulated in place (ii and jj parts)
-    block_i, block_j : (m,) rows of the two blocks of each term
-    row_i, row_j : (m, 6) gradient rows with respect to D_i and D_j
-    stiffness : (m,) spring constant of each term
+    fixed : (n,) bool, blocks removed from the unknowns
+    block_a, block_b : (m,) blocks of each contact (vertex side, edge side)
+    ordering : callable ``(nfree, pairs) -> position`` giving the position of
+        every free block in the matrix (a fill-reducing permutation); None
+        keeps the natural order.
 
-    Returns
-    -------
-    (i, j, blocks) : the ij parts (m, 6, 6), to be placed at (i, j) and
-    transposed at (j, i).
+    Attributes
+    ----------
+    nfree : number of free blocks (K is 6 nfree square)
+    position : (nfree,) matrix block row of each free block
+    block_of_row : (n,) matrix block row of each block (-1 if fixed)
+    indptr, indices : scalar CSR structure of K (symmetric, so also its CSC)
+    key : bytes identifying the graph (equal keys: same pattern)
     """
-    ki = stiffness[:, None] * row_i
-    kj = stiffness[:, None] * row_j
-    np.add.at(diagonal, block_i, ki[:, :, None] * row_i[:, None, :])
-    np.add.at(diagonal, block_j, kj[:, :, None] * row_j[:, None, :])
-    return block_i, block_j, ki[:, :, None] * row_j[:, None, :]
+
+    def __init__(
+        self,
+        fixed: np.ndarray,
+        block_a: np.ndarray,
+        block_b: np.ndarray,
+        ordering: Callable[[int, np.ndarray], np.ndarray] | None = None,
+    ) -> None:
+        rows = free_rows(fixed)
+        self.nfree = int((~fixed).sum())
+        self.key = graph_key(fixed, block_a, block_b)
+        pairs = _free_pairs(rows, block_a, block_b)
+        self.position = (
+            np.arange(self.nfree) if ordering is None else np.asarray(ordering(self.nfree, pairs))
+        )
+        self.block_of_row = np.where(rows >= 0, self.position[np.maximum(rows, 0)], -1)
+        self._build_structure(pairs)
+        self._contact_slots(block_a, block_b)
+        self._flat_targets: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        return BLOCK * self.nfree
+
+    def _build_structure(self, pairs: np.ndarray) -> None:
+        """Block CSR (sorted columns, diagonal included) and its scalar layout."""
+        n = self.nfree
+        pi, pj = self.position[pairs[:, 0]], self.position[pairs[:, 1]]
+        brow = np.concatenate([np.arange(n), pi, pj])
+        bcol = np.concatenate([np.arange(n), pj, pi])
+        order = np.lexsort((bcol, brow))
+        brow, bcol = brow[order], bcol[order]
+        counts = np.bincount(brow, minlength=n)
+        bptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(counts, out=bptr[1:])
+        self.block_rows, self.block_cols, self.block_indptr = brow, bcol, bptr
+        self.block_count = len(brow)
+        width = BLOCK * counts  # scalar entries per scalar row, per block row
+        # slot s (q-th block of block row I): element (r, c) at base[s] + r*stride[s] + c
+        q = np.arange(len(brow)) - bptr[brow]
+        self.slot_base = BLOCK * BLOCK * bptr[brow] + BLOCK * q
+        self.slot_stride = width[brow]
+        row_len = np.repeat(width, BLOCK)
+        self.indptr = np.zeros(BLOCK * n + 1, dtype=np.int64)
+        np.cumsum(row_len, out=self.indptr[1:])
+        self.indices = _scalar_indices(bcol, bptr, BLOCK)
+        self._block_key = brow.astype(np.int64) * max(n, 1) + bcol
+        self.diagonal_slot = self._slot_of(np.arange(n), np.arange(n))
+        self.nnz = int(self.indptr[-1])
+
+    def _slot_of(self, brow: np.ndarray, bcol: np.ndarray) -> np.ndarray:
+        """Slot of block (brow, bcol) (both in matrix order; must exist)."""
+        want = brow.astype(np.int64) * max(self.nfree, 1) + bcol
+        return np.searchsorted(self._block_key, want)
+
+    def _contact_slots(self, block_a: np.ndarray, block_b: np.ndarray) -> None:
+        """Where the ii, jj, ij and ji parts of each contact go (-1: nowhere)."""
+        ra, rb = self.block_of_row[block_a], self.block_of_row[block_b]
+        none = np.full(len(block_a), -1, dtype=np.int64)
+        fa, fb = ra >= 0, rb >= 0
+        self.slot_ii = none.copy()
+        self.slot_ii[fa] = self.diagonal_slot[ra[fa]]
+        self.slot_jj = none.copy()
+        self.slot_jj[fb] = self.diagonal_slot[rb[fb]]
+        both = fa & fb
+        self.slot_ij, self.slot_ji = none.copy(), none.copy()
+        self.slot_ij[both] = self._slot_of(ra[both], rb[both])
+        self.slot_ji[both] = self._slot_of(rb[both], ra[both])
+
+    def flat_targets(self) -> np.ndarray:
+        """(4, m, 36) flat data index of every element of every contact part (-1: none)."""
+        if self._flat_targets is None:
+            r = np.repeat(np.arange(BLOCK), BLOCK)
+            c = np.tile(np.arange(BLOCK), BLOCK)
+            out = []
+            for slot in (self.slot_ii, self.slot_jj, self.slot_ij, self.slot_ji):
+                s = np.maximum(slot, 0)
+                idx = self.slot_base[s][:, None] + r[None, :] * self.slot_stride[s][:, None]
+                idx = idx + c[None, :]
+                out.append(np.where(slot[:, None] >= 0, idx, -1))
+            self._flat_targets = np.stack(out)
+        return self._flat_targets
+
+    def diagonal_targets(self) -> np.ndarray:
+        """(nfree, 36) flat data index of the diagonal block of every matrix block row."""
+        r = np.repeat(np.arange(BLOCK), BLOCK)
+        c = np.tile(np.arange(BLOCK), BLOCK)
+        s = self.diagonal_slot
+        return self.slot_base[s][:, None] + r * self.slot_stride[s][:, None] + c
+
+    def to_matrix_order(self, values: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+        """(n, ...) per-block values -> (nfree, ...) in matrix block order."""
+        out = np.empty((self.nfree, *values.shape[1:]), dtype=values.dtype)
+        out[self.block_of_row[~fixed]] = values[~fixed]
+        return out
+
+    def from_matrix_order(self, solution: np.ndarray, n: int) -> np.ndarray:
+        """Solution vector (6 nfree,) -> (n, 6) per block, zeros for fixed blocks."""
+        d = np.zeros((n, BLOCK))
+        free = self.block_of_row >= 0
+        d[free] = solution.reshape(-1, BLOCK)[self.block_of_row[free]]
+        return d
+
+
+def graph_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bytes:
+    """Bytes that are equal exactly when two contact graphs give the same pattern."""
+    return b"".join(
+        [
+            np.packbits(fixed).tobytes(),
+            np.int64(len(fixed)).tobytes(),
+            np.ascontiguousarray(block_a, dtype=np.int64).tobytes(),
+            b"|",
+            np.ascontiguousarray(block_b, dtype=np.int64).tobytes(),
+        ]
+    )
+
+
+def _free_pairs(rows: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:
+    """(q, 2) unique unordered pairs (lo < hi) of free rows in contact."""
+    ra, rb = rows[block_a], rows[block_b]
+    keep = (ra >= 0) & (rb >= 0) & (ra != rb)
+    lo, hi = np.minimum(ra[keep], rb[keep]), np.maximum(ra[keep], rb[keep])
+    if len(lo) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    key = np.unique(lo.astype(np.int64) * (int(rows.max()) + 1) + hi)
+    return np.column_stack([key // (int(rows.max()) + 1), key % (int(rows.max()) + 1)])
+
+
+def _scalar_indices(bcol: np.ndarray, bptr: np.ndarray, b: int) -> np.ndarray:
+    """Column indices of the scalar CSR of a block CSR with full b x b blocks."""
+    n = len(bptr) - 1
+    counts = np.diff(bptr)
+    # each scalar row of block row I lists, for each block q, columns b*bcol[q] + 0..b-1
+    cols = (b * bcol[:, None] + np.arange(b)[None, :]).ravel()  # per block, b columns
+    row_cols_start = b * bptr[:-1]  # start in `cols` of block row I
+    width = b * counts
+    # scalar row (I, r) repeats cols[row_cols_start[I] : +width[I]] for r = 0..b-1
+    owner = np.repeat(np.arange(n), b)
+    starts = row_cols_start[owner]
+    lens = width[owner]
+    total = int(lens.sum())
+    offset = np.arange(total) - np.repeat(np.cumsum(lens) - lens, lens)
+    parts = cols[np.repeat(starts, lens) + offset]
+    return parts.astype(np.int32 if total < 2**31 and len(cols) < 2**31 else np.int64)
 
 
 def assemble(
+    pattern: BlockPattern,
     diagonal: np.ndarray,
-    pair_i: np.ndarray,
-    pair_j: np.ndarray,
-    pair_blocks: np.ndarray,
     fixed: np.ndarray,
+    terms: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]] = (),
 ) -> sp.csc_matrix:
-    """Sparse K over the free blocks (6 unknowns each)."""
-    rows = free_rows(fixed)
-    nfree = int((~fixed).sum())
-    both = (rows[pair_i] >= 0) & (rows[pair_j] >= 0) & (pair_i != pair_j)
-    ri, rj, blocks = rows[pair_i[both]], rows[pair_j[both]], pair_blocks[both]
-    # one block per unordered pair, summed
-    lo, hi = np.minimum(ri, rj), np.maximum(ri, rj)
-    blocks = np.where((ri <= rj)[:, None, None], blocks, blocks.transpose(0, 2, 1))
-    key = lo.astype(np.int64) * max(nfree, 1) + hi
-    unique, inverse = np.unique(key, return_inverse=True)
-    summed = np.zeros((len(unique), 6, 6))
-    np.add.at(summed, inverse, blocks)
-    ulo, uhi = unique // max(nfree, 1), unique % max(nfree, 1)
+    """K over the free blocks in the pattern's order, as CSC.
 
-    free = ~fixed
-    block_rows = np.concatenate([np.arange(nfree), ulo, uhi])
-    block_cols = np.concatenate([np.arange(nfree), uhi, ulo])
-    data = np.concatenate([diagonal[free], summed, summed.transpose(0, 2, 1)])
-    order = np.lexsort((block_cols, block_rows))
-    indptr = np.zeros(nfree + 1, dtype=np.int64)
-    np.cumsum(np.bincount(block_rows, minlength=nfree), out=indptr[1:])
-    k = sp.bsr_matrix(
-        (data[order], block_cols[order], indptr), shape=(6 * nfree, 6 * nfree), blocksize=(6, 6)
+    The data are written row by row (CSR); K is symmetric, so the same
+    arrays read as CSC are K too (no conversion).
+
+    Parameters
+    ----------
+    pattern : the contact graph's :class:`BlockPattern`
+    diagonal : (n, 6, 6) symmetric block-diagonal part (effects), every block
+    fixed : (n,) bool
+    terms : contact terms ``(row_i, row_j, k)``, each (m, 6), (m, 6), (m,) in
+        the contact order the pattern was built with
+    """
+    data = np.zeros(pattern.nnz)
+    data[pattern.diagonal_targets()] = pattern.to_matrix_order(diagonal, fixed).reshape(-1, 36)
+    for row_i, row_j, k in terms:
+        _add_contact_terms(pattern, data, row_i, row_j, k)
+    n = pattern.size
+    return sp.csc_matrix((data, pattern.indices, pattern.indptr), shape=(n, n))
+
+
+def _add_contact_terms(pattern, data, row_i, row_j, k) -> None:
+    if _scatter_kernel is not None:
+        _scatter_kernel(
+            data,
+            pattern.slot_base,
+            pattern.slot_stride,
+            pattern.slot_ii,
+            pattern.slot_jj,
+            pattern.slot_ij,
+            pattern.slot_ji,
+            np.ascontiguousarray(row_i, dtype=np.float64),
+            np.ascontiguousarray(row_j, dtype=np.float64),
+            np.ascontiguousarray(k, dtype=np.float64),
+        )
+        return
+    targets = pattern.flat_targets()
+    ki, kj = k[:, None] * row_i, k[:, None] * row_j
+    parts = (
+        ki[:, :, None] * row_i[:, None, :],
+        kj[:, :, None] * row_j[:, None, :],
+        ki[:, :, None] * row_j[:, None, :],
+        kj[:, :, None] * row_i[:, None, :],
     )
-    return k.tocsc()
+    for target, part in zip(targets, parts, strict=True):
+        keep = target[:, 0] >= 0
+        data += np.bincount(
+            target[keep].ravel(), weights=part[keep].reshape(-1), minlength=len(data)
+        )
+
+
+def _scatter(data, base, stride, slot_ii, slot_jj, slot_ij, slot_ji, row_i, row_j, k):
+    """Compiled: add k·[r_i r_j]ᵀ[r_i r_j] of every contact into the CSR data."""
+    for c in range(k.shape[0]):
+        kc = k[c]
+        if kc == 0.0:
+            continue
+        sii, sjj, sij, sji = slot_ii[c], slot_jj[c], slot_ij[c], slot_ji[c]
+        for r in range(6):
+            ki = kc * row_i[c, r]
+            kj = kc * row_j[c, r]
+            for s in range(6):
+                if sii >= 0:
+                    data[base[sii] + r * stride[sii] + s] += ki * row_i[c, s]
+                if sjj >= 0:
+                    data[base[sjj] + r * stride[sjj] + s] += kj * row_j[c, s]
+                if sij >= 0:
+                    data[base[sij] + r * stride[sij] + s] += ki * row_j[c, s]
+                if sji >= 0:
+                    data[base[sji] + r * stride[sji] + s] += kj * row_i[c, s]
+
+
+_scatter_kernel = kernel(_scatter)
 
 
 def add_forces(forces: np.ndarray, block: np.ndarray, row: np.ndarray, coef: np.ndarray) -> None:
     """F_block -= coef·row for each term (in place)."""
-    np.add.at(forces, block, -coef[:, None] * row)
+    n = len(forces)
+    contrib = coef[:, None] * row
+    for k in range(forces.shape[1]):
+        forces[:, k] -= np.bincount(block, weights=contrib[:, k], minlength=n)

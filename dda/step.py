@@ -1,23 +1,27 @@
 """One time step: assemble, factorise, solve, apply the contact law, repeat.
 
 K changes only when contact states or penalties change; between such
-changes every augmentation (AL) or friction update re-uses the same
-factorisation and only rebuilds F.
+changes every augmentation (AL) or friction update re-uses K and only
+rebuilds F. Across steps, while the contact graph is the same, the block
+pattern of K (its fill-reducing order, CSR structure and scatter indices)
+and the last factorisation are kept: a new K is solved by conjugate
+gradients preconditioned with that factorisation (:mod:`dda.linsolve`),
+and re-factorised only when that stops paying.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from dda.assembly import add_forces, add_pair_terms, assemble, free_rows
+from dda.assembly import BlockPattern, add_forces, assemble, graph_key
 from dda.blocks import BlockSet
 from dda.contact import law as contact_law
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import ContactRows, contact_rows
 from dda.effects.base import StepContext
-from dda.linsolve import Factorisation
+from dda.linsolve import ReusingSolver, block_ordering
 from dda.model import Model
 from dda.result import OPEN
 from dda.timing import StageTimer
@@ -35,6 +39,30 @@ class StepSolution:
     max_penetration: float
 
 
+@dataclass
+class LinearCache:
+    """What a run keeps between steps: the current block pattern and the solver."""
+
+    pattern: BlockPattern | None = None
+    solver: ReusingSolver = field(default_factory=ReusingSolver)
+
+    def pattern_for(self, fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray):
+        """The pattern of this contact graph (the kept one when the graph is unchanged)."""
+        key = graph_key(fixed, block_a, block_b)
+        if self.pattern is None or self.pattern.key != key:
+            self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering)
+        return self.pattern
+
+
+def linear_cache(model: Model) -> LinearCache:
+    """The run's :class:`LinearCache`, kept on the model (one model per run)."""
+    cache = model.__dict__.get("_linear_cache")
+    if cache is None:
+        cache = LinearCache()
+        model.__dict__["_linear_cache"] = cache
+    return cache
+
+
 def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
     diagonal = np.zeros((blocks.count, 6, 6))
     forces = np.zeros((blocks.count, 6))
@@ -48,17 +76,12 @@ def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
     return diagonal, forces
 
 
-def _stiffness(blocks, base_diagonal, contacts, rows, law):
-    diagonal = base_diagonal.copy()
+def _stiffness(pattern, blocks, base_diagonal, contacts, rows, law):
     p, ps, _, _ = contact_law.contact_coefficients(contacts, rows, law)
-    a, b = contacts.block_a, contacts.block_b
-    parts = [add_pair_terms(diagonal, a, b, rows.normal_i, rows.normal_j, p)]
+    terms = [(rows.normal_i, rows.normal_j, p)]
     if law.friction:
-        parts.append(add_pair_terms(diagonal, a, b, rows.shear_i, rows.shear_j, ps))
-    pi = np.concatenate([x[0] for x in parts])
-    pj = np.concatenate([x[1] for x in parts])
-    blocks_ij = np.concatenate([x[2] for x in parts])
-    return assemble(diagonal, pi, pj, blocks_ij, blocks.fixed)
+        terms.append((rows.shear_i, rows.shear_j, ps))
+    return assemble(pattern, base_diagonal, blocks.fixed, terms)
 
 
 def _forces(base_forces, contacts, rows, law):
@@ -75,11 +98,24 @@ def _forces(base_forces, contacts, rows, law):
 def _contact_motion(rows: ContactRows, contacts: ContactSet, d: np.ndarray):
     """Penetration and shear position of each contact after the step ``d``."""
     a, b = contacts.block_a, contacts.block_b
-    pen = rows.penetration + np.einsum("mr,mr->m", rows.normal_i, d[a]) + np.einsum(
-        "mr,mr->m", rows.normal_j, d[b])
-    slip = rows.slip + np.einsum("mr,mr->m", rows.shear_i, d[a]) + np.einsum(
-        "mr,mr->m", rows.shear_j, d[b])
+    pen = (
+        rows.penetration
+        + np.einsum("mr,mr->m", rows.normal_i, d[a])
+        + np.einsum("mr,mr->m", rows.normal_j, d[b])
+    )
+    slip = (
+        rows.slip
+        + np.einsum("mr,mr->m", rows.shear_i, d[a])
+        + np.einsum("mr,mr->m", rows.shear_j, d[b])
+    )
     return pen, slip
+
+
+def _solve(cache: LinearCache, pattern: BlockPattern, k, forces, blocks, timer) -> np.ndarray:
+    """D (n, 6) from K (in the pattern's order) and F (n, 6) per block."""
+    rhs = pattern.to_matrix_order(forces, blocks.fixed).ravel()
+    x = cache.solver.solve(k, rhs, key=pattern.key, timer=timer)
+    return pattern.from_matrix_order(x, blocks.count)
 
 
 def solve_step(
@@ -90,43 +126,40 @@ def solve_step(
     timer: StageTimer,
 ) -> StepSolution:
     """Iterate solves and contact-law updates until the contacts settle."""
+    cache = linear_cache(model)
+    factorisations_before = cache.solver.factorisations
     with timer("assembly"):
         base_k, base_f = _effect_terms(model, blocks, ctx)
-        free = ~blocks.fixed
-        order = free_rows(blocks.fixed)
     cm = model.contact
     if cm is None or len(contacts) == 0:
         with timer("assembly"):
-            k = assemble(base_k, np.zeros(0, np.int64), np.zeros(0, np.int64),
-                         np.zeros((0, 6, 6)), blocks.fixed)
-        with timer("factorisation"):
-            fac = Factorisation(k)
-        with timer("solve"):
-            d = _expand(fac.solve(base_f[free].ravel()), order, blocks.count)
-        return StepSolution(d, contacts, 1, 1, bool(np.all(np.isfinite(d))), 0.0)
+            none = np.zeros(0, np.int64)
+            pattern = cache.pattern_for(blocks.fixed, none, none)
+            k = assemble(pattern, base_k, blocks.fixed)
+        d = _solve(cache, pattern, k, base_f, blocks, timer)
+        made = cache.solver.factorisations - factorisations_before
+        return StepSolution(d, contacts, 1, made, bool(np.all(np.isfinite(d))), 0.0)
 
     law = cm.law
     with timer("contact_law"):
         rows = contact_rows(blocks, contacts)
         joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
-    fac = None
+    with timer("assembly"):
+        pattern = cache.pattern_for(blocks.fixed, contacts.block_a, contacts.block_b)
+    k = None
     previous_pen = None
-    iterations = factorisations = 0
+    iterations = 0
     converged = False
     d = np.zeros((blocks.count, 6))
     for _ in range(model.scene.contact.max_iterations):
-        if fac is None:
-            with timer("assembly"):
-                k = _stiffness(blocks, base_k, contacts, rows, law)
-            with timer("factorisation"):
-                fac = Factorisation(k)
-            factorisations += 1
         with timer("assembly"):
+            if k is None:
+                k = _stiffness(pattern, blocks, base_k, contacts, rows, law)
             f = _forces(base_f, contacts, rows, law)
-        with timer("solve"):
-            d = _expand(fac.solve(f[free].ravel()), order, blocks.count)
+        d = _solve(cache, pattern, k, f, blocks, timer)
         iterations += 1
         if not np.all(np.isfinite(d)):
+            cache.solver.reset()
             break
         with timer("contact_law"):
             pen, slip = _contact_motion(rows, contacts, d)
@@ -136,14 +169,8 @@ def solve_step(
             converged = True
             break
         if outcome.stiffness_changed:
-            fac = None
+            k = None
     closed = contacts.state != OPEN
     max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
-    return StepSolution(d, contacts, iterations, factorisations, converged, max_pen)
-
-
-def _expand(solution: np.ndarray, order: np.ndarray, n: int) -> np.ndarray:
-    d = np.zeros((n, 6))
-    free = order >= 0
-    d[free] = solution.reshape(-1, 6)
-    return d
+    made = cache.solver.factorisations - factorisations_before
+    return StepSolution(d, contacts, iterations, made, converged, max_pen)

@@ -1,0 +1,1 @@
+"""Performance benchmarks: the standard wall scene, measurement and ``dda bench``."""

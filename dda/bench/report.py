@@ -1,0 +1,62 @@
+"""Benchmark measurements as a Markdown table (for the terminal and docs/benchmarks.md)."""
+
+from __future__ import annotations
+
+import platform
+import subprocess
+from collections.abc import Iterable
+
+from dda.bench.run import STAGES, Measurement
+
+SHORT = {
+    "contact_search": "search",
+    "assembly": "assembly",
+    "factorisation": "factor",
+    "solve": "solve",
+    "contact_law": "law",
+    "update": "update",
+    "output": "output",
+}
+
+
+def machine_line() -> str:
+    """CPU model and core count (``lscpu``), for the table's caption."""
+    model, cores = platform.processor() or "unknown CPU", None
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
+    except OSError:
+        out = ""
+    for line in out.splitlines():
+        key, _, value = line.partition(":")
+        if key.strip() == "Model name":
+            model = value.strip()
+        elif key.strip() == "CPU(s)":
+            cores = value.strip()
+    return f"{model}, {cores or '?'} cores, Python {platform.python_version()}"
+
+
+def table(measurements: Iterable[Measurement]) -> str:
+    """Markdown table: one row per (size, method); stage seconds per step in ms."""
+    head = (
+        "| wall | blocks | method | ms/step | block-steps/s | iter/step | factor. |"
+        + "".join(f" {SHORT[s]} |" for s in STAGES)
+        + " peak MiB | status |"
+    )
+    rule = "|" + "---|" * (head.count("|") - 1)
+    lines = [head, rule]
+    for m in measurements:
+        per_step = {s: 1000.0 * m.stage_seconds.get(s, 0.0) / max(m.steps, 1) for s in STAGES}
+        lines.append(
+            f"| {m.columns}x{m.rows} | {m.blocks} | {m.method} | {m.ms_per_step:.2f} | "
+            f"{m.block_steps_per_second:,.0f} | {m.iterations_per_step:.2f} | {m.factorisations} |"
+            + "".join(f" {per_step[s]:.2f} |" for s in STAGES)
+            + f" {m.peak_memory_mib:.0f} | {m.status[:40]} |"
+        )
+    return "\n".join(lines)
+
+
+def growth_exponent(small: Measurement, large: Measurement) -> float:
+    """Exponent a of cost ∝ N^a between two sizes (N = blocks)."""
+    import math
+
+    return math.log(large.ms_per_step / small.ms_per_step) / math.log(large.blocks / small.blocks)

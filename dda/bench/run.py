@@ -1,0 +1,136 @@
+"""Measure the engine on the wall scene: time per step, iterations, stages, memory.
+
+Each size runs in its own Python process (``python -m dda.bench.run``) so
+that its peak resident memory (``getrusage`` maxrss) is its own. Inside that
+process a tiny wall runs first, so that one-off costs (imports, compiled
+kernels loading) are not counted as time per step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import resource
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+
+import dda
+from dda.bench.scenes import wall_scene
+
+log = logging.getLogger(__name__)
+
+STAGES = ("contact_search", "assembly", "factorisation", "solve", "contact_law", "update", "output")
+
+
+@dataclass
+class Measurement:
+    """One benchmark run of a ``columns`` x ``rows`` wall with one contact method."""
+
+    columns: int
+    rows: int
+    method: str
+    steps: int
+    blocks: int
+    seconds: float  # wall time of the run (model build and time loop)
+    iterations: int  # linear solves (open-close / augmentation iterations)
+    factorisations: int
+    stage_seconds: dict[str, float] = field(default_factory=dict)
+    peak_memory_mib: float = float("nan")
+    status: str = "finished"
+
+    @property
+    def ms_per_step(self) -> float:
+        return 1000.0 * self.seconds / max(self.steps, 1)
+
+    @property
+    def block_steps_per_second(self) -> float:
+        return self.blocks * self.steps / self.seconds if self.seconds > 0 else float("nan")
+
+    @property
+    def iterations_per_step(self) -> float:
+        return self.iterations / max(self.steps, 1)
+
+
+def measure(
+    columns: int,
+    method: str = "penalty",
+    steps: int = 100,
+    rows: int | None = None,
+    warm_up: bool = True,
+) -> Measurement:
+    """Run the wall scene in this process and time it.
+
+    Parameters
+    ----------
+    columns, rows : wall size (``rows`` defaults to ``columns``)
+    method : "penalty" or "augmented-lagrangian"
+    steps : time steps
+    warm_up : run a 2 x 2 wall for 3 steps first (imports, compiled kernels)
+    """
+    rows = columns if rows is None else rows
+    if warm_up:
+        dda.simulate(dda.load_scene(wall_scene(2, method=method, steps=3)))
+    scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps))
+    start = time.perf_counter()
+    status = "finished"
+    try:
+        result = dda.simulate(scene)
+        summary = result.summary
+    except dda.SimulationError as exc:
+        status = f"failed: {exc}"
+        partial = getattr(exc, "result", None)
+        summary = partial.summary if partial is not None else {}
+    seconds = time.perf_counter() - start
+    done = int(summary.get("steps", 0)) or steps
+    return Measurement(
+        columns=columns,
+        rows=rows,
+        method=method,
+        steps=done,
+        blocks=columns * rows + 1,
+        seconds=seconds,
+        iterations=int(summary.get("iterations", 0)),
+        factorisations=int(summary.get("factorisations", 0)),
+        stage_seconds=dict(summary.get("stage_seconds", {})),
+        peak_memory_mib=peak_memory_mib(),
+        status=status,
+    )
+
+
+def peak_memory_mib() -> float:
+    """Peak resident memory of this process so far, MiB (Linux: maxrss is in KiB)."""
+    kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kib / (1024.0 if sys.platform != "darwin" else 1024.0 * 1024.0)
+
+
+def measure_in_subprocess(
+    columns: int, method: str = "penalty", steps: int = 100, rows: int | None = None
+) -> Measurement:
+    """:func:`measure` in a fresh Python process (its own peak memory)."""
+    rows = columns if rows is None else rows
+    cmd = [sys.executable, "-m", "dda.bench.run", str(columns), str(rows), method, str(steps)]
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"benchmark process failed ({done.returncode}): {done.stderr[-2000:]}")
+    data = json.loads(done.stdout.strip().splitlines()[-1])
+    return Measurement(**data)
+
+
+def _main(argv: list[str] | None = None) -> int:
+    """Entry of the per-size process: print one Measurement as JSON."""
+    parser = argparse.ArgumentParser(prog="python -m dda.bench.run")
+    parser.add_argument("columns", type=int)
+    parser.add_argument("rows", type=int)
+    parser.add_argument("method")
+    parser.add_argument("steps", type=int)
+    args = parser.parse_args(argv)
+    m = measure(args.columns, args.method, args.steps, args.rows)
+    sys.stdout.write(json.dumps(asdict(m)) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(_main())

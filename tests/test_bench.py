@@ -1,0 +1,51 @@
+"""The benchmark package: the wall scene, one measurement, the command line."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pytest
+
+import dda
+from dda.bench import cli
+from dda.bench.report import growth_exponent, table
+from dda.bench.run import Measurement, measure
+from dda.bench.scenes import wall_scene
+
+
+def test_wall_scene_loads_with_shared_edges():
+    scene = dda.load_scene(wall_scene(3, 2, steps=4))
+    assert len(scene.blocks) == 7
+    assert scene.blocks[0].fixed
+    corners = np.array([b.vertices for b in scene.blocks[1:]])
+    assert corners[:, :, 0].min() == 2.0 and corners[:, :, 0].max() == 5.0
+    assert corners[:, :, 1].min() == 1.0 and corners[:, :, 1].max() == 3.0
+
+
+def test_wall_scene_refuses_unknown_method():
+    with pytest.raises(ValueError):
+        wall_scene(2, method="lagrange")
+
+
+@pytest.mark.parametrize("method", ["penalty", "augmented-lagrangian"])
+def test_measure_a_small_wall(method):
+    m = measure(3, method, steps=3, warm_up=False)
+    assert m.status == "finished" and m.steps == 3 and m.blocks == 10
+    assert m.iterations >= 3 and m.factorisations >= 1
+    assert {"contact_search", "assembly", "solve"} <= set(m.stage_seconds)
+    assert m.peak_memory_mib > 0
+    assert "3x3" in table([m])
+
+
+def test_growth_exponent():
+    small = Measurement(10, 10, "penalty", 10, 100, 1.0, 10, 1)
+    large = Measurement(20, 20, "penalty", 10, 400, 4.0, 10, 1)
+    assert growth_exponent(small, large) == pytest.approx(1.0)
+
+
+def test_bench_command_registers():
+    parser = argparse.ArgumentParser()
+    cli.register(parser.add_subparsers())
+    args = parser.parse_args(["bench", "--sizes", "2", "--method", "penalty", "--steps", "2"])
+    assert args.sizes == [2] and args.method == "penalty" and args.func is cli.run_command

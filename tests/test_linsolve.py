@@ -1,0 +1,74 @@
+"""Sparse solves: orderings, PCG with a kept factorisation, re-factorisation rules."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from dda.linsolve import Factorisation, ReusingSolver, block_ordering, pcg
+
+
+def spd_matrix(seed: int, n: int = 60, density: float = 0.08) -> sp.csc_matrix:
+    """A random sparse symmetric positive definite matrix."""
+    rng = np.random.default_rng(seed)
+    a = sp.random(n, n, density=density, random_state=rng)
+    return sp.csc_matrix(a @ a.T + sp.eye(n) * n)
+
+
+def test_factorisation_solves():
+    k = spd_matrix(0)
+    f = np.arange(60.0)
+    np.testing.assert_allclose(k @ Factorisation(k).solve(f), f, rtol=1e-12, atol=1e-12)
+
+
+def test_block_ordering_is_a_permutation():
+    rng = np.random.default_rng(2)
+    pairs = np.unique(np.sort(rng.integers(0, 50, (120, 2)), axis=1), axis=0)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    position = block_ordering(50, pairs)
+    np.testing.assert_array_equal(np.sort(position), np.arange(50))
+
+
+def test_pcg_with_an_old_factorisation_equals_the_direct_solve():
+    k_old = spd_matrix(3)
+    rng = np.random.default_rng(4)
+    change = sp.diags(1.0 + 1e-3 * rng.random(60))
+    k_new = sp.csc_matrix(change @ k_old @ change)  # a slightly different SPD matrix
+    f = rng.normal(size=60)
+    x, iterations, ok = pcg(k_new, f, Factorisation(k_old).solve)
+    direct = Factorisation(k_new).solve(f)
+    assert ok and iterations <= 6
+    np.testing.assert_allclose(x, direct, rtol=1e-10, atol=1e-12 * np.abs(direct).max())
+
+
+def test_pcg_with_the_exact_factorisation_takes_one_application():
+    k = spd_matrix(5)
+    f = np.ones(60)
+    x, iterations, ok = pcg(k, f, Factorisation(k).solve)
+    assert ok and iterations == 1
+
+
+def test_reusing_solver_factorises_only_when_needed():
+    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A")
+    k = spd_matrix(6)
+    f = np.ones(60)
+    solver.solve(k, f, key="graph")
+    solver.solve(k, 2 * f, key="graph")  # same matrix: direct re-solve
+    assert solver.factorisations == 1
+    near = sp.csc_matrix(k * (1 + 1e-8))
+    x = solver.solve(near, f, key="graph")  # same pattern: PCG on the kept factor
+    assert solver.factorisations == 1 and solver.pcg_solves == 1
+    np.testing.assert_allclose(near @ x, f, rtol=1e-11)
+    solver.solve(near, f, key="another graph")  # new pattern: factorise
+    assert solver.factorisations == 2
+
+
+def test_reusing_solver_refactorises_when_pcg_does_not_converge():
+    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", max_iterations=2)
+    k = spd_matrix(7)
+    f = np.ones(60)
+    solver.solve(k, f, key=1)
+    far = spd_matrix(8)  # unrelated matrix, same key
+    x = solver.solve(far, f, key=1)
+    assert solver.factorisations == 2
+    np.testing.assert_allclose(far @ x, f, rtol=1e-11)
