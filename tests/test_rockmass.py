@@ -468,3 +468,71 @@ def test_cut_command_refuses_bad_input_and_writes_nothing(tmp_path, capsys, chan
 def test_cut_is_an_entry_point_of_the_dda_command():
     names = {ep.name: ep.value for ep in entry_points(group="dda.commands")}
     assert names.get("cut") == "dda.rockmass.cli:register"
+
+
+# --- through the scene loader and the engine ----------------------------------------------
+
+
+def slope_scene(joint: str, theta_deg: float = 30.0, duration: float = 0.5) -> dict:
+    """A slab at ``theta`` with a 1 x 0.5 block cut off its top by a joint line.
+
+    The joint line runs along the whole slope surface, so the block slides on
+    ``joint`` wherever it goes; a second set "B" (5 degrees) cuts the fixed base
+    away from the block; the default joint (45 degrees) would hold the block.
+    """
+    theta = math.radians(theta_deg)
+    c, s = math.cos(theta), math.sin(theta)
+    rot = np.array([[c, -s], [s, c]])
+
+    def turn(points):
+        return (np.array(points, float) @ rot.T).tolist()
+
+    return {
+        "analysis": {"time_step": 0.01, "duration": duration, "gravity": [0.0, -9.81]},
+        "contact": {"method": "augmented-lagrangian", "penalty": 5e10, "tolerance": 1e-6},
+        "materials": {"rock": {"density": 2700.0, "young": 5e9, "poisson": 0.25}},
+        "joints": {
+            "default": {"friction_angle": 45.0},
+            "A": {"friction_angle": 20.0},
+            "B": {"friction_angle": 5.0},
+        },
+        "regions": [
+            {
+                "polygon": turn(
+                    [[0, -1], [10, -1], [10, 0], [4, 0], [4, 0.5], [3, 0.5], [3, 0], [0, 0]]
+                )
+            }
+        ],
+        "joint_lines": [{"points": turn([[-1, 0], [11, 0]]), "joint": joint}],
+        # traces normal to the slope at x' = 1.5, 6.5: n = (-sin 120, cos 120)
+        "joint_sets": [
+            {"name": "B", "dip": theta_deg + 90, "spacing": 5.0, "offset": -1.5, "joint": "B"}
+        ],
+        "fix": [{"polygon": turn([[-2, -2], [12, -2], [12, -0.05], [-2, -0.05]])}],
+        "groups": {"slider": {"polygon": turn([[2.9, 0.05], [4.1, 0.05], [4.1, 0.6], [2.9, 0.6]])}},
+    }
+
+
+def test_the_scene_loader_expands_rock_masses():
+    import dda
+
+    scene = dda.load_scene(slope_scene("A"))
+    assert len(scene.blocks) == 4
+    assert scene.groups["slider"] == ("b3",)
+    slider = scene.blocks[scene.block_names.index("b3")]
+    assert not slider.fixed and "A" in slider.edge_joints
+    assert sum(b.fixed for b in scene.blocks) == 3
+
+
+@pytest.mark.parametrize(("joint", "phi"), [("A", 20.0), ("B", 5.0)])
+def test_a_block_slides_with_the_friction_of_the_joint_it_lies_on(joint, phi):
+    import dda
+
+    theta, duration = math.radians(30.0), 0.5
+    scene = dda.load_scene(slope_scene(joint, duration=duration))
+    result = dda.simulate(scene)
+    row = result.final.names.index(scene.groups["slider"][0])
+    moved = float(np.linalg.norm(result.final.displacements[row]))
+    # a = g (sin theta - cos theta tan phi), s = a t^2 / 2
+    expected = 0.5 * 9.81 * (math.sin(theta) - math.cos(theta) * math.tan(math.radians(phi)))
+    assert moved == pytest.approx(expected * duration**2, rel=0.01)

@@ -37,7 +37,7 @@ def run_cut(args: argparse.Namespace) -> int:
         cut, scene = _cut(Path(args.scene))
         _check_loadable(scene, str(args.scene))
     except SceneError as exc:
-        log.error("%s", exc)
+        log.debug("refused: %s", exc)
         sys.stderr.write(f"dda cut: {exc}\n")
         return 2
     output = Path(args.output)
