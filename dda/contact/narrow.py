@@ -28,6 +28,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertices
+from dda.jit import kernel
 
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
 ANGLE_TIE = 0.05  # vertex-vertex: edge scores this close are a tie, decided by position
@@ -103,6 +104,25 @@ def detect(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: fl
     if len(pairs) == 0:
         return Detected(empty, empty, np.zeros(0, bool))
     fans = VertexFans(blocks)
+    radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
+    screen = _screen_compiled if _screen_kernel is not None else _screen_numpy
+    ve_vertex, ve_edge, vv_vertex, vv_edge = screen(blocks, fans, pairs, search, radius)
+    vv_vertex, vv_edge = _resolve_vertex_vertex(blocks, fans, vv_vertex, vv_edge)
+    vertex_all = np.concatenate([ve_vertex, vv_vertex])
+    edge_all = np.concatenate([ve_edge, vv_edge])
+    kind = np.concatenate([np.zeros(len(ve_vertex), bool), np.ones(len(vv_vertex), bool)])
+    keep = _first_of_each(vertex_all, edge_all)
+    return Detected(vertex_all[keep], edge_all[keep], kind[keep])
+
+
+def _grown_boxes(blocks: BlockSet, search: float) -> tuple[np.ndarray, np.ndarray]:
+    lo = np.minimum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) - search
+    hi = np.maximum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) + search
+    return lo, hi
+
+
+def _screen_numpy(blocks, fans, pairs, search, radius):
+    """(V-E vertex, edge, V-V vertex, edge) candidates that pass the tests (numpy)."""
     a, b, vertex, edge = _vertex_edge_candidates(blocks, pairs, search)
     v = blocks.vertices
     p1, p2, p3 = v[vertex], v[edge], v[fans.next[edge]]
@@ -115,7 +135,6 @@ def detect(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: fl
     r3 = np.linalg.norm(p1 - p3, axis=1)
     size = np.sqrt(np.minimum(blocks.area[a], blocks.area[b]))
     max_depth = np.maximum(search, 0.3 * size)
-    radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
     radius2 = np.minimum(radius[vertex], radius[edge])  # the zone around P2 ...
     radius3 = np.minimum(radius[vertex], radius[fans.next[edge]])  # ... and around P3
 
@@ -130,12 +149,100 @@ def detect(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: fl
         & (fans.separation(vertex, -inward) >= -ANGLE_TOLERANCE)
     )
     vv = (a < b) & (r2 <= radius2)
-    vv_vertex, vv_edge = _resolve_vertex_vertex(blocks, fans, vertex[vv], edge[vv])
-    vertex_all = np.concatenate([vertex[ve], vv_vertex])
-    edge_all = np.concatenate([edge[ve], vv_edge])
-    kind = np.concatenate([np.zeros(ve.sum(), bool), np.ones(len(vv_vertex), bool)])
-    keep = _first_of_each(vertex_all, edge_all)
-    return Detected(vertex_all[keep], edge_all[keep], kind[keep])
+    return vertex[ve], edge[ve], vertex[vv], edge[vv]
+
+
+def _screen_compiled(blocks, fans, pairs, search, radius):
+    """The same candidates as :func:`_screen_numpy`, in the same order (numba)."""
+    lo, hi = _grown_boxes(blocks, search)
+    directed = np.concatenate([pairs, pairs[:, ::-1]]).astype(np.int64)
+    out = _screen_kernel(
+        np.ascontiguousarray(directed),
+        blocks.offsets.astype(np.int64),
+        np.ascontiguousarray(blocks.vertices, dtype=np.float64),
+        fans.next.astype(np.int64),
+        fans.reflex,
+        np.ascontiguousarray(fans.to_next),
+        np.ascontiguousarray(fans.to_prev),
+        radius,
+        np.ascontiguousarray(blocks.area, dtype=np.float64),
+        np.ascontiguousarray(lo),
+        np.ascontiguousarray(hi),
+        float(search),
+        ANGLE_TOLERANCE,
+    )
+    return out
+
+
+def _screen(
+    directed,
+    offsets,
+    v,
+    nxt,
+    reflex,
+    to_next,
+    to_prev,
+    radius,
+    area,
+    lo,
+    hi,
+    search,
+    angle_tolerance,
+):
+    """Compiled screen: loop over directed pairs, vertices near the box, edges."""
+    capacity = 0
+    for k in range(directed.shape[0]):
+        a, b = directed[k, 0], directed[k, 1]
+        capacity += (offsets[a + 1] - offsets[a]) * (offsets[b + 1] - offsets[b])
+    ve_v = np.empty(capacity, np.int64)
+    ve_e = np.empty(capacity, np.int64)
+    vv_v = np.empty(capacity, np.int64)
+    vv_e = np.empty(capacity, np.int64)
+    nve = 0
+    nvv = 0
+    for k in range(directed.shape[0]):
+        a, b = directed[k, 0], directed[k, 1]
+        max_depth = max(search, 0.3 * np.sqrt(min(area[a], area[b])))
+        for vertex in range(offsets[a], offsets[a + 1]):
+            x1, y1 = v[vertex, 0], v[vertex, 1]
+            if not (lo[b, 0] <= x1 <= hi[b, 0] and lo[b, 1] <= y1 <= hi[b, 1]):
+                continue
+            for edge in range(offsets[b], offsets[b + 1]):
+                end = nxt[edge]
+                x2, y2 = v[edge, 0], v[edge, 1]
+                ex, ey = v[end, 0] - x2, v[end, 1] - y2
+                wx, wy = x1 - x2, y1 - y2
+                length = np.sqrt(ex * ex + ey * ey)
+                r2 = np.sqrt(wx * wx + wy * wy)
+                radius2 = min(radius[vertex], radius[edge])
+                if a < b and r2 <= radius2:
+                    vv_v[nvv] = vertex
+                    vv_e[nvv] = edge
+                    nvv += 1
+                if reflex[vertex] or r2 <= radius2:
+                    continue
+                t = (wx * ex + wy * ey) / length**2
+                if not (0.0 < t < 1.0):
+                    continue
+                ux, uy = x1 - v[end, 0], y1 - v[end, 1]
+                if not np.sqrt(ux * ux + uy * uy) > min(radius[vertex], radius[end]):
+                    continue
+                d = (ex * wy - ey * wx) / length
+                if not (-search <= d <= max_depth):
+                    continue
+                nx, ny = ey / length, -ex / length  # outward = -inward
+                sep = min(
+                    to_next[vertex, 0] * nx + to_next[vertex, 1] * ny,
+                    to_prev[vertex, 0] * nx + to_prev[vertex, 1] * ny,
+                )
+                if sep >= -angle_tolerance:
+                    ve_v[nve] = vertex
+                    ve_e[nve] = edge
+                    nve += 1
+    return ve_v[:nve].copy(), ve_e[:nve].copy(), vv_v[:nvv].copy(), vv_e[:nvv].copy()
+
+
+_screen_kernel = kernel(_screen)
 
 
 def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.ndarray:

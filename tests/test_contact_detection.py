@@ -1,0 +1,109 @@
+"""Contact search: broad phase against brute force, narrow phase on small grids."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import dda
+import dda.contact.broad as broad
+import dda.contact.narrow as narrow
+from dda.bench.scenes import wall_scene
+from dda.contact.broad import candidate_pairs, overlapping_pairs
+from dda.contact.narrow import detect
+from dda.model import build
+
+
+def brute_force_pairs(boxes: np.ndarray) -> np.ndarray:
+    n = len(boxes)
+    i, j = np.triu_indices(n, 1)
+    hit = ~(
+        (boxes[i, 0] > boxes[j, 2])
+        | (boxes[j, 0] > boxes[i, 2])
+        | (boxes[i, 1] > boxes[j, 3])
+        | (boxes[j, 1] > boxes[i, 3])
+    )
+    return np.column_stack([i[hit], j[hit]])
+
+
+def random_boxes(seed: int, n: int = 300) -> np.ndarray:
+    """Boxes of mixed sizes, a few very long ones, some touching exactly."""
+    rng = np.random.default_rng(seed)
+    lo = np.round(rng.random((n, 2)) * 40.0, 1)
+    size = rng.choice([0.5, 1.0, 2.0], (n, 2))
+    size[:3, 0] = 45.0  # long bases: many cells
+    return np.column_stack([lo, lo + size])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_broad_phase_equals_brute_force(seed):
+    boxes = random_boxes(seed)
+    np.testing.assert_array_equal(overlapping_pairs(boxes), brute_force_pairs(boxes))
+
+
+def test_broad_phase_tree_path_equals_brute_force(monkeypatch):
+    monkeypatch.setattr(broad, "_grid_kernel", None)
+    boxes = random_boxes(9)
+    np.testing.assert_array_equal(overlapping_pairs(boxes), brute_force_pairs(boxes))
+
+
+def wall_blocks(columns: int, rows: int, jitter: float = 0.0, seed: int = 0):
+    model = build(dda.load_scene(wall_scene(columns, rows)))
+    blocks = model.blocks.copy()
+    if jitter:
+        rng = np.random.default_rng(seed)
+        owner = blocks.vertex_owner
+        shift = rng.normal(scale=jitter, size=(blocks.count, 2))
+        shift[blocks.fixed] = 0.0
+        blocks.vertices = blocks.vertices + shift[owner]
+        blocks.update_moments()
+    return model, blocks
+
+
+def test_broad_phase_pairs_of_a_wall():
+    """2 x 2 wall: the base with the two bottom blocks, and the blocks among themselves."""
+    model, blocks = wall_blocks(2, 2)
+    pairs = candidate_pairs(blocks, model.contact.search_distance)
+    expected = [[0, 1], [0, 2], [1, 2], [1, 3], [1, 4], [2, 3], [2, 4], [3, 4]]
+    np.testing.assert_array_equal(pairs, expected)
+
+
+def test_narrow_phase_finds_the_contacts_of_a_small_wall():
+    """2 x 1 wall on its base: two vertices on the base's top edge per block (V-E),
+    and the shared vertical edge's two vertex pairs (V-V)."""
+    model, blocks = wall_blocks(2, 1)
+    c = model.contact
+    found = detect(
+        blocks, candidate_pairs(blocks, c.search_distance), c.search_distance, c.vertex_radius
+    )
+    owner = blocks.vertex_owner
+    ve = sorted(
+        zip(
+            owner[found.vertex[~found.vertex_vertex]],
+            owner[found.edge[~found.vertex_vertex]],
+            strict=True,
+        )
+    )
+    assert ve == [(1, 0), (1, 0), (2, 0), (2, 0)]
+    vv_pairs = {
+        tuple(sorted(p))
+        for p in zip(
+            owner[found.vertex[found.vertex_vertex]],
+            owner[found.edge[found.vertex_vertex]],
+            strict=True,
+        )
+    }
+    assert vv_pairs == {(1, 2)} and found.vertex_vertex.sum() == 2
+
+
+@pytest.mark.parametrize("jitter", [0.0, 1e-3])
+def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, jitter):
+    model, blocks = wall_blocks(4, 3, jitter=jitter, seed=3)
+    c = model.contact
+    pairs = candidate_pairs(blocks, c.search_distance)
+    first = detect(blocks, pairs, c.search_distance, c.vertex_radius)
+    monkeypatch.setattr(narrow, "_screen_kernel", None)
+    second = detect(blocks, pairs, c.search_distance, c.vertex_radius)
+    np.testing.assert_array_equal(first.vertex, second.vertex)
+    np.testing.assert_array_equal(first.edge, second.edge)
+    np.testing.assert_array_equal(first.vertex_vertex, second.vertex_vertex)
