@@ -1,0 +1,96 @@
+"""Awkward geometry: corners on corners, near-parallel edges, tiny edges, slivers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.helpers import rectangle
+from tests.stability.checks import run_checked
+from tests.stability.scenes import base, block, diamond, placed, scene
+
+H = np.sqrt(0.5)
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e-3], ids=["tip-on-tip", "tip-on-tip-offset"])
+def test_corner_falls_onto_a_corner(offset):
+    """A square on its corner dropped 1 cm onto the corner of a fixed one (vertex-vertex)."""
+    blocks = [
+        block("base", diamond(0.0, 0.0), fixed=True),
+        block("b", diamond(offset, 2 * H + 0.01)),
+    ]
+    result = run_checked(scene(blocks, {"duration": 0.4}))
+    # it lands on the tip and topples to one side: never below the fixed block's top
+    assert result.final.centroids[1, 1] > H
+
+
+@pytest.mark.parametrize("overlap", [0.0, 1e-6], ids=["corner", "corner-1e-6"])
+def test_square_corner_lands_on_square_corner(overlap):
+    """Bottom-left corner onto the top-right corner of a fixed block: it tips off the edge."""
+    blocks = [
+        block("base", rectangle(0, 0, 1, 1), fixed=True),
+        block("b", rectangle(1 - overlap, 1.01, 2 - overlap, 2.01)),
+    ]
+    result = run_checked(scene(blocks, {"duration": 0.4}))
+    assert result.final.centroids[1, 0] > 1.5  # it went off the right side
+
+
+@pytest.mark.parametrize("tilt", [1e-3, 1e-5, 1e-7])
+def test_near_parallel_edges_land_flat(tilt):
+    """A block whose bottom is tilted by ``tilt`` rad lands on the flat base, flat.
+
+    It may rock a little after landing (Shi's v1 = 2D/Δt − v0 rebounds from a
+    rigid contact), but it neither tips nor sinks.
+    """
+    cube = rectangle(-0.5, -0.5, 0.5, 0.5)
+    blocks = [base(), block("b", placed(cube, np.degrees(tilt), 0.5, 0.51))]
+    result = run_checked(scene(blocks, {"duration": 0.2}))
+    assert abs(result.final.rotations[1]) < 1e-2
+    assert result.final.centroids[1, 1] > 0.49
+
+
+@pytest.mark.parametrize("tilt", [1e-4, 1e-6])
+def test_near_parallel_edges_slide(tilt):
+    """The slope block of tests/helpers.py, tilted by ``tilt`` rad against the slope."""
+    slope = placed(rectangle(0, -1, 10, 0), 30.0, 0.0, 0.0)
+    slider = placed(placed(rectangle(4, 0, 5, 0.5), np.degrees(tilt), 0, 0), 30.0, 0, 0)
+    blocks = [block("base", slope, fixed=True), block("b", slider)]
+    result = run_checked(scene(blocks, {"duration": 0.5}, friction=20.0))
+    moved = np.linalg.norm(result.final.displacements[1])
+    # ½ g (sin 30 − cos 30 tan 20) t², less what the fall of tilt × 1 m costs on landing
+    assert moved == pytest.approx(0.2266, rel=0.12)
+
+
+def chamfered(y0: float, eps: float) -> list:
+    """A unit square whose bottom-left corner is cut by an edge ``eps`` long."""
+    return [(0, y0 + eps), (eps, y0), (1, y0), (1, y0 + 1), (0, y0 + 1)]
+
+
+@pytest.mark.parametrize("drop", [0.0, 0.01], ids=["resting", "dropped"])
+def test_edge_of_a_millionth_of_the_block(drop):
+    result = run_checked(scene([base(), block("b", chamfered(drop, 1e-6))], {"duration": 0.2}))
+    assert abs(result.final.displacements[1, 1] + drop) < 1e-4
+    assert abs(result.final.rotations[1]) < 1e-6
+
+
+def test_tiny_edge_corner_falls_first():
+    """The 1e-6 edge is the first thing to touch: the block lands on it and topples."""
+    cube = [(x - 0.5, y - 0.5) for x, y in chamfered(0.0, 1e-6)]
+    result = run_checked(
+        scene([base(), block("b", placed(cube, 30.0, 0.5, 0.8))], {"duration": 0.5})
+    )
+    assert result.final.centroids[1, 1] > 0.49  # on the base, not through it
+
+
+@pytest.mark.parametrize("case", ["lying", "dropped", "tilted", "under-a-block", "standing"])
+def test_sliver_of_aspect_ratio_thousand(case):
+    sliver = rectangle(0, 0, 1, 0.001)
+    blocks = {
+        "lying": [base(), block("s", sliver)],
+        "dropped": [base(), block("s", rectangle(0, 0.01, 1, 0.011))],
+        "tilted": [base(), block("s", placed(rectangle(-0.5, -5e-4, 0.5, 5e-4), 20.0, 0.5, 0.3))],
+        "under-a-block": [base(), block("s", sliver), block("b", rectangle(0, 0.001, 1, 1.001))],
+        "standing": [base(), block("s", rectangle(0, 0, 0.001, 1))],
+    }[case]
+    result = run_checked(scene(blocks, {"duration": 0.3}))
+    assert result.final.centroids[1, 1] > 0.0  # the sliver is on the base, not through it
