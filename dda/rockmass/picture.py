@@ -24,8 +24,14 @@ def draw_cut(cut: CutRockMass, path: str | Path, title: str = "", dpi: int = 150
     fig = Figure(figsize=(8, 6), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    _fill_blocks(ax, cut)
-    _draw_edges(ax, cut)
+    handles = _fill_blocks(ax, cut) + _draw_edges(ax, cut)
+    fig.legend(
+        handles=handles,
+        loc="outside lower center",
+        ncols=min(len(handles), 4),
+        fontsize="small",
+        frameon=False,
+    )
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.set_xlabel("x (m)")
@@ -36,7 +42,7 @@ def draw_cut(cut: CutRockMass, path: str | Path, title: str = "", dpi: int = 150
     return path
 
 
-def _fill_blocks(ax, cut: CutRockMass) -> None:
+def _fill_blocks(ax, cut: CutRockMass) -> list:
     materials = sorted(set(cut.materials))
     fill = {m: FILLS[i % len(FILLS)] for i, m in enumerate(materials)}
     colours = [FIXED_FILL if f else fill[m] for m, f in zip(cut.materials, cut.fixed, strict=True)]
@@ -45,10 +51,10 @@ def _fill_blocks(ax, cut: CutRockMass) -> None:
     handles = [Patch(facecolor=fill[m], label=m) for m in materials]
     if cut.fixed.any():
         handles.append(Patch(facecolor=FIXED_FILL, label="fixed"))
-    ax.add_artist(ax.legend(handles=handles, loc="upper left", fontsize="small"))
+    return handles
 
 
-def _draw_edges(ax, cut: CutRockMass) -> None:
+def _draw_edges(ax, cut: CutRockMass) -> list:
     b = cut.blocks
     segments = np.stack([b.vertices, b.vertices[next_vertex_index(b.offsets)]], axis=1)
     handles = []
@@ -63,4 +69,4 @@ def _draw_edges(ax, cut: CutRockMass) -> None:
         ax.add_collection(LineCollection(segments[on], colors=colour, linewidths=1.0))
         joint = cut.traces.joints[k] or "default"
         handles.append(Line2D([], [], color=colour, lw=1.2, label=f"{name} ({joint})"))
-    ax.legend(handles=handles, loc="upper right", fontsize="small")
+    return handles
