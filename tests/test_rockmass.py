@@ -675,3 +675,18 @@ def test_example_scenes_run_a_few_steps(name):
     result = dda.simulate(dda.load_scene(raw))
     assert result.summary["status"] == "finished"
     assert result.summary["max_penetration"] < raw["contact"]["tolerance"]
+
+
+def test_an_excavation_across_the_rock_leaves_separate_blocks():
+    trench = [[4, -1], [6, -1], [6, 7], [4, 7]]
+    out = expand_rock_mass(base_scene(excavations=[{"polygon": trench}]), "<t>")
+    assert len(out["blocks"]) == 2
+    rock = shapely.Polygon([[0, 0], [10, 0], [10, 6], [0, 6]]).difference(shapely.Polygon(trench))
+    assert_tiles(polygons(out), rock)
+
+
+def test_cut_command_refuses_a_scene_without_regions(tmp_path, capsys):
+    scene = write_scene(tmp_path / "plain.toml", {"title": "no rock mass"})
+    assert run_cli("cut", str(scene), "-o", str(tmp_path / "blocks.toml")) == 2
+    assert "regions" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plain.toml"]

@@ -33,7 +33,16 @@ def split_holes(
         )
     new_faces, new_region = [], []
     for i in holed:
-        pieces = split_face(faces[i])
+        try:
+            pieces = split_face(faces[i])
+        except ValueError:
+            x, y = shapely.get_coordinates(shapely.point_on_surface(faces[i]))[0]
+            raise SceneError(
+                source,
+                "cutting.holes",
+                f"cannot split the block around the hole near ({x:.4g}, {y:.4g}); "
+                "cross the hole with a joint line",
+            ) from None
         new_faces.extend(pieces)
         new_region.extend([region[i]] * len(pieces))
     keep = np.ones(len(faces), dtype=bool)
