@@ -18,6 +18,7 @@ from dda.effects.inertia import Inertia
 from dda.effects.loads import PointLoads
 from dda.effects.points import MaterialPoints
 from dda.geometry import pack_polygons
+from dda.presets import apply_preset
 from dda.scene import Scene
 
 log = logging.getLogger(__name__)
@@ -94,7 +95,12 @@ def initial_blocks(scene: Scene, material_rows: dict[str, int], joint_rows: dict
 
 
 def build(scene: Scene) -> Model:
-    """Instantiate the model; effects absent from the scene are not created."""
+    """Instantiate the model; effects absent from the scene are not created.
+
+    An ``[analysis] accuracy`` preset first fills in the settings the scene
+    leaves at their defaults (:func:`dda.presets.apply_preset`).
+    """
+    scene = apply_preset(scene)
     materials = list(scene.materials.values())
     material_rows = {m.name: k for k, m in enumerate(materials)}
     joints = list(scene.joints.values())

@@ -1,0 +1,153 @@
+"""Studied cases: the scene, the quantity measured and its reference.
+
+* ``sliding_block`` (cases/sliding_block.toml): distance slid in 1 s down the
+  30° slope, closed form s = ½ g (sin θ − cos θ tan φ) t².
+* ``pushed_block`` (cases/paper_two_blocks.toml, the paper's Fig. 2 pushed by
+  H = 4000 lb so that it slides): acceleration 2x/t² over 0.5 s, closed form
+  a = (H − tan φ (V + W)) / m.
+* ``stack`` (cases/stack.toml, 0.2 s): mean σyy of the bottom block, closed
+  form −ρ g (4 + ½) h.
+* any other scene file: the final centroids, against a converged fine run
+  (error: the largest centroid distance over the model size).
+"""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import dda
+from dda.tradeoff.grid import Setting
+
+CASES_DIR = Path(__file__).resolve().parents[2] / "cases"
+
+
+@dataclass(frozen=True)
+class Case:
+    """A scene (raw dict), what to measure in its result and the closed form if any."""
+
+    name: str
+    raw: dict
+    measure: Callable[[dda.Result], np.ndarray]
+    reference: np.ndarray | None  # closed form; None: a converged fine run
+    quantity: str  # what is measured, for tables
+    grid: dict[str, list]  # default grid of the study
+
+    def scene(self, setting: Setting) -> dict:
+        """The raw scene with ``setting`` applied."""
+        raw = copy.deepcopy(self.raw)
+        young = max(m["young"] for m in raw["materials"].values())
+        contact = raw.setdefault("contact", {})
+        contact["method"] = setting.method
+        contact["penalty"] = setting.penalty * young
+        contact["tolerance"] = setting.tolerance * model_size(raw)
+        analysis = raw.setdefault("analysis", {})
+        analysis["time_step"] = setting.time_step
+        analysis["max_displacement_ratio"] = setting.ratio
+        return raw
+
+
+def model_size(raw: dict) -> float:
+    """The largest extent of the blocks (the unit of tolerances and errors)."""
+    points = np.concatenate([np.asarray(b["vertices"], float) for b in raw["blocks"]])
+    return float(np.ptp(points, axis=0).max())
+
+
+def relative_error(value: np.ndarray, reference: np.ndarray, scale: float | None = None) -> float:
+    """max |value − reference| / (scale or max |reference|)."""
+    value, reference = np.atleast_1d(value), np.atleast_1d(reference)
+    denominator = scale if scale is not None else float(np.abs(reference).max())
+    return float(np.abs(value - reference).max() / denominator)
+
+
+def _load(name: str, **analysis) -> dict:
+    raw = tomllib.loads((CASES_DIR / f"{name}.toml").read_text())
+    raw["analysis"].update(analysis)
+    return raw
+
+
+def _row(result: dda.Result, name: str) -> int:
+    return result.final.names.index(name)
+
+
+def sliding_block() -> Case:
+    g, theta, phi = 9.81, np.radians(30.0), np.radians(20.0)
+    exact = 0.5 * g * (np.sin(theta) - np.cos(theta) * np.tan(phi))
+    return Case(
+        "sliding_block", _load("sliding_block"),
+        lambda r: np.array([np.linalg.norm(r.final.displacements[_row(r, "slider")])]),
+        np.array([exact]), "distance slid in 1 s (m)",
+        {"method": ["augmented-lagrangian", "penalty"], "penalty": [0.1, 1.0, 10.0],
+         "tolerance": [1e-4, 1e-6], "time_step": [0.02, 0.01, 0.005],
+         "ratio": [0.01, 0.002]},
+    )
+
+
+PUSH = 4000.0
+
+
+def pushed_block() -> Case:
+    raw = _load("paper_two_blocks", duration=0.5)
+    raw["analysis"].pop("steps")
+    raw["loads"][0]["force"] = [PUSH, -1000.0]
+    g, density = 32.174, 4.0405
+    weight = density * g * 32.0
+    exact = (PUSH - np.tan(np.radians(30.0)) * (1000.0 + weight)) / (weight / g)
+
+    def acceleration(r: dda.Result) -> np.ndarray:
+        return np.array([2 * r.final.displacements[_row(r, "top"), 0] / r.final.time**2])
+
+    return Case(
+        "pushed_block", raw, acceleration, np.array([exact]), "acceleration (ft/s²)",
+        {"method": ["augmented-lagrangian", "penalty"], "penalty": [1e-4, 1e-2, 1.0, 10.0],
+         "tolerance": [1e-4, 1e-6], "time_step": [0.02, 0.01, 0.005],
+         "ratio": [0.01]},
+    )
+
+
+def stack() -> Case:
+    raw = _load("stack", duration=0.2)
+    exact = -2700.0 * 9.81 * 4.5
+    return Case(
+        "stack", raw, lambda r: np.array([r.final.stresses[_row(r, "block1"), 1]]),
+        np.array([exact]), "σyy of the bottom block at 0.2 s (Pa)",
+        {"method": ["augmented-lagrangian", "penalty"], "penalty": [0.1, 1.0, 10.0],
+         "tolerance": [1e-4, 1e-6], "time_step": [0.004, 0.002, 0.001],
+         "ratio": [0.01, 0.002]},
+    )
+
+
+def scene_file(path: str) -> Case:
+    """Any scene file: final centroids against a fine run."""
+    raw = tomllib.loads(Path(path).read_text())
+    return Case(
+        Path(path).stem, raw, lambda r: r.final.centroids.ravel(), None,
+        "final centroids (error / model size)",
+        {"method": ["augmented-lagrangian", "penalty"], "penalty": [1.0, 10.0],
+         "tolerance": [1e-4, 1e-6], "time_step": [raw.get("analysis", {}).get("time_step", 1e-3)],
+         "ratio": [0.01]},
+    )
+
+
+BUILT_IN = {"sliding_block": sliding_block, "pushed_block": pushed_block, "stack": stack}
+
+
+def get_case(name: str) -> Case:
+    """A built-in case by name, or a scene file by path."""
+    if name in BUILT_IN:
+        return BUILT_IN[name]()
+    if Path(name).is_file():
+        return scene_file(name)
+    raise ValueError(f"unknown case {name!r}: use {', '.join(BUILT_IN)} or a scene file")
+
+
+def fine_setting(grid: dict[str, list]) -> Setting:
+    """The converged reference run: AL, the stiffest penalty, 1/10 of the smallest
+    tolerance, 1/4 of the smallest time step and ratio."""
+    return Setting("augmented-lagrangian", max(grid["penalty"]), min(grid["tolerance"]) / 10,
+                   min(grid["time_step"]) / 4, min(grid["ratio"]) / 4)

@@ -1,0 +1,78 @@
+"""Outputs of a study: the CSV of every run, the markdown table, the Pareto plot."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+from dda.tradeoff.pareto import fronts_by_method
+
+COLUMNS = ("case", "method", "penalty", "tolerance", "time_step", "ratio", "status", "steps",
+           "seconds", "error", "max_penetration", "value", "reference")
+
+
+def write_csv(rows: list[dict], path: Path) -> Path:
+    """Every run, one line each, sorted by method then time."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as stream:
+        writer = csv.DictWriter(stream, COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        for row in sorted(rows, key=lambda r: (r["method"], r["seconds"])):
+            writer.writerow({k: _cell(row.get(k)) for k in COLUMNS})
+    return path
+
+
+def _cell(value):
+    if isinstance(value, list):
+        return " ".join(f"{v:.8g}" for v in value)
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return value
+
+
+def markdown_table(rows: list[dict], quantity: str = "") -> str:
+    """The Pareto fronts, one block of rows per method."""
+    lines = [f"Quantity: {quantity}." if quantity else "",
+             "",
+             "| method | penalty (×E) | tolerance (×size) | Δt | g2 | error | seconds | steps |",
+             "|---|---|---|---|---|---|---|---|"]
+    for method, front in fronts_by_method(rows).items():
+        for r in front:
+            tol = "–" if method == "penalty" else f"{r['tolerance']:g}"
+            lines.append(f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
+                         f"| {r['ratio']:g} | {r['error']:.2e} | {r['seconds']:.2f} "
+                         f"| {r['steps']} |")
+    failed = sum(r["status"] != "finished" for r in rows)
+    lines.append("")
+    lines.append(f"{len(rows)} runs, {failed} stopped with a SimulationError.")
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
+    """Error against wall seconds, every run as a dot and each method's front as a line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    for k, (method, front) in enumerate(fronts_by_method(rows).items()):
+        colour = f"C{k}"
+        runs = [r for r in rows if r["method"] == method and not math.isnan(r["error"])]
+        ax.scatter([r["seconds"] for r in runs], [max(r["error"], 1e-16) for r in runs],
+                   s=12, color=colour, alpha=0.35)
+        ax.plot([r["seconds"] for r in front], [max(r["error"], 1e-16) for r in front],
+                "o-", color=colour, label=f"{method} (front)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("wall time of the run (s)")
+    ax.set_ylabel("relative error")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

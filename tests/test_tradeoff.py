@@ -1,0 +1,82 @@
+"""dda tradeoff: grid syntax, Pareto fronts, one serial sweep, one through dask."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import pytest
+
+from dda.tradeoff.cases import get_case
+from dda.tradeoff.cli import register
+from dda.tradeoff.grid import Setting, expand, parse_grid
+from dda.tradeoff.pareto import cheapest_within, pareto_front
+from dda.tradeoff.report import markdown_table
+from dda.tradeoff.runner import add_errors, run_one, sweep
+
+TINY = "method=al,penalty;penalty=1;tolerance=1e-4;time_step=0.02;ratio=0.01"
+
+
+def test_grid_spec_fills_defaults_and_expands_without_duplicates():
+    grid = parse_grid("method=al,penalty;time_step=0.01,0.005",
+                      {"penalty": [1.0], "tolerance": [1e-4, 1e-6], "ratio": [0.01]})
+    settings = expand(grid)
+    # AL: 2 tolerances x 2 steps; penalty ignores the tolerance: 2 steps
+    assert len(settings) == 6
+    assert {s.method for s in settings} == {"augmented-lagrangian", "penalty"}
+
+
+@pytest.mark.parametrize("spec", ["speed=1", "method=fast", "time_step=-1", "ratio=x", "penalty="])
+def test_bad_grid_specs_are_refused(spec):
+    with pytest.raises(ValueError):
+        parse_grid(spec, get_case("sliding_block").grid)
+
+
+def row(error, seconds, method="penalty"):
+    return {"error": error, "seconds": seconds, "method": method}
+
+
+def test_pareto_front_keeps_only_undominated_runs():
+    rows = [row(1e-2, 1.0), row(1e-3, 2.0), row(2e-2, 3.0), row(1e-4, 5.0), row(math.nan, 0.1)]
+    front = pareto_front(rows)
+    assert [r["seconds"] for r in front] == [1.0, 2.0, 5.0]
+    assert cheapest_within(rows, 1e-3)["seconds"] == 2.0
+    assert cheapest_within(rows, 1e-9) is None
+
+
+def test_sliding_block_run_measures_the_closed_form_error():
+    setting = Setting("augmented-lagrangian", 1.0, 1e-4, 0.02, 0.01)
+    out = run_one("sliding_block", setting)
+    assert out["status"] == "finished" and out["steps"] == 50
+    rows = [out]
+    add_errors(rows, "sliding_block", get_case("sliding_block").reference)
+    assert rows[0]["error"] < 0.01
+
+
+def test_serial_sweep_writes_csv_table_and_plot(tmp_path, capsys):
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    args = parser.parse_args(["tradeoff", "sliding_block", "--grid", TINY, "-o", str(tmp_path),
+                              "--serial"])
+    assert args.func(args) == 0
+    assert (tmp_path / "sliding_block.csv").read_text().count("\n") == 3
+    assert "| augmented-lagrangian |" in (tmp_path / "sliding_block.md").read_text()
+    assert (tmp_path / "pareto_sliding_block.png").stat().st_size > 1000
+    assert "[2/2]" in capsys.readouterr().err
+
+
+def test_unknown_case_is_bad_input(tmp_path):
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    args = parser.parse_args(["tradeoff", "no_such_case", "-o", str(tmp_path)])
+    assert args.func(args) == 2
+
+
+def test_sweep_runs_in_dask_workers():
+    pytest.importorskip("dask.distributed")
+    settings = expand(parse_grid(TINY, get_case("sliding_block").grid))
+    seen = []
+    rows = sweep("sliding_block", settings, progress=lambda d, t, r: seen.append(d))
+    assert sorted(seen) == [1, 2] and all(r["status"] == "finished" for r in rows)
+    add_errors(rows, "sliding_block", get_case("sliding_block").reference)
+    assert "2 runs, 0 stopped" in markdown_table(rows)
