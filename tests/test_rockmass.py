@@ -690,3 +690,14 @@ def test_cut_command_refuses_a_scene_without_regions(tmp_path, capsys):
     assert run_cli("cut", str(scene), "-o", str(tmp_path / "blocks.toml")) == 2
     assert "regions" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plain.toml"]
+
+
+def test_dda_cut_through_the_dda_command(tmp_path):
+    from dda.cli import main
+
+    raw = base_scene(joint_sets=[{"dip": 0.0, "spacing": 2.0}])
+    scene = write_scene(tmp_path / "mass.toml", raw)
+    out = tmp_path / "cut.toml"
+    assert main(["cut", str(scene), "-o", str(out), "--no-png"]) == 0
+    assert len(tomllib.loads(out.read_text())["blocks"]) == 3
+    assert not (tmp_path / "cut.png").exists()
