@@ -16,6 +16,7 @@ D_i, D_j) adds (THEORY.md section 4)::
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -49,7 +50,8 @@ class BlockPattern:
     position : (nfree,) matrix block row of each free block
     block_of_row : (n,) matrix block row of each block (-1 if fixed)
     indptr, indices : scalar CSR structure of K (symmetric, so also its CSC)
-    key : bytes identifying the graph (equal keys: same pattern)
+    key : bytes identifying the block graph (equal keys: same sparsity of K)
+    contacts_key : bytes identifying the contact list the slots were made for
     """
 
     def __init__(
@@ -60,9 +62,11 @@ class BlockPattern:
         ordering: Callable[[int, np.ndarray], np.ndarray] | None = None,
     ) -> None:
         rows = free_rows(fixed)
+        self._fixed = np.asarray(fixed, dtype=bool).copy()
         self.nfree = int((~fixed).sum())
-        self.key = graph_key(fixed, block_a, block_b)
-        pairs = _free_pairs(rows, block_a, block_b)
+        pairs = free_pairs(rows, block_a, block_b)
+        self.key = graph_key(fixed, pairs)
+        self.contacts_key = contacts_key(fixed, block_a, block_b)
         self.position = (
             np.arange(self.nfree) if ordering is None else np.asarray(ordering(self.nfree, pairs))
         )
@@ -105,6 +109,14 @@ class BlockPattern:
         """Slot of block (brow, bcol) (both in matrix order; must exist)."""
         want = brow.astype(np.int64) * max(self.nfree, 1) + bcol
         return np.searchsorted(self._block_key, want)
+
+    def with_contacts(self, block_a: np.ndarray, block_b: np.ndarray) -> BlockPattern:
+        """The same pattern (same graph) with the slots of another contact list."""
+        other = copy.copy(self)
+        other.contacts_key = contacts_key(self._fixed, block_a, block_b)
+        other._contact_slots(block_a, block_b)
+        other._flat_targets = None
+        return other
 
     def _contact_slots(self, block_a: np.ndarray, block_b: np.ndarray) -> None:
         """Where the ii, jj, ij and ji parts of each contact go (-1: nowhere)."""
@@ -155,20 +167,34 @@ class BlockPattern:
         return d
 
 
-def graph_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bytes:
-    """Bytes that are equal exactly when two contact graphs give the same pattern."""
+def graph_key(fixed: np.ndarray, pairs: np.ndarray) -> bytes:
+    """Bytes equal exactly when two block graphs give the same pattern of K.
+
+    ``pairs`` are the sorted unique pairs of free rows (:func:`free_pairs`).
+    """
     return b"".join(
         [
-            np.packbits(fixed).tobytes(),
             np.int64(len(fixed)).tobytes(),
-            np.ascontiguousarray(block_a, dtype=np.int64).tobytes(),
-            b"|",
-            np.ascontiguousarray(block_b, dtype=np.int64).tobytes(),
+            np.packbits(fixed).tobytes(),
+            np.ascontiguousarray(pairs, dtype=np.int64).tobytes(),
         ]
     )
 
 
-def _free_pairs(rows: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:
+def contacts_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bytes:
+    """Bytes equal exactly when two contact lists have the same blocks in the same order
+    (among the same blocks)."""
+    a = np.ascontiguousarray(block_a, dtype=np.int64)
+    b = np.ascontiguousarray(block_b, dtype=np.int64)
+    return graph_key(fixed, np.zeros((0, 2), np.int64)) + a.tobytes() + b"|" + b.tobytes()
+
+
+def pattern_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bytes:
+    """:func:`graph_key` of the contacts' block graph."""
+    return graph_key(fixed, free_pairs(free_rows(fixed), block_a, block_b))
+
+
+def free_pairs(rows: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:
     """(q, 2) unique unordered pairs (lo < hi) of free rows in contact."""
     ra, rb = rows[block_a], rows[block_b]
     keep = (ra >= 0) & (rb >= 0) & (ra != rb)

@@ -13,7 +13,9 @@ contact graph, hence the sparsity pattern, changes.
 
 from __future__ import annotations
 
+import ctypes
 import logging
+import os
 from collections.abc import Callable
 from contextlib import nullcontext
 
@@ -26,6 +28,8 @@ log = logging.getLogger(__name__)
 RELATIVE_TOLERANCE = 1e-13  # PCG stops at ‖F - K x‖ ≤ this · ‖F‖ (a direct solve's level)
 MAX_PCG_ITERATIONS = 12  # beyond this a new factorisation is cheaper (and is made)
 REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
+PARDISO_MIN_SIZE = 2000  # smaller systems: SuperLU (PARDISO's per-call overhead dominates)
+PARDISO_THREADS = 1
 
 
 class Factorisation:
@@ -53,6 +57,82 @@ class Factorisation:
         if self._lu is None:
             return np.zeros(0)
         return self._lu.solve(rhs)
+
+
+class PardisoFactorisation:
+    """MKL PARDISO through ``pypardiso`` (optional): SPD Cholesky, METIS ordering.
+
+    The symbolic analysis (ordering, elimination tree) is done once for a
+    sparsity pattern; :meth:`factor` then only repeats the numeric phase for
+    every new matrix with that pattern. Iterative refinement is off: PCG in
+    :class:`ReusingSolver` checks the residual itself.
+
+    Parameters
+    ----------
+    matrix : a symmetric matrix whose CSR (= CSC) arrays give the pattern
+    handle : a ``pypardiso.PyPardisoSolver`` to re-use (its memory is released
+        first); creating one looks for the MKL library, which takes a while
+    """
+
+    def __init__(self, matrix: sp.spmatrix, handle=None) -> None:
+        self.size = matrix.shape[0]
+        if handle is None:
+            handle = new_pardiso_handle()
+        else:
+            handle.set_phase(-1)
+            handle._call_pardiso(sp.csr_matrix((0, 0)), np.zeros(0))
+        self._solver = handle
+        rows = np.repeat(np.arange(self.size), np.diff(matrix.indptr))
+        self._upper = np.flatnonzero(matrix.indices >= rows)
+        counts = np.bincount(rows[self._upper], minlength=self.size)
+        self._indptr = np.zeros(self.size + 1, dtype=np.int32)
+        np.cumsum(counts, out=self._indptr[1:])
+        self._indices = matrix.indices[self._upper].astype(np.int32)
+        self._run(11, matrix, np.zeros(self.size))
+
+    def _upper_matrix(self, matrix: sp.spmatrix) -> sp.csr_matrix:
+        data = np.asarray(matrix.data)[self._upper]
+        return sp.csr_matrix((data, self._indices, self._indptr), shape=matrix.shape)
+
+    def _run(self, phase: int, matrix: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
+        self._solver.set_phase(phase)
+        return self._solver._call_pardiso(self._upper_matrix(matrix), rhs)
+
+    def factor(self, matrix: sp.spmatrix) -> None:
+        """Numeric factorisation of a matrix with the analysed pattern."""
+        self._matrix = self._upper_matrix(matrix)
+        self._solver.set_phase(22)
+        self._solver._call_pardiso(self._matrix, np.zeros(self.size))
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        self._solver.set_phase(33)
+        return self._solver._call_pardiso(self._matrix, np.ascontiguousarray(rhs, dtype=float))
+
+
+def new_pardiso_handle():
+    """A PARDISO solver handle for symmetric positive definite matrices, no refinement."""
+    import pypardiso
+
+    handle = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+    handle.set_iparm(8, 0)  # no iterative refinement
+    try:  # threads of this thread's MKL calls: one is faster here (docs/benchmarks.md)
+        set_threads = handle.libmkl.MKL_Set_Num_Threads_Local
+        set_threads.argtypes, set_threads.restype = [ctypes.c_int], ctypes.c_int
+        set_threads(PARDISO_THREADS)
+    except AttributeError:  # pragma: no cover - older MKL
+        log.debug("MKL_Set_Num_Threads_Local not available")
+    return handle
+
+
+def pardiso_available() -> bool:
+    """True when ``pypardiso`` imports and ``DDA_SOLVER`` does not ask for SuperLU."""
+    if os.environ.get("DDA_SOLVER", "").lower() == "superlu":
+        return False
+    try:
+        import pypardiso  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def block_ordering(nfree: int, pairs: np.ndarray) -> np.ndarray:
@@ -139,12 +219,19 @@ class ReusingSolver:
     factorisation when it is a newer one; if PCG does not converge within
     ``max_iterations``, factorise K and solve directly. A solve that needed
     more than ``refresh_after`` iterations marks the factorisation stale: the
-    next new matrix is factorised.
+    next new matrix is factorised. A caller that knows the new K is far from
+    the factorised one (many contacts changed state) says ``similar=False``
+    and skips the PCG attempt.
+
+    The factorisation is PARDISO's (numeric phase only, analysis once per
+    pattern) when ``pypardiso`` is installed and K has at least
+    ``PARDISO_MIN_SIZE`` rows, else SuperLU's (:func:`pardiso_available`).
 
     Parameters
     ----------
     permc_spec : SuperLU column ordering ("NATURAL" when K comes pre-ordered)
     tolerance, max_iterations, refresh_after : PCG settings (see module constants)
+    backend : "pardiso", "superlu" or None (PARDISO when available)
     """
 
     def __init__(
@@ -153,25 +240,41 @@ class ReusingSolver:
         tolerance: float = RELATIVE_TOLERANCE,
         max_iterations: int = MAX_PCG_ITERATIONS,
         refresh_after: int = REFRESH_AFTER,
+        backend: str | None = None,
     ) -> None:
         self.permc_spec = permc_spec
         self.tolerance = tolerance
         self.max_iterations = max_iterations
         self.refresh_after = refresh_after
-        self._factor: Factorisation | None = None
+        if backend is None:
+            backend = "pardiso" if pardiso_available() else "superlu"
+        self.backend = backend
+        self._factor: Factorisation | PardisoFactorisation | None = None
         self._factored: sp.spmatrix | None = None
         self._key: object = None
+        self._analysed_key: object = None
         self._stale = False
+        self._handle = None
         self.factorisations = 0
         self.pcg_iterations = 0
         self.pcg_solves = 0
 
     def reset(self) -> None:
         """Forget the factorisation (the next solve factorises)."""
-        self._factor, self._factored, self._key = None, None, None
+        self._factor, self._factored, self._key, self._analysed_key = None, None, None, None
+
+    @property
+    def factored(self) -> sp.spmatrix | None:
+        """The matrix of the kept factorisation."""
+        return self._factored
 
     def solve(
-        self, matrix: sp.csc_matrix, rhs: np.ndarray, key: object = None, timer=None
+        self,
+        matrix: sp.csc_matrix,
+        rhs: np.ndarray,
+        key: object = None,
+        timer=None,
+        similar: bool = True,
     ) -> np.ndarray:
         """x with K x = F to the accuracy of a direct solve.
 
@@ -181,13 +284,14 @@ class ReusingSolver:
         rhs : F
         key : identity of K's sparsity pattern (None: assume it may differ)
         timer : optional :class:`dda.timing.StageTimer` ("factorisation", "solve")
+        similar : False when K is known to differ much from the factorised matrix
         """
         stage = timer if timer is not None else (lambda name: nullcontext())
         reusable = self._factor is not None and key is not None and key == self._key
         if reusable and matrix is self._factored:
             with stage("solve"):
                 return self._factor.solve(rhs)
-        if reusable and not self._stale:
+        if reusable and similar and not self._stale:
             with stage("solve"):
                 x, iterations, ok = pcg(
                     matrix, rhs, self._factor.solve, self.tolerance, self.max_iterations
@@ -199,8 +303,20 @@ class ReusingSolver:
                 return x
             log.debug("PCG did not converge in %d iterations: re-factorising", iterations)
         with stage("factorisation"):
+            self._factorise(matrix, key)
+        with stage("solve"):
+            return self._factor.solve(rhs)
+
+    def _factorise(self, matrix: sp.csc_matrix, key: object) -> None:
+        if self.backend == "pardiso" and matrix.shape[0] >= PARDISO_MIN_SIZE:
+            fresh = not isinstance(self._factor, PardisoFactorisation)
+            if fresh or key is None or key != self._analysed_key:
+                if self._handle is None:
+                    self._handle = new_pardiso_handle()
+                self._factor = PardisoFactorisation(matrix, self._handle)
+                self._analysed_key = key
+            self._factor.factor(matrix)
+        else:
             self._factor = Factorisation(matrix, self.permc_spec)
         self._factored, self._key, self._stale = matrix, key, False
         self.factorisations += 1
-        with stage("solve"):
-            return self._factor.solve(rhs)

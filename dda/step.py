@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dda.assembly import BlockPattern, add_forces, assemble, graph_key
+from dda.assembly import BlockPattern, add_forces, assemble, contacts_key, pattern_key
 from dda.blocks import BlockSet
 from dda.contact import law as contact_law
 from dda.contact.contact_set import ContactSet
@@ -39,18 +39,38 @@ class StepSolution:
     max_penetration: float
 
 
+MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
+
+
 @dataclass
 class LinearCache:
-    """What a run keeps between steps: the current block pattern and the solver."""
+    """What a run keeps between steps: the current block pattern and the solver.
+
+    ``coefficients`` are the contact spring constants (normal and shear) of
+    the factorised K: a new K whose springs differ in more than
+    ``MAX_CHANGED_FOR_PCG`` contacts is a high-rank change, re-factorised
+    at once instead of trying PCG first.
+    """
 
     pattern: BlockPattern | None = None
     solver: ReusingSolver = field(default_factory=ReusingSolver)
+    coefficients: tuple[np.ndarray, np.ndarray] | None = None  # sorted contact keys, springs
 
     def pattern_for(self, fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray):
-        """The pattern of this contact graph (the kept one when the graph is unchanged)."""
-        key = graph_key(fixed, block_a, block_b)
-        if self.pattern is None or self.pattern.key != key:
+        """The pattern of this contact list.
+
+        The kept one when the list is the same; its structure (ordering, CSR)
+        with new slots when only the list changed but not the block graph;
+        a new one otherwise.
+        """
+        kept = self.pattern
+        if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b):
+            return kept
+        if kept is not None and kept.key == pattern_key(fixed, block_a, block_b):
+            self.pattern = kept.with_contacts(block_a, block_b)
+        else:
             self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering)
+            self.coefficients = None
         return self.pattern
 
 
@@ -77,11 +97,34 @@ def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
 
 
 def _stiffness(pattern, blocks, base_diagonal, contacts, rows, law):
+    """K (in the pattern's order) and the contact springs (2, m) it holds."""
     p, ps, _, _ = contact_law.contact_coefficients(contacts, rows, law)
     terms = [(rows.normal_i, rows.normal_j, p)]
     if law.friction:
         terms.append((rows.shear_i, rows.shear_j, ps))
-    return assemble(pattern, base_diagonal, blocks.fixed, terms)
+    return assemble(pattern, base_diagonal, blocks.fixed, terms), np.stack([p, ps])
+
+
+def _keyed_springs(contacts: ContactSet, springs: np.ndarray):
+    order = np.argsort(contacts.key, kind="stable")
+    return contacts.key[order], springs[:, order]
+
+
+def _similar(cache: LinearCache, keys: np.ndarray, springs: np.ndarray) -> bool:
+    """True when few contact springs differ from those of the factorised K.
+
+    Contacts are matched by their persistent keys (sorted); one that is new,
+    gone or has other springs counts as changed.
+    """
+    if cache.coefficients is None:
+        return False
+    old_keys, old_springs = cache.coefficients
+    at = np.clip(np.searchsorted(old_keys, keys), 0, max(len(old_keys) - 1, 0))
+    found = (old_keys[at] == keys) if len(old_keys) else np.zeros(len(keys), bool)
+    same = found & np.all(old_springs[:, at] == springs, axis=0) if len(old_keys) else found
+    matched = int(np.count_nonzero(found))
+    changed = (len(keys) - int(np.count_nonzero(same))) + (len(old_keys) - matched)
+    return changed <= MAX_CHANGED_FOR_PCG
 
 
 def _forces(base_forces, contacts, rows, law):
@@ -111,10 +154,17 @@ def _contact_motion(rows: ContactRows, contacts: ContactSet, d: np.ndarray):
     return pen, slip
 
 
-def _solve(cache: LinearCache, pattern: BlockPattern, k, forces, blocks, timer) -> np.ndarray:
-    """D (n, 6) from K (in the pattern's order) and F (n, 6) per block."""
+def _solve(cache: LinearCache, pattern, k, forces, blocks, timer, springs=None) -> np.ndarray:
+    """D (n, 6) from K (in the pattern's order) and F (n, 6) per block.
+
+    ``springs``: (contact keys, springs) of K, sorted by key (None without
+    contacts), to decide whether PCG on the kept factorisation is worth trying.
+    """
     rhs = pattern.to_matrix_order(forces, blocks.fixed).ravel()
-    x = cache.solver.solve(k, rhs, key=pattern.key, timer=timer)
+    similar = springs is None or _similar(cache, *springs)
+    x = cache.solver.solve(k, rhs, key=pattern.key, timer=timer, similar=similar)
+    if springs is not None and cache.solver.factored is k:
+        cache.coefficients = springs
     return pattern.from_matrix_order(x, blocks.count)
 
 
@@ -146,7 +196,7 @@ def solve_step(
         joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
     with timer("assembly"):
         pattern = cache.pattern_for(blocks.fixed, contacts.block_a, contacts.block_b)
-    k = None
+    k = springs = None
     previous_pen = None
     iterations = 0
     converged = False
@@ -154,9 +204,10 @@ def solve_step(
     for _ in range(model.scene.contact.max_iterations):
         with timer("assembly"):
             if k is None:
-                k = _stiffness(pattern, blocks, base_k, contacts, rows, law)
+                k, springs = _stiffness(pattern, blocks, base_k, contacts, rows, law)
+                springs = _keyed_springs(contacts, springs)
             f = _forces(base_f, contacts, rows, law)
-        d = _solve(cache, pattern, k, f, blocks, timer)
+        d = _solve(cache, pattern, k, f, blocks, timer, springs)
         iterations += 1
         if not np.all(np.isfinite(d)):
             cache.solver.reset()

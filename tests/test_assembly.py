@@ -78,8 +78,10 @@ def test_patterns_of_the_same_graph_have_the_same_key():
     fixed = np.array([False, False, True])
     one = BlockPattern(fixed, np.array([0, 1]), np.array([1, 2]))
     two = BlockPattern(fixed.copy(), np.array([0, 1]), np.array([1, 2]))
-    three = BlockPattern(fixed, np.array([0, 0]), np.array([1, 2]))
-    assert one.key == two.key != three.key
+    same_graph = BlockPattern(fixed, np.array([1, 0, 2]), np.array([0, 1, 1]))
+    other_graph = BlockPattern(fixed, np.array([0]), np.array([2]))
+    assert one.key == two.key == same_graph.key != other_graph.key
+    assert one.contacts_key != same_graph.contacts_key
 
 
 def test_forces_are_summed_per_block():

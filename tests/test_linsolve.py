@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
+import dda.linsolve as linsolve
 from dda.linsolve import Factorisation, ReusingSolver, block_ordering, pcg
 
 
@@ -49,7 +51,7 @@ def test_pcg_with_the_exact_factorisation_takes_one_application():
 
 
 def test_reusing_solver_factorises_only_when_needed():
-    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A")
+    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", backend="superlu")
     k = spd_matrix(6)
     f = np.ones(60)
     solver.solve(k, f, key="graph")
@@ -64,7 +66,7 @@ def test_reusing_solver_factorises_only_when_needed():
 
 
 def test_reusing_solver_refactorises_when_pcg_does_not_converge():
-    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", max_iterations=2)
+    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", max_iterations=2, backend="superlu")
     k = spd_matrix(7)
     f = np.ones(60)
     solver.solve(k, f, key=1)
@@ -72,3 +74,26 @@ def test_reusing_solver_refactorises_when_pcg_does_not_converge():
     x = solver.solve(far, f, key=1)
     assert solver.factorisations == 2
     np.testing.assert_allclose(far @ x, f, rtol=1e-11)
+
+
+def test_pardiso_backend_equals_superlu(monkeypatch):
+    pytest.importorskip("pypardiso")
+    monkeypatch.setattr(linsolve, "PARDISO_MIN_SIZE", 0)
+    k = spd_matrix(9)
+    f = np.linspace(-1.0, 1.0, 60)
+    pardiso = ReusingSolver(backend="pardiso")
+    x = pardiso.solve(k, f, key="graph")
+    np.testing.assert_allclose(x, Factorisation(k).solve(f), rtol=1e-10, atol=1e-14)
+    near = sp.csc_matrix(k * (1 + 1e-3))  # same pattern: numeric phase only
+    pardiso.solve(near, f, key="graph", similar=False)
+    np.testing.assert_allclose(near @ pardiso.solve(near, f, key="graph"), f, rtol=1e-11)
+    assert pardiso.factorisations == 2
+
+
+def test_dissimilar_matrix_is_factorised_without_pcg():
+    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", backend="superlu")
+    k = spd_matrix(10)
+    f = np.ones(60)
+    solver.solve(k, f, key=1)
+    solver.solve(sp.csc_matrix(k * 2.0), f, key=1, similar=False)
+    assert solver.factorisations == 2 and solver.pcg_solves == 0
