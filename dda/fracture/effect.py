@@ -1,0 +1,154 @@
+"""The fracture effect: after each accepted step, break the blocks that fail (paper §4).
+
+``FractureEffect.after_step(blocks, ctx)`` evaluates the three-parameter
+Mohr–Coulomb criterion (22)–(25) at the centroid of every breakable block,
+cuts the failing ones through their centroid (two planes in shear, one in
+tension), and returns a new BlockSet plus one :class:`FractureEvent` per
+broken block. A block breaks at most once per step: its fragments are
+judged again at the next step only.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.effects.base import Effect, StepContext
+from dda.fracture.criterion import MODE_NAMES, evaluate
+from dda.fracture.fragments import Fragments, replace_blocks
+from dda.fracture.split import DEFAULT_MIN_AREA_RATIO, split_polygon_detailed
+from dda.result import FractureEvent
+from dda.scene import Scene
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Strength:
+    """Strength of every material row; NaN cohesion marks an unbreakable material.
+
+    Attributes
+    ----------
+    cohesion : (n_materials,) s0
+    friction_angle : (n_materials,) φ in radians
+    tensile_strength : (n_materials,) T0
+    """
+
+    cohesion: np.ndarray
+    friction_angle: np.ndarray
+    tensile_strength: np.ndarray
+
+    @property
+    def breakable(self) -> np.ndarray:
+        return np.isfinite(self.cohesion)
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> Strength:
+        """Rows in the order of ``scene.materials`` (the model's material table)."""
+        materials = list(scene.materials.values())
+
+        def column(key: str, scale: float = 1.0) -> np.ndarray:
+            values = [getattr(m, key) if m.breakable else None for m in materials]
+            return np.array([np.nan if v is None else scale * v for v in values], dtype=float)
+
+        return cls(
+            cohesion=column("cohesion"),
+            friction_angle=column("friction_angle", math.pi / 180.0),
+            tensile_strength=column("tensile_strength"),
+        )
+
+
+class FractureEffect(Effect):
+    """Breaks failing blocks after each accepted step.
+
+    Unlike the other effects it adds nothing to K or F; the time loop calls
+    ``after_step(blocks, ctx)`` and takes the returned BlockSet.
+
+    Parameters
+    ----------
+    strength : per-material strength table
+    crack_joint : joint row given to new crack edges (-1: the default joint)
+    min_area : smallest fragment kept on its own (smaller slivers are merged)
+    next_id : first id given to a fragment; ids are never reused
+    """
+
+    name = "fracture"
+
+    def __init__(self, strength: Strength, crack_joint: int, min_area: float, next_id: int):
+        self.strength = strength
+        self.crack_joint = int(crack_joint)
+        self.min_area = float(min_area)
+        self.next_id = int(next_id)
+
+    @classmethod
+    def from_scene(cls, scene: Scene, blocks: BlockSet) -> FractureEffect:
+        """From the scene's materials and ``[fracture]`` table, and the initial blocks."""
+        strength = Strength.from_scene(scene)
+        joint_names = list(scene.joints)
+        name = scene.fracture.joint
+        crack = joint_names.index(name) if name is not None else -1  # -1: the default joint
+        min_area = scene.fracture.min_area
+        if min_area is None:
+            breakable = strength.breakable[blocks.material]
+            smallest = blocks.area[breakable].min() if breakable.any() else 0.0
+            min_area = DEFAULT_MIN_AREA_RATIO * smallest
+        next_id = int(blocks.ids.max()) + 1 if blocks.count else 0
+        return cls(strength, crack, min_area, next_id)
+
+    def candidates(self, blocks: BlockSet) -> np.ndarray:
+        """Rows of the blocks the criterion applies to: breakable material, not fixed."""
+        return np.flatnonzero(self.strength.breakable[blocks.material] & ~blocks.fixed)
+
+    def after_step(  # type: ignore[override]
+        self, blocks: BlockSet, ctx: StepContext
+    ) -> tuple[BlockSet, list[FractureEvent]]:
+        """Break every failing block once; return the new blocks and the events."""
+        rows = self.candidates(blocks)
+        if not len(rows):
+            return blocks, []
+        mat = blocks.material[rows]
+        s = self.strength
+        state = evaluate(
+            blocks.stress[rows], s.cohesion[mat], s.friction_angle[mat], s.tensile_strength[mat]
+        )
+        failing = state.failing
+        if not len(failing):
+            return blocks, []
+        fragments: list[Fragments] = []
+        events: list[FractureEvent] = []
+        for k in failing:  # only the few blocks that break
+            row = int(rows[k])
+            pieces = self._cut(blocks, row, state.planes[k])
+            if pieces is not None:
+                mode = MODE_NAMES[int(state.mode[k])]
+                fragments.append(pieces)
+                events.append(
+                    FractureEvent(
+                        int(ctx.step), float(ctx.time), blocks.names[row], pieces.names, mode
+                    )
+                )
+        if not fragments:
+            return blocks, []
+        log.info("step %d: %d block(s) broke: %s", ctx.step, len(events), _describe(events))
+        return replace_blocks(blocks, fragments), events
+
+    def _cut(self, blocks: BlockSet, row: int, planes: np.ndarray) -> Fragments | None:
+        """Split block ``row`` along ``planes``; None if it does not split."""
+        centroid = blocks.centroid[row]
+        result = split_polygon_detailed(blocks.polygon(row), centroid, planes, self.min_area)
+        if not result.split:
+            log.debug("%s fails but is not split (refused: %s)", blocks.names[row], result.refused)
+            return None
+        ids = np.arange(self.next_id, self.next_id + len(result.pieces), dtype=np.int64)
+        self.next_id += len(result.pieces)
+        names = tuple(f"{blocks.names[row]}/{j + 1}" for j in range(len(result.pieces)))
+        return Fragments.of(blocks, row, result.pieces, names, ids, self.crack_joint)
+
+
+def _describe(events: list[FractureEvent], shown: int = 4) -> str:
+    text = ", ".join(f"{e.parent} ({e.mode}, {len(e.children)})" for e in events[:shown])
+    return text + (f" and {len(events) - shown} more" if len(events) > shown else "")
