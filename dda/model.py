@@ -24,6 +24,8 @@ from dda.scene import Scene
 log = logging.getLogger(__name__)
 
 SEARCH_FACTOR = 2.5  # search distance / largest displacement allowed per step (Shi)
+ROUND_OFF = 1e-12  # contact state changes need evidence above this fraction of the model size
+TOUCH = 1e-9  # a new contact closer than this fraction of the model size starts closed
 
 
 @dataclass
@@ -189,7 +191,7 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
              for i in scene.interfaces], dtype=np.int64).reshape(-1, 2),
         interface_joint=np.array([joint_rows[i.joint] for i in scene.interfaces], np.int64),
     )
-    extent = 2.0 * float(max(blocks.vertices.max(axis=0) - blocks.vertices.min(axis=0))) / 2.0
+    extent = float(max(blocks.vertices.max(axis=0) - blocks.vertices.min(axis=0)))
     penalty = c.penalty if c.penalty is not None else 10.0 * young_max
     law = ContactLaw(
         augmented=c.method == "augmented-lagrangian",
@@ -197,6 +199,7 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
         shear_ratio=c.shear_ratio,
         friction=table.has_friction,
         max_penalty=max(1e4 * young_max, penalty),
+        round_off=ROUND_OFF * extent,
     )
     search = SEARCH_FACTOR * allowed
     return ContactModel(
@@ -205,7 +208,7 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
         initial_penalty=penalty,
         search_distance=search,
         vertex_radius=search,
-        touch_tolerance=1e-9 * extent,
+        touch_tolerance=TOUCH * extent,
     )
 
 

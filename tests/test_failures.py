@@ -13,7 +13,7 @@ def test_step_that_never_settles_raises_a_clear_error():
     scene = slope_scene(20.0, "augmented-lagrangian")
     scene["contact"]["max_iterations"] = 1
     scene["contact"]["tolerance"] = 1e-15
-    with pytest.raises(dda.SimulationError, match=r"step 1 .*did not settle") as info:
+    with pytest.raises(dda.SimulationError, match=r"step \d+ .*did not settle") as info:
         dda.simulate(scene)
     partial = info.value.result
     assert partial.summary["status"] == "failed"

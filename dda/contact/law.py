@@ -37,6 +37,13 @@ class ContactLaw:
     penalty_growth : factor applied to a contact's penalty when its
         penetration did not shrink below ``shrink_target`` of its previous value
     max_penalty : the penalty is never raised above this
+    round_off : a length at the level of round-off (1e-12 of the model size);
+        a state changes only when the evidence exceeds it: an open contact
+        closes when d > round_off, a closed one opens when its normal force is
+        tensile beyond T·l + p·round_off, a locked one slips when its shear
+        force exceeds the Coulomb bound by ps·round_off, a sliding one sticks
+        when it moved back by more than round_off. Without it, touching
+        contacts at rest (d, s ~ 1e-15) flip state on noise forever.
     """
 
     augmented: bool
@@ -46,6 +53,7 @@ class ContactLaw:
     penalty_growth: float = 10.0
     shrink_target: float = 0.25
     max_penalty: float = np.inf
+    round_off: float = 0.0
 
 
 @dataclass
@@ -109,8 +117,9 @@ def update(
     tensile = np.where(contacts.intact, joint.tensile, 0.0)
     cohesion = np.where(contacts.intact, joint.cohesion, 0.0)
 
-    opens = closed & (normal < -tensile)
-    closes = ~closed & (d > 0.0)
+    eps = law.round_off
+    opens = closed & (normal < -tensile - p * eps)
+    closes = ~closed & (d > eps)
     new_state = state.copy()
     new_state[opens] = OPEN
     new_state[closes] = LOCKED
@@ -120,8 +129,13 @@ def update(
     trial_shear = lam_t + law.shear_ratio * p * s
     still_closed = closed & ~opens
     if law.friction:
-        slips = still_closed & (state == LOCKED) & (np.abs(trial_shear) > shear_capacity)
-        sticks = still_closed & (state == SLIDING) & (contacts.slide_direction * s < 0.0)
+        shear_noise = law.shear_ratio * p * eps
+        slips = (
+            still_closed
+            & (state == LOCKED)
+            & (np.abs(trial_shear) > shear_capacity + shear_noise)
+        )
+        sticks = still_closed & (state == SLIDING) & (contacts.slide_direction * s < -eps)
         new_state[slips] = SLIDING
         new_state[sticks] = LOCKED
         contacts.slide_direction[slips] = np.sign(trial_shear[slips])

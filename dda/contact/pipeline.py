@@ -6,7 +6,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.broad import candidate_pairs
-from dda.contact.contact_set import ContactSet, merge
+from dda.contact.contact_set import ContactSet, contact_keys, merge
 from dda.contact.narrow import detect
 from dda.contact.rows import edge_projection
 from dda.result import SLIDING
@@ -15,17 +15,25 @@ from dda.result import SLIDING
 def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> ContactSet:
     """Contacts at the start of a step, keeping what persists from ``previous``.
 
-    Sliding contacts get their shear reference point moved under the vertex:
-    their slip is measured from the step start.
+    A contact seen for the first time can be no deeper than the search
+    distance (nothing moves further in one step): a deeper "penetration" is a
+    vertex paired with the far side of a block. Persisting contacts may be
+    deeper (a soft penalty lets blocks sink). Sliding contacts get their shear
+    reference point moved under the vertex: their slip is measured from the
+    step start.
     """
     pairs = candidate_pairs(blocks, settings.search_distance)
     found = detect(blocks, pairs, settings.search_distance, settings.vertex_radius)
     penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
+    persisting = np.isin(contact_keys(blocks, found.vertex, found.edge), previous.key)
+    plausible = persisting | (penetration <= settings.search_distance)
+    vertex, edge = found.vertex[plausible], found.edge[plausible]
+    penetration, parameter = penetration[plausible], parameter[plausible]
     contacts = merge(
         previous,
         blocks,
-        found.vertex,
-        found.edge,
+        vertex,
+        edge,
         initial_penetration=penetration,
         initial_penalty=settings.initial_penalty,
         initial_parameter=parameter,
