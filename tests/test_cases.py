@@ -58,6 +58,9 @@ EXPECTED = {
     "paper_two_blocks": ({}, total_normal_force, 5160.0, 1e-3),
     # regression: the soft penalty lets the block bounce and slide 1.6289 ft in 90 steps
     "paper_two_blocks_penalty": ({}, top_block_x, 1.62879, 1e-3),
+    # regression: no fracture at the paper's loads (docs/fracture.md); rock sigma_yy after
+    # 120 steps; the peak, -3.86e5 psf = 0.52 C0, comes at step 24
+    "paper_uniaxial_fracture": ({}, block_syy("rock"), -2.3955e5, 0.02),
 }
 
 
