@@ -13,6 +13,7 @@ contact graph, hence the sparsity pattern, changes.
 
 from __future__ import annotations
 
+import copy
 import ctypes
 import logging
 import os
@@ -109,19 +110,34 @@ class PardisoFactorisation:
         return self._solver._call_pardiso(self._matrix, np.ascontiguousarray(rhs, dtype=float))
 
 
+_PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (finding MKL takes ~1 s)
+
+
 def new_pardiso_handle():
     """A PARDISO solver handle for symmetric positive definite matrices, no refinement."""
-    import pypardiso
+    global _PARDISO_PROTOTYPE
+    if _PARDISO_PROTOTYPE is None:
+        import pypardiso
 
-    handle = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        _PARDISO_PROTOTYPE = pypardiso.PyPardisoSolver(mtype=2)  # real SPD
+        _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, PARDISO_THREADS)
+    handle = copy.copy(_PARDISO_PROTOTYPE)  # shares the library, not the solver state
+    handle.pt = np.zeros_like(_PARDISO_PROTOTYPE.pt)
+    handle.iparm = np.zeros_like(_PARDISO_PROTOTYPE.iparm)
+    handle.perm = np.zeros(0, dtype=np.int32)
     handle.set_iparm(8, 0)  # no iterative refinement
-    try:  # threads of this thread's MKL calls: one is faster here (docs/benchmarks.md)
-        set_threads = handle.libmkl.MKL_Set_Num_Threads_Local
-        set_threads.argtypes, set_threads.restype = [ctypes.c_int], ctypes.c_int
-        set_threads(PARDISO_THREADS)
+    return handle
+
+
+def _set_mkl_threads(library, threads: int) -> None:
+    """Threads of this thread's MKL calls: one is faster here (docs/benchmarks.md)."""
+    try:
+        set_threads = library.MKL_Set_Num_Threads_Local
     except AttributeError:  # pragma: no cover - older MKL
         log.debug("MKL_Set_Num_Threads_Local not available")
-    return handle
+        return
+    set_threads.argtypes, set_threads.restype = [ctypes.c_int], ctypes.c_int
+    set_threads(threads)
 
 
 def pardiso_available() -> bool:

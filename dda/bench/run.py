@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass, field
 
 import dda
 from dda.bench.scenes import wall_scene
+from dda.linsolve import new_pardiso_handle, pardiso_available
 
 log = logging.getLogger(__name__)
 
@@ -68,11 +69,14 @@ def measure(
     columns, rows : wall size (``rows`` defaults to ``columns``)
     method : "penalty" or "augmented-lagrangian"
     steps : time steps
-    warm_up : run a 2 x 2 wall for 3 steps first (imports, compiled kernels)
+    warm_up : run a 2 x 2 wall for 3 steps first (imports, compiled kernels) and
+        load the PARDISO library when it is used
     """
     rows = columns if rows is None else rows
     if warm_up:
         dda.simulate(dda.load_scene(wall_scene(2, method=method, steps=3)))
+        if pardiso_available():
+            new_pardiso_handle()  # finding the MKL library is a one-off cost too
     scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps))
     start = time.perf_counter()
     status = "finished"
