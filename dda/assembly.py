@@ -74,6 +74,7 @@ class BlockPattern:
         self._build_structure(pairs)
         self._contact_slots(block_a, block_b)
         self._flat_targets: np.ndarray | None = None
+        self._diagonal_targets: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -148,10 +149,13 @@ class BlockPattern:
 
     def diagonal_targets(self) -> np.ndarray:
         """(nfree, 36) flat data index of the diagonal block of every matrix block row."""
-        r = np.repeat(np.arange(BLOCK), BLOCK)
-        c = np.tile(np.arange(BLOCK), BLOCK)
-        s = self.diagonal_slot
-        return self.slot_base[s][:, None] + r * self.slot_stride[s][:, None] + c
+        if self._diagonal_targets is None:
+            r = np.repeat(np.arange(BLOCK), BLOCK)
+            c = np.tile(np.arange(BLOCK), BLOCK)
+            s = self.diagonal_slot
+            base, stride = self.slot_base[s][:, None], self.slot_stride[s][:, None]
+            self._diagonal_targets = base + r * stride + c
+        return self._diagonal_targets
 
     def to_matrix_order(self, values: np.ndarray, fixed: np.ndarray) -> np.ndarray:
         """(n, ...) per-block values -> (nfree, ...) in matrix block order."""
@@ -305,7 +309,11 @@ _scatter_kernel = kernel(_scatter)
 
 
 def add_forces(forces: np.ndarray, block: np.ndarray, row: np.ndarray, coef: np.ndarray) -> None:
-    """F_block -= coef·row for each term (in place)."""
+    """F_block -= coef·row for each term (in place).
+
+    ``block`` (m,), ``row`` (m, 6), ``coef`` (m,); several kinds of terms are
+    best passed concatenated in one call (one pass per column).
+    """
     n = len(forces)
     contrib = coef[:, None] * row
     for k in range(forces.shape[1]):

@@ -131,10 +131,9 @@ def _forces(base_forces, contacts, rows, law):
     forces = base_forces.copy()
     _, _, normal, shear = contact_law.contact_coefficients(contacts, rows, law)
     a, b = contacts.block_a, contacts.block_b
-    add_forces(forces, a, rows.normal_i, normal)
-    add_forces(forces, b, rows.normal_j, normal)
-    add_forces(forces, a, rows.shear_i, shear)
-    add_forces(forces, b, rows.shear_j, shear)
+    blocks = np.concatenate([a, b, a, b])
+    gradient = np.concatenate([rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j])
+    add_forces(forces, blocks, gradient, np.concatenate([normal, normal, shear, shear]))
     return forces
 
 
