@@ -49,3 +49,19 @@ def test_bench_command_registers():
     cli.register(parser.add_subparsers())
     args = parser.parse_args(["bench", "--sizes", "2", "--method", "penalty", "--steps", "2"])
     assert args.sizes == [2] and args.method == "penalty" and args.func is cli.run_command
+
+
+def test_round_off_experiment_is_undone_after_the_run():
+    from dda import model as engine_model
+
+    kept = engine_model.ROUND_OFF
+    m = measure(2, "penalty", steps=2, warm_up=False, round_off=1e-9)
+    assert m.status == "finished" and engine_model.ROUND_OFF == kept
+
+
+def test_stage_table_runs_on_a_tiny_wall():
+    from dda.bench.stages import stage_rows
+
+    rows = stage_rows(2)
+    names = [name for name, _ in rows]
+    assert "assemble K, scatter kernel" in names and all(t >= 0 for _, t in rows)

@@ -61,6 +61,7 @@ def measure(
     steps: int = 100,
     rows: int | None = None,
     warm_up: bool = True,
+    round_off: float | None = None,
 ) -> Measurement:
     """Run the wall scene in this process and time it.
 
@@ -71,8 +72,22 @@ def measure(
     steps : time steps
     warm_up : run a 2 x 2 wall for 3 steps first (imports, compiled kernels) and
         load the PARDISO library when it is used
+    round_off : experiment: replace ``dda.model.ROUND_OFF`` (the evidence, as a
+        fraction of the model size, a contact needs to change state) in this process
     """
     rows = columns if rows is None else rows
+    from dda import model as engine_model
+
+    kept = engine_model.ROUND_OFF
+    if round_off is not None:
+        engine_model.ROUND_OFF = float(round_off)
+    try:
+        return _measure(columns, rows, method, steps, warm_up)
+    finally:
+        engine_model.ROUND_OFF = kept
+
+
+def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) -> Measurement:
     if warm_up:
         dda.simulate(dda.load_scene(wall_scene(2, method=method, steps=3)))
         if pardiso_available():
@@ -111,11 +126,17 @@ def peak_memory_mib() -> float:
 
 
 def measure_in_subprocess(
-    columns: int, method: str = "penalty", steps: int = 100, rows: int | None = None
+    columns: int,
+    method: str = "penalty",
+    steps: int = 100,
+    rows: int | None = None,
+    round_off: float | None = None,
 ) -> Measurement:
     """:func:`measure` in a fresh Python process (its own peak memory)."""
     rows = columns if rows is None else rows
     cmd = [sys.executable, "-m", "dda.bench.run", str(columns), str(rows), method, str(steps)]
+    if round_off is not None:
+        cmd += ["--round-off", repr(float(round_off))]
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"benchmark process failed ({done.returncode}): {done.stderr[-2000:]}")
@@ -130,8 +151,9 @@ def _main(argv: list[str] | None = None) -> int:
     parser.add_argument("rows", type=int)
     parser.add_argument("method")
     parser.add_argument("steps", type=int)
+    parser.add_argument("--round-off", type=float, default=None)
     args = parser.parse_args(argv)
-    m = measure(args.columns, args.method, args.steps, args.rows)
+    m = measure(args.columns, args.method, args.steps, args.rows, round_off=args.round_off)
     sys.stdout.write(json.dumps(asdict(m)) + "\n")
     return 0
 

@@ -69,6 +69,8 @@ class VertexFans:
         self.prev = previous_vertex_index(blocks.offsets)
         self.to_next = _unit(v[self.next] - v)
         self.to_prev = _unit(v[self.prev] - v)
+        # unit outward normal of the edge leaving each vertex (counter-clockwise polygons)
+        self.outward = np.column_stack([self.to_next[:, 1], -self.to_next[:, 0]])
         self.reflex = reflex_vertices(v, blocks.offsets)
         edge_length = np.linalg.norm(v[self.next] - v, axis=1)
         self.shortest = np.minimum(edge_length, edge_length[self.prev])  # edges at the vertex
@@ -246,8 +248,8 @@ _screen_kernel = kernel(_screen)
 
 
 def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.ndarray:
-    e = blocks.vertices[fans.next[edge]] - blocks.vertices[edge]
-    return _unit(np.column_stack([e[:, 1], -e[:, 0]]))
+    """Unit outward normal of each edge (kept per vertex in ``fans``)."""
+    return fans.outward[edge]
 
 
 def _resolve_vertex_vertex(blocks, fans, p1, p2):
