@@ -43,6 +43,9 @@ class BlockPattern:
     ordering : callable ``(nfree, pairs) -> position`` giving the position of
         every free block in the matrix (a fill-reducing permutation); None
         keeps the natural order.
+    extra_pairs : (q, 2) pairs of free rows (lo < hi) to keep in the structure
+        although no contact joins them now (their blocks are zero), so that a
+        contact coming back does not need a new pattern.
 
     Attributes
     ----------
@@ -52,6 +55,7 @@ class BlockPattern:
     indptr, indices : scalar CSR structure of K (symmetric, so also its CSC)
     key : bytes identifying the block graph (equal keys: same sparsity of K)
     contacts_key : bytes identifying the contact list the slots were made for
+    pairs : (q, 2) sorted pairs of free rows (lo < hi) with an off-diagonal block
     """
 
     def __init__(
@@ -60,11 +64,16 @@ class BlockPattern:
         block_a: np.ndarray,
         block_b: np.ndarray,
         ordering: Callable[[int, np.ndarray], np.ndarray] | None = None,
+        extra_pairs: np.ndarray | None = None,
     ) -> None:
         rows = free_rows(fixed)
         self._fixed = np.asarray(fixed, dtype=bool).copy()
         self.nfree = int((~fixed).sum())
         pairs = free_pairs(rows, block_a, block_b)
+        if extra_pairs is not None and len(extra_pairs):
+            pairs = np.unique(np.concatenate([pairs, extra_pairs]), axis=0)
+        self.pairs = pairs
+        self._pair_keys = pairs[:, 0] * max(self.nfree, 1) + pairs[:, 1]
         self.key = graph_key(fixed, pairs)
         self.contacts_key = contacts_key(fixed, block_a, block_b)
         self.position = (
@@ -110,6 +119,18 @@ class BlockPattern:
         """Slot of block (brow, bcol) (both in matrix order; must exist)."""
         want = brow.astype(np.int64) * max(self.nfree, 1) + bcol
         return np.searchsorted(self._block_key, want)
+
+    def covers(self, fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bool:
+        """True when every contact lands on a block of this pattern (same fixed blocks)."""
+        if len(fixed) != len(self._fixed) or not np.array_equal(fixed, self._fixed):
+            return False
+        pairs = free_pairs(free_rows(fixed), block_a, block_b)
+        if len(pairs) == 0:
+            return True
+        keys = pairs[:, 0] * max(self.nfree, 1) + pairs[:, 1]
+        at = np.searchsorted(self._pair_keys, keys)
+        inside = at < len(self._pair_keys)
+        return bool(inside.all() and np.all(self._pair_keys[at] == keys))
 
     def with_contacts(self, block_a: np.ndarray, block_b: np.ndarray) -> BlockPattern:
         """The same pattern (same graph) with the slots of another contact list."""
@@ -191,11 +212,6 @@ def contacts_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) ->
     a = np.ascontiguousarray(block_a, dtype=np.int64)
     b = np.ascontiguousarray(block_b, dtype=np.int64)
     return graph_key(fixed, np.zeros((0, 2), np.int64)) + a.tobytes() + b"|" + b.tobytes()
-
-
-def pattern_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bytes:
-    """:func:`graph_key` of the contacts' block graph."""
-    return graph_key(fixed, free_pairs(free_rows(fixed), block_a, block_b))
 
 
 def free_pairs(rows: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:

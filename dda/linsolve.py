@@ -17,6 +17,7 @@ import copy
 import ctypes
 import logging
 import os
+import time
 from collections.abc import Callable
 from contextlib import nullcontext
 
@@ -233,7 +234,9 @@ class ReusingSolver:
     sparsity pattern), factorise K. Otherwise solve directly when K is the
     matrix that was factorised, and by PCG preconditioned with the kept
     factorisation when it is a newer one; if PCG does not converge within
-    ``max_iterations``, factorise K and solve directly. A solve that needed
+    ``max_iterations`` and :attr:`pcg_budget` (the iterations that cost as much
+    as a factorisation, both timed as the run goes), factorise K and solve
+    directly. A solve that needed
     more than ``refresh_after`` iterations marks the factorisation stale: the
     next new matrix is factorised. A caller that knows the new K is far from
     the factorised one (many contacts changed state) says ``similar=False``
@@ -271,6 +274,8 @@ class ReusingSolver:
         self._analysed_key: object = None
         self._stale = False
         self._handle = None
+        self._factor_seconds: float | None = None  # running means of the measured costs
+        self._apply_seconds: float | None = None
         self.factorisations = 0
         self.pcg_iterations = 0
         self.pcg_solves = 0
@@ -278,6 +283,20 @@ class ReusingSolver:
     def reset(self) -> None:
         """Forget the factorisation (the next solve factorises)."""
         self._factor, self._factored, self._key, self._analysed_key = None, None, None, None
+
+    @property
+    def pcg_budget(self) -> int:
+        """PCG iterations that cost no more than a factorisation (measured as the run goes).
+
+        At most ``max_iterations``; 0 or 1 means PCG does not pay (then it is not tried).
+        """
+        if self._factor_seconds is None or not self._apply_seconds:
+            return self.max_iterations
+        return min(self.max_iterations, int(self._factor_seconds / self._apply_seconds))
+
+    @staticmethod
+    def _mean(old: float | None, new: float) -> float:
+        return new if old is None else 0.7 * old + 0.3 * new
 
     @property
     def factored(self) -> sp.spmatrix | None:
@@ -306,22 +325,32 @@ class ReusingSolver:
         reusable = self._factor is not None and key is not None and key == self._key
         if reusable and matrix is self._factored:
             with stage("solve"):
-                return self._factor.solve(rhs)
-        if reusable and similar and not self._stale:
+                return self._timed_solve(rhs)
+        budget = self.pcg_budget
+        if reusable and similar and not self._stale and budget >= 2:
+            start = time.perf_counter()
             with stage("solve"):
-                x, iterations, ok = pcg(
-                    matrix, rhs, self._factor.solve, self.tolerance, self.max_iterations
-                )
+                x, iterations, ok = pcg(matrix, rhs, self._factor.solve, self.tolerance, budget)
+            elapsed = (time.perf_counter() - start) / max(iterations, 1)
+            self._apply_seconds = self._mean(self._apply_seconds, elapsed)
             self.pcg_iterations += iterations
             self.pcg_solves += 1
             if ok:
                 self._stale = iterations > self.refresh_after
                 return x
             log.debug("PCG did not converge in %d iterations: re-factorising", iterations)
+        start = time.perf_counter()
         with stage("factorisation"):
             self._factorise(matrix, key)
+        self._factor_seconds = self._mean(self._factor_seconds, time.perf_counter() - start)
         with stage("solve"):
-            return self._factor.solve(rhs)
+            return self._timed_solve(rhs)
+
+    def _timed_solve(self, rhs: np.ndarray) -> np.ndarray:
+        start = time.perf_counter()
+        x = self._factor.solve(rhs)
+        self._apply_seconds = self._mean(self._apply_seconds, time.perf_counter() - start)
+        return x
 
     def _factorise(self, matrix: sp.csc_matrix, key: object) -> None:
         if self.backend == "pardiso" and matrix.shape[0] >= PARDISO_MIN_SIZE:

@@ -15,7 +15,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dda.assembly import BlockPattern, add_forces, assemble, contacts_key, pattern_key
+from dda.assembly import (
+    BlockPattern,
+    add_forces,
+    assemble,
+    contacts_key,
+    free_pairs,
+    free_rows,
+)
 from dda.blocks import BlockSet
 from dda.contact import law as contact_law
 from dda.contact.contact_set import ContactSet
@@ -42,6 +49,9 @@ class StepSolution:
 MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
 
 
+SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
+
+
 @dataclass
 class LinearCache:
     """What a run keeps between steps: the current block pattern and the solver.
@@ -59,18 +69,25 @@ class LinearCache:
     def pattern_for(self, fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray):
         """The pattern of this contact list.
 
-        The kept one when the list is the same; its structure (ordering, CSR)
-        with new slots when only the list changed but not the block graph;
-        a new one otherwise.
+        The kept one when the list is the same; its structure (ordering, CSR,
+        and so the factorisation's analysis) with new slots while every contact
+        still lands on one of its blocks; else a new one that also keeps the
+        old pattern's pairs (contacts come and go at the search distance), unless
+        those would add more than ``SPARE_PAIRS`` of unused blocks.
         """
         kept = self.pattern
         if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b):
             return kept
-        if kept is not None and kept.key == pattern_key(fixed, block_a, block_b):
+        if kept is not None and kept.covers(fixed, block_a, block_b):
             self.pattern = kept.with_contacts(block_a, block_b)
-        else:
-            self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering)
-            self.coefficients = None
+            return self.pattern
+        extra = None
+        if kept is not None and np.array_equal(kept._fixed, fixed):
+            needed = len(free_pairs(free_rows(fixed), block_a, block_b))
+            if len(kept.pairs) <= SPARE_PAIRS * max(needed, 1):
+                extra = kept.pairs
+        self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering, extra)
+        self.coefficients = None
         return self.pattern
 
 
@@ -124,7 +141,7 @@ def _similar(cache: LinearCache, keys: np.ndarray, springs: np.ndarray) -> bool:
     same = found & np.all(old_springs[:, at] == springs, axis=0) if len(old_keys) else found
     matched = int(np.count_nonzero(found))
     changed = (len(keys) - int(np.count_nonzero(same))) + (len(old_keys) - matched)
-    return changed <= MAX_CHANGED_FOR_PCG
+    return changed <= MAX_CHANGED_FOR_PCG and changed + 2 <= cache.solver.pcg_budget
 
 
 def _forces(base_forces, contacts, rows, law):

@@ -92,3 +92,26 @@ def test_forces_are_summed_per_block():
 
 def test_free_rows_skip_fixed_blocks():
     np.testing.assert_array_equal(free_rows(np.array([False, True, False])), [0, -1, 1])
+
+
+def test_spare_pairs_stay_zero_and_cover_returning_contacts():
+    fixed, a, b, diagonal, terms = random_case(11)
+    keep = np.arange(len(a)) % 3 != 0  # a third of the contacts gone this step
+    spare = BlockPattern(fixed, a, b).pairs
+    pattern = BlockPattern(fixed, a[keep], b[keep], reversed_order, extra_pairs=spare)
+    assert pattern.covers(fixed, a, b) and len(pattern.pairs) == len(spare)
+    kept_terms = [(ri[keep], rj[keep], k[keep]) for ri, rj, k in terms]
+    k = assemble(pattern, diagonal, fixed, kept_terms).toarray()
+    ref = dense_reference(fixed, a[keep], b[keep], diagonal, kept_terms)
+    perm = np.argsort(pattern.position)
+    idx = (6 * perm[:, None] + np.arange(6)).ravel()
+    np.testing.assert_allclose(k, ref[np.ix_(idx, idx)], rtol=1e-12, atol=1e-12)
+    back = pattern.with_contacts(a, b)  # the contacts come back: same structure, same key
+    assert back.key == pattern.key
+    full = assemble(back, diagonal, fixed, terms).toarray()
+    np.testing.assert_allclose(
+        full,
+        dense_reference(fixed, a, b, diagonal, terms)[np.ix_(idx, idx)],
+        rtol=1e-12,
+        atol=1e-12,
+    )

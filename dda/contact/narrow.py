@@ -295,5 +295,6 @@ def _first_of_each(vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
     """Indices keeping one row per (vertex, edge) pair."""
     if len(vertex) == 0:
         return np.zeros(0, dtype=np.int64)
-    _, first = np.unique(np.column_stack([vertex, edge]), axis=0, return_index=True)
+    key = vertex.astype(np.int64) * (int(edge.max()) + 1) + edge  # one integer per pair
+    _, first = np.unique(key, return_index=True)  # first occurrence of each
     return np.sort(first)
