@@ -10,6 +10,7 @@ from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet, contact_keys, merge
 from dda.contact.narrow import detect
 from dda.contact.rows import edge_projection
+from dda.geometry import next_vertex_index
 from dda.result import SLIDING
 
 OUTSIDE_FRACTION = 0.01  # of the search distance: a vertex farther out than this penetrates nothing
@@ -21,18 +22,17 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
     A contact seen for the first time can be no deeper than the search
     distance (nothing moves further in one step): a deeper "penetration" is a
     vertex paired with the far side of a block. Persisting contacts may be
-    deeper (a soft penalty lets blocks sink). A penetrating vertex must lie
-    inside the other block: beyond the end of an edge, its distance behind the
-    edge's extended line is no penetration at all. Sliding contacts get their shear
-    reference point moved under the vertex: their slip is measured from the
-    step start.
+    deeper (a soft penalty lets blocks sink). Pairings that only an edge's
+    extended line makes look like contacts are dropped (see
+    ``_geometrically_sound``). Sliding contacts get their shear reference
+    point moved under the vertex: their slip is measured from the step start.
     """
     pairs = candidate_pairs(blocks, settings.search_distance)
     found = detect(blocks, pairs, settings.search_distance, settings.vertex_radius)
     penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
     persisting = np.isin(contact_keys(blocks, found.vertex, found.edge), previous.key)
     plausible = persisting | (penetration <= settings.search_distance)
-    plausible &= _inside_when_penetrating(
+    plausible &= _geometrically_sound(
         blocks,
         found.vertex,
         found.edge,
@@ -58,28 +58,46 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
     return contacts
 
 
-def _inside_when_penetrating(blocks, vertex, edge, penetration, tolerance, outside) -> np.ndarray:
-    """False for a vertex that claims to penetrate an edge but lies outside its block.
+def _segment_distance(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
+    """Euclidean distance from each vertex to its edge segment."""
+    p1, p2 = blocks.vertices[vertex], blocks.vertices[edge]
+    p3 = blocks.vertices[next_vertex_index(blocks.offsets)[edge]]
+    e = p3 - p2
+    t = np.clip(np.einsum("ij,ij->i", p1 - p2, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+    return np.linalg.norm(p1 - (p2 + t[:, None] * e), axis=1)
 
-    "Outside" means farther than ``outside`` from the block: a corner resting
-    on a coincident corner sits on the boundary, or just off it after the
-    blocks strain, and is a real contact.
-    """
-    keep = np.ones(len(vertex), dtype=bool)
-    deep = np.flatnonzero(penetration > tolerance)
-    if len(deep) == 0:
-        return keep
-    owner = blocks.vertex_owner
-    rows, local = np.unique(owner[edge[deep]], return_inverse=True)
+
+def _polygons(blocks: BlockSet, rows: np.ndarray) -> np.ndarray:
+    """shapely polygons of the given block rows (no Python loop over blocks)."""
     starts = blocks.offsets[rows]
     counts = blocks.offsets[rows + 1] - starts
-    take = np.concatenate([np.arange(a, a + c) for a, c in zip(starts, counts, strict=True)])
-    rings = shapely.linearrings(
-        blocks.vertices[take], indices=np.repeat(np.arange(len(rows)), counts)
-    )
-    polygons = shapely.polygons(rings)
-    points = blocks.vertices[vertex[deep]]
-    keep[deep] = shapely.distance(polygons[local], shapely.points(points)) <= outside
+    ring = np.repeat(np.arange(len(rows)), counts)
+    take = starts[ring] + np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    return shapely.polygons(shapely.linearrings(blocks.vertices[take], indices=ring))
+
+
+def _geometrically_sound(blocks, vertex, edge, penetration, tolerance, slack) -> np.ndarray:
+    """Drop pairings that only the edge's extended line makes look like contacts.
+
+    * The vertex must be about as near its edge as it is to the edge block's
+      whole boundary: a vertex lying on one edge of a block (a T-junction, a
+      corner) is not also "behind" another edge of that block.
+    * A vertex that penetrates must lie inside the block (within ``slack``).
+    """
+    keep = np.ones(len(vertex), dtype=bool)
+    if len(vertex) == 0:
+        return keep
+    far = _segment_distance(blocks, vertex, edge)
+    check = np.flatnonzero((far > slack) | (penetration > tolerance))
+    if len(check) == 0:
+        return keep
+    rows, local = np.unique(blocks.vertex_owner[edge[check]], return_inverse=True)
+    polygons = _polygons(blocks, rows)[local]
+    points = shapely.points(blocks.vertices[vertex[check]])
+    boundary = shapely.distance(shapely.boundary(polygons), points)
+    near_enough = far[check] <= boundary + slack
+    inside = (penetration[check] <= tolerance) | (shapely.distance(polygons, points) <= slack)
+    keep[check] = near_enough & inside
     return keep
 
 
