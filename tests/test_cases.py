@@ -40,6 +40,10 @@ def top_block_x(result):
     return float(result.final.displacements[_row(result.final, "top"), 0])
 
 
+def total_area(result):
+    return float(result.final.areas.sum())
+
+
 def block_syy(name):
     return lambda result: float(result.final.stresses[_row(result.final, name), 1])
 
@@ -61,6 +65,10 @@ EXPECTED = {
     # regression: no fracture at the paper's loads (docs/fracture.md); rock sigma_yy after
     # 120 steps; the peak, -3.86e5 psf = 0.52 C0, comes at step 24
     "paper_uniaxial_fracture": ({}, block_syy("rock"), -2.3955e5, 0.02),
+    # the cut blocks tile the rock (1900 m2; 849.878 m2 around the tunnel) and keep
+    # their area while they start to move (3 steps; the full runs are CLI runs)
+    "rock_slope": ({"steps": 3}, total_area, 1900.0, 1e-5),
+    "tunnel": ({"steps": 3}, total_area, 849.87794, 1e-6),
 }
 
 

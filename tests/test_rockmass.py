@@ -604,16 +604,10 @@ WEDGE_TRIPLE = [  # a free wedge in the V between two fixed blocks, apex on a T 
 ]
 
 
-CREST_BUG = (
-    "engine: a vertex on a neighbour's corner is paired with a non-adjacent edge of it "
-    "within the search distance (0.2 m 'penetration') and the block is thrown out"
-)
-
-
 @pytest.mark.parametrize(
     "blocks",
     [
-        pytest.param(CREST_PAIR, marks=pytest.mark.xfail(reason=CREST_BUG, strict=False)),
+        CREST_PAIR,
         WEDGE_TRIPLE,
     ],
     ids=["crest", "wedge"],
@@ -690,7 +684,7 @@ def test_example_scenes_cut_into_blocks_that_tile_the_rock(name, count):
 @pytest.mark.parametrize(
     "name",
     [
-        pytest.param("rock_slope", marks=pytest.mark.xfail(reason=CREST_BUG, strict=False)),
+        "rock_slope",
         "tunnel",
     ],
 )
