@@ -284,11 +284,6 @@ def test_paper_fig3_runs_to_the_end_with_valid_blocks():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    reason="engine: fragments meeting at one vertex (a shear split) let a vertex enter the "
-    "opposite fragment; the contacts then never settle (step cut to 1e-13 s)",
-    strict=False,
-)
 def test_paper_fig3_with_three_times_the_load_fractures_and_runs_on():
     result = dda.simulate(fig3(3.0))
     assert result.fracture_events and result.fracture_events[0].mode == "shear"

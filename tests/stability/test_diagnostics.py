@@ -34,8 +34,11 @@ def test_a_step_that_cannot_settle_stops_with_the_step_time_and_reason():
     check_areas(dda.load_scene(raw), partial)
 
 
-@pytest.mark.xfail(reason="the fracture effect (dda/fracture, another developer's work) has "
-                   "not landed in main: remove this mark when it has", strict=False)
+@pytest.mark.xfail(
+    reason="engine: in a pile of ~40 fragments, contacts carrying almost no force flip "
+    "locked/sliding/open on 1e-10 m motions and a step never settles (open issue)",
+    strict=False,
+)
 def test_repeated_fracturing_down_to_the_minimum_fragment():
     """A weak block crushed by a heavy one breaks again and again, never below min_area."""
     weak = {
