@@ -47,3 +47,24 @@ def slope_scene(
             },
         ],
     }
+
+
+def projectile_scene(omega: float = 0.0) -> dict:
+    """A free unit square thrown at (3, 4) m/s (spinning at ``omega``) under gravity, 1 s."""
+    return {
+        "analysis": {
+            "time_step": 0.01,
+            "duration": 1.0,
+            "gravity": [0.0, -G],
+            "max_displacement_ratio": 0.9,
+        },
+        "materials": {"rock": ROCK},
+        "blocks": [
+            {
+                "name": "b",
+                "material": "rock",
+                "vertices": rectangle(0, 0, 1, 1),
+                "velocity": [3.0, 4.0, omega],
+            }
+        ],
+    }

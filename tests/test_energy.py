@@ -8,7 +8,7 @@ import pytest
 import dda
 from dda.energy import EnergyTerms, contact_energy, elastic_energy, kinetic_energy
 from dda.model import build
-from tests.helpers import ROCK, G, rectangle, slope_scene
+from tests.helpers import ROCK, G, projectile_scene, rectangle, slope_scene
 
 
 def one_block(**block) -> dda.Scene:
@@ -62,23 +62,7 @@ def test_history_has_every_energy_column_per_step():
 
 def test_free_flight_conserves_kinetic_plus_potential():
     """Shi's scheme is exact for constant acceleration: T + V constant to round-off."""
-    scene = {
-        "analysis": {
-            "time_step": 0.01,
-            "duration": 1.0,
-            "gravity": [0.0, -G],
-            "max_displacement_ratio": 0.9,
-        },
-        "materials": {"rock": ROCK},
-        "blocks": [
-            {
-                "name": "b",
-                "material": "rock",
-                "vertices": rectangle(0, 0, 1, 1),
-                "velocity": [3.0, 4.0, 1.0],
-            }
-        ],
-    }
+    scene = projectile_scene(omega=1.0)
     result = dda.simulate(scene)
     initial = result.summary["initial_energy"]
     # datum: the lowest vertex at t = 0 (y = 0); V0 = m g / 2, T0 = m 25 / 2 + I / 2

@@ -6,28 +6,12 @@ import numpy as np
 import pytest
 
 import dda
-from tests.helpers import ROCK, G, rectangle, slope_scene
+from tests.helpers import ROCK, G, projectile_scene, rectangle, slope_scene
 
 
 def test_projectile_is_exact_for_constant_acceleration():
     """Shi's scheme integrates free fall exactly: error < 1e-9 m after 1 s."""
-    scene = {
-        "analysis": {
-            "time_step": 0.01,
-            "duration": 1.0,
-            "gravity": [0.0, -G],
-            "max_displacement_ratio": 0.9,
-        },
-        "materials": {"rock": ROCK},
-        "blocks": [
-            {
-                "name": "b",
-                "material": "rock",
-                "vertices": rectangle(0, 0, 1, 1),
-                "velocity": [3.0, 4.0, 0.0],
-            }
-        ],
-    }
+    scene = projectile_scene(omega=0.0)
     final = dda.simulate(scene).final
     expected = np.array([0.5 + 3.0, 0.5 + 4.0 - G / 2])
     assert final.time == pytest.approx(1.0, abs=1e-12)
