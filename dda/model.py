@@ -67,17 +67,21 @@ def initial_blocks(scene: Scene, material_rows: dict[str, int], joint_rows: dict
     """BlockSet at t = 0 from the scene's blocks."""
     polygons = [np.asarray(b.vertices, dtype=float) for b in scene.blocks]
     vertices, offsets = pack_polygons(polygons)
-    edge_joint = np.concatenate(
-        [
-            np.array(
-                [joint_rows.get(j, -1) if j else -1 for j in b.edge_joints]
-                if b.edge_joints
-                else [-1] * len(b.vertices),
-                dtype=np.int64,
-            )
-            for b in scene.blocks
-        ]
-    ) if scene.blocks else np.zeros(0, np.int64)
+    edge_joint = (
+        np.concatenate(
+            [
+                np.array(
+                    [joint_rows.get(j, -1) if j else -1 for j in b.edge_joints]
+                    if b.edge_joints
+                    else [-1] * len(b.vertices),
+                    dtype=np.int64,
+                )
+                for b in scene.blocks
+            ]
+        )
+        if scene.blocks
+        else np.zeros(0, np.int64)
+    )
     n = len(scene.blocks)
     velocity = np.zeros((n, 6))
     velocity[:, [0, 1, 2]] = np.array([b.velocity for b in scene.blocks]).reshape(n, 3)
@@ -187,8 +191,12 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
         cohesion=np.array([j.cohesion for j in joints]),
         tensile=np.array([j.tensile_strength for j in joints]),
         interface_ids=np.array(
-            [[blocks.names.index(i.blocks[0]), blocks.names.index(i.blocks[1])]
-             for i in scene.interfaces], dtype=np.int64).reshape(-1, 2),
+            [
+                [blocks.names.index(i.blocks[0]), blocks.names.index(i.blocks[1])]
+                for i in scene.interfaces
+            ],
+            dtype=np.int64,
+        ).reshape(-1, 2),
         interface_joint=np.array([joint_rows[i.joint] for i in scene.interfaces], np.int64),
     )
     extent = float(max(blocks.vertices.max(axis=0) - blocks.vertices.min(axis=0)))

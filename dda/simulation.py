@@ -75,9 +75,7 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
         return None, 0.25, "non-finite solution"
     if not solution.converged:
         return None, 0.5, "contacts did not settle"
-    moved = np.abs(vertex_displacements(run.blocks, solution.d, m.exact_rotation)).max(
-        initial=0.0
-    )
+    moved = np.abs(vertex_displacements(run.blocks, solution.d, m.exact_rotation)).max(initial=0.0)
     if moved > m.allowed_displacement * (1 + 1e-9):
         return None, max(0.1, 0.9 * m.allowed_displacement / moved), "displacement above g2"
     return solution, 1.0, ""
@@ -142,8 +140,14 @@ def _fracture(run: _Run, ctx: StepContext) -> None:
     if not events:
         return
     parent_of = np.array(
-        [old.names.index(name.rsplit("/", 1)[0]) if name not in old.names else
-         old.names.index(name) for name in new.names], dtype=np.int64)
+        [
+            old.names.index(name.rsplit("/", 1)[0])
+            if name not in old.names
+            else old.names.index(name)
+            for name in new.names
+        ],
+        dtype=np.int64,
+    )
     for effect in run.model.effects:
         effect.on_blocks_replaced(old, new, parent_of)
     run.blocks = new

@@ -18,8 +18,10 @@ TINY = "method=al,penalty;penalty=1;tolerance=1e-4;time_step=0.02;ratio=0.01"
 
 
 def test_grid_spec_fills_defaults_and_expands_without_duplicates():
-    grid = parse_grid("method=al,penalty;time_step=0.01,0.005",
-                      {"penalty": [1.0], "tolerance": [1e-4, 1e-6], "ratio": [0.01]})
+    grid = parse_grid(
+        "method=al,penalty;time_step=0.01,0.005",
+        {"penalty": [1.0], "tolerance": [1e-4, 1e-6], "ratio": [0.01]},
+    )
     settings = expand(grid)
     # AL: 2 tolerances x 2 steps; penalty ignores the tolerance: 2 steps
     assert len(settings) == 6
@@ -56,8 +58,9 @@ def test_sliding_block_run_measures_the_closed_form_error():
 def test_serial_sweep_writes_csv_table_and_plot(tmp_path, capsys):
     parser = argparse.ArgumentParser()
     register(parser.add_subparsers())
-    args = parser.parse_args(["tradeoff", "sliding_block", "--grid", TINY, "-o", str(tmp_path),
-                              "--serial"])
+    args = parser.parse_args(
+        ["tradeoff", "sliding_block", "--grid", TINY, "-o", str(tmp_path), "--serial"]
+    )
     assert args.func(args) == 0
     assert (tmp_path / "sliding_block.csv").read_text().count("\n") == 3
     assert "| augmented-lagrangian |" in (tmp_path / "sliding_block.md").read_text()

@@ -59,8 +59,9 @@ class ContactSet:
     def empty(cls) -> ContactSet:
         i = np.zeros(0, dtype=np.int64)
         f = np.zeros(0)
-        return cls(i, i, i, i, i, np.zeros(0, np.int8), f, f, f, f, f, f,
-                   np.zeros(0, bool), f, f, f)
+        return cls(
+            i, i, i, i, i, np.zeros(0, np.int8), f, f, f, f, f, f, np.zeros(0, bool), f, f, f
+        )
 
     def copy(self) -> ContactSet:
         return ContactSet(**{f.name: getattr(self, f.name).copy() for f in fields(self)})
@@ -121,8 +122,18 @@ def merge(
     )
     if len(previous) and m:
         _, new_rows, old_rows = np.intersect1d(keys, previous.key, return_indices=True)
-        for name in ("state", "normal_multiplier", "shear_multiplier", "penalty", "reference",
-                     "slide_direction", "intact", "normal_force", "shear_force", "penetration"):
+        for name in (
+            "state",
+            "normal_multiplier",
+            "shear_multiplier",
+            "penalty",
+            "reference",
+            "slide_direction",
+            "intact",
+            "normal_force",
+            "shear_force",
+            "penetration",
+        ):
             getattr(new, name)[new_rows] = getattr(previous, name)[old_rows]
     # An open contact has no shear reference yet: measure from the vertex's current
     # projection, so a contact that closes during the step does not start with the

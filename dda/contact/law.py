@@ -131,9 +131,7 @@ def update(
     if law.friction:
         shear_noise = law.shear_ratio * p * eps
         slips = (
-            still_closed
-            & (state == LOCKED)
-            & (np.abs(trial_shear) > shear_capacity + shear_noise)
+            still_closed & (state == LOCKED) & (np.abs(trial_shear) > shear_capacity + shear_noise)
         )
         sticks = still_closed & (state == SLIDING) & (contacts.slide_direction * s < -eps)
         new_state[slips] = SLIDING
@@ -209,6 +207,7 @@ def _raise_penalties(contacts, d, previous_d, closed, law) -> bool:
     )
     if not slow.any():
         return False
-    contacts.penalty[slow] = np.minimum(contacts.penalty[slow] * law.penalty_growth,
-                                        law.max_penalty)
+    contacts.penalty[slow] = np.minimum(
+        contacts.penalty[slow] * law.penalty_growth, law.max_penalty
+    )
     return True

@@ -79,12 +79,18 @@ def sliding_block() -> Case:
     g, theta, phi = 9.81, np.radians(30.0), np.radians(20.0)
     exact = 0.5 * g * (np.sin(theta) - np.cos(theta) * np.tan(phi))
     return Case(
-        "sliding_block", _load("sliding_block"),
+        "sliding_block",
+        _load("sliding_block"),
         lambda r: np.array([np.linalg.norm(r.final.displacements[_row(r, "slider")])]),
-        np.array([exact]), "distance slid in 1 s (m)",
-        {"method": ["augmented-lagrangian", "penalty"], "penalty": [0.1, 1.0, 10.0],
-         "tolerance": [1e-4, 1e-6], "time_step": [0.02, 0.01, 0.005],
-         "ratio": [0.01, 0.002]},
+        np.array([exact]),
+        "distance slid in 1 s (m)",
+        {
+            "method": ["augmented-lagrangian", "penalty"],
+            "penalty": [0.1, 1.0, 10.0],
+            "tolerance": [1e-4, 1e-6],
+            "time_step": [0.02, 0.01, 0.005],
+            "ratio": [0.01, 0.002],
+        },
     )
 
 
@@ -103,10 +109,18 @@ def pushed_block() -> Case:
         return np.array([2 * r.final.displacements[_row(r, "top"), 0] / r.final.time**2])
 
     return Case(
-        "pushed_block", raw, acceleration, np.array([exact]), "acceleration (ft/s²)",
-        {"method": ["augmented-lagrangian", "penalty"], "penalty": [1e-4, 1e-2, 1.0, 10.0],
-         "tolerance": [1e-4, 1e-6], "time_step": [0.02, 0.01, 0.005],
-         "ratio": [0.01]},
+        "pushed_block",
+        raw,
+        acceleration,
+        np.array([exact]),
+        "acceleration (ft/s²)",
+        {
+            "method": ["augmented-lagrangian", "penalty"],
+            "penalty": [1e-4, 1e-2, 1.0, 10.0],
+            "tolerance": [1e-4, 1e-6],
+            "time_step": [0.02, 0.01, 0.005],
+            "ratio": [0.01],
+        },
     )
 
 
@@ -114,11 +128,18 @@ def stack() -> Case:
     raw = _load("stack", duration=0.2)
     exact = -2700.0 * 9.81 * 4.5
     return Case(
-        "stack", raw, lambda r: np.array([r.final.stresses[_row(r, "block1"), 1]]),
-        np.array([exact]), "σyy of the bottom block at 0.2 s (Pa)",
-        {"method": ["augmented-lagrangian", "penalty"], "penalty": [0.1, 1.0, 10.0],
-         "tolerance": [1e-4, 1e-6], "time_step": [0.004, 0.002, 0.001],
-         "ratio": [0.01, 0.002]},
+        "stack",
+        raw,
+        lambda r: np.array([r.final.stresses[_row(r, "block1"), 1]]),
+        np.array([exact]),
+        "σyy of the bottom block at 0.2 s (Pa)",
+        {
+            "method": ["augmented-lagrangian", "penalty"],
+            "penalty": [0.1, 1.0, 10.0],
+            "tolerance": [1e-4, 1e-6],
+            "time_step": [0.004, 0.002, 0.001],
+            "ratio": [0.01, 0.002],
+        },
     )
 
 
@@ -126,11 +147,18 @@ def scene_file(path: str) -> Case:
     """Any scene file: final centroids against a fine run."""
     raw = tomllib.loads(Path(path).read_text())
     return Case(
-        Path(path).stem, raw, lambda r: r.final.centroids.ravel(), None,
+        Path(path).stem,
+        raw,
+        lambda r: r.final.centroids.ravel(),
+        None,
         "final centroids (error / model size)",
-        {"method": ["augmented-lagrangian", "penalty"], "penalty": [1.0, 10.0],
-         "tolerance": [1e-4, 1e-6], "time_step": [raw.get("analysis", {}).get("time_step", 1e-3)],
-         "ratio": [0.01]},
+        {
+            "method": ["augmented-lagrangian", "penalty"],
+            "penalty": [1.0, 10.0],
+            "tolerance": [1e-4, 1e-6],
+            "time_step": [raw.get("analysis", {}).get("time_step", 1e-3)],
+            "ratio": [0.01],
+        },
     )
 
 
@@ -149,5 +177,10 @@ def get_case(name: str) -> Case:
 def fine_setting(grid: dict[str, list]) -> Setting:
     """The converged reference run: AL, the stiffest penalty, 1/10 of the smallest
     tolerance, 1/4 of the smallest time step and ratio."""
-    return Setting("augmented-lagrangian", max(grid["penalty"]), min(grid["tolerance"]) / 10,
-                   min(grid["time_step"]) / 4, min(grid["ratio"]) / 4)
+    return Setting(
+        "augmented-lagrangian",
+        max(grid["penalty"]),
+        min(grid["tolerance"]) / 10,
+        min(grid["time_step"]) / 4,
+        min(grid["ratio"]) / 4,
+    )

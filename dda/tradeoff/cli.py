@@ -26,12 +26,19 @@ def register(subparsers: Any) -> None:
         "the wall time; write DIR/CASE.csv, DIR/CASE.md and DIR/pareto_CASE.png.",
     )
     p.add_argument("case", help="built-in case name or scene file")
-    p.add_argument("--grid", default="", metavar="SPEC",
-                   help="e.g. 'method=al,penalty;penalty=1,10;tolerance=1e-4;time_step=0.01;"
-                        "ratio=0.01' (keys not given keep the case's defaults)")
+    p.add_argument(
+        "--grid",
+        default="",
+        metavar="SPEC",
+        help="e.g. 'method=al,penalty;penalty=1,10;tolerance=1e-4;time_step=0.01;"
+        "ratio=0.01' (keys not given keep the case's defaults)",
+    )
     p.add_argument("-o", "--outdir", type=Path, default=Path("out/tradeoff"))
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="dask scheduler (default: a local cluster of 2 workers)")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="dask scheduler (default: a local cluster of 2 workers)",
+    )
     p.add_argument("--serial", action="store_true", help="run in this process (debugging)")
     p.set_defaults(func=tradeoff_command)
 
@@ -53,8 +60,9 @@ def tradeoff_command(args: argparse.Namespace) -> int:
             return 3
         reference = fine["value"]
     print(f"{case.name}: {len(settings)} runs", file=sys.stderr)
-    rows = sweep(args.case, settings, scheduler=args.scheduler, serial=args.serial,
-                 progress=_progress)
+    rows = sweep(
+        args.case, settings, scheduler=args.scheduler, serial=args.serial, progress=_progress
+    )
     add_errors(rows, args.case, reference)
     outdir = args.outdir
     write_csv(rows, outdir / f"{case.name}.csv")
@@ -66,6 +74,9 @@ def tradeoff_command(args: argparse.Namespace) -> int:
 
 
 def _progress(done: int, total: int, row: dict) -> None:
-    print(f"[{done}/{total}] {row['method']:<22} p={row['penalty']:<6g} "
-          f"dt={row['time_step']:<7g} {row['seconds']:6.2f} s {row['status']}",
-          file=sys.stderr, flush=True)
+    print(
+        f"[{done}/{total}] {row['method']:<22} p={row['penalty']:<6g} "
+        f"dt={row['time_step']:<7g} {row['seconds']:6.2f} s {row['status']}",
+        file=sys.stderr,
+        flush=True,
+    )

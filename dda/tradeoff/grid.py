@@ -17,8 +17,11 @@ from __future__ import annotations
 import itertools
 from dataclasses import asdict, dataclass
 
-ALIASES = {"al": "augmented-lagrangian", "augmented-lagrangian": "augmented-lagrangian",
-           "penalty": "penalty"}
+ALIASES = {
+    "al": "augmented-lagrangian",
+    "augmented-lagrangian": "augmented-lagrangian",
+    "penalty": "penalty",
+}
 KEYS = ("method", "penalty", "tolerance", "time_step", "ratio")
 
 
@@ -38,8 +41,7 @@ class Setting:
     @property
     def label(self) -> str:
         tol = f" tol={self.tolerance:g}" if self.method != "penalty" else ""
-        return (f"{self.method} p={self.penalty:g}E{tol} dt={self.time_step:g} "
-                f"g2={self.ratio:g}")
+        return f"{self.method} p={self.penalty:g}E{tol} dt={self.time_step:g} g2={self.ratio:g}"
 
 
 def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, list]:
@@ -59,8 +61,9 @@ def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, 
         words = [w.strip() for w in items.split(",") if w.strip()]
         if not words:
             raise ValueError(f"grid key {key!r} has no values")
-        values[key] = [_method(w) for w in words] if key == "method" else [
-            _positive(w, key) for w in words]
+        values[key] = (
+            [_method(w) for w in words] if key == "method" else [_positive(w, key) for w in words]
+        )
     missing = [k for k in KEYS if k not in values]
     if missing:
         raise ValueError(f"grid lacks {', '.join(missing)}")

@@ -8,8 +8,21 @@ from pathlib import Path
 
 from dda.tradeoff.pareto import fronts_by_method
 
-COLUMNS = ("case", "method", "penalty", "tolerance", "time_step", "ratio", "status", "steps",
-           "seconds", "error", "max_penetration", "value", "reference")
+COLUMNS = (
+    "case",
+    "method",
+    "penalty",
+    "tolerance",
+    "time_step",
+    "ratio",
+    "status",
+    "steps",
+    "seconds",
+    "error",
+    "max_penetration",
+    "value",
+    "reference",
+)
 
 
 def write_csv(rows: list[dict], path: Path) -> Path:
@@ -33,16 +46,20 @@ def _cell(value):
 
 def markdown_table(rows: list[dict], quantity: str = "") -> str:
     """The Pareto fronts, one block of rows per method."""
-    lines = [f"Quantity: {quantity}." if quantity else "",
-             "",
-             "| method | penalty (×E) | tolerance (×size) | Δt | g2 | error | seconds | steps |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"Quantity: {quantity}." if quantity else "",
+        "",
+        "| method | penalty (×E) | tolerance (×size) | Δt | g2 | error | seconds | steps |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for method, front in fronts_by_method(rows).items():
         for r in front:
             tol = "–" if method == "penalty" else f"{r['tolerance']:g}"
-            lines.append(f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
-                         f"| {r['ratio']:g} | {r['error']:.2e} | {r['seconds']:.2f} "
-                         f"| {r['steps']} |")
+            lines.append(
+                f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
+                f"| {r['ratio']:g} | {r['error']:.2e} | {r['seconds']:.2f} "
+                f"| {r['steps']} |"
+            )
     failed = sum(r["status"] != "finished" for r in rows)
     lines.append("")
     lines.append(f"{len(rows)} runs, {failed} stopped with a SimulationError.")
@@ -60,10 +77,20 @@ def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
     for k, (method, front) in enumerate(fronts_by_method(rows).items()):
         colour = f"C{k}"
         runs = [r for r in rows if r["method"] == method and not math.isnan(r["error"])]
-        ax.scatter([r["seconds"] for r in runs], [max(r["error"], 1e-16) for r in runs],
-                   s=12, color=colour, alpha=0.35)
-        ax.plot([r["seconds"] for r in front], [max(r["error"], 1e-16) for r in front],
-                "o-", color=colour, label=f"{method} (front)")
+        ax.scatter(
+            [r["seconds"] for r in runs],
+            [max(r["error"], 1e-16) for r in runs],
+            s=12,
+            color=colour,
+            alpha=0.35,
+        )
+        ax.plot(
+            [r["seconds"] for r in front],
+            [max(r["error"], 1e-16) for r in front],
+            "o-",
+            color=colour,
+            label=f"{method} (front)",
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time of the run (s)")

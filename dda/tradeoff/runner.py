@@ -31,14 +31,21 @@ def _warm_up() -> None:
     caches) are not charged to the first measured run."""
     global _WARM
     if not _WARM:
-        dda.simulate({
-            "analysis": {"steps": 2},
-            "materials": {"r": {"density": 1.0, "young": 1.0, "poisson": 0.2}},
-            "blocks": [{"name": "a", "material": "r", "fixed": True,
-                        "vertices": [[0, -1], [2, -1], [2, 0], [0, 0]]},
-                       {"name": "b", "material": "r",
-                        "vertices": [[0, 0], [1, 0], [1, 1], [0, 1]]}],
-        })
+        dda.simulate(
+            {
+                "analysis": {"steps": 2},
+                "materials": {"r": {"density": 1.0, "young": 1.0, "poisson": 0.2}},
+                "blocks": [
+                    {
+                        "name": "a",
+                        "material": "r",
+                        "fixed": True,
+                        "vertices": [[0, -1], [2, -1], [2, 0], [0, 0]],
+                    },
+                    {"name": "b", "material": "r", "vertices": [[0, 0], [1, 0], [1, 1], [0, 1]]},
+                ],
+            }
+        )
         _WARM = True
 
 
@@ -60,9 +67,15 @@ def run_one(case_name: str, setting: Setting) -> dict:
         value, status, steps, penetration = None, "failed", 0, float("nan")
         log.info("%s %s: %s", case_name, setting.label, exc)
     seconds = time.perf_counter() - start
-    return {**setting.as_dict(), "case": case_name, "status": status, "seconds": seconds,
-            "steps": steps, "max_penetration": penetration,
-            "value": None if value is None else np.asarray(value, float).tolist()}
+    return {
+        **setting.as_dict(),
+        "case": case_name,
+        "status": status,
+        "seconds": seconds,
+        "steps": steps,
+        "max_penetration": penetration,
+        "value": None if value is None else np.asarray(value, float).tolist(),
+    }
 
 
 def add_errors(rows: list[dict], case_name: str, reference: np.ndarray | None) -> None:
@@ -77,8 +90,13 @@ def add_errors(rows: list[dict], case_name: str, reference: np.ndarray | None) -
             row["error"] = relative_error(np.asarray(row["value"]), reference, scale)
 
 
-def sweep(case_name: str, settings: list[Setting], scheduler: str | None = None,
-          serial: bool = False, progress: Progress | None = None) -> list[dict]:
+def sweep(
+    case_name: str,
+    settings: list[Setting],
+    scheduler: str | None = None,
+    serial: bool = False,
+    progress: Progress | None = None,
+) -> list[dict]:
     """Run every setting; rows in completion order (with ``progress(done, total, row)``)."""
     if serial:
         rows = []
@@ -95,8 +113,9 @@ def _distributed(case_name, settings, scheduler, progress) -> list[dict]:
 
     cluster = None
     if scheduler is None:
-        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        cluster = LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        )
     client = Client(scheduler or cluster)
     try:
         futures = client.map(run_one, [case_name] * len(settings), settings, pure=False)
