@@ -11,6 +11,7 @@ and re-factorised only when that stops paying.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,6 +26,7 @@ from dda.assembly import (
 )
 from dda.blocks import BlockSet
 from dda.contact import law as contact_law
+from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import ContactRows, contact_rows
 from dda.effects.base import StepContext
@@ -50,6 +52,7 @@ MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG 
 
 
 SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
+NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
 
 
 @dataclass
@@ -66,14 +69,22 @@ class LinearCache:
     solver: ReusingSolver = field(default_factory=ReusingSolver)
     coefficients: tuple[np.ndarray, np.ndarray] | None = None  # sorted contact keys, springs
 
-    def pattern_for(self, fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray):
+    def pattern_for(
+        self,
+        fixed: np.ndarray,
+        block_a: np.ndarray,
+        block_b: np.ndarray,
+        neighbours: Callable[[], np.ndarray] | None = None,
+    ):
         """The pattern of this contact list.
 
         The kept one when the list is the same; its structure (ordering, CSR,
         and so the factorisation's analysis) with new slots while every contact
-        still lands on one of its blocks; else a new one that also keeps the
-        old pattern's pairs (contacts come and go at the search distance), unless
-        those would add more than ``SPARE_PAIRS`` of unused blocks.
+        still lands on one of its blocks; else a new one. A new pattern also
+        holds the pairs of blocks ``neighbours()`` returns (pairs of blocks
+        close enough to come into contact soon) and the old pattern's pairs
+        (up to ``SPARE_PAIRS`` per needed pair): contacts come and go at the
+        search distance, and each new pattern costs an ordering and an analysis.
         """
         kept = self.pattern
         if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b):
@@ -81,12 +92,17 @@ class LinearCache:
         if kept is not None and kept.covers(fixed, block_a, block_b):
             self.pattern = kept.with_contacts(block_a, block_b)
             return self.pattern
-        extra = None
+        rows = free_rows(fixed)
+        extra = []
+        if neighbours is not None:
+            near = neighbours()
+            extra.append(free_pairs(rows, near[:, 0], near[:, 1]))
         if kept is not None and np.array_equal(kept._fixed, fixed):
-            needed = len(free_pairs(free_rows(fixed), block_a, block_b))
+            needed = len(free_pairs(rows, block_a, block_b))
             if len(kept.pairs) <= SPARE_PAIRS * max(needed, 1):
-                extra = kept.pairs
-        self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering, extra)
+                extra.append(kept.pairs)
+        spare = np.concatenate(extra) if extra else None
+        self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering, spare)
         self.coefficients = None
         return self.pattern
 
@@ -211,7 +227,12 @@ def solve_step(
         rows = contact_rows(blocks, contacts)
         joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
     with timer("assembly"):
-        pattern = cache.pattern_for(blocks.fixed, contacts.block_a, contacts.block_b)
+        pattern = cache.pattern_for(
+            blocks.fixed,
+            contacts.block_a,
+            contacts.block_b,
+            neighbours=lambda: candidate_pairs(blocks, NEIGHBOUR_MARGIN * cm.search_distance),
+        )
     k = springs = None
     previous_pen = None
     iterations = 0
