@@ -46,6 +46,8 @@ class BlockPattern:
     extra_pairs : (q, 2) pairs of free rows (lo < hi) to keep in the structure
         although no contact joins them now (their blocks are zero), so that a
         contact coming back does not need a new pattern.
+    active : (m,) bool, the contacts that add to K (closed ones); the others
+        (open: no spring) need no block and get no slot. None: all.
 
     Attributes
     ----------
@@ -65,23 +67,25 @@ class BlockPattern:
         block_b: np.ndarray,
         ordering: Callable[[int, np.ndarray], np.ndarray] | None = None,
         extra_pairs: np.ndarray | None = None,
+        active: np.ndarray | None = None,
     ) -> None:
         rows = free_rows(fixed)
         self._fixed = np.asarray(fixed, dtype=bool).copy()
         self.nfree = int((~fixed).sum())
-        pairs = free_pairs(rows, block_a, block_b)
+        act = _active(active, len(block_a))
+        pairs = free_pairs(rows, block_a[act], block_b[act])
         if extra_pairs is not None and len(extra_pairs):
             pairs = np.unique(np.concatenate([pairs, extra_pairs]), axis=0)
         self.pairs = pairs
         self._pair_keys = pairs[:, 0] * max(self.nfree, 1) + pairs[:, 1]
         self.key = graph_key(fixed, pairs)
-        self.contacts_key = contacts_key(fixed, block_a, block_b)
+        self.contacts_key = contacts_key(fixed, block_a, block_b, active)
         self.position = (
             np.arange(self.nfree) if ordering is None else np.asarray(ordering(self.nfree, pairs))
         )
         self.block_of_row = np.where(rows >= 0, self.position[np.maximum(rows, 0)], -1)
         self._build_structure(pairs)
-        self._contact_slots(block_a, block_b)
+        self._contact_slots(block_a, block_b, act)
         self._flat_targets: np.ndarray | None = None
         self._diagonal_targets: np.ndarray | None = None
 
@@ -120,11 +124,18 @@ class BlockPattern:
         want = brow.astype(np.int64) * max(self.nfree, 1) + bcol
         return np.searchsorted(self._block_key, want)
 
-    def covers(self, fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bool:
-        """True when every contact lands on a block of this pattern (same fixed blocks)."""
+    def covers(
+        self,
+        fixed: np.ndarray,
+        block_a: np.ndarray,
+        block_b: np.ndarray,
+        active: np.ndarray | None = None,
+    ) -> bool:
+        """True when every (active) contact lands on a block of this pattern."""
         if len(fixed) != len(self._fixed) or not np.array_equal(fixed, self._fixed):
             return False
-        pairs = free_pairs(free_rows(fixed), block_a, block_b)
+        act = _active(active, len(block_a))
+        pairs = free_pairs(free_rows(fixed), block_a[act], block_b[act])
         if len(pairs) == 0:
             return True
         keys = pairs[:, 0] * max(self.nfree, 1) + pairs[:, 1]
@@ -132,17 +143,23 @@ class BlockPattern:
         inside = at < len(self._pair_keys)
         return bool(inside.all() and np.all(self._pair_keys[at] == keys))
 
-    def with_contacts(self, block_a: np.ndarray, block_b: np.ndarray) -> BlockPattern:
+    def with_contacts(
+        self, block_a: np.ndarray, block_b: np.ndarray, active: np.ndarray | None = None
+    ) -> BlockPattern:
         """The same pattern (same graph) with the slots of another contact list."""
         other = copy.copy(self)
-        other.contacts_key = contacts_key(self._fixed, block_a, block_b)
-        other._contact_slots(block_a, block_b)
+        other.contacts_key = contacts_key(self._fixed, block_a, block_b, active)
+        other._contact_slots(block_a, block_b, _active(active, len(block_a)))
         other._flat_targets = None
         return other
 
-    def _contact_slots(self, block_a: np.ndarray, block_b: np.ndarray) -> None:
-        """Where the ii, jj, ij and ji parts of each contact go (-1: nowhere)."""
-        ra, rb = self.block_of_row[block_a], self.block_of_row[block_b]
+    def _contact_slots(self, block_a: np.ndarray, block_b: np.ndarray, active: np.ndarray) -> None:
+        """Where the ii, jj, ij and ji parts of each contact go (-1: nowhere).
+
+        Inactive contacts (open: no spring) go nowhere.
+        """
+        ra = np.where(active, self.block_of_row[block_a], -1)
+        rb = np.where(active, self.block_of_row[block_b], -1)
         none = np.full(len(block_a), -1, dtype=np.int64)
         fa, fb = ra >= 0, rb >= 0
         self.slot_ii = none.copy()
@@ -206,12 +223,21 @@ def graph_key(fixed: np.ndarray, pairs: np.ndarray) -> bytes:
     )
 
 
-def contacts_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bytes:
+def contacts_key(
+    fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray, active: np.ndarray | None = None
+) -> bytes:
     """Bytes equal exactly when two contact lists have the same blocks in the same order
-    (among the same blocks)."""
+    (among the same blocks) and the same active contacts."""
     a = np.ascontiguousarray(block_a, dtype=np.int64)
     b = np.ascontiguousarray(block_b, dtype=np.int64)
-    return graph_key(fixed, np.zeros((0, 2), np.int64)) + a.tobytes() + b"|" + b.tobytes()
+    act = np.packbits(_active(active, len(a))).tobytes()
+    head = graph_key(fixed, np.zeros((0, 2), np.int64))
+    return head + a.tobytes() + b"|" + b.tobytes() + b"|" + act
+
+
+def _active(active: np.ndarray | None, m: int) -> np.ndarray:
+    """The active mask (every contact when None)."""
+    return np.ones(m, dtype=bool) if active is None else np.asarray(active, dtype=bool)
 
 
 def free_pairs(rows: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:

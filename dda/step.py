@@ -75,8 +75,9 @@ class LinearCache:
         block_a: np.ndarray,
         block_b: np.ndarray,
         neighbours: Callable[[], np.ndarray] | None = None,
+        active: np.ndarray | None = None,
     ):
-        """The pattern of this contact list.
+        """The pattern of this contact list (of its ``active``, closed, contacts).
 
         The kept one when the list is the same; its structure (ordering, CSR,
         and so the factorisation's analysis) with new slots while every contact
@@ -87,10 +88,10 @@ class LinearCache:
         search distance, and each new pattern costs an ordering and an analysis.
         """
         kept = self.pattern
-        if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b):
+        if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b, active):
             return kept
-        if kept is not None and kept.covers(fixed, block_a, block_b):
-            self.pattern = kept.with_contacts(block_a, block_b)
+        if kept is not None and kept.covers(fixed, block_a, block_b, active):
+            self.pattern = kept.with_contacts(block_a, block_b, active)
             return self.pattern
         rows = free_rows(fixed)
         extra = []
@@ -102,7 +103,7 @@ class LinearCache:
             if len(kept.pairs) <= SPARE_PAIRS * max(needed, 1):
                 extra.append(kept.pairs)
         spare = np.concatenate(extra) if extra else None
-        self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering, spare)
+        self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering, spare, active)
         self.coefficients = None
         return self.pattern
 
@@ -226,13 +227,11 @@ def solve_step(
     with timer("contact_law"):
         rows = contact_rows(blocks, contacts)
         joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
-    with timer("assembly"):
-        pattern = cache.pattern_for(
-            blocks.fixed,
-            contacts.block_a,
-            contacts.block_b,
-            neighbours=lambda: candidate_pairs(blocks, NEIGHBOUR_MARGIN * cm.search_distance),
-        )
+
+    def neighbours():
+        return candidate_pairs(blocks, NEIGHBOUR_MARGIN * cm.search_distance)
+
+    pattern = None
     k = springs = None
     previous_pen = None
     iterations = 0
@@ -241,6 +240,10 @@ def solve_step(
     for _ in range(model.scene.contact.max_iterations):
         with timer("assembly"):
             if k is None:
+                closed_now = contacts.state != OPEN  # open contacts add nothing to K
+                pattern = cache.pattern_for(
+                    blocks.fixed, contacts.block_a, contacts.block_b, neighbours, closed_now
+                )
                 k, springs = _stiffness(pattern, blocks, base_k, contacts, rows, law)
                 springs = _keyed_springs(contacts, springs)
             f = _forces(base_f, contacts, rows, law)

@@ -115,3 +115,17 @@ def test_spare_pairs_stay_zero_and_cover_returning_contacts():
         rtol=1e-12,
         atol=1e-12,
     )
+
+
+def test_open_contacts_need_no_block():
+    fixed, a, b, diagonal, terms = random_case(12)
+    active = np.arange(len(a)) % 2 == 0
+    terms = [(ri, rj, np.where(active, k, 0.0)) for ri, rj, k in terms]  # open: no spring
+    pattern = BlockPattern(fixed, a, b, reversed_order, active=active)
+    assert pattern.covers(fixed, a, b, active)
+    assert np.all(pattern.slot_ij[~active] == -1) and np.all(pattern.slot_ii[~active] == -1)
+    k = assemble(pattern, diagonal, fixed, terms).toarray()
+    perm = np.argsort(pattern.position)
+    idx = (6 * perm[:, None] + np.arange(6)).ravel()
+    ref = dense_reference(fixed, a, b, diagonal, terms)
+    np.testing.assert_allclose(k, ref[np.ix_(idx, idx)], rtol=1e-12, atol=1e-12)
