@@ -88,7 +88,9 @@ def _geometrically_sound(blocks, vertex, edge, penetration, tolerance, slack) ->
     if len(vertex) == 0:
         return keep
     far = _segment_distance(blocks, vertex, edge)
-    check = np.flatnonzero((far > slack) | (penetration > tolerance))
+    # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes both
+    # tests by construction (distance to the block <= distance to the edge <= slack)
+    check = np.flatnonzero((far > slack) | (penetration > slack))
     if len(check) == 0:
         return keep
     rows, local = np.unique(blocks.vertex_owner[edge[check]], return_inverse=True)
