@@ -51,12 +51,12 @@ def test_bench_command_registers():
     assert args.sizes == [2] and args.method == "penalty" and args.func is cli.run_command
 
 
-def test_round_off_experiment_is_undone_after_the_run():
+def test_state_band_experiment_is_undone_after_the_run():
     from dda import model as engine_model
 
-    kept = engine_model.ROUND_OFF
-    m = measure(2, "penalty", steps=2, warm_up=False, round_off=1e-9)
-    assert m.status == "finished" and engine_model.ROUND_OFF == kept
+    kept = engine_model.STATE_BAND
+    m = measure(2, "penalty", steps=2, warm_up=False, state_band=1e-9)
+    assert m.status == "finished" and engine_model.STATE_BAND == kept
 
 
 def test_stage_table_runs_on_a_tiny_wall():

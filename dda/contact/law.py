@@ -37,13 +37,21 @@ class ContactLaw:
     penalty_growth : factor applied to a contact's penalty when its
         penetration did not shrink below ``shrink_target`` of its previous value
     max_penalty : the penalty is never raised above this
-    round_off : a length at the level of round-off (1e-12 of the model size);
-        a state changes only when the evidence exceeds it: an open contact
-        closes when d > round_off, a closed one opens when its normal force is
-        tensile beyond T·l + p·round_off, a locked one slips when its shear
-        force exceeds the Coulomb bound by ps·round_off, a sliding one sticks
-        when it moved back by more than round_off. Without it, touching
-        contacts at rest (d, s ~ 1e-15) flip state on noise forever.
+    state_band : the evidence a contact state change needs, as a length
+        (``dda.model.STATE_BAND`` of the model size): an open contact closes
+        when d > band, a closed one opens when its normal force is tensile
+        beyond T·l + k·band, a locked one slips when its shear force exceeds
+        the Coulomb bound by ks·band, a sliding one sticks when it moved back
+        by more than band since the step start (not since its shear reference
+        point: a contact that slipped during this step still has the
+        reference of its locked state). k = min(p, band_stiffness) and
+        ks = shear_ratio·k: the force band does not grow with a huge penalty
+        (which would let a contact hold tension). Without a band, contacts
+        that touch with next to no force (at rest, or the side joints of a
+        wall under gravity) flip state on motions of 1e-10 of the model
+        forever, each flip costing a solve.
+    band_stiffness : the largest spring constant of the force band (the
+        stiffest material's Young's modulus)
     """
 
     augmented: bool
@@ -53,7 +61,8 @@ class ContactLaw:
     penalty_growth: float = 10.0
     shrink_target: float = 0.25
     max_penalty: float = np.inf
-    round_off: float = 0.0
+    state_band: float = 0.0
+    band_stiffness: float = np.inf
 
 
 @dataclass
@@ -117,8 +126,10 @@ def update(
     tensile = np.where(contacts.intact, joint.tensile, 0.0)
     cohesion = np.where(contacts.intact, joint.cohesion, 0.0)
 
-    eps = law.round_off
-    opens = closed & (normal < -tensile - p * eps)
+    eps = law.state_band
+    moved = s - rows.slip  # shear motion since the step start
+    band_force = np.minimum(p, law.band_stiffness) * eps
+    opens = closed & (normal < -tensile - band_force)
     closes = ~closed & (d > eps)
     new_state = state.copy()
     new_state[opens] = OPEN
@@ -129,11 +140,11 @@ def update(
     trial_shear = lam_t + law.shear_ratio * p * s
     still_closed = closed & ~opens
     if law.friction:
-        shear_noise = law.shear_ratio * p * eps
+        shear_noise = law.shear_ratio * band_force
         slips = (
             still_closed & (state == LOCKED) & (np.abs(trial_shear) > shear_capacity + shear_noise)
         )
-        sticks = still_closed & (state == SLIDING) & (contacts.slide_direction * s < -eps)
+        sticks = still_closed & (state == SLIDING) & (contacts.slide_direction * moved < -eps)
         new_state[slips] = SLIDING
         new_state[sticks] = LOCKED
         contacts.slide_direction[slips] = np.sign(trial_shear[slips])

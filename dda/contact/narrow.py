@@ -279,6 +279,12 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2):
     # the edge whose line the vertex is furthest outside of (least penetration)
     tied = scores >= scores.max(axis=1, keepdims=True) - ANGLE_TIE
     best = np.argmin(np.where(tied, depth, np.inf), axis=1)
+    # at a reflex corner a vertex is inside the block once it is behind either edge
+    # line: it then belongs to the edge it is behind (the other one's line is no guide)
+    for first, corner in ((0, p2), (2, p1)):
+        pair = depth[:, first : first + 2]
+        inside = fans.reflex[corner] & (pair.max(axis=1) > 0)
+        best = np.where(inside, first + np.argmax(pair, axis=1), best)
     verts = np.column_stack([c[0] for c in candidates])
     edges = np.column_stack([c[1] for c in candidates])
     rows = np.arange(len(p1))

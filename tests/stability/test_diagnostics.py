@@ -34,6 +34,7 @@ def test_a_step_that_cannot_settle_stops_with_the_step_time_and_reason():
     check_areas(dda.load_scene(raw), partial)
 
 
+@pytest.mark.slow  # with the 1e-9 state band it crawls on (minutes) instead of stopping
 @pytest.mark.xfail(
     reason="engine: in a pile of ~40 fragments, contacts carrying almost no force flip "
     "locked/sliding/open on 1e-10 m motions and a step never settles (open issue)",
