@@ -70,6 +70,19 @@ def _grid_pairs(boxes: np.ndarray) -> np.ndarray:
     return np.column_stack([i, j])
 
 
+def _apart(boxes, a, b):
+    """True when boxes a and b (rows xmin, ymin, xmax, ymax) do not overlap."""
+    return (
+        boxes[a, 0] > boxes[b, 2]
+        or boxes[b, 0] > boxes[a, 2]
+        or boxes[a, 1] > boxes[b, 3]
+        or boxes[b, 1] > boxes[a, 3]
+    )
+
+
+_apart = kernel(_apart) or _apart  # the compiled grid kernel calls the compiled twin
+
+
 def _grid(boxes, cell, max_cells):
     """Compiled grid search; returns (i, j) with i < j, unsorted."""
     n = boxes.shape[0]
@@ -118,12 +131,7 @@ def _grid(boxes, cell, max_cells):
             a = owner[p]
             for q in range(p + 1, stop):
                 b = owner[q]
-                if (
-                    boxes[a, 0] > boxes[b, 2]
-                    or boxes[b, 0] > boxes[a, 2]
-                    or boxes[a, 1] > boxes[b, 3]
-                    or boxes[b, 1] > boxes[a, 3]
-                ):
+                if _apart(boxes, a, b):
                     continue
                 # report from the cell of the intersection's lower-left corner only
                 cx = int((max(boxes[a, 0], boxes[b, 0]) - x0) / cell)
@@ -139,12 +147,7 @@ def _grid(boxes, cell, max_cells):
         for b in range(n):
             if b == a or (big[b] and b < a):
                 continue
-            if (
-                boxes[a, 0] > boxes[b, 2]
-                or boxes[b, 0] > boxes[a, 2]
-                or boxes[a, 1] > boxes[b, 3]
-                or boxes[b, 1] > boxes[a, 3]
-            ):
+            if _apart(boxes, a, b):
                 continue
             out_i.append(min(a, b))
             out_j.append(max(a, b))
