@@ -46,6 +46,7 @@ class _Run:
         self.factorisations = 0
         self.cut_steps = 0
         self.max_iterations_step = 0
+        self.held_contacts = 0
         self.max_penetration = 0.0
         self.events: list[FractureEvent] = []
         self.energy = EnergyAccount(model, self.blocks)
@@ -113,6 +114,9 @@ def _advance(run: _Run) -> None:
     run.step += 1
     run.dt = m.max_time_step if cut == 0 else min(m.max_time_step, dt * GROWTH)
     run.max_iterations_step = max(run.max_iterations_step, solution.iterations)
+    run.held_contacts += solution.held
+    if solution.held:
+        log.debug("step %d: %d contacts held to end a state cycle", run.step, solution.held)
     run.max_penetration = max(run.max_penetration, solution.max_penetration)
     _record(run, dt, solution)
     if m.fracture is not None:
@@ -248,6 +252,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "max_iterations_step": state.max_iterations_step,
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
+        "held_contacts": state.held_contacts,
         "contact_method": None if m.contact is None else m.scene.contact.method,
         "active_effects": list(m.active_effects),
         "stage_seconds": state.timer.as_dict(),

@@ -57,10 +57,13 @@ class ContactSet:
 
     @classmethod
     def empty(cls) -> ContactSet:
-        i = np.zeros(0, dtype=np.int64)
-        f = np.zeros(0)
+        kinds = {"state": np.int8, "intact": bool}
+        integers = {"vertex", "edge", "block_a", "block_b", "key"}
         return cls(
-            i, i, i, i, i, np.zeros(0, np.int8), f, f, f, f, f, f, np.zeros(0, bool), f, f, f
+            **{
+                f.name: np.zeros(0, kinds.get(f.name, np.int64 if f.name in integers else float))
+                for f in fields(cls)
+            }
         )
 
     def copy(self) -> ContactSet:

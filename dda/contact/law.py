@@ -112,11 +112,17 @@ def update(
     previous_d: np.ndarray | None,
     joint: JointProperties,
     law: ContactLaw,
+    held: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> LawOutcome:
     """Apply the law after a solve; edits ``contacts`` in place.
 
     ``d`` and ``s`` are the normal penetration and the shear position of each
     contact after the solve; ``previous_d`` those of the previous iteration.
+    ``held`` = (keep_closed, keep_locked) masks: contacts that keep
+    flipping open/closed (or sliding/locked) within one step are held closed
+    (locked), which ends a cycle of state changes among contacts whose
+    flips move next to nothing; a held contact is a conservative spring, so
+    holding it cannot add energy.
     """
     state = contacts.state
     closed = state != OPEN
@@ -129,8 +135,11 @@ def update(
     eps = law.state_band
     moved = s - rows.slip  # shear motion since the step start
     band_force = np.minimum(p, law.band_stiffness) * eps
-    opens = closed & (normal < -tensile - band_force)
-    closes = ~closed & (d > eps)
+    keep_closed, keep_locked = held if held is not None else (None, None)
+    keep_closed = np.zeros_like(closed) if keep_closed is None else keep_closed
+    keep_locked = np.zeros_like(closed) if keep_locked is None else keep_locked
+    opens = closed & ~keep_closed & (normal < -tensile - band_force)
+    closes = ~closed & ((d > eps) | keep_closed)
     new_state = state.copy()
     new_state[opens] = OPEN
     new_state[closes] = LOCKED
@@ -142,9 +151,16 @@ def update(
     if law.friction:
         shear_noise = law.shear_ratio * band_force
         slips = (
-            still_closed & (state == LOCKED) & (np.abs(trial_shear) > shear_capacity + shear_noise)
+            still_closed
+            & ~keep_locked
+            & (state == LOCKED)
+            & (np.abs(trial_shear) > shear_capacity + shear_noise)
         )
-        sticks = still_closed & (state == SLIDING) & (contacts.slide_direction * moved < -eps)
+        sticks = (
+            still_closed
+            & (state == SLIDING)
+            & ((contacts.slide_direction * moved < -eps) | keep_locked)
+        )
         new_state[slips] = SLIDING
         new_state[sticks] = LOCKED
         contacts.slide_direction[slips] = np.sign(trial_shear[slips])
