@@ -17,7 +17,6 @@ import copy
 import ctypes
 import logging
 import os
-import time
 from collections.abc import Callable
 from contextlib import nullcontext
 
@@ -29,6 +28,11 @@ log = logging.getLogger(__name__)
 
 RELATIVE_TOLERANCE = 1e-13  # PCG stops at ‖F - K x‖ ≤ this · ‖F‖ (a direct solve's level)
 MAX_PCG_ITERATIONS = 12  # beyond this a new factorisation is cheaper (and is made)
+# PCG iterations that cost as much as a factorisation, per backend: measured on
+# the wall benchmark (SuperLU up to 10x10 blocks: 9-12; PARDISO at 30x30: 3-4).
+# Fixed numbers rather than timings taken during the run, so that a run's
+# result never depends on how busy the machine was.
+PCG_BUDGET = {"superlu": MAX_PCG_ITERATIONS, "pardiso": 3}
 REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
 PARDISO_MIN_SIZE = 2000  # smaller systems: SuperLU (PARDISO's per-call overhead dominates)
 PARDISO_THREADS = 1
@@ -235,8 +239,7 @@ class ReusingSolver:
     matrix that was factorised, and by PCG preconditioned with the kept
     factorisation when it is a newer one; if PCG does not converge within
     ``max_iterations`` and :attr:`pcg_budget` (the iterations that cost as much
-    as a factorisation, both timed as the run goes), factorise K and solve
-    directly. A solve that needed
+    as a factorisation, ``PCG_BUDGET``), factorise K and solve directly. A solve that needed
     more than ``refresh_after`` iterations marks the factorisation stale: the
     next new matrix is factorised. A caller that knows the new K is far from
     the factorised one (many contacts changed state) says ``similar=False``
@@ -274,8 +277,6 @@ class ReusingSolver:
         self._analysed_key: object = None
         self._stale = False
         self._handle = None
-        self._factor_seconds: float | None = None  # running means of the measured costs
-        self._apply_seconds: float | None = None
         self.factorisations = 0
         self.pcg_iterations = 0
         self.pcg_solves = 0
@@ -286,17 +287,12 @@ class ReusingSolver:
 
     @property
     def pcg_budget(self) -> int:
-        """PCG iterations that cost no more than a factorisation (measured as the run goes).
+        """PCG iterations that cost no more than a factorisation of the kept kind.
 
         At most ``max_iterations``; 0 or 1 means PCG does not pay (then it is not tried).
         """
-        if self._factor_seconds is None or not self._apply_seconds:
-            return self.max_iterations
-        return min(self.max_iterations, int(self._factor_seconds / self._apply_seconds))
-
-    @staticmethod
-    def _mean(old: float | None, new: float) -> float:
-        return new if old is None else 0.7 * old + 0.3 * new
+        kind = "pardiso" if isinstance(self._factor, PardisoFactorisation) else "superlu"
+        return min(self.max_iterations, PCG_BUDGET[kind])
 
     @property
     def factored(self) -> sp.spmatrix | None:
@@ -325,32 +321,21 @@ class ReusingSolver:
         reusable = self._factor is not None and key is not None and key == self._key
         if reusable and matrix is self._factored:
             with stage("solve"):
-                return self._timed_solve(rhs)
+                return self._factor.solve(rhs)
         budget = self.pcg_budget
         if reusable and similar and not self._stale and budget >= 2:
-            start = time.perf_counter()
             with stage("solve"):
                 x, iterations, ok = pcg(matrix, rhs, self._factor.solve, self.tolerance, budget)
-            elapsed = (time.perf_counter() - start) / max(iterations, 1)
-            self._apply_seconds = self._mean(self._apply_seconds, elapsed)
             self.pcg_iterations += iterations
             self.pcg_solves += 1
             if ok:
                 self._stale = iterations > self.refresh_after
                 return x
             log.debug("PCG did not converge in %d iterations: re-factorising", iterations)
-        start = time.perf_counter()
         with stage("factorisation"):
             self._factorise(matrix, key)
-        self._factor_seconds = self._mean(self._factor_seconds, time.perf_counter() - start)
         with stage("solve"):
-            return self._timed_solve(rhs)
-
-    def _timed_solve(self, rhs: np.ndarray) -> np.ndarray:
-        start = time.perf_counter()
-        x = self._factor.solve(rhs)
-        self._apply_seconds = self._mean(self._apply_seconds, time.perf_counter() - start)
-        return x
+            return self._factor.solve(rhs)
 
     def _factorise(self, matrix: sp.csc_matrix, key: object) -> None:
         if self.backend == "pardiso" and matrix.shape[0] >= PARDISO_MIN_SIZE:

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+import dda
 import dda.linsolve as linsolve
+from dda.bench.scenes import wall_scene
 from dda.linsolve import Factorisation, ReusingSolver, block_ordering, pcg
 
 
@@ -97,3 +99,14 @@ def test_dissimilar_matrix_is_factorised_without_pcg():
     solver.solve(k, f, key=1)
     solver.solve(sp.csc_matrix(k * 2.0), f, key=1, similar=False)
     assert solver.factorisations == 2 and solver.pcg_solves == 0
+
+
+def test_a_run_is_reproducible_bit_for_bit():
+    """Whether PCG or a new factorisation solves a step never depends on timings."""
+
+    def run():
+        raw = wall_scene(5, 5, "penalty")
+        raw["analysis"]["steps"] = 20
+        return dda.simulate(dda.load_scene(raw)).final.displacements
+
+    np.testing.assert_array_equal(run(), run())
