@@ -81,7 +81,7 @@ class Result:
     ``summary`` keys: steps, time, wall_seconds, iterations (total solves),
     iterations_per_step, max_penetration, active_effects, stage_seconds,
     contact_method, cut_steps, held_contacts (contact-steps held closed or
-    locked to end a cycle of state changes, see dda.step.StateFlips), status.
+    sliding to end a cycle of state changes, see dda.step.StateFlips), status.
     """
 
     frames: list[Frame]

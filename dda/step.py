@@ -122,14 +122,13 @@ class StateFlips:
     """How often each contact changed state within one step.
 
     A contact that flipped open/closed (or sliding/locked) ``LIMIT`` times
-    is caught in a cycle: the states of a few contacts that carry next to no
-    force feed back on each other and the open–close iteration never settles
-    (seen in jointed rock masses, where hundreds of contacts touch at forces
-    1e-3 of the typical one). Such a contact is held closed (locked) for the
-    rest of the step, as long as what holding it costs stays within the
-    contact tolerance: its penetration or gap (its shear motion this step)
-    is at most ``tolerance``. Holding it makes it a spring, which stores
-    energy and cannot create any.
+    is caught in a cycle: the states of a few contacts feed back on each
+    other and the open–close iteration never settles (seen in jointed rock
+    masses: period 4 to 12 among a handful of contacts, one step after
+    another, and cutting Δt does not help). Such a contact is held closed
+    (sliding, at the Coulomb force) for the rest of the step, as long as
+    what holding it costs stays within the contact tolerance: its
+    penetration or gap (its shear motion this step) is at most ``tolerance``.
     """
 
     LIMIT = 8
@@ -139,10 +138,10 @@ class StateFlips:
         self.shear = np.zeros(count, np.int64)
 
     def held(self, penetration, moved, tolerance: float):
-        """(keep closed, keep locked) masks for the next law update."""
+        """(keep closed, keep sliding) masks for the next law update."""
         keep_closed = (self.normal >= self.LIMIT) & (np.abs(penetration) <= tolerance)
-        keep_locked = (self.shear >= self.LIMIT) & (np.abs(moved) <= tolerance)
-        return keep_closed, keep_locked
+        keep_sliding = (self.shear >= self.LIMIT) & (np.abs(moved) <= tolerance)
+        return keep_closed, keep_sliding
 
     def count(self, before: np.ndarray, after: np.ndarray) -> None:
         self.normal += (before == OPEN) != (after == OPEN)

@@ -118,11 +118,16 @@ def update(
 
     ``d`` and ``s`` are the normal penetration and the shear position of each
     contact after the solve; ``previous_d`` those of the previous iteration.
-    ``held`` = (keep_closed, keep_locked) masks: contacts that keep
-    flipping open/closed (or sliding/locked) within one step are held closed
-    (locked), which ends a cycle of state changes among contacts whose
-    flips move next to nothing; a held contact is a conservative spring, so
-    holding it cannot add energy.
+    ``held`` = (keep_closed, keep_sliding) masks: contacts that keep
+    flipping open/closed (sliding/locked) within one step are held closed
+    (sliding), which ends a cycle of state changes among contacts whose
+    flips move next to nothing. Held closed, a contact is a spring (it
+    stores energy, it cannot create any); held sliding, it carries the
+    Coulomb force, which is right for a contact at the friction limit.
+
+    A sliding contact that moves back sticks, unless it carries next to no
+    friction (capacity within the force band): then it only turns its
+    friction round, which changes F but not K.
     """
     state = contacts.state
     closed = state != OPEN
@@ -135,9 +140,9 @@ def update(
     eps = law.state_band
     moved = s - rows.slip  # shear motion since the step start
     band_force = np.minimum(p, law.band_stiffness) * eps
-    keep_closed, keep_locked = held if held is not None else (None, None)
+    keep_closed, keep_sliding = held if held is not None else (None, None)
     keep_closed = np.zeros_like(closed) if keep_closed is None else keep_closed
-    keep_locked = np.zeros_like(closed) if keep_locked is None else keep_locked
+    keep_sliding = np.zeros_like(closed) if keep_sliding is None else keep_sliding
     opens = closed & ~keep_closed & (normal < -tensile - band_force)
     closes = ~closed & ((d > eps) | keep_closed)
     new_state = state.copy()
@@ -152,18 +157,17 @@ def update(
         shear_noise = law.shear_ratio * band_force
         slips = (
             still_closed
-            & ~keep_locked
             & (state == LOCKED)
-            & (np.abs(trial_shear) > shear_capacity + shear_noise)
+            & ((np.abs(trial_shear) > shear_capacity + shear_noise) | keep_sliding)
         )
-        sticks = (
-            still_closed
-            & (state == SLIDING)
-            & ((contacts.slide_direction * moved < -eps) | keep_locked)
-        )
+        moved_back = still_closed & (state == SLIDING) & (contacts.slide_direction * moved < -eps)
+        weightless = shear_capacity <= shear_noise
+        sticks = moved_back & ~weightless & ~keep_sliding
+        reverses = moved_back & weightless & ~sticks
         new_state[slips] = SLIDING
         new_state[sticks] = LOCKED
         contacts.slide_direction[slips] = np.sign(trial_shear[slips])
+        contacts.slide_direction[reverses] = np.sign(moved[reverses])
     else:
         slips = still_closed & (state == LOCKED)
         sticks = np.zeros_like(slips)

@@ -4,7 +4,7 @@ In a jointed rock mass hundreds of contacts touch at forces 1e-3 of the
 typical one; their states feed back on each other and the open–close
 iteration cycles (period 4 to 12 among a handful of contacts in the slope of
 cases/rock_slope.toml) until the step is cut, and cut again. A contact that
-flipped ``StateFlips.LIMIT`` times in one step is held closed (locked) while
+flipped ``StateFlips.LIMIT`` times in one step is held closed (sliding) while
 its gap (its shear motion) is within the contact tolerance.
 """
 
@@ -28,32 +28,33 @@ LAW = contact_law.ContactLaw(augmented=False, tolerance=1e-3, shear_ratio=0.4, f
 JOINT = contact_law.JointProperties(np.full(2, 0.5), np.zeros(2), np.zeros(2))
 
 
-def two_locked_contacts() -> ContactSet:
+def two_contacts() -> ContactSet:
+    """Contact 0 locked, contact 1 sliding in the +s direction; both squeezed."""
     empty = ContactSet.empty()
     values = {name: np.zeros(2, array.dtype) for name, array in vars(empty).items()}
-    values["state"][:] = LOCKED
+    values["state"][:] = [LOCKED, SLIDING]
+    values["slide_direction"][1] = 1.0
     values["penalty"][:] = 1e6
-    values["intact"][:] = False
     return ContactSet(**values)
 
 
 def apply_law(held=None):
-    """Contact 0 pulled apart by 1e-5 m; contact 1 sheared 1e-4 m under a 1e-5 m squeeze."""
-    contacts = two_locked_contacts()
+    """Contact 0 pulled apart by 1e-5 m; contact 1 moved back 1e-4 m under a 1e-5 m squeeze."""
+    contacts = two_contacts()
     rows = SimpleNamespace(slip=np.zeros(2))
-    d = np.array([-1e-5, 1e-5])
-    s = np.array([0.0, 1e-4])  # ps·s = 40 N > tan φ · p d = 5 N
+    d = np.array([-1e-5, 1e-5])  # tension 10 N on contact 0; 10 N squeeze on contact 1
+    s = np.array([0.0, -1e-4])
     contact_law.update(contacts, rows, d, s, None, JOINT, LAW, held)
     return contacts.state
 
 
-def test_free_contacts_open_and_slip():
-    assert apply_law().tolist() == [OPEN, SLIDING]
+def test_free_contacts_open_and_stick():
+    assert apply_law().tolist() == [OPEN, LOCKED]
 
 
-def test_held_contacts_stay_closed_and_locked():
+def test_held_contacts_stay_closed_and_sliding():
     held = (np.array([True, False]), np.array([False, True]))
-    assert apply_law(held).tolist() == [LOCKED, LOCKED]
+    assert apply_law(held).tolist() == [LOCKED, SLIDING]
 
 
 def test_flips_are_counted_per_direction_and_hold_only_within_tolerance():
