@@ -32,6 +32,8 @@ class BlockSet:
     rotation : (n,) accumulated rotation
     displacement : (n, 2) centroid displacement since the start
     fixed : (n,) bool, blocks removed from the unknowns
+    origin : (n,) int, id of the scene block each block is (or is a fragment of);
+        ``[[interfaces]]`` between two scene blocks hold for their fragments too
     """
 
     names: list[str]
@@ -50,8 +52,11 @@ class BlockSet:
     ixx: np.ndarray = None  # type: ignore[assignment]
     iyy: np.ndarray = None  # type: ignore[assignment]
     ixy: np.ndarray = None  # type: ignore[assignment]
+    origin: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
+        if self.origin is None:
+            self.origin = np.asarray(self.ids, np.int64).copy()
         if self.centroid is None:
             self.update_moments()
 

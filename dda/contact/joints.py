@@ -10,7 +10,12 @@ from dda.contact.law import JointProperties
 
 
 class JointTable:
-    """Joint properties as arrays, plus the ``[[interfaces]]`` overrides by block id pair."""
+    """Joint properties as arrays, plus the ``[[interfaces]]`` overrides by block id pair.
+
+    The pair is of scene blocks (``BlockSet.origin``): a fragment of a block
+    meets the other block of an interface through that interface's joint;
+    two fragments of one block meet through their crack's joint.
+    """
 
     def __init__(
         self,
@@ -49,7 +54,8 @@ class JointTable:
         rows = blocks.edge_joint[contacts.edge]
         rows = np.where(rows >= 0, rows, self.default)
         if len(self.interface_keys) and len(contacts):
-            keys = self._pair_keys(blocks.ids[contacts.block_a], blocks.ids[contacts.block_b])
+            origin = blocks.origin  # fragments keep their scene block's interfaces
+            keys = self._pair_keys(origin[contacts.block_a], origin[contacts.block_b])
             at = np.clip(
                 np.searchsorted(self.interface_keys, keys), 0, len(self.interface_keys) - 1
             )

@@ -119,4 +119,10 @@ def replace_blocks(blocks: BlockSet, broken: list[Fragments]) -> BlockSet:
         rotation=stack(blocks.rotation, "rotation"),
         displacement=stack(blocks.displacement, "displacement"),
         fixed=np.concatenate([blocks.fixed[keep], np.zeros(len(pieces), dtype=bool)]),
+        origin=np.concatenate(
+            [
+                blocks.origin[keep],
+                *[np.full(len(f.names), blocks.origin[f.parent]) for f in broken],
+            ]
+        ),
     )
