@@ -140,9 +140,8 @@ def update(
     eps = law.state_band
     moved = s - rows.slip  # shear motion since the step start
     band_force = np.minimum(p, law.band_stiffness) * eps
-    keep_closed, keep_sliding = held if held is not None else (None, None)
-    keep_closed = np.zeros_like(closed) if keep_closed is None else keep_closed
-    keep_sliding = np.zeros_like(closed) if keep_sliding is None else keep_sliding
+    nothing_held = np.zeros_like(closed)
+    keep_closed, keep_sliding = held if held is not None else (nothing_held, nothing_held)
     opens = closed & ~keep_closed & (normal < -tensile - band_force)
     closes = ~closed & ((d > eps) | keep_closed)
     new_state = state.copy()
