@@ -94,25 +94,25 @@ class PardisoFactorisation:
         self._indptr = np.zeros(self.size + 1, dtype=np.int32)
         np.cumsum(counts, out=self._indptr[1:])
         self._indices = matrix.indices[self._upper].astype(np.int32)
-        self._run(11, matrix, np.zeros(self.size))
+        self._matrix = self._upper_matrix(matrix)
+        self._call(11)  # analysis
 
     def _upper_matrix(self, matrix: sp.spmatrix) -> sp.csr_matrix:
         data = np.asarray(matrix.data)[self._upper]
         return sp.csr_matrix((data, self._indices, self._indptr), shape=matrix.shape)
 
-    def _run(self, phase: int, matrix: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
+    def _call(self, phase: int, rhs: np.ndarray | None = None) -> np.ndarray:
         self._solver.set_phase(phase)
-        return self._solver._call_pardiso(self._upper_matrix(matrix), rhs)
+        rhs = np.zeros(self.size) if rhs is None else np.ascontiguousarray(rhs, dtype=float)
+        return self._solver._call_pardiso(self._matrix, rhs)
 
     def factor(self, matrix: sp.spmatrix) -> None:
         """Numeric factorisation of a matrix with the analysed pattern."""
         self._matrix = self._upper_matrix(matrix)
-        self._solver.set_phase(22)
-        self._solver._call_pardiso(self._matrix, np.zeros(self.size))
+        self._call(22)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        self._solver.set_phase(33)
-        return self._solver._call_pardiso(self._matrix, np.ascontiguousarray(rhs, dtype=float))
+        return self._call(33, rhs)
 
 
 _PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (finding MKL takes ~1 s)

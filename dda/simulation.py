@@ -143,13 +143,9 @@ def _fracture(run: _Run, ctx: StepContext) -> None:
     new, events = run.model.fracture.after_step(old, ctx)
     if not events:
         return
+    row_of = {name: row for row, name in enumerate(old.names)}  # fragments: "parent/k"
     parent_of = np.array(
-        [
-            old.names.index(name.rsplit("/", 1)[0])
-            if name not in old.names
-            else old.names.index(name)
-            for name in new.names
-        ],
+        [row_of[name] if name in row_of else row_of[name.rsplit("/", 1)[0]] for name in new.names],
         dtype=np.int64,
     )
     for effect in run.model.effects:

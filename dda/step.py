@@ -187,11 +187,13 @@ def _similar(cache: LinearCache, keys: np.ndarray, springs: np.ndarray) -> bool:
     if cache.coefficients is None:
         return False
     old_keys, old_springs = cache.coefficients
-    at = np.clip(np.searchsorted(old_keys, keys), 0, max(len(old_keys) - 1, 0))
-    found = (old_keys[at] == keys) if len(old_keys) else np.zeros(len(keys), bool)
-    same = found & np.all(old_springs[:, at] == springs, axis=0) if len(old_keys) else found
-    matched = int(np.count_nonzero(found))
-    changed = (len(keys) - int(np.count_nonzero(same))) + (len(old_keys) - matched)
+    if len(old_keys) == 0:
+        changed = len(keys)
+    else:
+        at = np.clip(np.searchsorted(old_keys, keys), 0, len(old_keys) - 1)
+        found = old_keys[at] == keys
+        same = found & np.all(old_springs[:, at] == springs, axis=0)
+        changed = (len(keys) - int(same.sum())) + (len(old_keys) - int(found.sum()))
     return changed <= MAX_CHANGED_FOR_PCG and changed + 2 <= cache.solver.pcg_budget
 
 

@@ -29,6 +29,7 @@ import dda.assembly as assembly
 import dda.contact.broad as broad
 import dda.contact.narrow as narrow
 from dda.bench.scenes import wall_scene
+from dda.contact import law as contact_law
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.rows import contact_rows
@@ -148,8 +149,6 @@ def stage_rows(columns: int) -> list[tuple[str, float]]:
         )
     finally:
         assembly._scatter_kernel = saved
-    from dda.contact import law as contact_law
-
     p, ps, _, _ = contact_law.contact_coefficients(contacts, crows, law)
     terms = [(crows.normal_i, crows.normal_j, p), (crows.shear_i, crows.shear_j, ps)]
     rows_out.append(

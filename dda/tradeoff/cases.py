@@ -75,6 +75,17 @@ def _row(result: dda.Result, name: str) -> int:
     return result.final.names.index(name)
 
 
+def _grid(penalty: list, time_step: list, ratio: list) -> dict[str, list]:
+    """A case's default sweep: both methods and two AL tolerances, plus these."""
+    return {
+        "method": ["augmented-lagrangian", "penalty"],
+        "penalty": penalty,
+        "tolerance": [1e-4, 1e-6],
+        "time_step": time_step,
+        "ratio": ratio,
+    }
+
+
 def sliding_block() -> Case:
     g, theta, phi = 9.81, np.radians(30.0), np.radians(20.0)
     exact = 0.5 * g * (np.sin(theta) - np.cos(theta) * np.tan(phi))
@@ -84,13 +95,7 @@ def sliding_block() -> Case:
         lambda r: np.array([np.linalg.norm(r.final.displacements[_row(r, "slider")])]),
         np.array([exact]),
         "distance slid in 1 s (m)",
-        {
-            "method": ["augmented-lagrangian", "penalty"],
-            "penalty": [0.1, 1.0, 10.0],
-            "tolerance": [1e-4, 1e-6],
-            "time_step": [0.02, 0.01, 0.005],
-            "ratio": [0.01, 0.002],
-        },
+        _grid(penalty=[0.1, 1.0, 10.0], time_step=[0.02, 0.01, 0.005], ratio=[0.01, 0.002]),
     )
 
 
@@ -114,13 +119,7 @@ def pushed_block() -> Case:
         acceleration,
         np.array([exact]),
         "acceleration (ft/s²)",
-        {
-            "method": ["augmented-lagrangian", "penalty"],
-            "penalty": [1e-4, 1e-2, 1.0, 10.0],
-            "tolerance": [1e-4, 1e-6],
-            "time_step": [0.02, 0.01, 0.005],
-            "ratio": [0.01],
-        },
+        _grid(penalty=[1e-4, 1e-2, 1.0, 10.0], time_step=[0.02, 0.01, 0.005], ratio=[0.01]),
     )
 
 
@@ -133,32 +132,21 @@ def stack() -> Case:
         lambda r: np.array([r.final.stresses[_row(r, "block1"), 1]]),
         np.array([exact]),
         "σyy of the bottom block at 0.2 s (Pa)",
-        {
-            "method": ["augmented-lagrangian", "penalty"],
-            "penalty": [0.1, 1.0, 10.0],
-            "tolerance": [1e-4, 1e-6],
-            "time_step": [0.004, 0.002, 0.001],
-            "ratio": [0.01, 0.002],
-        },
+        _grid(penalty=[0.1, 1.0, 10.0], time_step=[0.004, 0.002, 0.001], ratio=[0.01, 0.002]),
     )
 
 
 def scene_file(path: str) -> Case:
     """Any scene file: final centroids against a fine run."""
     raw = tomllib.loads(Path(path).read_text())
+    time_step = raw.get("analysis", {}).get("time_step", 1e-3)
     return Case(
         Path(path).stem,
         raw,
         lambda r: r.final.centroids.ravel(),
         None,
         "final centroids (error / model size)",
-        {
-            "method": ["augmented-lagrangian", "penalty"],
-            "penalty": [1.0, 10.0],
-            "tolerance": [1e-4, 1e-6],
-            "time_step": [raw.get("analysis", {}).get("time_step", 1e-3)],
-            "ratio": [0.01],
-        },
+        _grid(penalty=[1.0, 10.0], time_step=[time_step], ratio=[0.01]),
     )
 
 
