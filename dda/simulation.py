@@ -25,7 +25,7 @@ from dda.update import apply_step, vertex_displacements
 log = logging.getLogger(__name__)
 
 MAX_CUTS = 40  # halvings of one step before the run gives up
-GROWTH = 1.5  # time-step growth after a step that had to be cut
+GROWTH = 1.5  # time-step growth per accepted step, back up to the maximum after a cut
 MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
 # energy columns of Result.history (dda.energy): stored terms, their total, work of the loads
 HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_work")
@@ -112,7 +112,7 @@ def _advance(run: _Run) -> None:
     run.contacts = solution.contacts
     run.time += dt
     run.step += 1
-    run.dt = m.max_time_step if cut == 0 else min(m.max_time_step, dt * GROWTH)
+    run.dt = min(m.max_time_step, dt * GROWTH)
     run.max_iterations_step = max(run.max_iterations_step, solution.iterations)
     run.held_contacts += solution.held
     if solution.held:
