@@ -158,10 +158,17 @@ def test_tension_splits_across_the_pull():
         assert abs(start[1] - end[1]) == pytest.approx(4.0)
 
 
-def test_fixed_blocks_and_too_small_blocks_stay_whole():
+@pytest.mark.parametrize(
+    "min_area",
+    [
+        2.0,  # 'b' (6.4 ft²) is cut, but its pieces are too small to stand alone
+        3.3,  # 'b' is smaller than two pieces of min_area: not even cut
+    ],
+)
+def test_fixed_blocks_and_too_small_blocks_stay_whole(min_area):
     raw = effect_scene()
     raw["blocks"][0]["fixed"] = True
-    raw["fracture"]["min_area"] = 2.0  # the quarters of 'b' (1.6 ft² each) are too small
+    raw["fracture"]["min_area"] = min_area
     effect, blocks, _ = effect_and_blocks(raw)
     blocks.stress[:2] = [0.0, -2.0 * C0, 0.0]
     new, events = effect.after_step(blocks, CTX)

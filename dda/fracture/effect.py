@@ -116,6 +116,8 @@ class FractureEffect(Effect):
             blocks.stress[rows], s.cohesion[mat], s.friction_angle[mat], s.tensile_strength[mat]
         )
         failing = state.failing
+        # two pieces of at least min_area each need twice that: smaller blocks cannot split
+        failing = failing[blocks.area[rows[failing]] >= 2.0 * self.min_area]
         if not len(failing):
             return blocks, []
         fragments: list[Fragments] = []
