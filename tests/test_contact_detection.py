@@ -107,3 +107,33 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, jitter):
     np.testing.assert_array_equal(first.vertex, second.vertex)
     np.testing.assert_array_equal(first.edge, second.edge)
     np.testing.assert_array_equal(first.vertex_vertex, second.vertex_vertex)
+
+
+def corner_blocks(gap: float):
+    """A unit square and a wedge whose tip is ``gap`` right of the square's top-right
+    corner (inside the square when negative) and 0.5 mm below its top edge's line."""
+    from tests.helpers import rectangle
+    from tests.stability.scenes import block, scene
+
+    tip = (1.0002, 0.9995)
+    wedge = [tip, (1.5, 0.5), (1.5, 1.5)]
+    raw = scene([block("square", rectangle(0, 0, 1, 1)), block("wedge", wedge)])
+    blocks = build(dda.load_scene(raw)).blocks.copy()
+    blocks.vertices[blocks.vertex_owner == 1, 0] += gap - 2e-4
+    return blocks
+
+
+@pytest.mark.parametrize("gap, kept", [(2e-4, False), (-2e-4, True)])
+def test_a_new_pairing_behind_an_edge_line_needs_the_blocks_to_touch(gap, kept):
+    """The wedge's tip is 0.5 mm behind the extended line of the square's top edge:
+    a penetration only if the blocks touch (the tip inside the square), not when they
+    are 0.2 mm apart (enforcing it would launch the wedge)."""
+    from dda.contact.pipeline import _blocks_touch
+    from dda.contact.rows import edge_projection
+
+    blocks = corner_blocks(gap)
+    tip = np.array([blocks.offsets[1]])
+    top_edge = np.array([blocks.offsets[0] + 2])  # from (1, 1) to (0, 1)
+    penetration, _ = edge_projection(blocks, tip, top_edge)
+    assert penetration[0] == pytest.approx(5e-4, rel=1e-6)
+    assert _blocks_touch(blocks, tip, top_edge, penetration, 1e-9)[0] == kept
