@@ -137,3 +137,32 @@ def test_a_new_pairing_behind_an_edge_line_needs_the_blocks_to_touch(gap, kept):
     penetration, _ = edge_projection(blocks, tip, top_edge)
     assert penetration[0] == pytest.approx(5e-4, rel=1e-6)
     assert _blocks_touch(blocks, tip, top_edge, penetration, 1e-9)[0] == kept
+
+
+def crack_neighbours():
+    """Two fragments meeting along a crack line over 17 mm: each one's corner lies on the
+    other's edge (an acute corner of the first, 60°), as in the repeated-fracture case."""
+    from tests.stability.scenes import block, scene
+
+    p = np.array([0.78744, 0.71201])
+    u = np.array([0.8377, 0.79809]) - p
+    first = [p + u, (0.75537, 0.94229), (0.70523, 0.85545), p]
+    second = [(0.85237, 0.57079), p + 0.17 * u, p - 0.991 * u, (0.81241, 0.49998)]
+    raw = scene([block("first", first), block("second", second)])
+    return build(dda.load_scene(raw))
+
+
+def test_corners_on_each_others_edges_pair_with_those_edges():
+    """The second fragment's corner is on the first's edge and behind the line of the
+    first's other edge at that corner, beyond its end: it pairs with the edge it lies on
+    (it used to pick the other, which the pipeline then refused: no contact at all, and
+    the fragments sank into each other)."""
+    from dda.contact.rows import edge_projection
+
+    model = crack_neighbours()
+    blocks = model.blocks
+    found = detect(blocks, np.array([[0, 1]]), model.contact.search_distance, 1.0)
+    assert len(found.vertex) >= 1
+    penetration, along = edge_projection(blocks, found.vertex, found.edge)
+    np.testing.assert_allclose(penetration, 0.0, atol=1e-12)
+    assert np.all((along >= 0.0) & (along <= 1.0))

@@ -33,6 +33,7 @@ from dda.jit import kernel
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
 ANGLE_TIE = 0.05  # vertex-vertex: edge scores this close are a tie, decided by position
 VERTEX_RADIUS_FRACTION = 0.25  # vertex radius ≤ this x the shortest edge at either vertex
+OUTSIDE_FRACTION = 0.01  # of the search distance: a vertex farther out than this penetrates nothing
 
 
 @dataclass
@@ -109,7 +110,8 @@ def detect(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: fl
     radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
     screen = _screen_compiled if _screen_kernel is not None else _screen_numpy
     ve_vertex, ve_edge, vv_vertex, vv_edge = screen(blocks, fans, pairs, search, radius)
-    vv_vertex, vv_edge = _resolve_vertex_vertex(blocks, fans, vv_vertex, vv_edge)
+    slack = OUTSIDE_FRACTION * search
+    vv_vertex, vv_edge = _resolve_vertex_vertex(blocks, fans, vv_vertex, vv_edge, slack)
     vertex_all = np.concatenate([ve_vertex, vv_vertex])
     edge_all = np.concatenate([ve_edge, vv_edge])
     kind = np.concatenate([np.zeros(len(ve_vertex), bool), np.ones(len(vv_vertex), bool)])
@@ -252,11 +254,13 @@ def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.
     return fans.outward[edge]
 
 
-def _resolve_vertex_vertex(blocks, fans, p1, p2):
+def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float = 0.0):
     """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
 
     Candidates: the two edges at p2 (vertex p1 enters them) and the two edges
-    at p1 (vertex p2 enters them). A reflex vertex never is the entering one.
+    at p1 (vertex p2 enters them). A reflex vertex never is the entering one,
+    nor is a pairing whose penetration only the edge's line makes up
+    (:func:`_fake_pairings`, beyond ``slack``) while another candidate remains.
     """
     if len(p1) == 0:
         return p1, p2
@@ -275,6 +279,9 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2):
         ]
     )
     depth = np.column_stack([_depth(blocks, fans, vert, ed) for vert, ed in candidates])
+    along = np.column_stack([_along(blocks, fans, vert, ed) for vert, ed in candidates])
+    fake = _fake_pairings(depth, along, slack, fans.reflex[p2], fans.reflex[p1])
+    scores = np.where(fake & ~fake.all(axis=1, keepdims=True), -np.inf, scores)
     # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
     # the edge whose line the vertex is furthest outside of (least penetration)
     tied = scores >= scores.max(axis=1, keepdims=True) - ANGLE_TIE
@@ -295,6 +302,33 @@ def _depth(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndar
     """Signed depth of each vertex behind the line of each edge (> 0: inside)."""
     v = blocks.vertices
     return np.einsum("ij,ij->i", v[edge] - v[vertex], _outward_normal(blocks, fans, edge))
+
+
+def _fake_pairings(depth, along, slack: float, reflex_p2, reflex_p1) -> np.ndarray:
+    """Vertex-vertex candidates whose penetration only an edge's line makes up.
+
+    Columns as in :func:`_resolve_vertex_vertex` (0, 1: the edges at p2; 2, 3: at p1).
+    A vertex behind an edge's line but beyond the edge's ends is not in that edge;
+    nor is it, at a convex corner, when it is behind that edge's line by more than
+    ``slack`` beyond its depth behind the corner's other edge: it lies outside or on
+    the other edge (the pipeline's soundness test would refuse the pairing). Two
+    fragments meeting along a crack line are the case: each corner lies on the
+    other's edge, and behind the line of the edge across the corner by about the
+    length they share; choosing that pairing left them with no contact at all.
+    """
+    fake = (depth > slack) & ((along < 0.0) | (along > 1.0))
+    for first, reflex in ((0, reflex_p2), (2, reflex_p1)):
+        a, b = depth[:, first], depth[:, first + 1]
+        fake[:, first] |= ~reflex & (a - b > slack)
+        fake[:, first + 1] |= ~reflex & (b - a > slack)
+    return fake
+
+
+def _along(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):
+    """Position of each vertex's projection along each edge (0 at its start, 1 at its end)."""
+    v = blocks.vertices
+    e = v[fans.next[edge]] - v[edge]
+    return np.einsum("ij,ij->i", v[vertex] - v[edge], e) / np.einsum("ij,ij->i", e, e)
 
 
 def _first_of_each(vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:

@@ -8,12 +8,10 @@ import shapely
 from dda.blocks import BlockSet
 from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet, contact_keys, merge
-from dda.contact.narrow import detect
+from dda.contact.narrow import OUTSIDE_FRACTION, detect
 from dda.contact.rows import edge_projection
 from dda.geometry import next_vertex_index
 from dda.result import SLIDING
-
-OUTSIDE_FRACTION = 0.01  # of the search distance: a vertex farther out than this penetrates nothing
 
 
 def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> ContactSet:
