@@ -136,7 +136,8 @@ def test_a_new_pairing_behind_an_edge_line_needs_the_blocks_to_touch(gap, kept):
     top_edge = np.array([blocks.offsets[0] + 2])  # from (1, 1) to (0, 1)
     penetration, _ = edge_projection(blocks, tip, top_edge)
     assert penetration[0] == pytest.approx(5e-4, rel=1e-6)
-    assert _blocks_touch(blocks, tip, top_edge, penetration, 1e-9)[0] == kept
+    new = np.array([False])
+    assert _blocks_touch(blocks, tip, top_edge, penetration, 1e-9, new)[0] == kept
 
 
 def crack_neighbours():

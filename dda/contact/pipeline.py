@@ -38,8 +38,8 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
         settings.touch_tolerance,
         OUTSIDE_FRACTION * settings.search_distance,
     )
-    plausible &= persisting | _blocks_touch(
-        blocks, found.vertex, found.edge, penetration, settings.touch_tolerance
+    plausible &= _blocks_touch(
+        blocks, found.vertex, found.edge, penetration, settings.touch_tolerance, persisting
     )
     vertex, edge = found.vertex[plausible], found.edge[plausible]
     penetration, parameter = penetration[plausible], parameter[plausible]
@@ -104,18 +104,18 @@ def _geometrically_sound(blocks, vertex, edge, penetration, tolerance, slack) ->
     return keep
 
 
-def _blocks_touch(blocks, vertex, edge, penetration, tolerance) -> np.ndarray:
+def _blocks_touch(blocks, vertex, edge, penetration, tolerance, persisting) -> np.ndarray:
     """False for a pairing that claims to penetrate two blocks that are apart.
 
     Near a corner a vertex outside a block can lie "behind" the extended line
     of one of its edges: 0.2 mm apart, 0.5 mm of penetration in a pile of
     fragments. Enforcing it launches the block (2 d/Δt after Shi's velocity
-    update). A pairing seen for the first time that claims more than the
-    touch ``tolerance`` of penetration is kept only when its two blocks touch
-    or overlap (shapely distance within the tolerance).
+    update). A pairing seen for the first time (not ``persisting``) that
+    claims more than the touch ``tolerance`` of penetration is kept only when
+    its two blocks touch or overlap (shapely distance within the tolerance).
     """
     keep = np.ones(len(vertex), dtype=bool)
-    check = np.flatnonzero(penetration > tolerance)
+    check = np.flatnonzero(~persisting & (penetration > tolerance))
     if len(check) == 0:
         return keep
     owners = np.column_stack([blocks.vertex_owner[vertex[check]], blocks.vertex_owner[edge[check]]])
