@@ -207,7 +207,7 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
         shear_ratio=c.shear_ratio,
         friction=table.has_friction,
         max_penalty=max(1e4 * young_max, penalty),
-        state_band=STATE_BAND * extent,
+        state_band=(c.state_band if c.state_band is not None else STATE_BAND) * extent,
         band_stiffness=young_max,
     )
     search = SEARCH_FACTOR * allowed

@@ -67,6 +67,7 @@ class ContactSettings:
     tolerance: float | None = None  # AL: largest penetration; default 1e-4 x model size
     max_iterations: int = 50
     shear_ratio: float = 0.4  # shear penalty / normal penalty
+    state_band: float | None = None  # evidence for a state change, x model size; default 1e-9
 
 
 @dataclass(frozen=True)
@@ -477,6 +478,7 @@ _CONTACT: dict[str, _Spec] = {
     "tolerance": _real(_POSITIVE),
     "max_iterations": _Checker.count,
     "shear_ratio": _real(_POSITIVE),
+    "state_band": _real(_OPEN_UNIT),
 }
 
 _STRENGTH_KEYS = ("cohesion", "friction_angle", "tensile_strength")
