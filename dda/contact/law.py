@@ -38,7 +38,8 @@ class ContactLaw:
         penetration did not shrink below ``shrink_target`` of its previous value
     max_penalty : the penalty is never raised above this
     state_band : the evidence a contact state change needs, as a length
-        (``dda.model.STATE_BAND`` of the model size): an open contact closes
+        (``[contact] state_band``, default ``dda.model.STATE_BAND``, of the
+        model size): an open contact closes
         when d > band, a closed one opens when its normal force is tensile
         beyond T·l + k·band, a locked one slips when its shear force exceeds
         the Coulomb bound by ks·band, a sliding one sticks when it moved back

@@ -22,8 +22,9 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
     vertex paired with the far side of a block. Persisting contacts may be
     deeper (a soft penalty lets blocks sink). Pairings that only an edge's
     extended line makes look like contacts are dropped (see
-    ``_geometrically_sound``). Sliding contacts get their shear reference
-    point moved under the vertex: their slip is measured from the step start.
+    ``_geometrically_sound`` and ``_blocks_touch``). Sliding contacts get their
+    shear reference point moved under the vertex: their slip is measured from
+    the step start.
     """
     pairs = candidate_pairs(blocks, settings.search_distance)
     found = detect(blocks, pairs, settings.search_distance, settings.vertex_radius)
