@@ -167,3 +167,30 @@ def test_corners_on_each_others_edges_pair_with_those_edges():
     penetration, along = edge_projection(blocks, found.vertex, found.edge)
     np.testing.assert_allclose(penetration, 0.0, atol=1e-12)
     assert np.all((along >= 0.0) & (along <= 1.0))
+
+
+def test_point_distances_compiled_equal_shapely(monkeypatch):
+    """Distances to the boundary and to the block: the compiled loop against shapely, on a
+    jittered wall and a concave U block, for points inside, outside, on edges and vertices."""
+    import dda.contact.point_distance as pd
+    from tests.helpers import rectangle
+    from tests.stability.scenes import block, scene
+
+    u_shape = [(10, 0), (13, 0), (13, 3), (12, 3), (12, 1), (11, 1), (11, 3), (10, 3)]
+    raw = scene([block("u", u_shape), block("box", rectangle(20, 0, 21, 1))])
+    extra = build(dda.load_scene(raw)).blocks
+    _, wall = wall_blocks(4, 4, jitter=1e-3)
+    rng = np.random.default_rng(3)
+    for blocks in (wall, extra):
+        lo = blocks.vertices.min(axis=0) - 0.5
+        hi = blocks.vertices.max(axis=0) + 0.5
+        points = np.concatenate([lo + rng.random((300, 2)) * (hi - lo), blocks.vertices])
+        rows = rng.integers(0, blocks.count, len(points))
+        rows[300:] = blocks.vertex_owner  # every vertex against its own block: on the boundary
+        compiled = pd.point_distances(blocks, points, rows)
+        monkeypatch.setattr(pd, "_distances_kernel", None)
+        reference = pd.point_distances(blocks, points, rows)
+        monkeypatch.undo()
+        np.testing.assert_allclose(compiled[0], reference[0], atol=1e-12)
+        np.testing.assert_allclose(compiled[1], reference[1], atol=1e-12)
+        assert np.any((reference[1] == 0.0) & (reference[0] > 1e-3))  # some points inside

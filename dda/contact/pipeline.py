@@ -9,6 +9,7 @@ from dda.blocks import BlockSet
 from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet, contact_keys, merge
 from dda.contact.narrow import OUTSIDE_FRACTION, detect
+from dda.contact.point_distance import block_polygons, point_distances
 from dda.contact.rows import edge_projection
 from dda.geometry import next_vertex_index
 from dda.result import SLIDING
@@ -69,15 +70,6 @@ def _segment_distance(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) ->
     return np.linalg.norm(p1 - (p2 + t[:, None] * e), axis=1)
 
 
-def _polygons(blocks: BlockSet, rows: np.ndarray) -> np.ndarray:
-    """shapely polygons of the given block rows (no Python loop over blocks)."""
-    starts = blocks.offsets[rows]
-    counts = blocks.offsets[rows + 1] - starts
-    ring = np.repeat(np.arange(len(rows)), counts)
-    take = starts[ring] + np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    return shapely.polygons(shapely.linearrings(blocks.vertices[take], indices=ring))
-
-
 def _geometrically_sound(blocks, vertex, edge, penetration, tolerance, slack) -> np.ndarray:
     """Drop pairings that only the edge's extended line makes look like contacts.
 
@@ -95,12 +87,11 @@ def _geometrically_sound(blocks, vertex, edge, penetration, tolerance, slack) ->
     check = np.flatnonzero((far > slack) | (penetration > slack))
     if len(check) == 0:
         return keep
-    rows, local = np.unique(blocks.vertex_owner[edge[check]], return_inverse=True)
-    polygons = _polygons(blocks, rows)[local]
-    points = shapely.points(blocks.vertices[vertex[check]])
-    boundary = shapely.distance(shapely.boundary(polygons), points)
+    boundary, to_block = point_distances(
+        blocks, blocks.vertices[vertex[check]], blocks.vertex_owner[edge[check]]
+    )
     near_enough = far[check] <= boundary + slack
-    inside = (penetration[check] <= tolerance) | (shapely.distance(polygons, points) <= slack)
+    inside = (penetration[check] <= tolerance) | (to_block <= slack)
     keep[check] = near_enough & inside
     return keep
 
@@ -117,11 +108,16 @@ def _blocks_touch(blocks, vertex, edge, penetration, tolerance, persisting) -> n
     """
     keep = np.ones(len(vertex), dtype=bool)
     check = np.flatnonzero(~persisting & (penetration > tolerance))
+    # a vertex inside the other block: they overlap (no polygon-polygon distance needed)
+    _, to_block = point_distances(
+        blocks, blocks.vertices[vertex[check]], blocks.vertex_owner[edge[check]]
+    )
+    check = check[to_block > tolerance]
     if len(check) == 0:
         return keep
     owners = np.column_stack([blocks.vertex_owner[vertex[check]], blocks.vertex_owner[edge[check]]])
     rows, local = np.unique(owners.ravel(), return_inverse=True)
-    polygons = _polygons(blocks, rows)[local.reshape(-1, 2)]
+    polygons = block_polygons(blocks, rows)[local.reshape(-1, 2)]
     keep[check] = shapely.distance(polygons[:, 0], polygons[:, 1]) <= tolerance
     return keep
 
