@@ -372,9 +372,30 @@ def add_forces(forces: np.ndarray, block: np.ndarray, row: np.ndarray, coef: np.
     """F_block -= coef·row for each term (in place).
 
     ``block`` (m,), ``row`` (m, 6), ``coef`` (m,); several kinds of terms are
-    best passed concatenated in one call (one pass per column).
+    best passed concatenated in one call (compiled: one pass; numpy: one
+    ``bincount`` per column).
     """
+    if _subtract_kernel is not None and forces.flags.c_contiguous:
+        _subtract_kernel(
+            forces,
+            np.asarray(block, dtype=np.int64),
+            np.ascontiguousarray(row, dtype=np.float64),
+            np.ascontiguousarray(coef, dtype=np.float64),
+        )
+        return
     n = len(forces)
     contrib = coef[:, None] * row
     for k in range(forces.shape[1]):
         forces[:, k] -= np.bincount(block, weights=contrib[:, k], minlength=n)
+
+
+def _subtract(forces, block, row, coef):
+    """Compiled :func:`add_forces`."""
+    for i in range(block.shape[0]):
+        b = block[i]
+        c = coef[i]
+        for k in range(row.shape[1]):
+            forces[b, k] -= c * row[i, k]
+
+
+_subtract_kernel = kernel(_subtract)

@@ -84,10 +84,19 @@ def test_patterns_of_the_same_graph_have_the_same_key():
     assert one.contacts_key != same_graph.contacts_key
 
 
-def test_forces_are_summed_per_block():
+@pytest.mark.parametrize("compiled", [True, False])
+def test_forces_are_summed_per_block(monkeypatch, compiled):
+    if not compiled:
+        monkeypatch.setattr(assembly, "_subtract_kernel", None)
     forces = np.zeros((3, 6))
     add_forces(forces, np.array([0, 2, 0]), np.ones((3, 6)), np.array([1.0, 2.0, 3.0]))
     np.testing.assert_array_equal(forces[:, 0], [-4.0, 0.0, -2.0])
+    rng = np.random.default_rng(5)
+    block, row, coef = rng.integers(0, 50, 400), rng.normal(size=(400, 6)), rng.normal(size=400)
+    many = np.zeros((50, 6))
+    add_forces(many, block, row, coef)
+    expected = -np.array([(coef[block == b, None] * row[block == b]).sum(0) for b in range(50)])
+    np.testing.assert_allclose(many, expected, rtol=1e-12, atol=1e-12)
 
 
 def test_free_rows_skip_fixed_blocks():
