@@ -194,3 +194,24 @@ def test_point_distances_compiled_equal_shapely(monkeypatch):
         np.testing.assert_allclose(compiled[0], reference[0], atol=1e-12)
         np.testing.assert_allclose(compiled[1], reference[1], atol=1e-12)
         assert np.any((reference[1] == 0.0) & (reference[0] > 1e-3))  # some points inside
+
+
+def test_a_vertex_pair_takes_the_vertex_that_is_inside():
+    """Two fragments of the repeated-fracture case (step 744): A's corner is 0.53 mm
+    inside B, B's corner lies on A's edge. The pair is resolved with A's corner, not
+    with B's (d = 0), which hid the overlap until the pairing turned and the 0.5 mm
+    were pushed out in one step."""
+    from dda.contact.rows import edge_projection
+    from tests.stability.scenes import block, scene
+
+    a = [(0.33982, 0.4952), (0.26576, 0.63764), (0.22053, 0.55961), (0.30402, 0.43905)]
+    b = [(0.255, 0.61908), (0.34076, 0.75889), (0.28817, 0.85383), (0.2103, 0.69907)]
+    raw = scene([block("a", a), block("b", [(x + 1.0, y) for x, y in b])])
+    model = build(dda.load_scene(raw))
+    blocks = model.blocks.copy()
+    blocks.vertices[blocks.vertex_owner == 1, 0] -= 1.0  # into place: overlapping A
+    found = detect(blocks, np.array([[0, 1]]), model.contact.search_distance, 1.0, 1e-5)
+    inside = blocks.offsets[0] + 1  # A's corner (0.26576, 0.63764)
+    assert list(found.vertex) == [inside]
+    penetration, _ = edge_projection(blocks, found.vertex, found.edge)
+    assert penetration[0] == pytest.approx(5.3e-4, rel=0.05)

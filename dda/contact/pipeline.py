@@ -28,7 +28,9 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
     the step start.
     """
     pairs = candidate_pairs(blocks, settings.search_distance)
-    found = detect(blocks, pairs, settings.search_distance, settings.vertex_radius)
+    found = detect(
+        blocks, pairs, settings.search_distance, settings.vertex_radius, settings.law.tolerance
+    )
     penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
     persisting = np.isin(contact_keys(blocks, found.vertex, found.edge), previous.key)
     plausible = persisting | (penetration <= settings.search_distance)
