@@ -131,7 +131,7 @@ class StateFlips:
     penetration or gap (its shear motion this step) is at most ``tolerance``.
     """
 
-    LIMIT = 8
+    LIMIT = 6
 
     def __init__(self, count: int) -> None:
         self.normal = np.zeros(count, np.int64)
