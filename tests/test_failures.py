@@ -26,3 +26,14 @@ def test_cut_steps_are_counted_and_time_is_reached():
     result = dda.simulate(scene)
     assert result.summary["cut_steps"] > 0
     assert result.final.time == pytest.approx(1.0, abs=1e-12)
+
+
+def test_the_last_steps_end_the_run_without_a_sliver():
+    """Δt 0.3 over 1.0 s: 0.3, 0.3, then the 0.4 left in two steps of 0.2 (not 0.3 + 0.1);
+    a duration that is a whole number of steps keeps them all equal despite round-off."""
+    from dda.simulation import _step_length
+
+    assert _step_length(0.3, 0.4) == pytest.approx(0.2)
+    assert _step_length(0.3, 0.2) == pytest.approx(0.2)
+    assert _step_length(0.3, 0.7) == 0.3
+    assert _step_length(0.1, 0.1 * (1 + 1e-15)) == pytest.approx(0.1, rel=1e-12)
