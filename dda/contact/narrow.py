@@ -18,6 +18,10 @@ when P1 lies on the inner side of the edge.
   the fan of u·n_out): the edge the vertex will enter.
   Scores within ``ANGLE_TIE`` of the best are a tie, broken by position: the
   edge whose line the vertex lies furthest outside of (least penetration).
+  Never taken while another candidate remains: an edge the vertex is only
+  behind the line of (beyond its ends, or much deeper than behind the
+  corner's other edge), and the vertex that touches when the other one is
+  inside the block by more than the contact tolerance.
 """
 
 from __future__ import annotations
