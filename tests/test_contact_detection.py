@@ -8,10 +8,15 @@ import pytest
 import dda
 import dda.contact.broad as broad
 import dda.contact.narrow as narrow
+import dda.contact.point_distance as pd
 from dda.bench.scenes import wall_scene
 from dda.contact.broad import candidate_pairs, overlapping_pairs
 from dda.contact.narrow import detect
+from dda.contact.pipeline import _blocks_touch
+from dda.contact.rows import edge_projection
 from dda.model import build
+from tests.helpers import rectangle
+from tests.stability.scenes import block, scene
 
 
 def brute_force_pairs(boxes: np.ndarray) -> np.ndarray:
@@ -112,8 +117,6 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, jitter):
 def corner_blocks(gap: float):
     """A unit square and a wedge whose tip is ``gap`` right of the square's top-right
     corner (inside the square when negative) and 0.5 mm below its top edge's line."""
-    from tests.helpers import rectangle
-    from tests.stability.scenes import block, scene
 
     tip = (1.0002, 0.9995)
     wedge = [tip, (1.5, 0.5), (1.5, 1.5)]
@@ -128,8 +131,6 @@ def test_a_new_pairing_behind_an_edge_line_needs_the_blocks_to_touch(gap, kept):
     """The wedge's tip is 0.5 mm behind the extended line of the square's top edge:
     a penetration only if the blocks touch (the tip inside the square), not when they
     are 0.2 mm apart (enforcing it would launch the wedge)."""
-    from dda.contact.pipeline import _blocks_touch
-    from dda.contact.rows import edge_projection
 
     blocks = corner_blocks(gap)
     tip = np.array([blocks.offsets[1]])
@@ -143,7 +144,6 @@ def test_a_new_pairing_behind_an_edge_line_needs_the_blocks_to_touch(gap, kept):
 def crack_neighbours():
     """Two fragments meeting along a crack line over 17 mm: each one's corner lies on the
     other's edge (an acute corner of the first, 60°), as in the repeated-fracture case."""
-    from tests.stability.scenes import block, scene
 
     p = np.array([0.78744, 0.71201])
     u = np.array([0.8377, 0.79809]) - p
@@ -158,7 +158,6 @@ def test_corners_on_each_others_edges_pair_with_those_edges():
     first's other edge at that corner, beyond its end: it pairs with the edge it lies on
     (it used to pick the other, which the pipeline then refused: no contact at all, and
     the fragments sank into each other)."""
-    from dda.contact.rows import edge_projection
 
     model = crack_neighbours()
     blocks = model.blocks
@@ -172,9 +171,6 @@ def test_corners_on_each_others_edges_pair_with_those_edges():
 def test_point_distances_compiled_equal_shapely(monkeypatch):
     """Distances to the boundary and to the block: the compiled loop against shapely, on a
     jittered wall and a concave U block, for points inside, outside, on edges and vertices."""
-    import dda.contact.point_distance as pd
-    from tests.helpers import rectangle
-    from tests.stability.scenes import block, scene
 
     u_shape = [(10, 0), (13, 0), (13, 3), (12, 3), (12, 1), (11, 1), (11, 3), (10, 3)]
     raw = scene([block("u", u_shape), block("box", rectangle(20, 0, 21, 1))])
@@ -201,8 +197,6 @@ def test_a_vertex_pair_takes_the_vertex_that_is_inside():
     inside B, B's corner lies on A's edge. The pair is resolved with A's corner, not
     with B's (d = 0), which hid the overlap until the pairing turned and the 0.5 mm
     were pushed out in one step."""
-    from dda.contact.rows import edge_projection
-    from tests.stability.scenes import block, scene
 
     a = [(0.33982, 0.4952), (0.26576, 0.63764), (0.22053, 0.55961), (0.30402, 0.43905)]
     b = [(0.255, 0.61908), (0.34076, 0.75889), (0.28817, 0.85383), (0.2103, 0.69907)]

@@ -163,7 +163,7 @@ def update(
         moved_back = still_closed & (state == SLIDING) & (contacts.slide_direction * moved < -eps)
         weightless = shear_capacity <= shear_noise
         sticks = moved_back & ~weightless & ~keep_sliding
-        reverses = moved_back & weightless & ~sticks
+        reverses = moved_back & weightless
         new_state[slips] = SLIDING
         new_state[sticks] = LOCKED
         contacts.slide_direction[slips] = np.sign(trial_shear[slips])

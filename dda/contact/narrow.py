@@ -270,7 +270,7 @@ def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.
     return fans.outward[edge]
 
 
-def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float = 0.0, inside_depth: float = np.inf):
+def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: float):
     """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
 
     Candidates: the two edges at p2 (vertex p1 enters them) and the two edges
