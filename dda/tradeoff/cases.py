@@ -7,6 +7,10 @@
   a = (H − tan φ (V + W)) / m.
 * ``stack`` (cases/stack.toml, 0.2 s): mean σyy of the bottom block, closed
   form −ρ g (4 + ½) h.
+* ``wall`` (the benchmark's 10 x 10 wall of dda.bench.scenes, 0.1 s): the
+  displacements of every block, against a converged fine run (error: the
+  largest difference over the largest displacement). The many-contact case,
+  where the state band matters.
 * any other scene file: the final centroids, against a converged fine run
   (error: the largest centroid distance over the model size).
 """
@@ -22,6 +26,8 @@ from pathlib import Path
 import numpy as np
 
 import dda
+from dda.bench.scenes import wall_scene
+from dda.model import STATE_BAND
 from dda.tradeoff.grid import Setting
 
 CASES_DIR = Path(__file__).resolve().parents[2] / "cases"
@@ -37,6 +43,7 @@ class Case:
     reference: np.ndarray | None  # closed form; None: a converged fine run
     quantity: str  # what is measured, for tables
     grid: dict[str, list]  # default grid of the study
+    per_model_size: bool = False  # error over the model size (else over max |reference|)
 
     def scene(self, setting: Setting) -> dict:
         """The raw scene with ``setting`` applied."""
@@ -46,6 +53,7 @@ class Case:
         contact["method"] = setting.method
         contact["penalty"] = setting.penalty * young
         contact["tolerance"] = setting.tolerance * model_size(raw)
+        contact["state_band"] = setting.state_band
         analysis = raw.setdefault("analysis", {})
         analysis["time_step"] = setting.time_step
         analysis["max_displacement_ratio"] = setting.ratio
@@ -147,10 +155,33 @@ def scene_file(path: str) -> Case:
         None,
         "final centroids (error / model size)",
         _grid(penalty=[1.0, 10.0], time_step=[time_step], ratio=[0.01]),
+        per_model_size=True,
     )
 
 
-BUILT_IN = {"sliding_block": sliding_block, "pushed_block": pushed_block, "stack": stack}
+def wall() -> Case:
+    raw = wall_scene(10, steps=100)
+    raw["analysis"]["duration"] = 0.1
+    raw["analysis"].pop("steps")
+    return Case(
+        "wall",
+        raw,
+        lambda r: r.final.displacements[:, :2].ravel(),
+        None,
+        "block displacements at 0.1 s (error / largest displacement)",
+        {
+            **_grid(penalty=[50.0], time_step=[1e-3, 5e-4], ratio=[0.01]),
+            "state_band": [1e-9, 1e-8, 1e-7, 1e-6, 1e-5],
+        },
+    )
+
+
+BUILT_IN = {
+    "sliding_block": sliding_block,
+    "pushed_block": pushed_block,
+    "stack": stack,
+    "wall": wall,
+}
 
 
 def get_case(name: str) -> Case:
@@ -164,11 +195,12 @@ def get_case(name: str) -> Case:
 
 def fine_setting(grid: dict[str, list]) -> Setting:
     """The converged reference run: AL, the stiffest penalty, 1/10 of the smallest
-    tolerance, 1/4 of the smallest time step and ratio."""
+    tolerance, 1/4 of the smallest time step and ratio, the narrowest state band."""
     return Setting(
         "augmented-lagrangian",
         max(grid["penalty"]),
         min(grid["tolerance"]) / 10,
         min(grid["time_step"]) / 4,
         min(grid["ratio"]) / 4,
+        min(grid.get("state_band", [STATE_BAND])),
     )

@@ -6,6 +6,7 @@ import csv
 import math
 from pathlib import Path
 
+from dda.model import STATE_BAND
 from dda.tradeoff.pareto import fronts_by_method
 
 COLUMNS = (
@@ -15,6 +16,7 @@ COLUMNS = (
     "tolerance",
     "time_step",
     "ratio",
+    "state_band",
     "status",
     "steps",
     "seconds",
@@ -49,15 +51,17 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
     lines = [
         f"Quantity: {quantity}." if quantity else "",
         "",
-        "| method | penalty (×E) | tolerance (×size) | Δt | g2 | error | seconds | steps |",
-        "|---|---|---|---|---|---|---|---|",
+        "| method | penalty (×E) | tolerance (×size) | Δt | g2 | state band (×size) "
+        "| error | seconds | steps |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for method, front in fronts_by_method(rows).items():
         for r in front:
             tol = "–" if method == "penalty" else f"{r['tolerance']:g}"
             lines.append(
                 f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
-                f"| {r['ratio']:g} | {r['error']:.2e} | {r['seconds']:.2f} "
+                f"| {r['ratio']:g} | {r.get('state_band', STATE_BAND):g} "
+                f"| {r['error']:.2e} | {r['seconds']:.2f} "
                 f"| {r['steps']} |"
             )
     failed = sum(r["status"] != "finished" for r in rows)

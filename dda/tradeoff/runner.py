@@ -81,7 +81,7 @@ def run_one(case_name: str, setting: Setting) -> dict:
 def add_errors(rows: list[dict], case_name: str, reference: np.ndarray | None) -> None:
     """Fill ``error`` (relative) and ``reference`` in place."""
     case = get_case(case_name)
-    scale = model_size(case.raw) if case.reference is None else None
+    scale = model_size(case.raw) if case.per_model_size else None
     for row in rows:
         row["reference"] = None if reference is None else np.asarray(reference).tolist()
         if row["value"] is None or reference is None:
