@@ -11,6 +11,7 @@ import dda.contact.narrow as narrow
 import dda.contact.point_distance as pd
 from dda.bench.scenes import wall_scene
 from dda.contact.broad import candidate_pairs, overlapping_pairs
+from dda.contact.contact_set import contact_keys
 from dda.contact.narrow import detect
 from dda.contact.pipeline import _blocks_touch
 from dda.contact.rows import edge_projection
@@ -112,6 +113,33 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, jitter):
     np.testing.assert_array_equal(first.vertex, second.vertex)
     np.testing.assert_array_equal(first.edge, second.edge)
     np.testing.assert_array_equal(first.vertex_vertex, second.vertex_vertex)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_vertex_vertex_ties_keep_last_steps_pairing(seed):
+    """At the corners of a wall every vertex-vertex candidate ties: round-off decides.
+
+    Moved by 1e-9 at random, about half of the 54 pairings of a 4 x 3 wall
+    turn to the other vertex (a new key, and the contact's history lost);
+    given the last step's keys, none does.
+    """
+    model, blocks = wall_blocks(4, 3)
+    c = model.contact
+    pairs = candidate_pairs(blocks, c.search_distance)
+    before = detect(blocks, pairs, c.search_distance, c.vertex_radius)
+    keys = np.sort(contact_keys(blocks, before.vertex, before.edge))
+    moved = blocks.copy()
+    moved.vertices = moved.vertices + np.random.default_rng(seed).normal(
+        scale=1e-9, size=moved.vertices.shape
+    )
+
+    def new_keys(previous_keys):
+        found = detect(moved, pairs, c.search_distance, c.vertex_radius, np.inf, previous_keys)
+        return np.setdiff1d(contact_keys(moved, found.vertex, found.edge), keys)
+
+    assert len(keys) == 54
+    assert len(new_keys(None)) > 10  # round-off alone turns them
+    assert len(new_keys(keys)) == 0
 
 
 def corner_blocks(gap: float):

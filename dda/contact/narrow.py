@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.contact.contact_set import contact_keys
 from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertices
 from dda.jit import kernel
 
@@ -111,11 +112,15 @@ def detect(
     search: float,
     vertex_radius: float,
     inside_depth: float = np.inf,
+    previous_keys: np.ndarray | None = None,
 ) -> Detected:
     """Vertex-edge and vertex-vertex contacts for candidate block pairs.
 
     ``inside_depth``: a vertex deeper than this inside the other block (the
     contact tolerance) is the one a vertex-vertex pair is resolved with.
+    ``previous_keys``: contact keys of the last step; a vertex-vertex tie is
+    resolved with the pairing among them, so that the contact keeps its
+    identity (and its history: state, multipliers, shear reference).
     """
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
@@ -126,7 +131,7 @@ def detect(
     ve_vertex, ve_edge, vv_vertex, vv_edge = screen(blocks, fans, pairs, search, radius)
     slack = OUTSIDE_FRACTION * search
     vv_vertex, vv_edge = _resolve_vertex_vertex(
-        blocks, fans, vv_vertex, vv_edge, slack, inside_depth
+        blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys
     )
     vertex_all = np.concatenate([ve_vertex, vv_vertex])
     edge_all = np.concatenate([ve_edge, vv_edge])
@@ -270,7 +275,9 @@ def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.
     return fans.outward[edge]
 
 
-def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: float):
+def _resolve_vertex_vertex(
+    blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys=None
+):
     """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
 
     Candidates: the two edges at p2 (vertex p1 enters them) and the two edges
@@ -279,6 +286,12 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     (:func:`_fake_pairings`, beyond ``slack``), nor the vertex that is outside
     while the other is inside by more than ``inside_depth``
     (:func:`_hidden_penetration`), while another candidate remains.
+
+    Among candidates tied in angle, a pairing of the last step (its key in
+    ``previous_keys``) wins, else the least penetration. Without this the
+    corners of a regular wall, where every candidate ties, swapped pairings
+    with round-off from step to step (more than half of the contacts of a
+    10 x 10 wall got new keys every step) and lost their history.
     """
     if len(p1) == 0:
         return p1, p2
@@ -304,6 +317,9 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
     # the edge whose line the vertex is furthest outside of (least penetration)
     tied = scores >= scores.max(axis=1, keepdims=True) - ANGLE_TIE
+    least = np.where(tied, depth, np.inf).min(axis=1, keepdims=True)
+    near = tied & (depth <= least + inside_depth)
+    tied &= _persisting(blocks, candidates, near, previous_keys)
     best = np.argmin(np.where(tied, depth, np.inf), axis=1)
     # at a reflex corner a vertex is inside the block once it is behind either edge
     # line: it then belongs to the edge it is behind (the other one's line is no guide)
@@ -315,6 +331,18 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     edges = np.column_stack([c[1] for c in candidates])
     rows = np.arange(len(p1))
     return verts[rows, best], edges[rows, best]
+
+
+def _persisting(blocks: BlockSet, candidates, tied: np.ndarray, previous_keys) -> np.ndarray:
+    """(k, 4) mask: the tied candidates that were pairings last step, where there is
+    one among the tied (else every candidate)."""
+    if previous_keys is None or len(previous_keys) == 0:
+        return np.ones_like(tied)
+    was = np.column_stack(
+        [np.isin(contact_keys(blocks, vert, ed), previous_keys) for vert, ed in candidates]
+    )
+    keep = tied & was
+    return np.where(keep.any(axis=1, keepdims=True), keep, True)
 
 
 def _depth(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):

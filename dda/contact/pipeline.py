@@ -29,7 +29,12 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
     """
     pairs = candidate_pairs(blocks, settings.search_distance)
     found = detect(
-        blocks, pairs, settings.search_distance, settings.vertex_radius, settings.law.tolerance
+        blocks,
+        pairs,
+        settings.search_distance,
+        settings.vertex_radius,
+        settings.law.tolerance,
+        previous.key,
     )
     penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
     persisting = np.isin(contact_keys(blocks, found.vertex, found.edge), previous.key)
