@@ -174,7 +174,10 @@ def _stiffness(pattern, blocks, base_diagonal, contacts, rows, law):
 
 
 def _keyed_springs(contacts: ContactSet, springs: np.ndarray):
-    order = np.argsort(contacts.key, kind="stable")
+    """The springs K holds, by contact key (sorted); open contacts hold none and are left
+    out, so that one coming or going within the search distance is no change of K."""
+    live = np.flatnonzero(springs.any(axis=0))
+    order = live[np.argsort(contacts.key[live], kind="stable")]
     return contacts.key[order], springs[:, order]
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -10,6 +12,7 @@ import dda
 import dda.linsolve as linsolve
 from dda.bench.scenes import wall_scene
 from dda.linsolve import Factorisation, ReusingSolver, block_ordering, pcg
+from dda.step import _keyed_springs
 
 
 def spd_matrix(seed: int, n: int = 60, density: float = 0.08) -> sp.csc_matrix:
@@ -110,3 +113,12 @@ def test_a_run_is_reproducible_bit_for_bit():
         return dda.simulate(dda.load_scene(raw)).final.displacements
 
     np.testing.assert_array_equal(run(), run())
+
+
+def test_open_contacts_are_no_spring_of_k():
+    """Only closed contacts (a nonzero spring) count when K is compared with the factorised one."""
+    contacts = SimpleNamespace(key=np.array([9, 3, 5, 1]))
+    springs = np.array([[2.0, 0.0, 1.0, 0.0], [0.8, 0.0, 0.0, 0.0]])  # 3 and 1 are open
+    keys, kept = _keyed_springs(contacts, springs)
+    np.testing.assert_array_equal(keys, [5, 9])
+    np.testing.assert_array_equal(kept, [[1.0, 2.0], [0.0, 0.8]])
