@@ -47,7 +47,10 @@ class BlockPattern:
         although no contact joins them now (their blocks are zero), so that a
         contact coming back does not need a new pattern.
     active : (m,) bool, the contacts that add to K (closed ones); the others
-        (open: no spring) need no block and get no slot. None: all.
+        (open: no spring) need no block. None: all. Every contact whose blocks
+        have a block of K gets its slots (an open one adds zeros there), so a
+        contact that closes later in the step lands without new slots
+        (:meth:`lands`).
 
     Attributes
     ----------
@@ -57,6 +60,7 @@ class BlockPattern:
     indptr, indices : scalar CSR structure of K (symmetric, so also its CSC)
     key : bytes identifying the block graph (equal keys: same sparsity of K)
     contacts_key : bytes identifying the contact list the slots were made for
+    landed : (m,) bool, contacts with all their parts in K (blocks in the pattern)
     pairs : (q, 2) sorted pairs of free rows (lo < hi) with an off-diagonal block
     """
 
@@ -79,13 +83,13 @@ class BlockPattern:
         self.pairs = pairs
         self._pair_keys = pairs[:, 0] * max(self.nfree, 1) + pairs[:, 1]
         self.key = graph_key(fixed, pairs)
-        self.contacts_key = contacts_key(fixed, block_a, block_b, active)
+        self.contacts_key = contacts_key(fixed, block_a, block_b)
         self.position = (
             np.arange(self.nfree) if ordering is None else np.asarray(ordering(self.nfree, pairs))
         )
         self.block_of_row = np.where(rows >= 0, self.position[np.maximum(rows, 0)], -1)
         self._build_structure(pairs)
-        self._contact_slots(block_a, block_b, act)
+        self._contact_slots(block_a, block_b)
         self._flat_targets: np.ndarray | None = None
         self._diagonal_targets: np.ndarray | None = None
 
@@ -120,9 +124,14 @@ class BlockPattern:
         self.nnz = int(self.indptr[-1])
 
     def _slot_of(self, brow: np.ndarray, bcol: np.ndarray) -> np.ndarray:
-        """Slot of block (brow, bcol) (both in matrix order; must exist)."""
+        """Slot of block (brow, bcol) (both in matrix order), -1 where K has no such block."""
         want = brow.astype(np.int64) * max(self.nfree, 1) + bcol
-        return np.searchsorted(self._block_key, want)
+        at = np.minimum(np.searchsorted(self._block_key, want), len(self._block_key) - 1)
+        return np.where(self._block_key[at] == want, at, -1)
+
+    def lands(self, active: np.ndarray | None = None) -> bool:
+        """True when every (active) contact of the list the slots were made for lands in K."""
+        return bool(self.landed[_active(active, len(self.landed))].all())
 
     def covers(
         self,
@@ -143,23 +152,21 @@ class BlockPattern:
         inside = at < len(self._pair_keys)
         return bool(inside.all() and np.all(self._pair_keys[at] == keys))
 
-    def with_contacts(
-        self, block_a: np.ndarray, block_b: np.ndarray, active: np.ndarray | None = None
-    ) -> BlockPattern:
+    def with_contacts(self, block_a: np.ndarray, block_b: np.ndarray) -> BlockPattern:
         """The same pattern (same graph) with the slots of another contact list."""
         other = copy.copy(self)
-        other.contacts_key = contacts_key(self._fixed, block_a, block_b, active)
-        other._contact_slots(block_a, block_b, _active(active, len(block_a)))
+        other.contacts_key = contacts_key(self._fixed, block_a, block_b)
+        other._contact_slots(block_a, block_b)
         other._flat_targets = None
         return other
 
-    def _contact_slots(self, block_a: np.ndarray, block_b: np.ndarray, active: np.ndarray) -> None:
+    def _contact_slots(self, block_a: np.ndarray, block_b: np.ndarray) -> None:
         """Where the ii, jj, ij and ji parts of each contact go (-1: nowhere).
 
-        Inactive contacts (open: no spring) go nowhere.
+        A contact between two free blocks that K has no block for gets no ij,
+        ji slots and is not ``landed``: it must stay open (add nothing).
         """
-        ra = np.where(active, self.block_of_row[block_a], -1)
-        rb = np.where(active, self.block_of_row[block_b], -1)
+        ra, rb = self.block_of_row[block_a], self.block_of_row[block_b]
         none = np.full(len(block_a), -1, dtype=np.int64)
         fa, fb = ra >= 0, rb >= 0
         self.slot_ii = none.copy()
@@ -170,6 +177,7 @@ class BlockPattern:
         self.slot_ij, self.slot_ji = none.copy(), none.copy()
         self.slot_ij[both] = self._slot_of(ra[both], rb[both])
         self.slot_ji[both] = self._slot_of(rb[both], ra[both])
+        self.landed = ~both | (self.slot_ij >= 0)
 
     def flat_targets(self) -> np.ndarray:
         """(4, m, 36) flat data index of every element of every contact part (-1: none)."""
@@ -223,16 +231,13 @@ def graph_key(fixed: np.ndarray, pairs: np.ndarray) -> bytes:
     )
 
 
-def contacts_key(
-    fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray, active: np.ndarray | None = None
-) -> bytes:
+def contacts_key(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> bytes:
     """Bytes equal exactly when two contact lists have the same blocks in the same order
-    (among the same blocks) and the same active contacts."""
+    (among the same blocks)."""
     a = np.ascontiguousarray(block_a, dtype=np.int64)
     b = np.ascontiguousarray(block_b, dtype=np.int64)
-    act = np.packbits(_active(active, len(a))).tobytes()
     head = graph_key(fixed, np.zeros((0, 2), np.int64))
-    return head + a.tobytes() + b"|" + b.tobytes() + b"|" + act
+    return head + a.tobytes() + b"|" + b.tobytes()
 
 
 def _active(active: np.ndarray | None, m: int) -> np.ndarray:

@@ -89,10 +89,11 @@ class LinearCache:
         search distance, and each new pattern costs an ordering and an analysis.
         """
         kept = self.pattern
-        if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b, active):
-            return kept
-        if kept is not None and kept.covers(fixed, block_a, block_b, active):
-            self.pattern = kept.with_contacts(block_a, block_b, active)
+        if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b):
+            if kept.lands(active):
+                return kept
+        elif kept is not None and kept.covers(fixed, block_a, block_b, active):
+            self.pattern = kept.with_contacts(block_a, block_b)
             return self.pattern
         rows = free_rows(fixed)
         extra = []

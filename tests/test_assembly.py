@@ -131,8 +131,11 @@ def test_open_contacts_need_no_block():
     active = np.arange(len(a)) % 2 == 0
     terms = [(ri, rj, np.where(active, k, 0.0)) for ri, rj, k in terms]  # open: no spring
     pattern = BlockPattern(fixed, a, b, reversed_order, active=active)
-    assert pattern.covers(fixed, a, b, active)
-    assert np.all(pattern.slot_ij[~active] == -1) and np.all(pattern.slot_ii[~active] == -1)
+    assert pattern.covers(fixed, a, b, active) and pattern.lands(active)
+    full = BlockPattern(fixed, a, b, reversed_order)
+    assert len(pattern.pairs) < len(full.pairs)  # the open contacts' pairs have no block
+    assert not pattern.lands()  # so those contacts may not close without a new pattern
+    assert np.all(pattern.slot_ij[~pattern.landed] == -1)
     k = assemble(pattern, diagonal, fixed, terms).toarray()
     perm = np.argsort(pattern.position)
     idx = (6 * perm[:, None] + np.arange(6)).ravel()
