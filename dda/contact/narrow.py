@@ -336,13 +336,16 @@ def _resolve_vertex_vertex(
 def _persisting(blocks: BlockSet, candidates, tied: np.ndarray, previous_keys) -> np.ndarray:
     """(k, 4) mask: the tied candidates that were pairings last step, where there is
     one among the tied (else every candidate)."""
-    if previous_keys is None or len(previous_keys) == 0:
-        return np.ones_like(tied)
-    was = np.column_stack(
-        [np.isin(contact_keys(blocks, vert, ed), previous_keys) for vert, ed in candidates]
-    )
-    keep = tied & was
-    return np.where(keep.any(axis=1, keepdims=True), keep, True)
+    keep = np.ones_like(tied)
+    rows = np.flatnonzero(tied.sum(axis=1) > 1)
+    if previous_keys is None or len(previous_keys) == 0 or len(rows) == 0:
+        return keep
+    vert = np.concatenate([c[0][rows] for c in candidates])
+    edge = np.concatenate([c[1][rows] for c in candidates])
+    was = np.isin(contact_keys(blocks, vert, edge), previous_keys).reshape(4, -1).T
+    was &= tied[rows]
+    keep[rows] = np.where(was.any(axis=1, keepdims=True), was, True)
+    return keep
 
 
 def _depth(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):
