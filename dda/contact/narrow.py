@@ -275,9 +275,7 @@ def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.
     return fans.outward[edge]
 
 
-def _resolve_vertex_vertex(
-    blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys=None
-):
+def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys):
     """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
 
     Candidates: the two edges at p2 (vertex p1 enters them) and the two edges
@@ -287,8 +285,9 @@ def _resolve_vertex_vertex(
     while the other is inside by more than ``inside_depth``
     (:func:`_hidden_penetration`), while another candidate remains.
 
-    Among candidates tied in angle, a pairing of the last step (its key in
-    ``previous_keys``) wins, else the least penetration. Without this the
+    Among candidates tied in angle and within ``inside_depth`` of the least
+    penetration, a pairing of the last step (its key in ``previous_keys``)
+    wins; otherwise the least penetration does. Without this the
     corners of a regular wall, where every candidate ties, swapped pairings
     with round-off from step to step (more than half of the contacts of a
     10 x 10 wall got new keys every step) and lost their history.
