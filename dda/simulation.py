@@ -120,7 +120,9 @@ def _advance(run: _Run) -> None:
         run.energy.add_step_work(run.blocks, solution.d, ctx.time)
         for effect in m.effects:
             effect.after_step(run.blocks, solution.d, ctx)
-        apply_step(run.blocks, solution.d, dt, m.elastic, m.static, m.exact_rotation)
+        apply_step(
+            run.blocks, solution.d, dt, m.elastic, m.static, m.exact_rotation, solution.pushed
+        )
         if not np.all(np.isfinite(run.blocks.vertices)):
             raise SimulationError(f"step {run.step + 1}: non-finite block positions")
     run.contacts = solution.contacts

@@ -28,6 +28,7 @@ from dda.blocks import BlockSet
 from dda.contact import law as contact_law
 from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet
+from dda.contact.push_out import push_out_displacement, pushed_overlap
 from dda.contact.rows import ContactRows, contact_rows
 from dda.effects.base import StepContext
 from dda.linsolve import ReusingSolver, block_ordering
@@ -47,6 +48,7 @@ class StepSolution:
     converged: bool
     max_penetration: float
     held: int = 0  # contacts that reached StateFlips.LIMIT (held where within tolerance)
+    pushed: np.ndarray | None = None  # (n, 6) part of d that removed overlap found this step
 
 
 MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
@@ -308,4 +310,12 @@ def solve_step(
     closed = contacts.state != OPEN
     max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
     made = cache.solver.factorisations - factorisations_before
-    return StepSolution(d, contacts, iterations, made, converged, max_pen, flips.held_count())
+    pushed = None
+    if converged and not ctx.static:
+        overlap = pushed_overlap(contacts, rows, contacts.penetration, law.tolerance)
+        if overlap.any():
+            masses = model.inertia.masses(blocks)
+            pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
+    return StepSolution(
+        d, contacts, iterations, made, converged, max_pen, flips.held_count(), pushed
+    )

@@ -36,10 +36,13 @@ def apply_step(
     elastic: Elastic,
     static: bool,
     exact_rotation: bool,
+    pushed: np.ndarray | None = None,
 ) -> None:
     """Move the blocks by ``d`` (n, 6) in place.
 
     Velocity (Shi, constant acceleration): v1 = (2/Δt) D - v0; static: v1 = 0.
+    ``pushed``: the part of D that removed overlap found this step
+    (dda.contact.push_out), moved but left out of the velocity.
     Stress: σ += E ε, then rotated with the block when the rotation is exact.
     """
     old_centroid = blocks.centroid.copy()
@@ -50,5 +53,8 @@ def apply_step(
     blocks.update_moments()
     blocks.displacement = blocks.displacement + (blocks.centroid - old_centroid)
     blocks.rotation = blocks.rotation + d[:, 2]
-    blocks.velocity = np.zeros_like(blocks.velocity) if static else 2.0 * d / dt - blocks.velocity
+    moved = d if pushed is None else d - pushed
+    blocks.velocity = (
+        np.zeros_like(blocks.velocity) if static else 2.0 * moved / dt - blocks.velocity
+    )
     blocks.velocity[blocks.fixed] = 0.0

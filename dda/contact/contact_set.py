@@ -31,6 +31,7 @@ class ContactSet:
     reference : edge parameter of the shear reference point P0 on P2P3
     slide_direction : +1 / -1 sign of sliding along P2->P3 (when sliding)
     intact : cohesion and tensile strength still there (lost once it slips or opens)
+    fresh : found this step (no history from the last one)
     normal_force, shear_force, penetration, slip : results of the last solve
         (slip: shear position of P1 from the reference point, along P2->P3)
     """
@@ -47,6 +48,7 @@ class ContactSet:
     reference: np.ndarray
     slide_direction: np.ndarray
     intact: np.ndarray
+    fresh: np.ndarray
     normal_force: np.ndarray
     shear_force: np.ndarray
     penetration: np.ndarray
@@ -57,7 +59,7 @@ class ContactSet:
 
     @classmethod
     def empty(cls) -> ContactSet:
-        kinds = {"state": np.int8, "intact": bool}
+        kinds = {"state": np.int8, "intact": bool, "fresh": bool}
         integers = {"vertex", "edge", "block_a", "block_b", "key"}
         return cls(
             **{
@@ -118,6 +120,7 @@ def merge(
         reference=np.asarray(initial_parameter, float).copy(),
         slide_direction=np.zeros(m),
         intact=np.ones(m, bool),
+        fresh=np.ones(m, bool),
         normal_force=np.zeros(m),
         shear_force=np.zeros(m),
         penetration=np.zeros(m),
@@ -138,6 +141,7 @@ def merge(
             "penetration",
         ):
             getattr(new, name)[new_rows] = getattr(previous, name)[old_rows]
+        new.fresh[new_rows] = False
     # An open contact has no shear reference yet: measure from the vertex's current
     # projection, so a contact that closes during the step does not start with the
     # slip accumulated since it was first detected (a spurious shear spring force).
