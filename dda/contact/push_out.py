@@ -4,7 +4,7 @@ A contact found for the first time already deeper than the contact
 tolerance (a pairing that detection could not make earlier, e.g. among
 fresh fracture fragments) is pushed out within one step. Shi's update
 v1 = 2 D/Δt − v0 would turn that push into a velocity, and so into kinetic
-energy the blocks never had (in a pile of fragments, tens of joules in a
+energy the blocks never had (in a pile of fragments, up to 127 J in a
 single step). Like the position correction of game-physics contact solvers,
 the part of D that removes such an overlap is left out of the velocity.
 
