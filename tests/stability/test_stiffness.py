@@ -61,7 +61,13 @@ def test_al_from_any_initial_penalty_lands_and_rests(factor):
 @pytest.mark.slow
 @pytest.mark.parametrize("factor", [1e-4, 1e4])
 def test_al_extreme_penalties_hold_a_second(factor):
-    """A second on the base; Shi's update may leave a small rebound (v1 = 2D/Δt − v0)."""
+    """A second on the base, at rest where it landed (1 cm down, to 2e-5 m).
+
+    Shi's update (v1 = 2D/Δt − v0) does not damp the contact's own vibration,
+    far faster than Δt with p = 1e4 E: of the 0.44 m/s of the landing, 6e-3
+    m/s stays as a velocity flipping sign every step (measured; 1.4 %), so
+    the bound is 0.01 m/s.
+    """
     result = run_checked(dropped_block(factor * ROCK["young"], 1.0))
-    assert result.final.displacements[1, 1] == pytest.approx(-0.01, abs=2e-3)
-    assert np.abs(result.final.velocities[1]).max() < 0.05
+    assert result.final.displacements[1, 1] == pytest.approx(-0.01, abs=2e-5)
+    assert np.abs(result.final.velocities[1]).max() < 0.01
