@@ -33,6 +33,10 @@ MAX_PCG_ITERATIONS = 12  # beyond this a new factorisation is cheaper (and is ma
 # Fixed numbers rather than timings taken during the run, so that a run's
 # result never depends on how busy the machine was.
 PCG_BUDGET = {"superlu": MAX_PCG_ITERATIONS, "pardiso": 3}
+# A factorisation grows faster with the size than a back-substitution: at 60,000 rows
+# (100x100 wall) PARDISO's factorisation and solve cost ~5.5 back-substitutions.
+PARDISO_LARGE = 20_000  # rows from which the larger budget applies
+PCG_BUDGET_PARDISO_LARGE = 5
 REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
 PARDISO_MIN_SIZE = 2000  # smaller systems: SuperLU (PARDISO's per-call overhead dominates)
 PARDISO_THREADS = 1
@@ -291,8 +295,12 @@ class ReusingSolver:
 
         At most ``max_iterations``; 0 or 1 means PCG does not pay (then it is not tried).
         """
-        kind = "pardiso" if isinstance(self._factor, PardisoFactorisation) else "superlu"
-        return min(self.max_iterations, PCG_BUDGET[kind])
+        if isinstance(self._factor, PardisoFactorisation):
+            large = self._factor.size >= PARDISO_LARGE
+            budget = PCG_BUDGET_PARDISO_LARGE if large else PCG_BUDGET["pardiso"]
+        else:
+            budget = PCG_BUDGET["superlu"]
+        return min(self.max_iterations, budget)
 
     @property
     def factored(self) -> sp.spmatrix | None:

@@ -95,6 +95,20 @@ def test_pardiso_backend_equals_superlu(monkeypatch):
     assert pardiso.factorisations == 2
 
 
+def test_pardiso_allows_more_pcg_iterations_on_large_systems(monkeypatch):
+    """A factorisation grows faster with the size than a back-substitution: the
+    budget is 3 PCG iterations below PARDISO_LARGE rows, 5 from there on."""
+    pytest.importorskip("pypardiso")
+    monkeypatch.setattr(linsolve, "PARDISO_MIN_SIZE", 0)
+    k = spd_matrix(11)
+    solver = ReusingSolver(backend="pardiso")
+    solver.solve(k, np.ones(60), key="graph")
+    assert solver.pcg_budget == 3
+    monkeypatch.setattr(linsolve, "PARDISO_LARGE", 60)
+    assert solver.pcg_budget == 5
+    assert ReusingSolver(backend="superlu").pcg_budget == linsolve.MAX_PCG_ITERATIONS
+
+
 def test_dissimilar_matrix_is_factorised_without_pcg():
     solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", backend="superlu")
     k = spd_matrix(10)
