@@ -7,6 +7,7 @@ import pytest
 
 import dda.assembly as assembly
 from dda.assembly import BlockPattern, add_forces, assemble, free_rows
+from dda.step import LinearCache
 
 
 def random_case(seed: int, n: int = 9, m: int = 40):
@@ -141,3 +142,18 @@ def test_open_contacts_need_no_block():
     idx = (6 * perm[:, None] + np.arange(6)).ravel()
     ref = dense_reference(fixed, a, b, diagonal, terms)
     np.testing.assert_allclose(k, ref[np.ix_(idx, idx)], rtol=1e-12, atol=1e-12)
+
+
+def test_the_cache_keeps_the_pattern_while_closing_contacts_land_in_it():
+    """Within a step the contact list stays; only which contacts are closed changes."""
+    fixed, a, b, _, _ = random_case(13)
+    first = np.arange(len(a)) % 2 == 0
+    cache = LinearCache(solver=None)
+    pattern = cache.pattern_for(fixed, a, b, active=first)
+    assert cache.pattern_for(fixed, a, b, active=first) is pattern
+    landing = first | pattern.landed  # contacts whose blocks already have a block of K
+    assert cache.pattern_for(fixed, a, b, active=landing) is pattern
+    everything = np.ones(len(a), bool)
+    assert not pattern.lands(everything)
+    bigger = cache.pattern_for(fixed, a, b, active=everything)
+    assert bigger is not pattern and bigger.lands(everything)
