@@ -13,7 +13,7 @@ from dda.bench.scenes import wall_scene
 from dda.contact.broad import candidate_pairs, overlapping_pairs
 from dda.contact.contact_set import contact_keys
 from dda.contact.narrow import detect
-from dda.contact.pipeline import _blocks_touch
+from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_projection
 from dda.model import build
 from tests.helpers import rectangle
@@ -165,8 +165,9 @@ def test_a_new_pairing_behind_an_edge_line_needs_the_blocks_to_touch(gap, kept):
     top_edge = np.array([blocks.offsets[0] + 2])  # from (1, 1) to (0, 1)
     penetration, _ = edge_projection(blocks, tip, top_edge)
     assert penetration[0] == pytest.approx(5e-4, rel=1e-6)
-    new = np.array([False])
-    assert _blocks_touch(blocks, tip, top_edge, penetration, 1e-9, new)[0] == kept
+    asked = np.array([True])  # seen for the first time, deeper than the touch tolerance
+    _, to_block = _distances_where(blocks, tip, top_edge, asked)
+    assert _blocks_touch(blocks, tip, top_edge, to_block, asked, 1e-9)[0] == kept
 
 
 def crack_neighbours():

@@ -16,7 +16,8 @@ when P1 lies on the inner side of the edge.
   contact per pair: of the four edges meeting at P1 and P2, take the one
   that best separates the opposite vertex's fan of edges (largest min over
   the fan of u·n_out): the edge the vertex will enter.
-  Scores within ``ANGLE_TIE`` of the best are a tie, broken by position: the
+  Scores within ``ANGLE_TIE`` of the best are a tie, broken by last step's
+  pairing (within the contact tolerance in depth), else by position: the
   edge whose line the vertex lies furthest outside of (least penetration).
   Never taken while another candidate remains: an edge the vertex is only
   behind the line of (beyond its ends, or much deeper than behind the

@@ -38,18 +38,18 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
     )
     penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
     persisting = np.isin(contact_keys(blocks, found.vertex, found.edge), previous.key)
+    tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
+    far = _segment_distance(blocks, found.vertex, found.edge)
+    # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes the
+    # soundness tests by construction (distance to the block <= to the edge <= slack)
+    doubtful = (far > slack) | (penetration > slack)
+    new_and_deep = ~persisting & (penetration > tolerance)
+    boundary, to_block = _distances_where(blocks, found.vertex, found.edge, doubtful | new_and_deep)
     plausible = persisting | (penetration <= settings.search_distance)
-    plausible &= _geometrically_sound(
-        blocks,
-        found.vertex,
-        found.edge,
-        penetration,
-        settings.touch_tolerance,
-        OUTSIDE_FRACTION * settings.search_distance,
+    plausible &= ~doubtful | _geometrically_sound(
+        far, penetration, boundary, to_block, tolerance, slack
     )
-    plausible &= _blocks_touch(
-        blocks, found.vertex, found.edge, penetration, settings.touch_tolerance, persisting
-    )
+    plausible &= _blocks_touch(blocks, found.vertex, found.edge, to_block, new_and_deep, tolerance)
     vertex, edge = found.vertex[plausible], found.edge[plausible]
     penetration, parameter = penetration[plausible], parameter[plausible]
     contacts = merge(
@@ -77,49 +77,43 @@ def _segment_distance(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) ->
     return np.linalg.norm(p1 - (p2 + t[:, None] * e), axis=1)
 
 
-def _geometrically_sound(blocks, vertex, edge, penetration, tolerance, slack) -> np.ndarray:
+def _distances_where(blocks, vertex, edge, needed) -> tuple[np.ndarray, np.ndarray]:
+    """Distances of each vertex to its edge's block boundary and to the block (0 inside),
+    computed where ``needed`` (NaN elsewhere)."""
+    boundary, to_block = np.full(len(vertex), np.nan), np.full(len(vertex), np.nan)
+    rows = np.flatnonzero(needed)
+    boundary[rows], to_block[rows] = point_distances(
+        blocks, blocks.vertices[vertex[rows]], blocks.vertex_owner[edge[rows]]
+    )
+    return boundary, to_block
+
+
+def _geometrically_sound(far, penetration, boundary, to_block, tolerance, slack) -> np.ndarray:
     """Drop pairings that only the edge's extended line makes look like contacts.
 
-    * The vertex must be about as near its edge as it is to the edge block's
-      whole boundary: a vertex lying on one edge of a block (a T-junction, a
-      corner) is not also "behind" another edge of that block.
+    * The vertex must be about as near its edge (``far``) as it is to the edge
+      block's whole boundary: a vertex lying on one edge of a block (a
+      T-junction, a corner) is not also "behind" another edge of that block.
     * A vertex that penetrates must lie inside the block (within ``slack``).
     """
-    keep = np.ones(len(vertex), dtype=bool)
-    if len(vertex) == 0:
-        return keep
-    far = _segment_distance(blocks, vertex, edge)
-    # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes both
-    # tests by construction (distance to the block <= distance to the edge <= slack)
-    check = np.flatnonzero((far > slack) | (penetration > slack))
-    if len(check) == 0:
-        return keep
-    boundary, to_block = point_distances(
-        blocks, blocks.vertices[vertex[check]], blocks.vertex_owner[edge[check]]
-    )
-    near_enough = far[check] <= boundary + slack
-    inside = (penetration[check] <= tolerance) | (to_block <= slack)
-    keep[check] = near_enough & inside
-    return keep
+    near_enough = far <= boundary + slack
+    inside = (penetration <= tolerance) | (to_block <= slack)
+    return near_enough & inside
 
 
-def _blocks_touch(blocks, vertex, edge, penetration, tolerance, persisting) -> np.ndarray:
+def _blocks_touch(blocks, vertex, edge, to_block, asked, tolerance) -> np.ndarray:
     """False for a pairing that claims to penetrate two blocks that are apart.
 
-    Near a corner a vertex outside a block can lie "behind" the extended line
-    of one of its edges: 0.2 mm apart, 0.5 mm of penetration in a pile of
-    fragments. Enforcing it launches the block (2 d/Δt after Shi's velocity
-    update). A pairing seen for the first time (not ``persisting``) that
-    claims more than the touch ``tolerance`` of penetration is kept only when
-    its two blocks touch or overlap (shapely distance within the tolerance).
+    ``asked``: the pairings seen for the first time that claim more than the
+    touch ``tolerance`` of penetration. Near a corner a vertex outside a block can
+    lie "behind" the extended line of one of its edges: 0.2 mm apart, 0.5 mm
+    of penetration in a pile of fragments. Enforcing it launches the block
+    (2 d/Δt after Shi's velocity update). Such a pairing is kept only when its
+    two blocks touch or overlap: its vertex is inside the other block
+    (``to_block``), or the blocks' shapely distance is within the tolerance.
     """
     keep = np.ones(len(vertex), dtype=bool)
-    check = np.flatnonzero(~persisting & (penetration > tolerance))
-    # a vertex inside the other block: they overlap (no polygon-polygon distance needed)
-    _, to_block = point_distances(
-        blocks, blocks.vertices[vertex[check]], blocks.vertex_owner[edge[check]]
-    )
-    check = check[to_block > tolerance]
+    check = np.flatnonzero(asked & (to_block > tolerance))
     if len(check) == 0:
         return keep
     owners = np.column_stack([blocks.vertex_owner[vertex[check]], blocks.vertex_owner[edge[check]]])

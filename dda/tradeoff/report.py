@@ -6,7 +6,6 @@ import csv
 import math
 from pathlib import Path
 
-from dda.model import STATE_BAND
 from dda.tradeoff.pareto import fronts_by_method
 
 COLUMNS = (
@@ -60,7 +59,7 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
             tol = "–" if method == "penalty" else f"{r['tolerance']:g}"
             lines.append(
                 f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
-                f"| {r['ratio']:g} | {r.get('state_band', STATE_BAND):g} "
+                f"| {r['ratio']:g} | {r['state_band']:g} "
                 f"| {r['error']:.2e} | {r['seconds']:.2f} "
                 f"| {r['steps']} |"
             )
