@@ -51,6 +51,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not hasattr(args, "func"):
         parser.print_help(sys.stderr)
         return EXIT_INPUT
+    from dda.linsolve import solver_threads
+
+    try:
+        solver_threads()
+    except ValueError as exc:
+        print(f"dda: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     return int(args.func(args) or 0)
 
 

@@ -39,7 +39,7 @@ PARDISO_LARGE = 20_000  # rows from which the larger budget applies
 PCG_BUDGET_PARDISO_LARGE = 5
 REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
 PARDISO_MIN_SIZE = 2000  # smaller systems: SuperLU (PARDISO's per-call overhead dominates)
-PARDISO_THREADS = 1
+THREADS_VARIABLE = "DDA_THREADS"  # environment variable: threads of PARDISO's factorisation
 
 
 class Factorisation:
@@ -129,7 +129,7 @@ def new_pardiso_handle():
         import pypardiso
 
         _PARDISO_PROTOTYPE = pypardiso.PyPardisoSolver(mtype=2)  # real SPD
-        _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, PARDISO_THREADS)
+        _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
     handle = copy.copy(_PARDISO_PROTOTYPE)  # shares the library, not the solver state
     handle.pt = np.zeros_like(_PARDISO_PROTOTYPE.pt)
     handle.iparm = np.zeros_like(_PARDISO_PROTOTYPE.iparm)
@@ -138,8 +138,30 @@ def new_pardiso_handle():
     return handle
 
 
+def solver_threads() -> int:
+    """Threads for PARDISO: ``DDA_THREADS`` if set, else the cores this process may use.
+
+    On the 2-core benchmark machine two threads factorise the 30x30 wall's K in
+    4.3 ms instead of 9.5 (docs/benchmarks.md); processes that share the cores
+    (``dda tradeoff``'s workers) set ``DDA_THREADS=1``.
+
+    Raises
+    ------
+    ValueError : ``DDA_THREADS`` is not a positive integer
+    """
+    text = os.environ.get(THREADS_VARIABLE, "").strip()
+    if not text:
+        try:
+            return max(1, len(os.sched_getaffinity(0)))
+        except AttributeError:  # pragma: no cover - not on Linux
+            return max(1, os.cpu_count() or 1)
+    if not text.isdigit() or int(text) < 1:
+        raise ValueError(f"{THREADS_VARIABLE}={text!r}: expected a positive integer (threads)")
+    return int(text)
+
+
 def _set_mkl_threads(library, threads: int) -> None:
-    """Threads of this thread's MKL calls: one is faster here (docs/benchmarks.md)."""
+    """Threads of this thread's MKL calls (see :func:`solver_threads`)."""
     try:
         set_threads = library.MKL_Set_Num_Threads_Local
     except AttributeError:  # pragma: no cover - older MKL

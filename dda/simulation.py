@@ -15,6 +15,7 @@ from dda.effects.base import StepContext
 from dda.energy import TERMS, EnergyAccount
 from dda.errors import SimulationError
 from dda.frames import make_frame
+from dda.linsolve import solver_threads
 from dda.model import Model, build
 from dda.result import FractureEvent, Frame, Result
 from dda.scene import Scene
@@ -185,6 +186,7 @@ def run(
     on_frame : called with every kept frame as the run proceeds (for writers)
     """
     start = wallclock.perf_counter()
+    solver_threads()  # a bad DDA_THREADS stops the run before it starts
     model = build(scene)
     state = _Run(model)
     frames = [make_frame(state.blocks, state.contacts, 0.0, 0)]

@@ -93,6 +93,16 @@ def test_run_refuses_a_missing_file(tmp_path, monkeypatch, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("threads", ["0", "two", "-1"])
+def test_run_refuses_a_bad_thread_count_and_writes_nothing(tmp_path, monkeypatch, capsys, threads):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("DDA_THREADS", threads)
+    (tmp_path / "ok.toml").write_text(SMALL_SCENE)
+    assert cli.main(["run", "ok.toml", "--quiet"]) == 2
+    assert f"DDA_THREADS={threads!r}" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.toml"]
+
+
 # ------------------------------------------------------------------ dda run, engine replaced
 
 

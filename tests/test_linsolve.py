@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from types import SimpleNamespace
 
 import numpy as np
@@ -93,6 +94,18 @@ def test_pardiso_backend_equals_superlu(monkeypatch):
     pardiso.solve(near, f, key="graph", similar=False)
     np.testing.assert_allclose(near @ pardiso.solve(near, f, key="graph"), f, rtol=1e-11)
     assert pardiso.factorisations == 2
+
+
+def test_solver_threads_follow_dda_threads_or_the_usable_cores(monkeypatch):
+    monkeypatch.delenv("DDA_THREADS", raising=False)
+    assert linsolve.solver_threads() == len(os.sched_getaffinity(0))
+    monkeypatch.setenv("DDA_THREADS", " 3 ")
+    assert linsolve.solver_threads() == 3
+    monkeypatch.setenv("DDA_THREADS", "1.5")
+    with pytest.raises(ValueError, match="DDA_THREADS='1.5'"):
+        linsolve.solver_threads()
+    with pytest.raises(ValueError, match="DDA_THREADS"):
+        dda.simulate(wall_scene(2, steps=1))  # refused before the run starts
 
 
 def test_pardiso_allows_more_pcg_iterations_on_large_systems(monkeypatch):

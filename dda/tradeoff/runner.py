@@ -15,6 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 import dda
+from dda.linsolve import THREADS_VARIABLE
 from dda.tradeoff.cases import get_case, model_size, relative_error
 from dda.tradeoff.grid import Setting
 
@@ -114,7 +115,11 @@ def _distributed(case_name, settings, scheduler, progress) -> list[dict]:
     cluster = None
     if scheduler is None:
         cluster = LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            env={THREADS_VARIABLE: "1"},  # two workers share the cores: no MKL threads
         )
     client = Client(scheduler or cluster)
     try:
