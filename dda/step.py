@@ -23,6 +23,7 @@ from dda.assembly import (
     contacts_key,
     free_pairs,
     free_rows,
+    reassemble,
 )
 from dda.blocks import BlockSet
 from dda.contact import law as contact_law
@@ -167,13 +168,28 @@ def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
     return diagonal, forces
 
 
-def _stiffness(pattern, blocks, base_diagonal, contacts, rows, law):
-    """K (in the pattern's order) and the contact springs (2, m) it holds."""
+def _stiffness(pattern, blocks, base_diagonal, contacts, rows, law, earlier=None):
+    """K (in the pattern's order) and the contact springs (2, m) it holds.
+
+    ``earlier``: (pattern, K, springs) assembled before in this step (the same
+    rows and effects); on the same pattern, only the contacts whose springs
+    changed are added to it (:func:`dda.assembly.reassemble`).
+    """
     p, ps, _, _ = contact_law.contact_coefficients(contacts, rows, law)
+    springs = np.stack([p, ps])
+    if earlier is not None and earlier[0] is pattern:
+        change = springs - earlier[2]
+        changed = np.flatnonzero(change.any(axis=0))
+        if len(changed) == 0:
+            return earlier[1], springs
+        terms = [(rows.normal_i[changed], rows.normal_j[changed], change[0, changed])]
+        if law.friction:
+            terms.append((rows.shear_i[changed], rows.shear_j[changed], change[1, changed]))
+        return reassemble(pattern, earlier[1], terms, changed), springs
     terms = [(rows.normal_i, rows.normal_j, p)]
     if law.friction:
         terms.append((rows.shear_i, rows.shear_j, ps))
-    return assemble(pattern, base_diagonal, blocks.fixed, terms), np.stack([p, ps])
+    return assemble(pattern, base_diagonal, blocks.fixed, terms), springs
 
 
 def _keyed_springs(contacts: ContactSet, springs: np.ndarray):
@@ -274,7 +290,7 @@ def solve_step(
         return candidate_pairs(blocks, NEIGHBOUR_MARGIN * cm.search_distance)
 
     pattern = None
-    k = springs = None
+    k = springs = assembled = None
     previous_pen = None
     iterations = 0
     converged = False
@@ -287,7 +303,8 @@ def solve_step(
                 pattern = cache.pattern_for(
                     blocks.fixed, contacts.block_a, contacts.block_b, neighbours, closed_now
                 )
-                k, springs = _stiffness(pattern, blocks, base_k, contacts, rows, law)
+                k, springs = _stiffness(pattern, blocks, base_k, contacts, rows, law, assembled)
+                assembled = (pattern, k, springs)
                 springs = _keyed_springs(contacts, springs)
             f = _forces(base_f, contacts, rows, law)
         d = _solve(cache, pattern, k, f, blocks, timer, springs)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dda.assembly as assembly
-from dda.assembly import BlockPattern, add_forces, assemble, free_rows
+from dda.assembly import BlockPattern, add_forces, assemble, free_rows, reassemble
 from dda.step import LinearCache
 
 
@@ -63,6 +63,33 @@ def test_numpy_path_equals_compiled_path(monkeypatch):
     monkeypatch.setattr(assembly, "_scatter_kernel", None)
     second = assemble(pattern, diagonal, fixed, terms).toarray()
     np.testing.assert_allclose(first, second, rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_reassembly_of_the_changed_springs_equals_a_new_assembly(monkeypatch, compiled):
+    """Springs that open (k -> 0), close (0 -> k) or change: adding k_new - k_old
+    of those contacts to K gives the K of the new springs."""
+    if not compiled:
+        monkeypatch.setattr(assembly, "_scatter_kernel", None)
+    fixed, a, b, diagonal, terms = random_case(3, n=12, m=60)
+    pattern = BlockPattern(fixed, a, b)
+    before = assemble(pattern, diagonal, fixed, terms)
+    old_data = before.data.copy()
+    springs = np.stack([t[2] for t in terms])
+    new = springs.copy()
+    new[0, 1::7] = 0.0  # open
+    new[:, ::5] = 2.5  # close (the zeros at ::5) or stiffen
+    changed = np.flatnonzero((new != springs).any(axis=0))
+    assert 10 < len(changed) < 60
+    change = [
+        (t[0][changed], t[1][changed], (new - springs)[q, changed]) for q, t in enumerate(terms)
+    ]
+    after = reassemble(pattern, before, change, changed)
+    expected = assemble(
+        pattern, diagonal, fixed, [(t[0], t[1], new[q]) for q, t in enumerate(terms)]
+    )
+    np.testing.assert_allclose(after.toarray(), expected.toarray(), rtol=1e-13, atol=1e-12)
+    np.testing.assert_array_equal(before.data, old_data)  # K itself is left as it was
 
 
 def test_solution_maps_back_to_blocks():
