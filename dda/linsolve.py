@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import copy
 import ctypes
+import glob
 import logging
 import os
+import sys
 from collections.abc import Callable
 from contextlib import nullcontext
 
@@ -122,7 +124,7 @@ class PardisoFactorisation:
         return self._call(33, rhs)
 
 
-_PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (finding MKL takes ~1 s)
+_PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (loading MKL takes a while)
 
 
 def new_pardiso_handle():
@@ -131,6 +133,7 @@ def new_pardiso_handle():
     if _PARDISO_PROTOTYPE is None:
         import pypardiso
 
+        _point_pypardiso_at_mkl()
         _PARDISO_PROTOTYPE = pypardiso.PyPardisoSolver(mtype=2)  # real SPD
         _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
     handle = copy.copy(_PARDISO_PROTOTYPE)  # shares the library, not the solver state
@@ -161,6 +164,19 @@ def solver_threads() -> int:
     if not text.isdigit() or int(text) < 1:
         raise ValueError(f"{THREADS_VARIABLE}={text!r}: expected a positive integer (threads)")
     return int(text)
+
+
+def _point_pypardiso_at_mkl() -> None:
+    """Name the MKL library pip installs beside Python in ``PYPARDISO_MKL_RT``.
+
+    Without it pypardiso searches the whole of ``sys.prefix/lib`` (~0.3 s per
+    process here); an existing ``PYPARDISO_MKL_RT`` is kept.
+    """
+    if os.environ.get("PYPARDISO_MKL_RT"):
+        return
+    found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.so*")), key=len)
+    if found:
+        os.environ["PYPARDISO_MKL_RT"] = found[0]
 
 
 def _set_mkl_threads(library, threads: int) -> None:
