@@ -17,7 +17,7 @@ from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_projection
 from dda.model import build
 from tests.helpers import rectangle
-from tests.stability.scenes import block, scene
+from tests.stability.scenes import base, block, scene
 
 
 def brute_force_pairs(boxes: np.ndarray) -> np.ndarray:
@@ -102,14 +102,79 @@ def test_narrow_phase_finds_the_contacts_of_a_small_wall():
     assert vv_pairs == {(1, 2)} and found.vertex_vertex.sum() == 2
 
 
-@pytest.mark.parametrize("jitter", [0.0, 1e-3])
-def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, jitter):
-    model, blocks = wall_blocks(4, 3, jitter=jitter, seed=3)
+def jittered_case_blocks(case: str, jitter: float, seed: int = 0):
+    """A case's blocks with every free vertex moved at random (shapes change too)."""
+    model = build(dda.load_scene(case))
+    blocks = model.blocks.copy()
+    shift = np.random.default_rng(seed).normal(scale=jitter, size=blocks.vertices.shape)
+    shift[blocks.fixed[blocks.vertex_owner]] = 0.0
+    blocks.vertices = blocks.vertices + shift
+    blocks.update_moments()
+    return model, blocks
+
+
+def tunnel_blocks(jitter: float):
+    return jittered_case_blocks("cases/tunnel.toml", jitter)
+
+
+def tiles_of_ells(jitter: float, seed: int = 0):
+    """3 x 3 cells of 2 x 2, each an L-shaped block and the unit square in its notch:
+    the L's reflex corner meets the square's corner, and corners of the cells meet."""
+    parts = [base(-1.0, 7.0)]
+    for i in range(3):
+        for j in range(3):
+            x, y = 2.0 * i, 2.0 * j
+            ell = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]
+            parts.append(block(f"ell{i}{j}", [(x + a, y + b) for a, b in ell]))
+            parts.append(block(f"square{i}{j}", rectangle(x + 1, y + 1, x + 2, y + 2)))
+    model = build(dda.load_scene(scene(parts)))
+    blocks = model.blocks.copy()
+    shift = np.random.default_rng(seed).normal(scale=jitter, size=blocks.vertices.shape)
+    shift[blocks.fixed[blocks.vertex_owner]] = 0.0
+    blocks.vertices = blocks.vertices + shift
+    blocks.update_moments()
+    return model, blocks
+
+
+def keys_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
+    """Contact keys found with every vertex moved by ``scale`` at random: where
+    vertex-vertex candidates tie, round-off picks pairings other than the unmoved
+    blocks' own (last step's keys in a run)."""
+    moved = blocks.copy()
+    moved.vertices = moved.vertices + np.random.default_rng(7).normal(
+        scale=scale, size=moved.vertices.shape
+    )
+    found = detect(moved, pairs, c.search_distance, c.vertex_radius)
+    return contact_keys(moved, found.vertex, found.edge)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: wall_blocks(4, 3, jitter=0.0, seed=3),
+        lambda: wall_blocks(4, 3, jitter=1e-3, seed=3),
+        lambda: tunnel_blocks(0.0),
+        lambda: tunnel_blocks(1e-3),  # overlaps: vertices inside blocks
+        lambda: tiles_of_ells(0.0),
+        lambda: tiles_of_ells(1e-3),
+    ],
+    ids=["wall", "jittered-wall", "tunnel", "jittered-tunnel", "ells", "jittered-ells"],
+)
+def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
+    """The compiled screen and vertex-vertex resolution give the numpy paths' contacts,
+    with last step's keys (from a nudged copy) for half of the pairings, the others
+    decided by position, and the contact tolerance as the inside depth. The L's and
+    the tunnel's blocks around the opening have reflex vertices."""
+    model, blocks = make()
     c = model.contact
     pairs = candidate_pairs(blocks, c.search_distance)
-    first = detect(blocks, pairs, c.search_distance, c.vertex_radius)
+    previous = keys_after_a_nudge(blocks, pairs, c)[::2]
+    args = (blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance, previous)
+    first = detect(*args)
     monkeypatch.setattr(narrow, "_screen_kernel", None)
-    second = detect(blocks, pairs, c.search_distance, c.vertex_radius)
+    monkeypatch.setattr(narrow, "_resolve_kernel", None)
+    second = detect(*args)
+    assert first.vertex_vertex.sum() >= 20
     np.testing.assert_array_equal(first.vertex, second.vertex)
     np.testing.assert_array_equal(first.edge, second.edge)
     np.testing.assert_array_equal(first.vertex_vertex, second.vertex_vertex)

@@ -75,17 +75,23 @@ class ContactSet:
         return ContactSet(**{f.name: getattr(self, f.name)[rows] for f in fields(self)})
 
 
-def contact_keys(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
-    """Stable int64 key of each (vertex, edge) pair from block ids and local numbers."""
-    owner = blocks.vertex_owner
-    va, eb = owner[vertex], owner[edge]
-    local_v = vertex - blocks.offsets[va]
-    local_e = edge - blocks.offsets[eb]
+def vertex_key_parts(blocks: BlockSet) -> np.ndarray:
+    """Per packed vertex: block id x 2**10 + local number, the halves of a contact key."""
     if blocks.ids.max(initial=0) >= _IDS or np.diff(blocks.offsets).max(initial=0) >= _LOCAL:
         raise ValueError("contact keys need block ids < 2**20 and < 1024 vertices per block")
-    left = blocks.ids[va] * _LOCAL + local_v
-    right = blocks.ids[eb] * _LOCAL + local_e
-    return left * (_IDS * _LOCAL) + right
+    owner = blocks.vertex_owner
+    return blocks.ids[owner].astype(np.int64) * _LOCAL + (
+        np.arange(len(owner)) - blocks.offsets[owner]
+    )
+
+
+KEY_SCALE = _IDS * _LOCAL  # key = part(vertex) x KEY_SCALE + part(edge start)
+
+
+def contact_keys(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
+    """Stable int64 key of each (vertex, edge) pair from block ids and local numbers."""
+    parts = vertex_key_parts(blocks)
+    return parts[vertex] * KEY_SCALE + parts[edge]
 
 
 def merge(

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dda.blocks import BlockSet
-from dda.contact.contact_set import contact_keys
+from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
 from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertices
 from dda.jit import kernel
 
@@ -295,6 +295,8 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     """
     if len(p1) == 0:
         return p1, p2
+    if _resolve_kernel is not None:
+        return _resolve_compiled(blocks, fans, p1, p2, slack, inside_depth, previous_keys)
     candidates = [
         (p1, p2),  # p1 onto edge starting at p2
         (p1, fans.prev[p2]),  # p1 onto edge ending at p2
@@ -331,6 +333,115 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     edges = np.column_stack([c[1] for c in candidates])
     rows = np.arange(len(p1))
     return verts[rows, best], edges[rows, best]
+
+
+def _resolve_compiled(blocks, fans, p1, p2, slack, inside_depth, previous_keys):
+    """The pairings of :func:`_resolve_vertex_vertex`, one coincident pair at a time (numba)."""
+    known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
+    vertex, edge = _resolve_kernel(
+        p1.astype(np.int64),
+        p2.astype(np.int64),
+        np.ascontiguousarray(blocks.vertices, dtype=np.float64),
+        fans.next.astype(np.int64),
+        fans.prev.astype(np.int64),
+        np.ascontiguousarray(fans.to_next),
+        np.ascontiguousarray(fans.to_prev),
+        np.ascontiguousarray(fans.outward),
+        fans.reflex,
+        vertex_key_parts(blocks),
+        known.astype(np.int64),
+        float(slack),
+        float(inside_depth),
+        ANGLE_TIE,
+        KEY_SCALE,
+    )
+    return vertex, edge
+
+
+def _resolve(
+    p1, p2, v, nxt, prv, to_next, to_prev, outward, reflex, parts, known, slack, inside, tie, scale
+):
+    """Compiled :func:`_resolve_vertex_vertex` (the same rules, candidate by candidate)."""
+    k = p1.shape[0]
+    out_v = np.empty(k, np.int64)
+    out_e = np.empty(k, np.int64)
+    verts = np.empty(4, np.int64)
+    edges = np.empty(4, np.int64)
+    score = np.empty(4)
+    depth = np.empty(4)
+    fake = np.empty(4, np.bool_)
+    tied = np.empty(4, np.bool_)
+    for i in range(k):
+        a, b = p1[i], p2[i]
+        verts[0], edges[0] = a, b
+        verts[1], edges[1] = a, prv[b]
+        verts[2], edges[2] = b, a
+        verts[3], edges[3] = b, prv[a]
+        for c in range(4):
+            vert, ed = verts[c], edges[c]
+            nx, ny = outward[ed, 0], outward[ed, 1]
+            if reflex[vert]:
+                score[c] = -np.inf
+            else:
+                score[c] = min(
+                    to_next[vert, 0] * nx + to_next[vert, 1] * ny,
+                    to_prev[vert, 0] * nx + to_prev[vert, 1] * ny,
+                )
+            wx, wy = v[ed, 0] - v[vert, 0], v[ed, 1] - v[vert, 1]
+            depth[c] = wx * nx + wy * ny
+            ex, ey = v[nxt[ed], 0] - v[ed, 0], v[nxt[ed], 1] - v[ed, 1]
+            along = (-wx * ex - wy * ey) / (ex * ex + ey * ey)
+            fake[c] = depth[c] > slack and (along < 0.0 or along > 1.0)
+        for first, corner in ((0, b), (2, a)):
+            gap = depth[first] - depth[first + 1]
+            if not reflex[corner]:
+                fake[first] |= gap > slack
+                fake[first + 1] |= -gap > slack
+        a_inside = min(depth[0], depth[1]) > inside
+        b_inside = min(depth[2], depth[3]) > inside
+        fake[2] |= a_inside and not b_inside
+        fake[3] |= a_inside and not b_inside
+        fake[0] |= b_inside and not a_inside
+        fake[1] |= b_inside and not a_inside
+        if not (fake[0] and fake[1] and fake[2] and fake[3]):
+            for c in range(4):
+                if fake[c]:
+                    score[c] = -np.inf
+        top = max(max(score[0], score[1]), max(score[2], score[3]))
+        least = np.inf
+        for c in range(4):
+            tied[c] = score[c] >= top - tie
+            if tied[c] and depth[c] < least:
+                least = depth[c]
+        near = 0
+        for c in range(4):
+            near += tied[c] and depth[c] <= least + inside
+        if near > 1 and known.shape[0] > 0:
+            was_any = False
+            was = np.zeros(4, np.bool_)
+            for c in range(4):
+                if tied[c] and depth[c] <= least + inside:
+                    key = parts[verts[c]] * scale + parts[edges[c]]
+                    at = np.searchsorted(known, key)
+                    was[c] = at < known.shape[0] and known[at] == key
+                    was_any |= was[c]
+            if was_any:
+                for c in range(4):
+                    tied[c] &= was[c]
+        best = 0
+        lowest = np.inf
+        for c in range(4):
+            if tied[c] and depth[c] < lowest:
+                lowest = depth[c]
+                best = c
+        for first, corner in ((0, b), (2, a)):
+            if reflex[corner] and max(depth[first], depth[first + 1]) > 0.0:
+                best = first if depth[first] >= depth[first + 1] else first + 1
+        out_v[i], out_e[i] = verts[best], edges[best]
+    return out_v, out_e
+
+
+_resolve_kernel = kernel(_resolve)
 
 
 def _persisting(blocks: BlockSet, candidates, tied: np.ndarray, previous_keys) -> np.ndarray:
