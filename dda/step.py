@@ -30,7 +30,7 @@ from dda.contact import law as contact_law
 from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet
 from dda.contact.push_out import push_out_displacement, pushed_overlap
-from dda.contact.rows import ContactRows, contact_rows
+from dda.contact.rows import contact_rows, gaps_after
 from dda.effects.base import StepContext
 from dda.linsolve import ReusingSolver, block_ordering
 from dda.model import Model
@@ -229,22 +229,6 @@ def _forces(base_forces, contacts, rows, law):
     return forces
 
 
-def _contact_motion(rows: ContactRows, contacts: ContactSet, d: np.ndarray):
-    """Penetration and shear position of each contact after the step ``d``."""
-    a, b = contacts.block_a, contacts.block_b
-    pen = (
-        rows.penetration
-        + np.einsum("mr,mr->m", rows.normal_i, d[a])
-        + np.einsum("mr,mr->m", rows.normal_j, d[b])
-    )
-    slip = (
-        rows.slip
-        + np.einsum("mr,mr->m", rows.shear_i, d[a])
-        + np.einsum("mr,mr->m", rows.shear_j, d[b])
-    )
-    return pen, slip
-
-
 def _solve(cache: LinearCache, pattern, k, forces, blocks, timer, springs=None) -> np.ndarray:
     """D (n, 6) from K (in the pattern's order) and F (n, 6) per block.
 
@@ -313,7 +297,7 @@ def solve_step(
             cache.solver.reset()
             break
         with timer("contact_law"):
-            pen, slip = _contact_motion(rows, contacts, d)
+            pen, slip = gaps_after(rows, contacts.block_a, contacts.block_b, d)
             before = contacts.state.copy()
             held = flips.held(pen, slip - rows.slip, law.tolerance)
             outcome = contact_law.update(contacts, rows, pen, slip, previous_pen, joints, law, held)

@@ -5,11 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import dda
+import dda.contact.rows as rows_module
+from dda.bench.scenes import wall_scene
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet, merge
+from dda.contact.pipeline import refresh_contacts
 from dda.contact.rows import contact_rows, edge_projection
 from dda.geometry import pack_polygons
 from dda.kinematics import move_points
+from dda.model import build
 
 
 def two_blocks(top_offset: float) -> BlockSet:
@@ -66,3 +71,22 @@ def test_rows_are_the_derivatives_of_the_distance():
         exact = edge_projection(trial, contacts.vertex, contacts.edge)[0][0]
         linear = rows.penetration[0] + rows.normal_i[0] @ d[1] + rows.normal_j[0] @ d[0]
         assert exact == pytest.approx(linear, abs=1e-12)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_gaps_after_a_step_are_the_linearised_distances(monkeypatch, compiled):
+    """d = S0/l + E D_a + G D_b and s = s0 + Es D_a + Gs D_b for every contact of a wall."""
+    if not compiled:
+        monkeypatch.setattr(rows_module, "_gaps_kernel", None)
+    model = build(dda.load_scene(wall_scene(3, 3)))
+    contacts = refresh_contacts(model.blocks, ContactSet.empty(), model.contact)
+    rows = contact_rows(model.blocks, contacts)
+    d = np.random.default_rng(2).normal(scale=1e-3, size=(model.blocks.count, 6))
+    pen, slip = rows_module.gaps_after(rows, contacts.block_a, contacts.block_b, d)
+    assert len(pen) > 30
+    for c in range(len(pen)):
+        a, b = contacts.block_a[c], contacts.block_b[c]
+        expected_pen = rows.penetration[c] + rows.normal_i[c] @ d[a] + rows.normal_j[c] @ d[b]
+        expected_slip = rows.slip[c] + rows.shear_i[c] @ d[a] + rows.shear_j[c] @ d[b]
+        assert pen[c] == pytest.approx(expected_pen, rel=1e-12, abs=1e-15)
+        assert slip[c] == pytest.approx(expected_slip, rel=1e-12, abs=1e-15)

@@ -18,6 +18,7 @@ import numpy as np
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
 from dda.geometry import next_vertex_index, previous_vertex_index
+from dda.jit import kernel
 from dda.kinematics import displacement_matrices
 
 
@@ -48,6 +49,55 @@ def edge_projection(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
     d = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / length
     t = np.einsum("ij,ij->i", w, e) / length**2
     return d, t
+
+
+def gaps_after(
+    rows: ContactRows, block_a: np.ndarray, block_b: np.ndarray, d: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Penetration d = S0/l + E D_a + G D_b and shear position s = s0 + Es D_a + Gs D_b
+    of every contact after the step D (n, 6) (eqs. 9-13, linearised)."""
+    if _gaps_kernel is not None:
+        return _gaps_kernel(
+            rows.penetration,
+            rows.slip,
+            rows.normal_i,
+            rows.normal_j,
+            rows.shear_i,
+            rows.shear_j,
+            np.asarray(block_a, dtype=np.int64),
+            np.asarray(block_b, dtype=np.int64),
+            np.ascontiguousarray(d, dtype=np.float64),
+        )
+    da, db = d[block_a], d[block_b]
+    pen = (
+        rows.penetration
+        + np.einsum("mr,mr->m", rows.normal_i, da)
+        + np.einsum("mr,mr->m", rows.normal_j, db)
+    )
+    slip = (
+        rows.slip
+        + np.einsum("mr,mr->m", rows.shear_i, da)
+        + np.einsum("mr,mr->m", rows.shear_j, db)
+    )
+    return pen, slip
+
+
+def _gaps(pen0, slip0, normal_i, normal_j, shear_i, shear_j, block_a, block_b, d):
+    """Compiled :func:`gaps_after`: one pass over the contacts."""
+    m = pen0.shape[0]
+    pen = np.empty(m)
+    slip = np.empty(m)
+    for c in range(m):
+        a, b = block_a[c], block_b[c]
+        p, s = pen0[c], slip0[c]
+        for r in range(6):
+            p += normal_i[c, r] * d[a, r] + normal_j[c, r] * d[b, r]
+            s += shear_i[c, r] * d[a, r] + shear_j[c, r] * d[b, r]
+        pen[c], slip[c] = p, s
+    return pen, slip
+
+
+_gaps_kernel = kernel(_gaps)
 
 
 def contact_rows(blocks: BlockSet, contacts: ContactSet) -> ContactRows:
