@@ -104,7 +104,10 @@ class PardisoFactorisation:
         np.cumsum(counts, out=self._indptr[1:])
         self._indices = matrix.indices[self._upper].astype(np.int32)
         self._matrix = self._upper_matrix(matrix)
-        self._call(11)  # analysis
+        self._call(11)  # analysis; with iparm[0] = 0 it fills iparm with PARDISO's defaults
+        # ... among them iparm[7] = 2, two steps of iterative refinement in every solve
+        # (3-4 back-substitutions' cost); set after the defaults are in, so that it holds
+        self._solver.iparm[7] = 0
 
     def _upper_matrix(self, matrix: sp.spmatrix) -> sp.csr_matrix:
         data = np.asarray(matrix.data)[self._upper]
@@ -128,7 +131,7 @@ _PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (loading MKL 
 
 
 def new_pardiso_handle():
-    """A PARDISO solver handle for symmetric positive definite matrices, no refinement."""
+    """A PARDISO solver handle for symmetric positive definite matrices (defaults unset)."""
     global _PARDISO_PROTOTYPE
     if _PARDISO_PROTOTYPE is None:
         import pypardiso
@@ -140,7 +143,6 @@ def new_pardiso_handle():
     handle.pt = np.zeros_like(_PARDISO_PROTOTYPE.pt)
     handle.iparm = np.zeros_like(_PARDISO_PROTOTYPE.iparm)
     handle.perm = np.zeros(0, dtype=np.int32)
-    handle.set_iparm(8, 0)  # no iterative refinement
     return handle
 
 
