@@ -41,8 +41,8 @@ PARDISO_LARGE = 20_000  # rows from which the larger budget applies
 PCG_BUDGET_PARDISO_LARGE = 5
 REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
 # smaller systems: SuperLU. PARDISO factorises 4-5x faster from 600 rows up (10x10 wall:
-# 0.39 against 1.7 ms; tunnel case, 1200 rows: 0.6-0.8 against 3.0 ms) but solves 2-4x
-# slower and analyses each new pattern; at 150 rows (5x5 wall) the two are even.
+# 0.38 against 1.7 ms; tunnel case, 1200 rows: 0.45 against 2.5 ms) and solves as fast, but
+# analyses each new pattern; at 150 rows (5x5 wall) the two are even end to end.
 PARDISO_MIN_SIZE = 300
 THREADS_VARIABLE = "DDA_THREADS"  # environment variable: threads of PARDISO's factorisation
 
