@@ -102,9 +102,10 @@ def test_narrow_phase_finds_the_contacts_of_a_small_wall():
     assert vv_pairs == {(1, 2)} and found.vertex_vertex.sum() == 2
 
 
-def jittered_case_blocks(case: str, jitter: float, seed: int = 0):
-    """A case's blocks with every free vertex moved at random (shapes change too)."""
-    model = build(dda.load_scene(case))
+def jittered_blocks(source, jitter: float, seed: int = 0):
+    """The blocks of a scene (path or dict) with every free vertex moved at random
+    (shapes change too)."""
+    model = build(dda.load_scene(source))
     blocks = model.blocks.copy()
     shift = np.random.default_rng(seed).normal(scale=jitter, size=blocks.vertices.shape)
     shift[blocks.fixed[blocks.vertex_owner]] = 0.0
@@ -114,10 +115,10 @@ def jittered_case_blocks(case: str, jitter: float, seed: int = 0):
 
 
 def tunnel_blocks(jitter: float):
-    return jittered_case_blocks("cases/tunnel.toml", jitter)
+    return jittered_blocks("cases/tunnel.toml", jitter)
 
 
-def tiles_of_ells(jitter: float, seed: int = 0):
+def tiles_of_ells(jitter: float):
     """3 x 3 cells of 2 x 2, each an L-shaped block and the unit square in its notch:
     the L's reflex corner meets the square's corner, and corners of the cells meet."""
     parts = [base(-1.0, 7.0)]
@@ -127,13 +128,7 @@ def tiles_of_ells(jitter: float, seed: int = 0):
             ell = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]
             parts.append(block(f"ell{i}{j}", [(x + a, y + b) for a, b in ell]))
             parts.append(block(f"square{i}{j}", rectangle(x + 1, y + 1, x + 2, y + 2)))
-    model = build(dda.load_scene(scene(parts)))
-    blocks = model.blocks.copy()
-    shift = np.random.default_rng(seed).normal(scale=jitter, size=blocks.vertices.shape)
-    shift[blocks.fixed[blocks.vertex_owner]] = 0.0
-    blocks.vertices = blocks.vertices + shift
-    blocks.update_moments()
-    return model, blocks
+    return jittered_blocks(scene(parts), jitter)
 
 
 def keys_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
