@@ -428,6 +428,22 @@ def add_forces(forces: np.ndarray, block: np.ndarray, row: np.ndarray, coef: np.
         forces[:, k] -= np.bincount(block, weights=contrib[:, k], minlength=n)
 
 
+def add_force_terms(
+    forces: np.ndarray, terms: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]
+) -> None:
+    """F_block -= coef·row for the terms of several kinds ``(block, row, coef)`` (in place).
+
+    Compiled: one pass per kind, no copies; numpy: the kinds concatenated, one
+    ``bincount`` per column.
+    """
+    if _subtract_kernel is not None and forces.flags.c_contiguous:
+        for block, row, coef in terms:
+            add_forces(forces, block, row, coef)
+        return
+    blocks, rows, coefs = (np.concatenate(parts) for parts in zip(*terms, strict=True))
+    add_forces(forces, blocks, rows, coefs)
+
+
 def _subtract(forces, block, row, coef):
     """Compiled :func:`add_forces`."""
     for i in range(block.shape[0]):

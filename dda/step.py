@@ -18,7 +18,7 @@ import numpy as np
 
 from dda.assembly import (
     BlockPattern,
-    add_forces,
+    add_force_terms,
     assemble,
     contacts_key,
     free_pairs,
@@ -223,9 +223,9 @@ def _forces(base_forces, contacts, rows, law):
     forces = base_forces.copy()
     _, _, normal, shear = contact_law.contact_coefficients(contacts, rows, law)
     a, b = contacts.block_a, contacts.block_b
-    blocks = np.concatenate([a, b, a, b])
-    gradient = np.concatenate([rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j])
-    add_forces(forces, blocks, gradient, np.concatenate([normal, normal, shear, shear]))
+    terms = [(a, rows.normal_i, normal), (b, rows.normal_j, normal)]
+    terms += [(a, rows.shear_i, shear), (b, rows.shear_j, shear)]
+    add_force_terms(forces, terms)
     return forces
 
 

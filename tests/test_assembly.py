@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 import dda.assembly as assembly
-from dda.assembly import BlockPattern, add_forces, assemble, free_rows, reassemble
+from dda.assembly import (
+    BlockPattern,
+    add_force_terms,
+    add_forces,
+    assemble,
+    free_rows,
+    reassemble,
+)
 from dda.step import LinearCache
 
 
@@ -125,6 +132,10 @@ def test_forces_are_summed_per_block(monkeypatch, compiled):
     add_forces(many, block, row, coef)
     expected = -np.array([(coef[block == b, None] * row[block == b]).sum(0) for b in range(50)])
     np.testing.assert_allclose(many, expected, rtol=1e-12, atol=1e-12)
+    in_kinds = np.zeros((50, 6))  # the same terms in three kinds
+    kinds = [(block[k::3], row[k::3], coef[k::3]) for k in range(3)]
+    add_force_terms(in_kinds, kinds)
+    np.testing.assert_allclose(in_kinds, expected, rtol=1e-12, atol=1e-12)
 
 
 def test_free_rows_skip_fixed_blocks():
