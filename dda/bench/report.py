@@ -7,6 +7,7 @@ import subprocess
 from collections.abc import Iterable
 
 from dda.bench.run import STAGES, Measurement
+from dda.linsolve import THREADS_VARIABLE, solver_threads
 
 SHORT = {
     "contact_search": "search",
@@ -20,7 +21,7 @@ SHORT = {
 
 
 def machine_line() -> str:
-    """CPU model and core count (``lscpu``), for the table's caption."""
+    """CPU model, core count (``lscpu``), Python and the solver threads, for the caption."""
     model, cores = platform.processor() or "unknown CPU", None
     try:
         out = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
@@ -32,7 +33,11 @@ def machine_line() -> str:
             model = value.strip()
         elif key.strip() == "CPU(s)":
             cores = value.strip()
-    return f"{model}, {cores or '?'} cores, Python {platform.python_version()}"
+    threads = solver_threads()
+    return (
+        f"{model}, {cores or '?'} cores, Python {platform.python_version()}, "
+        f"{threads} solver thread{'s' if threads > 1 else ''} ({THREADS_VARIABLE})"
+    )
 
 
 def table(measurements: Iterable[Measurement]) -> str:
