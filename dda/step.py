@@ -33,6 +33,7 @@ from dda.contact.push_out import push_out_displacement, pushed_overlap
 from dda.contact.rows import contact_rows, gaps_after
 from dda.effects.base import StepContext
 from dda.linsolve import ReusingSolver, block_ordering
+from dda.low_rank import StepUpdates
 from dda.model import Model
 from dda.result import OPEN
 from dda.timing import StageTimer
@@ -229,15 +230,24 @@ def _forces(base_forces, contacts, rows, law):
     return forces
 
 
-def _solve(cache: LinearCache, pattern, k, forces, blocks, timer, springs=None) -> np.ndarray:
+def _solve(
+    cache: LinearCache, pattern, k, forces, blocks, timer, springs=None, updates=None, raw=None
+) -> np.ndarray:
     """D (n, 6) from K (in the pattern's order) and F (n, 6) per block.
 
     ``springs``: (contact keys, springs) of K, sorted by key (None without
     contacts), to decide whether PCG on the kept factorisation is worth trying.
+    ``updates``: the :class:`StepUpdates` of this step's factorised K, and ``raw`` K's
+    springs per contact: a few changed springs are solved for through that factorisation.
     """
     rhs = pattern.to_matrix_order(forces, blocks.fixed).ravel()
-    similar = springs is None or _similar(cache, *springs)
-    x = cache.solver.solve(k, rhs, key=pattern.key, timer=timer, similar=similar)
+    x = None
+    if updates is not None and updates.applies(cache.solver.factored, pattern):
+        with timer("solve"):
+            x = updates.solve(k, rhs, raw)
+    if x is None:
+        similar = springs is None or _similar(cache, *springs)
+        x = cache.solver.solve(k, rhs, key=pattern.key, timer=timer, similar=similar)
     if springs is not None and cache.solver.factored is k:
         cache.coefficients = springs
     return pattern.from_matrix_order(x, blocks.count)
@@ -274,7 +284,7 @@ def solve_step(
         return candidate_pairs(blocks, NEIGHBOUR_MARGIN * cm.search_distance)
 
     pattern = None
-    k = springs = assembled = None
+    k = springs = assembled = updates = None
     previous_pen = None
     iterations = 0
     converged = False
@@ -291,8 +301,18 @@ def solve_step(
                 assembled = (pattern, k, springs)
                 springs = _keyed_springs(contacts, springs)
             f = _forces(base_f, contacts, rows, law)
-        d = _solve(cache, pattern, k, f, blocks, timer, springs)
+        d = _solve(cache, pattern, k, f, blocks, timer, springs, updates, assembled[2])
         iterations += 1
+        if cache.solver.factored is k and (updates is None or updates.factored is not k):
+            updates = StepUpdates(
+                k,
+                assembled[2],
+                pattern,
+                rows,
+                contacts.block_a,
+                contacts.block_b,
+                cache.solver.solve_many,
+            )
         if not np.all(np.isfinite(d)):
             cache.solver.reset()
             break
