@@ -32,6 +32,10 @@ from dda.contact.rows import ContactRows
 from dda.linsolve import RELATIVE_TOLERANCE, pcg
 
 MAX_COLUMNS = 16  # changed springs beyond which a new factorisation is cheaper (30x30 wall)
+# smaller K: no gain (a factorisation costs ~6 back-substitutions there, and each one
+# here carries Python's overhead): 10x10 wall (600 rows) even or 7 % slower, tunnel case
+# (1200 rows) 5 % faster, 20x20 (2400) 8 %, 30x30 (5400) 17-20 %
+MIN_ROWS = 1000
 PCG_ITERATIONS = 3  # with the exact inverse of K_f + U c Uᵀ, PCG ends in one
 
 
@@ -70,10 +74,13 @@ class StepUpdates:
         self._solve_many = solve_many
         self._size = factored.shape[0]
         self._z: dict[tuple[int, int], np.ndarray] = {}
+        self._last: tuple[sp.spmatrix, Callable] | None = None
 
     def applies(self, factored: sp.spmatrix | None, pattern: BlockPattern) -> bool:
-        """True while K_f is the kept factorisation and K has K_f's pattern (matrix order)."""
-        return factored is self.factored and pattern is self.pattern
+        """True while K_f is the kept factorisation and K has K_f's pattern (matrix order),
+        for K of at least ``MIN_ROWS`` rows."""
+        big = self._size >= MIN_ROWS
+        return big and factored is self.factored and pattern is self.pattern
 
     def changes(self, springs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(kind, contact, Δk) of every spring that differs from K_f's."""
@@ -83,6 +90,17 @@ class StepUpdates:
     def solve(self, matrix: sp.spmatrix, rhs: np.ndarray, springs: np.ndarray) -> np.ndarray | None:
         """x with K x = F by PCG preconditioned with (K_f + U c Uᵀ)⁻¹; None when the
         change has more than ``MAX_COLUMNS`` springs or PCG does not converge."""
+        precondition = self._preconditioner(matrix, springs)
+        if precondition is None:
+            return None
+        x, _, converged = pcg(matrix, rhs, precondition, RELATIVE_TOLERANCE, PCG_ITERATIONS)
+        return x if converged else None
+
+    def _preconditioner(self, matrix, springs) -> Callable[[np.ndarray], np.ndarray] | None:
+        """(K_f + U c Uᵀ)⁻¹ as a function, kept for the same K (augmentations of the
+        multipliers solve again with an unchanged K)."""
+        if self._last is not None and self._last[0] is matrix:
+            return self._last[1]
         kind, contact, change = self.changes(springs)
         if len(change) == 0 or len(change) > MAX_COLUMNS:
             return None
@@ -99,8 +117,8 @@ class StepUpdates:
             w = sla.lu_solve(factors, np.einsum("qk,qk->q", values, y[at]))
             return y - np.einsum("nr,r->n", z, w)
 
-        x, _, converged = pcg(matrix, rhs, precondition, RELATIVE_TOLERANCE, PCG_ITERATIONS)
-        return x if converged else None
+        self._last = (matrix, precondition)
+        return precondition
 
     def _columns(self, kind: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """U, sparse: for each changed spring the 12 matrix rows of its two blocks and
