@@ -177,7 +177,7 @@ def _stiffness(pattern, blocks, base_diagonal, contacts, rows, law, earlier=None
     changed are added to it (:func:`dda.assembly.reassemble`).
     """
     p, ps, _, _ = contact_law.contact_coefficients(contacts, rows, law)
-    springs = np.stack([p, ps])
+    springs = np.stack([p, ps if law.friction else np.zeros_like(ps)])  # the ones K holds
     if earlier is not None and earlier[0] is pattern:
         change = springs - earlier[2]
         changed = np.flatnonzero(change.any(axis=0))
