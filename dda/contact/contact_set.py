@@ -103,16 +103,18 @@ def merge(
     initial_penalty: float,
     initial_parameter: np.ndarray,
     touch_tolerance: float,
+    keys: np.ndarray | None = None,
 ) -> ContactSet:
     """Build this step's set, carrying over what persists from ``previous``.
 
     New contacts start LOCKED when touching (penetration ≥ -``touch_tolerance``), else
     OPEN; multipliers 0; penalty ``initial_penalty``; shear reference at the
-    vertex's current projection ``initial_parameter``.
+    vertex's current projection ``initial_parameter``. ``keys``: the pairs'
+    :func:`contact_keys`, when the caller has them already.
     """
     owner = blocks.vertex_owner
     m = len(vertex)
-    keys = contact_keys(blocks, vertex, edge)
+    keys = contact_keys(blocks, vertex, edge) if keys is None else keys
     new = ContactSet(
         vertex=vertex,
         edge=edge,

@@ -37,7 +37,8 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
         previous.key,
     )
     penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
-    persisting = np.isin(contact_keys(blocks, found.vertex, found.edge), previous.key)
+    keys = contact_keys(blocks, found.vertex, found.edge)
+    persisting = np.isin(keys, previous.key)
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
     far = _segment_distance(blocks, found.vertex, found.edge)
     # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes the
@@ -61,6 +62,7 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
         initial_penalty=settings.initial_penalty,
         initial_parameter=parameter,
         touch_tolerance=settings.touch_tolerance,
+        keys=keys[plausible],
     )
     sliding = contacts.state == SLIDING
     contacts.reference[sliding] = parameter[sliding]
