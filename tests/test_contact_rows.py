@@ -90,3 +90,24 @@ def test_gaps_after_a_step_are_the_linearised_distances(monkeypatch, compiled):
         expected_slip = rows.slip[c] + rows.shear_i[c] @ d[a] + rows.shear_j[c] @ d[b]
         assert pen[c] == pytest.approx(expected_pen, rel=1e-12, abs=1e-15)
         assert slip[c] == pytest.approx(expected_slip, rel=1e-12, abs=1e-15)
+
+
+@pytest.mark.skipif(rows_module._rows_kernel is None, reason="numba is not in use")
+@pytest.mark.parametrize("case", ["wall", "tunnel"])
+def test_compiled_rows_equal_the_numpy_rows(monkeypatch, case):
+    """The compiled pass gives every array of the numpy formulas (to round-off)."""
+    if case == "wall":
+        scene = dda.load_scene(wall_scene(4, 3))
+    else:
+        scene = dda.load_scene("cases/tunnel.toml")
+    model = build(scene)
+    contacts = refresh_contacts(model.blocks, ContactSet.empty(), model.contact)
+    contacts.reference[:] = np.random.default_rng(3).random(len(contacts))
+    compiled = contact_rows(model.blocks, contacts)
+    monkeypatch.setattr(rows_module, "_rows_kernel", None)
+    expected = contact_rows(model.blocks, contacts)
+    assert len(contacts) > 40
+    for name in expected.__dataclass_fields__:
+        want = getattr(expected, name)
+        scale = max(float(np.abs(want).max()), 1.0)
+        np.testing.assert_allclose(getattr(compiled, name), want, rtol=0, atol=1e-13 * scale)
