@@ -9,6 +9,7 @@ from collections.abc import Callable
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.effects.base import StepContext
@@ -39,6 +40,7 @@ class _Run:
         self.model = model
         self.blocks: BlockSet = model.blocks.copy()
         self.contacts = ContactSet.empty()
+        self.kept_pairs = KeptPairs()
         self.time = 0.0
         self.step = 0
         self.dt = model.max_time_step
@@ -102,7 +104,7 @@ def _advance(run: _Run) -> None:
     m = run.model
     if m.contact is not None:
         with run.timer("contact_search"):
-            run.contacts = refresh_contacts(run.blocks, run.contacts, m.contact)
+            run.contacts = refresh_contacts(run.blocks, run.contacts, m.contact, run.kept_pairs)
     dt = _step_length(run.dt, run.remaining())
     for cut in range(MAX_CUTS + 1):
         solution, factor, reason = _attempt(run, run.contacts, dt)

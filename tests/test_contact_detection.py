@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import tomllib
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -72,6 +75,56 @@ def test_broad_phase_pairs_of_a_wall():
     pairs = candidate_pairs(blocks, model.contact.search_distance)
     expected = [[0, 1], [0, 2], [1, 2], [1, 3], [1, 4], [2, 3], [2, 4], [3, 4]]
     np.testing.assert_array_equal(pairs, expected)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_kept_pairs_equal_a_new_search_as_blocks_move(monkeypatch, compiled):
+    """The kept list gives a new search's pairs, in order, after small moves (the list
+    is kept) and large ones (pairs appear and go; a new list is made), and after the
+    blocks change."""
+    if not compiled:
+        monkeypatch.setattr(broad, "_still_overlapping_kernel", None)
+    model, blocks = jittered_blocks(wall_scene(6, 5), 0.0)
+    margin = model.contact.search_distance
+    free = ~blocks.fixed
+    owner = blocks.vertex_owner
+    # blocks set apart by just more than the margin: moves of 0.3 margin make pairs
+    blocks.vertices = blocks.vertices + 1.15 * margin * np.floor(blocks.centroid[owner])
+    blocks.vertices[~free[owner]] = model.blocks.vertices[~free[owner]]
+    kept = broad.KeptPairs()
+    rng = np.random.default_rng(4)
+    counts = []
+    for step in range(12):
+        size = margin * (0.3 if step % 4 == 3 else 0.01)  # every 4th move is large
+        shift = free[:, None] * rng.uniform(-size, size, size=(blocks.count, 2))
+        blocks.vertices = blocks.vertices + shift[owner]
+        pairs = candidate_pairs(blocks, margin)
+        np.testing.assert_array_equal(kept.pairs(blocks, margin), pairs)
+        counts.append(len(pairs))
+    assert len(set(counts)) > 2  # pairs came and went
+    assert 3 <= kept.searches < 12  # kept between the small moves, new after the large
+    _, fewer = jittered_blocks(wall_scene(6, 4), 0.0)
+    np.testing.assert_array_equal(kept.pairs(fewer, margin), candidate_pairs(fewer, margin))
+    np.testing.assert_array_equal(kept.pairs(fewer, 2 * margin), candidate_pairs(fewer, 2 * margin))
+
+
+def test_a_run_with_kept_pairs_equals_one_without(monkeypatch):
+    """The tunnel's first steps give the same displacements, bit for bit, with the
+    pairs kept between steps and with a new search every step."""
+    raw = tomllib.loads(Path("cases/tunnel.toml").read_text())
+    raw["analysis"].pop("duration", None)
+    raw["analysis"]["steps"] = 15
+    scene = dda.load_scene(raw)
+    searches = []
+    search = broad.candidate_pairs
+    monkeypatch.setattr(broad, "candidate_pairs", lambda *a: searches.append(1) or search(*a))
+    kept = dda.simulate(scene)
+    assert len(searches) < 5  # the list was kept over most of the 15 steps
+    monkeypatch.setattr(broad.KeptPairs, "_valid", lambda self, blocks, margin: False)
+    fresh = dda.simulate(scene)
+    for ours, theirs in zip(kept.final.vertices, fresh.final.vertices, strict=True):
+        np.testing.assert_array_equal(ours, theirs)
+    assert kept.summary["iterations"] == fresh.summary["iterations"]
 
 
 def test_narrow_phase_finds_the_contacts_of_a_small_wall():

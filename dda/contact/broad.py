@@ -43,6 +43,61 @@ def candidate_pairs(blocks: BlockSet, margin: float) -> np.ndarray:
     return pairs[~both_fixed]
 
 
+class KeptPairs:
+    """:func:`candidate_pairs` kept from step to step (a Verlet list).
+
+    The pairs are found once with every box grown by ``SLACK`` x margin more
+    than asked. While no vertex has moved more than that extra growth in x
+    or in y since, every pair whose boxes overlap now is in the kept list
+    (each side of a box moved by at most that much), so the pairs of a step
+    are the kept ones whose boxes, grown by the asked margin only, overlap:
+    the same pairs, in the same order, as a new search, for one vectorised
+    test instead of the grid. A change of the blocks (fracture) or of the
+    margin starts a new list.
+    """
+
+    SLACK = 0.1  # extra growth of each box side when the list is made, x margin
+
+    def __init__(self) -> None:
+        self._pairs: np.ndarray | None = None
+        self._vertices: np.ndarray | None = None
+        self._offsets: np.ndarray | None = None
+        self._fixed: np.ndarray | None = None
+        self._margin = np.nan
+        self.searches = 0  # lists made (grid or tree searches)
+
+    def pairs(self, blocks: BlockSet, margin: float) -> np.ndarray:
+        """The pairs :func:`candidate_pairs` gives for ``blocks`` and ``margin``."""
+        if not self._valid(blocks, margin):
+            self._pairs = candidate_pairs(blocks, margin * (1.0 + 2.0 * self.SLACK))
+            self._vertices = blocks.vertices.copy()
+            self._offsets, self._fixed = blocks.offsets.copy(), blocks.fixed.copy()
+            self._margin = margin
+            self.searches += 1
+        boxes = bounding_boxes(blocks, margin / 2.0)
+        if _still_overlapping_kernel is not None:
+            return self._pairs[_still_overlapping_kernel(boxes, self._pairs)]
+        a, b = boxes[self._pairs[:, 0]], boxes[self._pairs[:, 1]]
+        apart = (
+            (a[:, 0] > b[:, 2]) | (b[:, 0] > a[:, 2]) | (a[:, 1] > b[:, 3]) | (b[:, 1] > a[:, 3])
+        )
+        return self._pairs[~apart]
+
+    def _valid(self, blocks: BlockSet, margin: float) -> bool:
+        """True when the kept list holds every pair (same blocks and margin, small moves)."""
+        if self._pairs is None or margin != self._margin:
+            return False
+        if len(blocks.offsets) != len(self._offsets) or len(blocks.vertices) != len(self._vertices):
+            return False
+        if not (
+            np.array_equal(blocks.offsets, self._offsets)
+            and np.array_equal(blocks.fixed, self._fixed)
+        ):
+            return False
+        moved = float(np.abs(blocks.vertices - self._vertices).max(initial=0.0))
+        return moved <= 0.5 * self.SLACK * margin  # half the growth: round-off to spare
+
+
 def overlapping_pairs(boxes: np.ndarray) -> np.ndarray:
     """(p, 2) sorted pairs i < j of overlapping (touching counts) boxes (n, 4)."""
     if _grid_kernel is not None:
@@ -155,3 +210,14 @@ def _grid(boxes, cell, max_cells):
 
 
 _grid_kernel = kernel(_grid)
+
+
+def _still_overlapping(boxes, pairs):
+    """Compiled: True for each pair (i, j) whose boxes overlap (touching counts)."""
+    keep = np.empty(pairs.shape[0], np.bool_)
+    for p in range(pairs.shape[0]):
+        keep[p] = not _apart(boxes, pairs[p, 0], pairs[p, 1])
+    return keep
+
+
+_still_overlapping_kernel = kernel(_still_overlapping)

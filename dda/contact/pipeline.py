@@ -6,7 +6,7 @@ import numpy as np
 import shapely
 
 from dda.blocks import BlockSet
-from dda.contact.broad import candidate_pairs
+from dda.contact.broad import KeptPairs, candidate_pairs
 from dda.contact.contact_set import ContactSet, contact_keys, merge
 from dda.contact.narrow import OUTSIDE_FRACTION, detect
 from dda.contact.point_distance import block_polygons, point_distances
@@ -15,7 +15,9 @@ from dda.geometry import next_vertex_index
 from dda.result import SLIDING
 
 
-def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> ContactSet:
+def refresh_contacts(
+    blocks: BlockSet, previous: ContactSet, settings, kept_pairs: KeptPairs | None = None
+) -> ContactSet:
     """Contacts at the start of a step, keeping what persists from ``previous``.
 
     A contact seen for the first time can be no deeper than the search
@@ -25,9 +27,13 @@ def refresh_contacts(blocks: BlockSet, previous: ContactSet, settings) -> Contac
     extended line makes look like contacts are dropped (see
     ``_geometrically_sound`` and ``_blocks_touch``). Sliding contacts get their
     shear reference point moved under the vertex: their slip is measured from
-    the step start.
+    the step start. ``kept_pairs``: the run's broad-phase list, kept between
+    steps (the same pairs as a new search, found faster).
     """
-    pairs = candidate_pairs(blocks, settings.search_distance)
+    if kept_pairs is None:
+        pairs = candidate_pairs(blocks, settings.search_distance)
+    else:
+        pairs = kept_pairs.pairs(blocks, settings.search_distance)
     found = detect(
         blocks,
         pairs,
