@@ -81,7 +81,6 @@ class BlockPattern:
         if extra_pairs is not None and len(extra_pairs):
             pairs = np.unique(np.concatenate([pairs, extra_pairs]), axis=0)
         self.pairs = pairs
-        self._pair_keys = pairs[:, 0] * max(self.nfree, 1) + pairs[:, 1]
         self.key = graph_key(fixed, pairs)
         self.contacts_key = contacts_key(fixed, block_a, block_b)
         self.position = (
@@ -125,6 +124,13 @@ class BlockPattern:
 
     def _slot_of(self, brow: np.ndarray, bcol: np.ndarray) -> np.ndarray:
         """Slot of block (brow, bcol) (both in matrix order), -1 where K has no such block."""
+        if _find_slots_kernel is not None:
+            return _find_slots_kernel(
+                self.block_indptr,
+                np.asarray(self.block_cols, dtype=np.int64),
+                np.asarray(brow, dtype=np.int64),
+                np.asarray(bcol, dtype=np.int64),
+            )
         want = brow.astype(np.int64) * max(self.nfree, 1) + bcol
         at = np.minimum(np.searchsorted(self._block_key, want), len(self._block_key) - 1)
         return np.where(self._block_key[at] == want, at, -1)
@@ -144,13 +150,9 @@ class BlockPattern:
         if len(fixed) != len(self._fixed) or not np.array_equal(fixed, self._fixed):
             return False
         act = _active(active, len(block_a))
-        pairs = free_pairs(free_rows(fixed), block_a[act], block_b[act])
-        if len(pairs) == 0:
-            return True
-        keys = pairs[:, 0] * max(self.nfree, 1) + pairs[:, 1]
-        at = np.searchsorted(self._pair_keys, keys)
-        inside = at < len(self._pair_keys)
-        return bool(inside.all() and np.all(self._pair_keys[at] == keys))
+        ra, rb = self.block_of_row[block_a[act]], self.block_of_row[block_b[act]]
+        both = (ra >= 0) & (rb >= 0)
+        return bool(np.all(self._slot_of(ra[both], rb[both]) >= 0))
 
     def with_contacts(self, block_a: np.ndarray, block_b: np.ndarray) -> BlockPattern:
         """The same pattern (same graph) with the slots of another contact list."""
@@ -215,6 +217,19 @@ class BlockPattern:
         free = self.block_of_row >= 0
         d[free] = solution.reshape(-1, BLOCK)[self.block_of_row[free]]
         return d
+
+
+def _find_slots(block_indptr, block_cols, brow, bcol):
+    """Compiled slot lookup: block (brow, bcol) among the sorted columns of its row."""
+    out = np.empty(brow.shape[0], np.int64)
+    for q in range(brow.shape[0]):
+        lo, hi = block_indptr[brow[q]], block_indptr[brow[q] + 1]
+        at = lo + np.searchsorted(block_cols[lo:hi], bcol[q])
+        out[q] = at if at < hi and block_cols[at] == bcol[q] else -1
+    return out
+
+
+_find_slots_kernel = kernel(_find_slots)
 
 
 def graph_key(fixed: np.ndarray, pairs: np.ndarray) -> bytes:

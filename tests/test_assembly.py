@@ -195,3 +195,27 @@ def test_the_cache_keeps_the_pattern_while_closing_contacts_land_in_it():
     assert not pattern.lands(everything)
     bigger = cache.pattern_for(fixed, a, b, active=everything)
     assert bigger is not pattern and bigger.lands(everything)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_slots_are_found_and_missing_blocks_are_not_covered(monkeypatch, compiled):
+    """Every block of K is found at its slot, any other block is -1 (both lookups), and a
+    contact between blocks that K does not join is not covered."""
+    if not compiled:
+        monkeypatch.setattr(assembly, "_find_slots_kernel", None)
+    fixed, a, b, _, _ = random_case(14)
+    keep = np.arange(len(a)) % 4 != 0
+    pattern = BlockPattern(fixed, a[keep], b[keep], reversed_order)
+    n = pattern.nfree
+    brow, bcol = np.divmod(np.arange(n * n), n)
+    slots = pattern._slot_of(brow, bcol)
+    present = np.zeros(n * n, bool)
+    present[pattern.block_rows * n + pattern.block_cols] = True
+    np.testing.assert_array_equal(slots >= 0, present)
+    np.testing.assert_array_equal(slots[present], np.arange(pattern.block_count))
+    assert pattern.covers(fixed, a[keep], b[keep])
+    ra, rb = pattern.block_of_row[a], pattern.block_of_row[b]
+    joined = (ra < 0) | (rb < 0) | present[np.maximum(ra, 0) * n + np.maximum(rb, 0)]
+    assert not joined.all()  # some dropped contact joins blocks K does not join
+    assert not pattern.covers(fixed, a, b)
+    assert pattern.covers(fixed, a, b, active=joined)
