@@ -111,3 +111,30 @@ def test_compiled_rows_equal_the_numpy_rows(monkeypatch, case):
         want = getattr(expected, name)
         scale = max(float(np.abs(want).max()), 1.0)
         np.testing.assert_allclose(getattr(compiled, name), want, rtol=0, atol=1e-13 * scale)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_edge_geometry_gives_depth_parameter_and_segment_distance(monkeypatch, compiled):
+    """d, t against the two-block picture, r against shapely's point-segment distance."""
+    if not compiled:
+        monkeypatch.setattr(rows_module, "_edge_geometry_kernel", None)
+    import shapely
+
+    model = build(dda.load_scene("cases/tunnel.toml"))
+    blocks = model.blocks
+    rng = np.random.default_rng(6)
+    vertex = rng.integers(0, len(blocks.vertices), 300)
+    edge = rng.integers(0, len(blocks.vertices), 300)
+    d, t, r = rows_module.edge_geometry(blocks, vertex, edge)
+    ends = blocks.vertices[rows_module.next_vertex_index(blocks.offsets)[edge]]
+    segments = shapely.linestrings(np.stack([blocks.vertices[edge], ends], axis=1))
+    expected = shapely.distance(shapely.points(blocks.vertices[vertex]), segments)
+    np.testing.assert_allclose(r, expected, rtol=1e-12, atol=1e-12)
+    inside = (t >= 0) & (t <= 1)
+    np.testing.assert_allclose(np.abs(d[inside]), r[inside], rtol=1e-9, atol=1e-12)
+    assert 0 < inside.sum() < 300
+    square = two_blocks(-0.01)
+    d, t, r = rows_module.edge_geometry(square, np.array([4]), np.array([2]))
+    assert (
+        d[0] == pytest.approx(0.01) and t[0] == pytest.approx(0.5) and r[0] == pytest.approx(0.01)
+    )

@@ -10,8 +10,7 @@ from dda.contact.broad import KeptPairs, candidate_pairs
 from dda.contact.contact_set import ContactSet, contact_keys, merge
 from dda.contact.narrow import OUTSIDE_FRACTION, detect
 from dda.contact.point_distance import block_polygons, point_distances
-from dda.contact.rows import edge_projection
-from dda.geometry import next_vertex_index
+from dda.contact.rows import edge_geometry
 from dda.result import SLIDING
 
 
@@ -42,11 +41,10 @@ def refresh_contacts(
         settings.law.tolerance,
         previous.key,
     )
-    penetration, parameter = edge_projection(blocks, found.vertex, found.edge)
+    penetration, parameter, far = edge_geometry(blocks, found.vertex, found.edge)
     keys = contact_keys(blocks, found.vertex, found.edge)
     persisting = np.isin(keys, previous.key)
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
-    far = _segment_distance(blocks, found.vertex, found.edge)
     # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes the
     # soundness tests by construction (distance to the block <= to the edge <= slack)
     doubtful = (far > slack) | (penetration > slack)
@@ -74,15 +72,6 @@ def refresh_contacts(
     contacts.reference[sliding] = parameter[sliding]
     contacts.penetration = penetration
     return contacts
-
-
-def _segment_distance(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
-    """Euclidean distance from each vertex to its edge segment."""
-    p1, p2 = blocks.vertices[vertex], blocks.vertices[edge]
-    p3 = blocks.vertices[next_vertex_index(blocks.offsets)[edge]]
-    e = p3 - p2
-    t = np.clip(np.einsum("ij,ij->i", p1 - p2, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
-    return np.linalg.norm(p1 - (p2 + t[:, None] * e), axis=1)
 
 
 def _distances_where(blocks, vertex, edge, needed) -> tuple[np.ndarray, np.ndarray]:

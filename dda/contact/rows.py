@@ -41,14 +41,50 @@ class ContactRows:
 
 def edge_projection(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
     """Penetration d = (P3-P2)×(P1-P2)/l and parameter t of P1 on the edge."""
+    d, t, _ = edge_geometry(blocks, vertex, edge)
+    return d, t
+
+
+def edge_geometry(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
+    """(d, t, r) of each vertex P1 and edge P2P3: penetration d = (P3-P2)×(P1-P2)/l,
+    parameter t = (P1-P2)·(P3-P2)/l² and distance r = |P1 - P2 - clip(t, 0, 1)(P3-P2)|
+    from the edge segment."""
     nxt = next_vertex_index(blocks.offsets)
+    if _edge_geometry_kernel is not None:
+        return _edge_geometry_kernel(
+            np.ascontiguousarray(blocks.vertices, dtype=np.float64),
+            np.asarray(vertex, dtype=np.int64),
+            np.asarray(edge, dtype=np.int64),
+            nxt.astype(np.int64),
+        )
     p1, p2, p3 = blocks.vertices[vertex], blocks.vertices[edge], blocks.vertices[nxt[edge]]
     e = p3 - p2
     length = np.linalg.norm(e, axis=1)
     w = p1 - p2
     d = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / length
     t = np.einsum("ij,ij->i", w, e) / length**2
-    return d, t
+    along = np.clip(t, 0.0, 1.0)
+    return d, t, np.linalg.norm(w - along[:, None] * e, axis=1)
+
+
+def _edge_geometry(v, vertex, edge, nxt):
+    """Compiled :func:`edge_geometry`."""
+    m = vertex.shape[0]
+    d, t, r = np.empty(m), np.empty(m), np.empty(m)
+    for c in range(m):
+        p, q = vertex[c], edge[c]
+        ex, ey = v[nxt[q], 0] - v[q, 0], v[nxt[q], 1] - v[q, 1]
+        wx, wy = v[p, 0] - v[q, 0], v[p, 1] - v[q, 1]
+        length = np.sqrt(ex * ex + ey * ey)
+        d[c] = (ex * wy - ey * wx) / length
+        t[c] = (wx * ex + wy * ey) / (length * length)
+        along = min(max(t[c], 0.0), 1.0)
+        rx, ry = wx - along * ex, wy - along * ey
+        r[c] = np.sqrt(rx * rx + ry * ry)
+    return d, t, r
+
+
+_edge_geometry_kernel = kernel(_edge_geometry)
 
 
 def gaps_after(
