@@ -184,6 +184,22 @@ def tiles_of_ells(jitter: float):
     return jittered_blocks(scene(parts), jitter)
 
 
+@pytest.mark.skipif(narrow._fans_kernel is None, reason="numba is not in use")
+@pytest.mark.parametrize("make", [tunnel_blocks, tiles_of_ells])
+def test_vertex_fans_compiled_equal_numpy(monkeypatch, make):
+    """Unit edge vectors, normals, reflex corners and shortest edges: both paths."""
+    _, blocks = make(1e-3)
+    compiled = narrow.VertexFans(blocks)
+    monkeypatch.setattr(narrow, "_fans_kernel", None)
+    expected = narrow.VertexFans(blocks)
+    assert expected.reflex.any()
+    np.testing.assert_array_equal(compiled.reflex, expected.reflex)
+    for name in ("to_next", "to_prev", "outward", "shortest"):
+        np.testing.assert_allclose(
+            getattr(compiled, name), getattr(expected, name), rtol=1e-14, atol=1e-15
+        )
+
+
 def keys_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
     """Contact keys found with every vertex moved by ``scale`` at random: where
     vertex-vertex candidates tie, round-off picks pairings other than the unmoved

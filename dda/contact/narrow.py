@@ -74,6 +74,12 @@ class VertexFans:
         v = blocks.vertices
         self.next = next_vertex_index(blocks.offsets)
         self.prev = previous_vertex_index(blocks.offsets)
+        if _fans_kernel is not None:
+            self.to_next, self.to_prev, self.reflex, self.shortest = _fans_kernel(
+                np.ascontiguousarray(v, dtype=np.float64), self.next, self.prev
+            )
+            self.outward = np.column_stack([self.to_next[:, 1], -self.to_next[:, 0]])
+            return
         self.to_next = _unit(v[self.next] - v)
         self.to_prev = _unit(v[self.prev] - v)
         # unit outward normal of the edge leaving each vertex (counter-clockwise polygons)
@@ -88,6 +94,29 @@ class VertexFans:
             np.einsum("ij,ij->i", self.to_next[vertex], outward),
             np.einsum("ij,ij->i", self.to_prev[vertex], outward),
         )
+
+
+def _fans(v, nxt, prv):
+    """Compiled :class:`VertexFans`: unit edge vectors, reflex flags, shortest edges."""
+    n = v.shape[0]
+    to_next, to_prev = np.empty((n, 2)), np.empty((n, 2))
+    reflex, length = np.empty(n, np.bool_), np.empty(n)
+    for k in range(n):
+        ax, ay = v[nxt[k], 0] - v[k, 0], v[nxt[k], 1] - v[k, 1]
+        bx, by = v[prv[k], 0] - v[k, 0], v[prv[k], 1] - v[k, 1]
+        la, lb = np.sqrt(ax * ax + ay * ay), np.sqrt(bx * bx + by * by)
+        length[k] = la
+        la, lb = (la if la > 0 else 1.0), (lb if lb > 0 else 1.0)
+        to_next[k, 0], to_next[k, 1] = ax / la, ay / la
+        to_prev[k, 0], to_prev[k, 1] = bx / lb, by / lb
+        reflex[k] = (-bx) * ay - (-by) * ax < 0.0  # (P - P_prev) x (P_next - P) < 0
+    shortest = np.empty(n)
+    for k in range(n):
+        shortest[k] = min(length[k], length[prv[k]])
+    return to_next, to_prev, reflex, shortest
+
+
+_fans_kernel = kernel(_fans)
 
 
 def _vertex_edge_candidates(blocks, pairs, search):
