@@ -8,6 +8,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from dda.blas_threads import single_threaded_blas
 from dda.blocks import BlockSet
 from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
@@ -197,16 +198,18 @@ def run(
     report = _progress_reporter(progress, model)
     status = "finished"
     try:
-        while not state.finished():
-            _advance(state)
-            last = state.finished()
-            if state.step % model.save_every == 0 or last:
-                with state.timer("output"):
-                    frames.append(make_frame(state.blocks, state.contacts, state.time, state.step))
-                    if on_frame:
-                        on_frame(frames[-1])
-            if report:
-                report(_fraction(state), {"step": state.step, "time": state.time})
+        with single_threaded_blas():  # PARDISO's threads get the cores (dda.blas_threads)
+            while not state.finished():
+                _advance(state)
+                last = state.finished()
+                if state.step % model.save_every == 0 or last:
+                    with state.timer("output"):
+                        frame = make_frame(state.blocks, state.contacts, state.time, state.step)
+                        frames.append(frame)
+                        if on_frame:
+                            on_frame(frame)
+                if report:
+                    report(_fraction(state), {"step": state.step, "time": state.time})
     except SimulationError as exc:
         status = "failed"
         exc.result = _result(state, frames, start, status)  # what was computed, for writers
