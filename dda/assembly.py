@@ -79,7 +79,7 @@ class BlockPattern:
         act = _active(active, len(block_a))
         pairs = free_pairs(rows, block_a[act], block_b[act])
         if extra_pairs is not None and len(extra_pairs):
-            pairs = np.unique(np.concatenate([pairs, extra_pairs]), axis=0)
+            pairs = _unique_pairs(np.concatenate([pairs, extra_pairs]), max(self.nfree, 1))
         self.pairs = pairs
         self.key = graph_key(fixed, pairs)
         self.contacts_key = contacts_key(fixed, block_a, block_b)
@@ -267,8 +267,14 @@ def free_pairs(rows: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np
     lo, hi = np.minimum(ra[keep], rb[keep]), np.maximum(ra[keep], rb[keep])
     if len(lo) == 0:
         return np.zeros((0, 2), dtype=np.int64)
-    key = np.unique(lo.astype(np.int64) * (int(rows.max()) + 1) + hi)
-    return np.column_stack([key // (int(rows.max()) + 1), key % (int(rows.max()) + 1)])
+    return _unique_pairs(np.column_stack([lo, hi]), int(rows.max()) + 1)
+
+
+def _unique_pairs(pairs: np.ndarray, n: int) -> np.ndarray:
+    """The distinct rows of ``pairs`` (values below ``n``), sorted: one integer key per
+    pair (``np.unique(axis=0)`` sorts rows as records, ~25x slower at 10,000 blocks)."""
+    key = np.unique(pairs[:, 0].astype(np.int64) * n + pairs[:, 1])
+    return np.column_stack([key // n, key % n])
 
 
 def _scalar_indices(bcol: np.ndarray, bptr: np.ndarray, b: int) -> np.ndarray:

@@ -219,3 +219,8 @@ def test_slots_are_found_and_missing_blocks_are_not_covered(monkeypatch, compile
     assert not joined.all()  # some dropped contact joins blocks K does not join
     assert not pattern.covers(fixed, a, b)
     assert pattern.covers(fixed, a, b, active=joined)
+
+
+def test_unique_pairs_are_the_distinct_rows_sorted():
+    pairs = np.random.default_rng(15).integers(0, 40, size=(500, 2))
+    np.testing.assert_array_equal(assembly._unique_pairs(pairs, 40), np.unique(pairs, axis=0))
