@@ -94,6 +94,19 @@ def contact_keys(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.n
     return parts[vertex] * KEY_SCALE + parts[edge]
 
 
+def rows_in(keys: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Row of each key in ``known``, -1 where it is not there (keys are unique in both:
+    one contact per vertex-edge pair). One sort of ``known`` and a binary search per key."""
+    rows = np.full(len(keys), -1, dtype=np.int64)
+    if len(keys) == 0 or len(known) == 0:
+        return rows
+    order = np.argsort(known)
+    at = order[np.minimum(np.searchsorted(known, keys, sorter=order), len(known) - 1)]
+    found = known[at] == keys
+    rows[found] = at[found]
+    return rows
+
+
 def merge(
     previous: ContactSet,
     blocks: BlockSet,
@@ -104,13 +117,15 @@ def merge(
     initial_parameter: np.ndarray,
     touch_tolerance: float,
     keys: np.ndarray | None = None,
+    previous_rows: np.ndarray | None = None,
 ) -> ContactSet:
     """Build this step's set, carrying over what persists from ``previous``.
 
     New contacts start LOCKED when touching (penetration ≥ -``touch_tolerance``), else
     OPEN; multipliers 0; penalty ``initial_penalty``; shear reference at the
     vertex's current projection ``initial_parameter``. ``keys``: the pairs'
-    :func:`contact_keys`, when the caller has them already.
+    :func:`contact_keys`, and ``previous_rows`` their :func:`rows_in` ``previous``,
+    when the caller has them already.
     """
     owner = blocks.vertex_owner
     m = len(vertex)
@@ -134,8 +149,11 @@ def merge(
         penetration=np.zeros(m),
         slip=np.zeros(m),
     )
-    if len(previous) and m:
-        _, new_rows, old_rows = np.intersect1d(keys, previous.key, return_indices=True)
+    if previous_rows is None:
+        previous_rows = rows_in(keys, previous.key)
+    new_rows = np.flatnonzero(previous_rows >= 0)
+    if len(new_rows):
+        old_rows = previous_rows[new_rows]
         for name in (
             "state",
             "normal_multiplier",

@@ -7,7 +7,7 @@ import shapely
 
 from dda.blocks import BlockSet
 from dda.contact.broad import KeptPairs, candidate_pairs
-from dda.contact.contact_set import ContactSet, contact_keys, merge
+from dda.contact.contact_set import ContactSet, contact_keys, merge, rows_in
 from dda.contact.narrow import OUTSIDE_FRACTION, detect
 from dda.contact.point_distance import block_polygons, point_distances
 from dda.contact.rows import edge_geometry
@@ -43,7 +43,8 @@ def refresh_contacts(
     )
     penetration, parameter, far = edge_geometry(blocks, found.vertex, found.edge)
     keys = contact_keys(blocks, found.vertex, found.edge)
-    persisting = np.isin(keys, previous.key)
+    previous_rows = rows_in(keys, previous.key)
+    persisting = previous_rows >= 0
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
     # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes the
     # soundness tests by construction (distance to the block <= to the edge <= slack)
@@ -67,6 +68,7 @@ def refresh_contacts(
         initial_parameter=parameter,
         touch_tolerance=settings.touch_tolerance,
         keys=keys[plausible],
+        previous_rows=previous_rows[plausible],
     )
     sliding = contacts.state == SLIDING
     contacts.reference[sliding] = parameter[sliding]
