@@ -46,14 +46,16 @@ def candidate_pairs(blocks: BlockSet, margin: float) -> np.ndarray:
 class KeptPairs:
     """:func:`candidate_pairs` kept from step to step (a Verlet list).
 
-    The pairs are found once with every box grown by ``SLACK`` x margin more
-    than asked. While no vertex has moved more than that extra growth in x
-    or in y since, every pair whose boxes overlap now is in the kept list
-    (each side of a box moved by at most that much), so the pairs of a step
-    are the kept ones whose boxes, grown by the asked margin only, overlap:
-    the same pairs, in the same order, as a new search, for one vectorised
-    test instead of the grid. A change of the blocks (fracture) or of the
-    margin starts a new list.
+    The pairs are found once with every box side grown by ``SLACK`` x margin
+    more than asked. While no vertex has moved more than that extra growth in
+    x or in y since (half of it is required: round-off to spare), every pair
+    whose boxes overlap now is in the kept list (each side of a box moved by
+    at most that much, the gap of a pair closed by at most twice that, and
+    the two boxes were grown by twice the slack), so the pairs of a step are
+    the kept ones whose boxes, grown by the asked margin only, overlap: the
+    same pairs, in the same order, as a new search, for one vectorised test
+    instead of the grid. A change of the blocks (fracture) or of the margin
+    starts a new list.
     """
 
     SLACK = 0.1  # extra growth of each box side when the list is made, x margin
