@@ -26,6 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from dda.pardiso_call import PardisoCall
+
 log = logging.getLogger(__name__)
 
 RELATIVE_TOLERANCE = 1e-13  # PCG stops at ‖F - K x‖ ≤ this · ‖F‖ (a direct solve's level)
@@ -106,36 +108,29 @@ class PardisoFactorisation:
         rows = np.repeat(np.arange(self.size), np.diff(matrix.indptr))
         self._upper = np.flatnonzero(matrix.indices >= rows)
         counts = np.bincount(rows[self._upper], minlength=self.size)
-        self._indptr = np.zeros(self.size + 1, dtype=np.int32)
-        np.cumsum(counts, out=self._indptr[1:])
-        self._indices = matrix.indices[self._upper].astype(np.int32)
-        self._matrix = self._upper_matrix(matrix)
-        self._call(11)  # analysis; with iparm[0] = 0 it fills iparm with PARDISO's defaults
+        indptr = np.zeros(self.size + 1, dtype=np.int64)
+        np.cumsum(counts, out=indptr[1:])
+        self._call = PardisoCall(handle, indptr, matrix.indices[self._upper])
+        self._call.set_values(self._upper_values(matrix))
+        self._call(11, np.zeros(self.size))  # analysis; iparm[0] = 0: PARDISO's defaults ...
         # ... among them iparm[7] = 2, two steps of iterative refinement in every solve
         # (3-4 back-substitutions' cost); set after the defaults are in, so that it holds
         self._solver.iparm[7] = 0
 
-    def _upper_matrix(self, matrix: sp.spmatrix) -> sp.csr_matrix:
-        data = np.asarray(matrix.data)[self._upper]
-        return sp.csr_matrix((data, self._indices, self._indptr), shape=matrix.shape)
-
-    def _call(self, phase: int, rhs: np.ndarray | None = None) -> np.ndarray:
-        self._solver.set_phase(phase)
-        rhs = np.zeros(self.size) if rhs is None else np.ascontiguousarray(rhs, dtype=float)
-        return self._solver._call_pardiso(self._matrix, rhs)
+    def _upper_values(self, matrix: sp.spmatrix) -> np.ndarray:
+        return np.asarray(matrix.data)[self._upper]
 
     def factor(self, matrix: sp.spmatrix) -> None:
         """Numeric factorisation of a matrix with the analysed pattern."""
-        self._matrix = self._upper_matrix(matrix)
-        self._call(22)
+        self._call.set_values(self._upper_values(matrix))
+        self._call(22, np.zeros(self.size))
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self._call(33, rhs)
 
     def solve_many(self, columns: np.ndarray) -> np.ndarray:
         """X (n, r) with K X = B, all columns in one call (cheaper per column)."""
-        self._solver.set_phase(33)
-        return self._solver._call_pardiso(self._matrix, np.asfortranarray(columns, dtype=float))
+        return self._call(33, columns)
 
 
 _PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (loading MKL takes a while)
