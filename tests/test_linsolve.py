@@ -165,3 +165,23 @@ def test_open_contacts_are_no_spring_of_k():
     keys, kept = _keyed_springs(contacts, springs)
     np.testing.assert_array_equal(keys, [5, 9])
     np.testing.assert_array_equal(kept, [[1.0, 2.0], [0.0, 0.8]])
+
+
+def test_direct_pardiso_calls_solve_many_columns_and_report_errors():
+    """The ctypes call (dda.pardiso_call) solves one or several right-hand sides, and a
+    matrix that is not positive definite is PARDISO's error, raised, not a wrong x."""
+    pytest.importorskip("pypardiso")
+    from pypardiso.pardiso_wrapper import PyPardisoError
+
+    k = spd_matrix(41)
+    factor = linsolve.PardisoFactorisation(k)
+    factor.factor(k)
+    columns = np.random.default_rng(3).normal(size=(k.shape[0], 5))
+    many = factor.solve_many(columns)
+    assert many.shape == columns.shape and many.flags.c_contiguous
+    np.testing.assert_allclose(k @ many, columns, rtol=1e-11, atol=1e-11)
+    # several columns go through PARDISO's blocked kernels: equal to round-off
+    np.testing.assert_allclose(many[:, 2], factor.solve(columns[:, 2]), rtol=1e-12, atol=1e-15)
+    indefinite = sp.csc_matrix(k - 2.0 * k.shape[0] * sp.eye(k.shape[0]))
+    with pytest.raises(PyPardisoError):
+        factor.factor(indefinite)
