@@ -112,8 +112,10 @@ class StepUpdates:
         except (ValueError, sla.LinAlgError):
             return None
 
+        solve_many = self._solve_many  # not self: no reference cycle through the closure
+
         def precondition(b: np.ndarray) -> np.ndarray:
-            y = self._solve_many(b[:, None])[:, 0]
+            y = solve_many(b[:, None])[:, 0]
             w = sla.lu_solve(factors, np.einsum("qk,qk->q", values, y[at]))
             return y - np.einsum("nr,r->n", z, w)
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import gc
+import weakref
 from types import SimpleNamespace
 
 import numpy as np
@@ -86,3 +88,24 @@ def test_a_wall_runs_the_same_with_fewer_factorisations(monkeypatch):
     np.testing.assert_allclose(
         with_updates.final.displacements, without.final.displacements, rtol=0, atol=1e-10
     )
+
+
+def test_the_updates_are_freed_as_soon_as_they_are_dropped():
+    """No reference cycle (the preconditioner's closure held the updates): a step's
+    updates, their K and their columns go when the next factorisation replaces them,
+    not when Python's cycle collector happens to run. At 10,000 blocks with the
+    default band, up to 28 matrices of 12 MiB had waited for it (peak 1.3 GiB)."""
+    fixed, a, b, diagonal, rows, springs, pattern = contact_system(1)
+    k_f = stiffness(pattern, diagonal, fixed, rows, springs)
+    updates = StepUpdates(k_f, springs, pattern, rows, a, b, Factorisation(k_f).solve_many)
+    new = springs.copy()
+    new[:, 1] = 0.0
+    k = stiffness(pattern, diagonal, fixed, rows, new)
+    assert updates.solve(k, np.ones(k.shape[0]), new) is not None  # the closure is made
+    gone = weakref.ref(updates)
+    gc.disable()
+    try:
+        del updates
+        assert gone() is None
+    finally:
+        gc.enable()
