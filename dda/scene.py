@@ -698,8 +698,9 @@ def _simple_polygons(chk: _Checker, polygons: np.ndarray) -> None:
 
 
 def _sized_polygons(chk: _Checker, areas: np.ndarray, sizes: np.ndarray) -> None:
-    """Refuse slivers: area must exceed 1e-12 of the squared bbox diagonal."""
-    thin = np.flatnonzero(~(areas > 1e-12 * sizes**2))
+    """Refuse slivers: area must exceed 1e-12 of the squared bbox diagonal (compared as
+    √area > 1e-6 x diagonal, which does not overflow for huge coordinates)."""
+    thin = np.flatnonzero(~(np.sqrt(np.maximum(areas, 0.0)) > 1e-6 * sizes))
     if thin.size:
         i = thin[0]
         chk.fail(
