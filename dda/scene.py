@@ -250,6 +250,9 @@ class _Interval(NamedTuple):
 
 
 _ANY = _Interval()
+# positions (block vertices, fixed points, load points) beyond this are refused: they
+# leave no precision for contacts, and squares of them overflow in the geometry checks
+MAX_COORDINATE = 1e15
 _POSITIVE = _Interval(0.0)
 _NON_NEGATIVE = _Interval(0.0, low_closed=True)
 _POISSON = _Interval(-1.0, 0.5)
@@ -400,6 +403,26 @@ class _Checker:
         if plain is not None:
             return plain
         return tuple(self.vector(p, f"{key}[{k}]", 2) for k, p in enumerate(items))
+
+    def positions(self, value: object, key: str, min_count: int = 0) -> tuple[Point, ...]:
+        """:meth:`points` within ±``MAX_COORDINATE``."""
+        pairs = self.points(value, key, min_count)
+        for k, pair in enumerate(pairs):
+            self.bounded(pair, f"{key}[{k}]")
+        return pairs
+
+    def position(self, value: object, key: str) -> tuple[float, ...]:
+        """One [x, y] within ±``MAX_COORDINATE``."""
+        return self.bounded(self.vector(value, key, 2), key)
+
+    def bounded(self, pair: tuple[float, ...], key: str) -> tuple[float, ...]:
+        if max(abs(pair[0]), abs(pair[1])) > MAX_COORDINATE:
+            self.fail(
+                key,
+                f"{list(pair)} lies beyond ±{MAX_COORDINATE:g}: a model this large keeps no "
+                "precision for its contacts (use a length unit that fits)",
+            )
+        return pair
 
     def known(self, value: object, key: str, names: Collection[str], what: str) -> str:
         """The name of an existing ``what`` (material, joint, block)."""
@@ -557,7 +580,7 @@ def _fracture(chk: _Checker, raw: Mapping[str, Any], joints: Collection[str]) ->
 
 def _ring(chk: _Checker, value: object, key: str) -> tuple[Point, ...]:
     """Polygon vertices: >= 3 pairs, a repeated closing vertex dropped."""
-    vertices = chk.points(value, key)
+    vertices = chk.positions(value, key)
     if len(vertices) > 1 and vertices[0] == vertices[-1]:
         vertices = vertices[:-1]
     if len(vertices) < 3:
@@ -592,7 +615,7 @@ def _block_specs(materials: Collection[str], joints: Collection[str]) -> dict[st
         "material": partial(_Checker.known, names=materials, what="material"),
         "vertices": _ring,
         "fixed": _Checker.boolean,
-        "fixed_points": _Checker.points,
+        "fixed_points": _Checker.positions,
         "velocity": _vector(3),
         "stress": _vector(3),
         "edge_joints": partial(_edge_joints, joints=joints),
@@ -808,7 +831,7 @@ def _history(chk: _Checker, value: object, key: str) -> tuple[Point, ...]:
 def _loads(chk: _Checker, raw: Mapping[str, Any], blocks: Collection[str]) -> tuple[Load, ...]:
     specs: dict[str, _Spec] = {
         "block": partial(_Checker.known, names=blocks, what="block"),
-        "point": _vector(2),
+        "point": _Checker.position,
         "force": _vector(2),
         "history": _history,
     }

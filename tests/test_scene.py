@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import dataclasses
 import math
@@ -717,15 +716,33 @@ def test_junk_anywhere_is_accepted_or_refused_with_scene_error(path, junk):
         assert all(math.isfinite(x) for b in scene.blocks for p in b.vertices for x in p)
 
 
-@pytest.mark.parametrize("scale", [1.0, 1e155])
-def test_slivers_are_refused_at_any_scale_without_overflow(scale):
-    """Area against the squared diagonal, compared without squaring a huge size
-    (1e155 squared overflows: the check once warned and judged by an infinity)."""
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e14])
+def test_slivers_are_refused_at_any_scale(scale):
+    """Area against 1e-12 of the squared diagonal, whatever the length unit."""
     sliver = [[0.0, 0.0], [scale, 0.0], [scale, 1e-13 * scale], [0.0, 1e-13 * scale]]
+    error = refused(edited(("blocks", 0, "vertices"), sliver))
+    assert error.key == "blocks[0].vertices" and "too small" in str(error)
+
+
+@pytest.mark.parametrize(
+    "path, value",
+    [
+        (("blocks", 1, "vertices", 0), [0.0, 2.7e299]),
+        (("blocks", 1, "vertices", 0), [1.34e154, 1.34e154]),
+        (("blocks", 0, "fixed_points", 0), [-1e16, 0.25]),
+        (("loads", 0, "point"), [0.5, 1e300]),
+    ],
+)
+def test_huge_coordinates_are_refused_without_overflow(path, value):
+    """Positions beyond ±1e15 are refused by name, before any geometry squares them
+    (1e154 squared overflowed in the checks: RuntimeWarnings and infinite sizes)."""
+    raw = full()
+    node = raw
+    for part in path[:-1]:
+        node = node[part]
+    node[path[-1]] = value
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        error = refused(edited(("blocks", 0, "vertices"), sliver))
-        assert error.key == "blocks[0].vertices" and "too small" in str(error)
-        plump = [[0.0, 0.0], [scale, 0.0], [scale, 1e-5 * scale], [0.0, 1e-5 * scale]]
-        with contextlib.suppress(SceneError):  # other checks may refuse it, not this one
-            load_scene(edited(("blocks", 0, "vertices"), plump))
+        error = refused(raw)
+    assert "beyond ±1e+15" in str(error)
+    assert error.key.startswith(f"{path[0]}[{path[1]}].{path[2]}")
