@@ -416,6 +416,7 @@ class _Checker:
         return self.bounded(self.vector(value, key, 2), key)
 
     def bounded(self, pair: tuple[float, ...], key: str) -> tuple[float, ...]:
+        """``pair`` itself, refused when a coordinate lies beyond ±``MAX_COORDINATE``."""
         if max(abs(pair[0]), abs(pair[1])) > MAX_COORDINATE:
             self.fail(
                 key,

@@ -182,25 +182,7 @@ def contact_rows(blocks: BlockSet, contacts: ContactSet) -> ContactRows:
 
 def _contact_rows_compiled(blocks, contacts, nxt, prv) -> ContactRows:
     """:func:`contact_rows` in one compiled pass over the contacts."""
-    m = len(contacts.vertex)
-    scalar, row, vector = (
-        (lambda: np.empty(m)),
-        (lambda: np.zeros((m, 6))),
-        (lambda: np.empty((m, 2))),
-    )
-    out = ContactRows(
-        penetration=scalar(),
-        normal_i=row(),
-        normal_j=row(),
-        slip=scalar(),
-        shear_i=row(),
-        shear_j=row(),
-        parameter=scalar(),
-        normals=vector(),
-        tangents=vector(),
-        length=scalar(),
-        points=vector(),
-    )
+    out = _empty_rows(len(contacts.vertex))
     _rows_kernel(
         np.ascontiguousarray(blocks.vertices, dtype=np.float64),
         np.ascontiguousarray(blocks.centroid, dtype=np.float64),
@@ -224,6 +206,18 @@ def _contact_rows_compiled(blocks, contacts, nxt, prv) -> ContactRows:
         out.points,
     )
     return out
+
+
+def _empty_rows(m: int) -> ContactRows:
+    """:class:`ContactRows` arrays for m contacts (zeros: the kernel adds into the rows)."""
+    widths = {"normal_i": 6, "normal_j": 6, "shear_i": 6, "shear_j": 6}
+    widths |= {"normals": 2, "tangents": 2, "points": 2}
+    return ContactRows(
+        **{
+            name: np.zeros((m, widths[name])) if name in widths else np.zeros(m)
+            for name in ContactRows.__dataclass_fields__
+        }
+    )
 
 
 def _project(row, k, nx, ny, px, py, cx, cy, scale):
