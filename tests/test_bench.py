@@ -35,7 +35,9 @@ def test_measure_a_small_wall(method):
     assert m.iterations >= 3 and m.factorisations >= 1
     assert {"contact_search", "assembly", "solve"} <= set(m.stage_seconds)
     assert m.peak_memory_mib > 0
-    assert "3x3" in table([m])
+    assert 0 < m.first_step_seconds < m.seconds  # the first step, timed apart
+    assert m.ms_per_later_step == pytest.approx(1000 * (m.seconds - m.first_step_seconds) / 2)
+    assert "3x3" in table([m]) and "after step 1" in table([m])
 
 
 def test_growth_exponent():
