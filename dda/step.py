@@ -169,14 +169,15 @@ def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
     return diagonal, forces
 
 
-def _stiffness(pattern, blocks, base_diagonal, contacts, rows, law, earlier=None):
+def _stiffness(pattern, blocks, base_diagonal, coefficients, rows, law, earlier=None):
     """K (in the pattern's order) and the contact springs (2, m) it holds.
 
+    ``coefficients``: the contacts' :func:`dda.contact.law.contact_coefficients`.
     ``earlier``: (pattern, K, springs) assembled before in this step (the same
     rows and effects); on the same pattern, only the contacts whose springs
     changed are added to it (:func:`dda.assembly.reassemble`).
     """
-    p, ps, _, _ = contact_law.contact_coefficients(contacts, rows, law)
+    p, ps, _, _ = coefficients
     springs = np.stack([p, ps if law.friction else np.zeros_like(ps)])  # the ones K holds
     if earlier is not None and earlier[0] is pattern:
         change = springs - earlier[2]
@@ -220,9 +221,10 @@ def _similar(cache: LinearCache, keys: np.ndarray, springs: np.ndarray) -> bool:
     return changed <= MAX_CHANGED_FOR_PCG and changed + 2 <= cache.solver.pcg_budget
 
 
-def _forces(base_forces, contacts, rows, law):
+def _forces(base_forces, contacts, rows, coefficients):
+    """F: the effects' forces and the contact forces (``coefficients`` as for K)."""
     forces = base_forces.copy()
-    _, _, normal, shear = contact_law.contact_coefficients(contacts, rows, law)
+    _, _, normal, shear = coefficients
     a, b = contacts.block_a, contacts.block_b
     terms = [(a, rows.normal_i, normal), (b, rows.normal_j, normal)]
     terms += [(a, rows.shear_i, shear), (b, rows.shear_j, shear)]
@@ -292,15 +294,16 @@ def solve_step(
     flips = StateFlips(len(contacts))
     for _ in range(model.scene.contact.max_iterations):
         with timer("assembly"):
+            coefficients = contact_law.contact_coefficients(contacts, rows, law)  # K and F
             if k is None:
                 closed_now = contacts.state != OPEN  # open contacts add nothing to K
                 pattern = cache.pattern_for(
                     blocks.fixed, contacts.block_a, contacts.block_b, neighbours, closed_now
                 )
-                k, springs = _stiffness(pattern, blocks, base_k, contacts, rows, law, assembled)
+                k, springs = _stiffness(pattern, blocks, base_k, coefficients, rows, law, assembled)
                 assembled = (pattern, k, springs)
                 springs = _keyed_springs(contacts, springs)
-            f = _forces(base_f, contacts, rows, law)
+            f = _forces(base_f, contacts, rows, coefficients)
         d = _solve(cache, pattern, k, f, blocks, timer, springs, updates, assembled[2])
         iterations += 1
         if cache.solver.factored is k and (updates is None or updates.factored is not k):

@@ -119,6 +119,7 @@ def stage_rows(columns: int) -> list[tuple[str, float]]:
     base_k, base_f = _effect_terms(model, blocks, ctx)
     crows = contact_rows(blocks, contacts)
     law = model.contact.law
+    coefficients = contact_law.contact_coefficients(contacts, crows, law)
     pattern = assembly.BlockPattern(
         blocks.fixed, contacts.block_a, contacts.block_b, block_ordering
     )
@@ -135,7 +136,7 @@ def stage_rows(columns: int) -> list[tuple[str, float]]:
     rows_out.append(
         (
             "assemble K, scatter kernel",
-            best_of(lambda: _stiffness(pattern, blocks, base_k, contacts, crows, law)),
+            best_of(lambda: _stiffness(pattern, blocks, base_k, coefficients, crows, law)),
         )
     )
     saved = assembly._scatter_kernel
@@ -144,12 +145,12 @@ def stage_rows(columns: int) -> list[tuple[str, float]]:
         rows_out.append(
             (
                 "assemble K, numpy bincount fallback",
-                best_of(lambda: _stiffness(pattern, blocks, base_k, contacts, crows, law)),
+                best_of(lambda: _stiffness(pattern, blocks, base_k, coefficients, crows, law)),
             )
         )
     finally:
         assembly._scatter_kernel = saved
-    p, ps, _, _ = contact_law.contact_coefficients(contacts, crows, law)
+    p, ps, _, _ = coefficients
     terms = [(crows.normal_i, crows.normal_j, p), (crows.shear_i, crows.shear_j, ps)]
     rows_out.append(
         (
@@ -162,7 +163,7 @@ def stage_rows(columns: int) -> list[tuple[str, float]]:
             ),
         )
     )
-    k, _ = _stiffness(pattern, blocks, base_k, contacts, crows, law)
+    k, _ = _stiffness(pattern, blocks, base_k, coefficients, crows, law)
     natural = reference_assembly(base_k, blocks.fixed, contacts.block_a, contacts.block_b, terms)
     rhs = np.random.default_rng(0).normal(size=k.shape[0])
     rows_out.append(
