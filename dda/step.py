@@ -208,7 +208,7 @@ def _similar(cache: LinearCache, keys: np.ndarray, springs: np.ndarray) -> bool:
     Contacts are matched by their persistent keys (sorted); one that is new,
     gone or has other springs counts as changed.
     """
-    if cache.coefficients is None:
+    if cache.coefficients is None or cache.solver.pcg_budget < 2:
         return False
     old_keys, old_springs = cache.coefficients
     if len(old_keys) == 0:

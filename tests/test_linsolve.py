@@ -82,6 +82,45 @@ def test_reusing_solver_refactorises_when_pcg_does_not_converge():
     np.testing.assert_allclose(far @ x, f, rtol=1e-11)
 
 
+def test_dense_cholesky_equals_superlu():
+    k = spd_matrix(12)
+    f = np.linspace(-1.0, 1.0, 60)
+    dense = linsolve.DenseFactorisation(k)
+    x = dense.solve(f)
+    assert np.linalg.norm(k @ x - f) <= 1e-13 * np.linalg.norm(f)
+    np.testing.assert_allclose(x, Factorisation(k).solve(f), rtol=1e-12, atol=1e-15)
+    columns = np.stack([f, f**2, np.ones(60)], axis=1)
+    np.testing.assert_allclose(k @ dense.solve_many(columns), columns, rtol=1e-12, atol=1e-12)
+
+
+def test_dense_cholesky_hands_a_matrix_it_cannot_factorise_to_superlu():
+    """K indefinite by round-off (a nearly singular K): LAPACK's Cholesky stops; SuperLU
+    without pivoting factorises it as it did before the dense path existed."""
+    k = spd_matrix(13).tolil()
+    k[0, 0] = -1.0  # symmetric, indefinite, not singular
+    k = sp.csc_matrix(k)
+    f = np.ones(60)
+    dense = linsolve.DenseFactorisation(k)
+    assert dense._fallback is not None
+    np.testing.assert_array_equal(dense.solve(f), Factorisation(k, "NATURAL").solve(f))
+
+
+def test_automatic_solver_uses_a_dense_cholesky_for_small_k_and_never_pcg(monkeypatch):
+    solver = ReusingSolver()
+    k = spd_matrix(14)
+    f = np.ones(60)
+    solver.solve(k, f, key="graph")
+    assert isinstance(solver._factor, linsolve.DenseFactorisation)
+    assert solver.pcg_budget == 0  # a factorisation costs about 5 back-substitutions
+    near = sp.csc_matrix(k * (1 + 1e-8))
+    x = solver.solve(near, f, key="graph")
+    assert solver.factorisations == 2 and solver.pcg_solves == 0
+    assert np.linalg.norm(near @ x - f) <= 1e-13 * np.linalg.norm(f)
+    monkeypatch.setattr(linsolve, "DENSE_MAX_SIZE", 59)
+    solver.solve(k, f, key="graph")
+    assert not isinstance(solver._factor, linsolve.DenseFactorisation)
+
+
 def test_pardiso_backend_equals_superlu(monkeypatch):
     pytest.importorskip("pypardiso")
     monkeypatch.setattr(linsolve, "PARDISO_MIN_SIZE", 0)
