@@ -22,6 +22,7 @@ import numpy as np
 
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import ContactRows
+from dda.jit import kernel
 from dda.result import LOCKED, OPEN, SLIDING
 
 
@@ -130,6 +131,30 @@ def update(
     friction (capacity within the force band): then it only turns its
     friction round, which changes F but not K.
     """
+    if held is None:
+        nothing = np.zeros(len(contacts), bool)
+        held = (nothing, nothing)
+    if _decide_kernel is not None:
+        changes, violation = _decide_compiled(contacts, rows, d, s, joint, law, held)
+    else:
+        changes = _decide(contacts, rows, d, s, joint, law, held)
+        violation = _violation(d, s, contacts.state, law)
+    now_closed = contacts.state != OPEN
+    penalty_raised = False
+    if law.augmented and changes == 0:
+        penalty_raised = _raise_penalties(contacts, d, previous_d, now_closed, law)
+    settled = changes == 0 and (not law.augmented or violation <= law.tolerance)
+    return LawOutcome(
+        settled=settled,
+        stiffness_changed=changes > 0 or penalty_raised,
+        state_changes=changes,
+        max_violation=violation,
+    )
+
+
+def _decide(contacts, rows, d, s, joint, law, held) -> int:
+    """numpy: new states, directions, multipliers and forces (edits ``contacts``); the
+    number of state changes. ``held``: (keep closed, keep sliding) masks."""
     state = contacts.state
     closed = state != OPEN
     p = contacts.penalty
@@ -141,8 +166,7 @@ def update(
     eps = law.state_band
     moved = s - rows.slip  # shear motion since the step start
     band_force = np.minimum(p, law.band_stiffness) * eps
-    nothing_held = np.zeros_like(closed)
-    keep_closed, keep_sliding = held if held is not None else (nothing_held, nothing_held)
+    keep_closed, keep_sliding = held
     opens = closed & ~keep_closed & (normal < -tensile - band_force)
     closes = ~closed & ((d > eps) | keep_closed)
     new_state = state.copy()
@@ -198,17 +222,137 @@ def update(
 
     changes = int(np.count_nonzero(new_state != state))
     contacts.state = new_state
-    violation = _violation(d, s, new_state, law)
-    penalty_raised = False
-    if law.augmented and changes == 0:
-        penalty_raised = _raise_penalties(contacts, d, previous_d, now_closed, law)
-    settled = changes == 0 and (not law.augmented or violation <= law.tolerance)
-    return LawOutcome(
-        settled=settled,
-        stiffness_changed=changes > 0 or penalty_raised,
-        state_changes=changes,
-        max_violation=violation,
+    return changes
+
+
+def _decide_compiled(contacts, rows, d, s, joint, law, held) -> tuple[int, float]:
+    """:func:`_decide` and :func:`_violation` in one compiled pass (the same numbers)."""
+    m = len(contacts)
+    new_state = np.empty(m, contacts.state.dtype)
+    normal, shear, lam_n, lam_t = (np.empty(m) for _ in range(4))
+    changes, violation = _decide_kernel(
+        contacts.state,
+        contacts.penalty,
+        np.ascontiguousarray(d, dtype=np.float64),
+        np.ascontiguousarray(s, dtype=np.float64),
+        rows.slip,
+        contacts.normal_multiplier,
+        contacts.shear_multiplier,
+        contacts.slide_direction,
+        contacts.intact,
+        (joint.friction, joint.cohesion, joint.tensile),
+        held,
+        (law.augmented, law.friction),
+        (law.shear_ratio, law.state_band, law.band_stiffness),
+        (new_state, normal, shear, lam_n, lam_t),
     )
+    if law.augmented:
+        contacts.normal_multiplier = lam_n
+    contacts.shear_multiplier = lam_t
+    contacts.normal_force = normal
+    contacts.shear_force = shear
+    contacts.penetration = d
+    contacts.slip = s
+    contacts.state = new_state
+    return int(changes), float(violation)
+
+
+def _decide_each(
+    state,
+    penalty,
+    d,
+    s,
+    start_slip,
+    lam_n_in,
+    lam_t_in,
+    direction,
+    intact,
+    joint,
+    held,
+    switches,
+    settings,
+    out,
+):
+    """Compiled :func:`_decide` contact by contact, with the same floating-point
+    operations in the same order; ``direction`` and ``intact`` are edited in place."""
+    friction, cohesion, tensile = joint
+    keep_closed, keep_sliding = held
+    augmented, with_friction = switches
+    shear_ratio, band, band_stiffness = settings
+    new_state, normal_out, shear_out, lam_n_out, lam_t_out = out
+    changes = 0
+    violation = 0.0
+    for c in range(state.shape[0]):
+        was = state[c]
+        closed = was != OPEN
+        p = penalty[c]
+        normal = (lam_n_in[c] if augmented else 0.0) + p * d[c]
+        cohesion_c = cohesion[c] if intact[c] else 0.0
+        tensile_c = tensile[c] if intact[c] else 0.0
+        band_force = min(p, band_stiffness) * band
+        opens = closed and not keep_closed[c] and normal < -tensile_c - band_force
+        closes = not closed and (d[c] > band or keep_closed[c])
+        now = OPEN if opens else (LOCKED if closes else was)
+        capacity = max(friction[c] * normal, 0.0) + cohesion_c
+        trial = (lam_t_in[c] if augmented else 0.0) + shear_ratio * p * s[c]
+        still_closed = closed and not opens
+        sticks = False
+        if with_friction:
+            noise = shear_ratio * band_force
+            slips = (
+                still_closed
+                and was == LOCKED
+                and (abs(trial) > capacity + noise or keep_sliding[c])
+            )
+            moved = s[c] - start_slip[c]
+            moved_back = still_closed and was == SLIDING and direction[c] * moved < -band
+            weightless = capacity <= noise
+            sticks = moved_back and not weightless and not keep_sliding[c]
+            if slips:
+                now = SLIDING
+                direction[c] = np.sign(trial)
+            if sticks:
+                now = LOCKED
+            if moved_back and weightless:
+                direction[c] = np.sign(moved)
+        else:
+            slips = still_closed and was == LOCKED
+            if slips:
+                now = SLIDING
+            if still_closed:
+                direction[c] = np.sign(s[c])
+        if opens or slips:
+            intact[c] = False
+        now_closed = now != OPEN
+        normal = normal if now_closed else 0.0
+        friction_force = 0.0
+        if with_friction:
+            held_cohesion = cohesion_c if intact[c] else 0.0
+            friction_force = direction[c] * (max(friction[c] * normal, 0.0) + held_cohesion)
+        if augmented:
+            lam_n_out[c] = normal if now_closed and not closes else 0.0
+        if now == SLIDING:
+            shear_out[c] = friction_force
+            lam_t_out[c] = friction_force
+        elif now == LOCKED:
+            shear_out[c] = trial
+            lam_t_out[c] = trial if augmented else 0.0
+        else:
+            shear_out[c] = 0.0
+            lam_t_out[c] = 0.0
+        if sticks:
+            lam_t_out[c] = friction_force if augmented else 0.0
+        normal_out[c] = normal
+        new_state[c] = now
+        changes += now != was
+        if now_closed:
+            violation = max(violation, abs(d[c]))
+        if with_friction and now == LOCKED:
+            violation = max(violation, abs(s[c]))
+    return changes, violation
+
+
+_decide_kernel = kernel(_decide_each)
 
 
 def _violation(d: np.ndarray, s: np.ndarray, state: np.ndarray, law: ContactLaw) -> float:
