@@ -8,7 +8,8 @@ excellent preconditioner for the new one: conjugate gradients converge in a
 few iterations to the accuracy of a direct solve, at the cost of a few
 triangular solves instead of a new factorisation. :class:`ReusingSolver`
 re-factorises when that stops paying (too many iterations) or when the
-contact graph, hence the sparsity pattern, changes.
+contact graph, hence the sparsity pattern, changes. A small K (a few dozen
+blocks) is cheaper to factorise again, densely, than to solve by PCG.
 """
 
 from __future__ import annotations
@@ -95,7 +96,7 @@ class DenseFactorisation:
     n³/3 flops and no sparse set-up: at 150 rows 0.07 ms against SuperLU's
     0.22-0.32 ms (:data:`DENSE_MAX_SIZE`). Should LAPACK find K not positive
     definite by round-off (a nearly singular K), SuperLU factorises it, as it
-    did before there was a dense path.
+    did before there was a dense path (``permc_spec`` is its ordering).
     """
 
     def __init__(self, matrix: sp.spmatrix, permc_spec: str = "NATURAL") -> None:
