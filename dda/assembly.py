@@ -359,9 +359,7 @@ def _add_terms(pattern, data, terms, contacts) -> None:
             pattern.slot_base,
             pattern.slot_stride,
             *slots,
-            np.ascontiguousarray(np.stack([t[0] for t in terms]), dtype=np.float64),
-            np.ascontiguousarray(np.stack([t[1] for t in terms]), dtype=np.float64),
-            np.ascontiguousarray(np.stack([t[2] for t in terms]), dtype=np.float64),
+            *(np.ascontiguousarray(stacked([t[q] for t in terms]), np.float64) for q in range(3)),
         )
         return
     targets = pattern.flat_targets()
@@ -369,6 +367,24 @@ def _add_terms(pattern, data, terms, contacts) -> None:
         targets = targets[:, contacts]
     for row_i, row_j, k in terms:
         _add_contact_terms(targets, data, row_i, row_j, k)
+
+
+def stacked(parts: Sequence[np.ndarray]) -> np.ndarray:
+    """``np.stack(parts)``, or without a copy the array whose consecutive halves (or
+    slices along the first axis) the parts are (the contact rows are made so)."""
+    base = parts[0].base
+    if (
+        base is not None
+        and base.shape == (len(parts), *parts[0].shape)
+        and base.strides[1:] == parts[0].strides
+        and all(part.base is base for part in parts)
+        and all(
+            part.__array_interface__["data"][0] == base[q].__array_interface__["data"][0]
+            for q, part in enumerate(parts)
+        )
+    ):
+        return base
+    return np.stack(parts)
 
 
 def _add_contact_terms(targets, data, row_i, row_j, k) -> None:

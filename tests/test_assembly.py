@@ -224,3 +224,23 @@ def test_slots_are_found_and_missing_blocks_are_not_covered(monkeypatch, compile
 def test_unique_pairs_are_the_distinct_rows_sorted():
     pairs = np.random.default_rng(15).integers(0, 40, size=(500, 2))
     np.testing.assert_array_equal(assembly._unique_pairs(pairs, 40), np.unique(pairs, axis=0))
+
+
+def test_stacked_takes_consecutive_halves_without_a_copy():
+    """The contact rows keep normal and shear gradients as halves of one array: the
+    assembly passes that array on; other parts are stacked as np.stack would."""
+    from dda.contact.rows import _empty_rows
+
+    rows = _empty_rows(5)
+    rows.normal_i[:] = 1.0
+    rows.shear_i[:] = 2.0
+    both = assembly.stacked([rows.normal_i, rows.shear_i])
+    assert np.shares_memory(both, rows.normal_i) and both.shape == (2, 5, 6)
+    np.testing.assert_array_equal(both, np.stack([rows.normal_i, rows.shear_i]))
+    swapped = assembly.stacked([rows.shear_i, rows.normal_i])
+    assert not np.shares_memory(swapped, rows.normal_i)
+    np.testing.assert_array_equal(swapped, np.stack([rows.shear_i, rows.normal_i]))
+    single = assembly.stacked([rows.normal_i])
+    assert single.shape == (1, 5, 6) and not np.shares_memory(single, rows.normal_i)
+    apart = [np.ones((5, 6)), np.zeros((5, 6))]
+    np.testing.assert_array_equal(assembly.stacked(apart), np.stack(apart))

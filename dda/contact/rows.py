@@ -209,12 +209,25 @@ def _contact_rows_compiled(blocks, contacts, nxt, prv) -> ContactRows:
 
 
 def _empty_rows(m: int) -> ContactRows:
-    """:class:`ContactRows` arrays for m contacts (zeros: the kernel adds into the rows)."""
-    widths = {"normal_i": 6, "normal_j": 6, "shear_i": 6, "shear_j": 6}
-    widths |= {"normals": 2, "tangents": 2, "points": 2}
+    """:class:`ContactRows` arrays for m contacts (zeros: the kernel adds into the rows).
+
+    The normal and shear gradients of each side are the two halves of one
+    (2, m, 6) array, which the assembly then takes as it is, without a copy
+    (:func:`dda.assembly.stacked`).
+    """
+    gradient_i, gradient_j = np.zeros((2, m, 6)), np.zeros((2, m, 6))
+    halves = {
+        "normal_i": gradient_i[0],
+        "shear_i": gradient_i[1],
+        "normal_j": gradient_j[0],
+        "shear_j": gradient_j[1],
+    }
+    widths = {"normals": 2, "tangents": 2, "points": 2}
     return ContactRows(
         **{
-            name: np.zeros((m, widths[name])) if name in widths else np.zeros(m)
+            name: halves[name]
+            if name in halves
+            else (np.zeros((m, widths[name])) if name in widths else np.zeros(m))
             for name in ContactRows.__dataclass_fields__
         }
     )
