@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -195,6 +197,26 @@ def test_a_run_is_reproducible_bit_for_bit():
         return dda.simulate(dda.load_scene(raw)).final.displacements
 
     np.testing.assert_array_equal(run(), run())
+
+
+def test_pardiso_runs_repeat_bit_for_bit_under_mkl_cbwr_auto():
+    """On two threads PARDISO may sum a factorisation's updates in another order each
+    time (the 20x20 wall's runs differed by up to 1e-13); with MKL's own
+    ``MKL_CBWR=AUTO`` (README) a run repeats to the bit."""
+    pytest.importorskip("pypardiso")
+    code = (
+        "import numpy as np, dda\n"
+        "from dda.bench.scenes import wall_scene\n"
+        "scene = dda.load_scene(wall_scene(20, 20, steps=30))\n"
+        "runs = [np.concatenate(dda.simulate(scene).final.vertices) for _ in range(2)]\n"
+        "print(np.array_equal(*runs))\n"
+    )
+    env = {**os.environ, "MKL_CBWR": "AUTO", "DDA_THREADS": "2"}
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == "True"
 
 
 def test_open_contacts_are_no_spring_of_k():
