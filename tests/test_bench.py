@@ -84,3 +84,13 @@ def test_a_wider_state_band_from_the_scene_costs_fewer_solves():
     assert wide.summary["iterations_per_step"] < 0.75 * default.summary["iterations_per_step"]
     settle = [r.final.displacements[-10:, 1].mean() for r in (default, wide)]
     assert settle[1] == pytest.approx(settle[0], rel=5e-3)
+
+
+def test_machine_line_names_the_solver_threads_and_mkl_reproducibility(monkeypatch):
+    from dda.bench.report import machine_line
+
+    monkeypatch.setenv("DDA_THREADS", "2")
+    monkeypatch.delenv("MKL_CBWR", raising=False)
+    assert machine_line().endswith("2 solver threads (DDA_THREADS)")
+    monkeypatch.setenv("MKL_CBWR", "AUTO")
+    assert machine_line().endswith("2 solver threads (DDA_THREADS), MKL_CBWR=AUTO")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import platform
 import subprocess
 from collections.abc import Iterable
@@ -34,9 +35,11 @@ def machine_line() -> str:
         elif key.strip() == "CPU(s)":
             cores = value.strip()
     threads = solver_threads()
+    reproducible = os.environ.get("MKL_CBWR")
     return (
         f"{model}, {cores or '?'} cores, Python {platform.python_version()}, "
         f"{threads} solver thread{'s' if threads > 1 else ''} ({THREADS_VARIABLE})"
+        + (f", MKL_CBWR={reproducible}" if reproducible else "")
     )
 
 
