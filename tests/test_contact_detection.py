@@ -367,3 +367,37 @@ def test_a_vertex_pair_takes_the_vertex_that_is_inside():
     assert list(found.vertex) == [inside]
     penetration, _ = edge_projection(blocks, found.vertex, found.edge)
     assert penetration[0] == pytest.approx(5.3e-4, rel=0.05)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_corner_facing_an_edge_end_across_a_block_is_no_contact(monkeypatch, compiled):
+    """3 x 1 wall, search distance 1.5 blocks: the top-right corner of the first block
+    faces the top end of the third block's left edge, one block away. Projected within
+    round-off of that end (1e-12 of the edge) it is no vertex-edge candidate (on a grid,
+    round-off alone used to put thousands of such pairs in and out of the list each
+    step); projected 1e-6 inside the edge it is one, as the search distance says."""
+    if not compiled:
+        monkeypatch.setattr(narrow, "_screen_kernel", None)
+    model, blocks = wall_blocks(3, 1)
+    first, third = 1, 3  # rows of the blocks at x = 2..3 and 4..5
+    corner = blocks.offsets[first] + int(
+        np.flatnonzero(
+            np.all(
+                blocks.vertices[blocks.offsets[first] : blocks.offsets[first + 1]] == [3.0, 2.0],
+                axis=1,
+            )
+        )[0]
+    )
+
+    def pairs_with_the_corner(shift: float) -> int:
+        moved = blocks.copy()
+        rows = slice(moved.offsets[third], moved.offsets[third + 1])
+        moved.vertices = moved.vertices.copy()
+        moved.vertices[rows, 1] += shift
+        moved.update_moments()
+        found = detect(moved, candidate_pairs(moved, 1.5), 1.5, model.contact.vertex_radius)
+        owner = moved.vertex_owner
+        return int(np.sum((found.vertex == corner) & (owner[found.edge] == third)))
+
+    assert pairs_with_the_corner(1e-12) == 0
+    assert pairs_with_the_corner(1e-6) == 1
