@@ -370,8 +370,8 @@ def _add_terms(pattern, data, terms, contacts) -> None:
 
 
 def stacked(parts: Sequence[np.ndarray]) -> np.ndarray:
-    """``np.stack(parts)``, or without a copy the array whose consecutive halves (or
-    slices along the first axis) the parts are (the contact rows are made so)."""
+    """``np.stack(parts)``; without a copy when the parts are ``base[0], base[1], ...``
+    of one array ``base`` (as the compiled contact rows' gradients and the springs are)."""
     base = parts[0].base
     if (
         base is not None

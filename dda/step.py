@@ -188,7 +188,7 @@ def _stiffness(pattern, blocks, base_diagonal, coefficients, rows, law, earlier=
         if law.friction:
             terms.append((rows.shear_i[changed], rows.shear_j[changed], change[1, changed]))
         return reassemble(pattern, earlier[1], terms, changed), springs
-    terms = [(rows.normal_i, rows.normal_j, springs[0])]
+    terms = [(rows.normal_i, rows.normal_j, springs[0])]  # rows of one array: no copy
     if law.friction:
         terms.append((rows.shear_i, rows.shear_j, springs[1]))
     return assemble(pattern, base_diagonal, blocks.fixed, terms), springs
