@@ -375,12 +375,10 @@ def stacked(parts: Sequence[np.ndarray]) -> np.ndarray:
     base = parts[0].base
     if (
         base is not None
-        and base.shape == (len(parts), *parts[0].shape)
-        and base.strides[1:] == parts[0].strides
-        and all(part.base is base for part in parts)
+        and base.ndim == parts[0].ndim + 1
+        and len(base) == len(parts)
         and all(
-            part.__array_interface__["data"][0] == base[q].__array_interface__["data"][0]
-            for q, part in enumerate(parts)
+            part.__array_interface__ == base[q].__array_interface__ for q, part in enumerate(parts)
         )
     ):
         return base

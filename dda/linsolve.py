@@ -108,15 +108,12 @@ class DenseFactorisation:
             self._fallback = Factorisation(sp.csc_matrix(matrix), permc_spec)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """x with K x = b; ``rhs`` may also be (n, r): X with K X = B."""
         if self._fallback is not None:
-            return self._fallback.solve(rhs)
+            return self._fallback.solve_many(rhs) if rhs.ndim == 2 else self._fallback.solve(rhs)
         return lapack.dpotrs(self._lower, rhs, lower=1)[0]
 
-    def solve_many(self, columns: np.ndarray) -> np.ndarray:
-        """X (n, r) with K X = B for the columns of B."""
-        if self._fallback is not None:
-            return self._fallback.solve_many(columns)
-        return lapack.dpotrs(self._lower, columns, lower=1)[0]
+    solve_many = solve
 
 
 class PardisoFactorisation:

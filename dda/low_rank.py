@@ -143,8 +143,10 @@ class StepUpdates:
         new = [q for q, key in enumerate(keys) if key not in self._z]
         if new:
             u = np.zeros((self._size, len(new)), order="F")
-            for column, q in enumerate(new):
-                u[at[q], column] += values[q]
+            # unbuffered: a fixed block's entries (row 0, value 0) may share row 0 with the
+            # other block's (a buffered += kept whichever came last, the zero)
+            columns = np.broadcast_to(np.arange(len(new))[:, None], at[new].shape)
+            np.add.at(u, (at[new], columns), values[new])
             for q, solved in zip(new, self._solve_many(u).T, strict=True):
                 self._z[keys[q]] = solved
         return np.column_stack([self._z[key] for key in keys])

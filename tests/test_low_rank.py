@@ -65,6 +65,33 @@ def test_a_few_changed_springs_are_solved_through_the_kept_factorisation(seed):
     np.testing.assert_allclose(x, Factorisation(k).solve(f), rtol=1e-9, atol=1e-15)
 
 
+@pytest.mark.parametrize("free_side", [0, 1])
+def test_the_preconditioner_is_exact_when_a_contact_has_a_fixed_block(free_side):
+    """A contact between a fixed block and the block at matrix row 0: the fixed block's
+    entries of U point at row 0 with zeros, beside the free block's real ones. The
+    Woodbury inverse must still be K's inverse (it lost the free block's first
+    component when the fixed block came second)."""
+    fixed, a, b, diagonal, rows, springs, _ = contact_system(0)
+    a, b = a.copy(), b.copy()
+    pattern = BlockPattern(fixed, a, b)
+    for _ in range(5):  # the order depends on the contacts: settle which block is row 0
+        ends = [int(np.flatnonzero(pattern.block_of_row == 0)[0]), 0]  # block 0 is fixed
+        a[3], b[3] = ends[free_side], ends[1 - free_side]
+        pattern = BlockPattern(fixed, a, b)
+        if pattern.block_of_row[ends[0]] == 0:
+            break
+    assert pattern.block_of_row[ends[0]] == 0 and fixed[ends[1]]
+    springs[:, 3] = 1e4
+    k_f = stiffness(pattern, diagonal, fixed, rows, springs)
+    updates = StepUpdates(k_f, springs, pattern, rows, a, b, Factorisation(k_f).solve_many)
+    new = springs.copy()
+    new[:, 3] = 0.0
+    k = stiffness(pattern, diagonal, fixed, rows, new)
+    f = np.linspace(-1.0, 1.0, k.shape[0])
+    exact = Factorisation(k).solve(f)
+    np.testing.assert_allclose(updates._preconditioner(k, new)(f), exact, rtol=1e-9, atol=1e-15)
+
+
 def test_many_or_no_changed_springs_are_left_to_a_factorisation():
     fixed, a, b, diagonal, rows, springs, pattern = contact_system(0)
     k_f = stiffness(pattern, diagonal, fixed, rows, springs)

@@ -216,21 +216,11 @@ def _empty_rows(m: int) -> ContactRows:
     (:func:`dda.assembly.stacked`).
     """
     gradient_i, gradient_j = np.zeros((2, m, 6)), np.zeros((2, m, 6))
-    halves = {
-        "normal_i": gradient_i[0],
-        "shear_i": gradient_i[1],
-        "normal_j": gradient_j[0],
-        "shear_j": gradient_j[1],
-    }
-    widths = {"normals": 2, "tangents": 2, "points": 2}
-    return ContactRows(
-        **{
-            name: halves[name]
-            if name in halves
-            else (np.zeros((m, widths[name])) if name in widths else np.zeros(m))
-            for name in ContactRows.__dataclass_fields__
-        }
-    )
+    arrays = {name: np.zeros(m) for name in ContactRows.__dataclass_fields__}
+    arrays |= {name: np.zeros((m, 2)) for name in ("normals", "tangents", "points")}
+    arrays |= {"normal_i": gradient_i[0], "shear_i": gradient_i[1]}
+    arrays |= {"normal_j": gradient_j[0], "shear_j": gradient_j[1]}
+    return ContactRows(**arrays)
 
 
 def _project(row, k, nx, ny, px, py, cx, cy, scale):
