@@ -70,6 +70,17 @@ def test_flips_are_counted_per_direction_and_hold_only_within_tolerance():
     assert not far.any()  # a 2 mm gap is not a detail to hold over
 
 
+def test_a_contact_is_held_after_its_second_round_trip_not_before():
+    """closed -> open -> closed is a neighbour settling; doing it again is a cycle."""
+    flips = StateFlips(1)
+    states = [LOCKED, OPEN, LOCKED, OPEN, LOCKED]
+    gap, still = np.array([1e-4]), np.zeros(1)
+    for flip, (before, after) in enumerate(zip(states[:-1], states[1:], strict=True), start=1):
+        flips.count(np.array([before]), np.array([after]))
+        keep_closed, _ = flips.held(gap, still, tolerance=1e-3)
+        assert keep_closed[0] == (flip >= 4), flip
+
+
 def test_rock_slope_steps_settle_without_cutting_the_time_step():
     """40 steps of the jointed slope: every step settles at the full Δt, energy and areas hold.
 
