@@ -72,9 +72,13 @@ EXPECTED = {
     # area only by elastic compression under gravity while they start to move (3 steps;
     # the full runs are CLI runs). The tunnel's 3 steps used to be cut to a tiny Δt by
     # contacts that never settled (area unchanged to 1e-9); with contacts that keep
-    # flipping held (dda.step.StateFlips) they cover 6 ms and the area shrinks 1.5e-6.
+    # flipping held (dda.step.StateFlips) they covered 6 ms and the area shrank 1.5e-6.
+    # Later they were cut to 2.875 ms again (area 849.87611, 2.1e-6) by held contacts
+    # whose AL multipliers piled up tension (up to -68 MN over a run); with those bounded
+    # by the joint's strength the 3 steps cover 6 ms, uncut, on both solver paths, and the
+    # area shrinks 6.8e-6 (no spurious tension left to stretch the blocks).
     "rock_slope": ({"steps": 3}, total_area, 1900.0, 1e-5),
-    "tunnel": ({"steps": 3}, total_area, 849.876707, 1e-6),
+    "tunnel": ({"steps": 3}, total_area, 849.87212, 1e-6),
 }
 
 

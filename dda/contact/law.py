@@ -124,8 +124,11 @@ def update(
     flipping open/closed (sliding/locked) within one step are held closed
     (sliding), which ends a cycle of state changes among contacts whose
     flips move next to nothing. Held closed, a contact is a spring (it
-    stores energy, it cannot create any); held sliding, it carries the
-    Coulomb force, which is right for a contact at the friction limit.
+    stores energy, it cannot create any) whose AL multiplier stays within
+    the joint's tensile strength: the augmentation λ ← λ + p d would
+    otherwise pile up tension in it, solve after solve and, warm-started,
+    step after step; held sliding, it carries the Coulomb force, which is
+    right for a contact at the friction limit.
 
     A sliding contact that moves back sticks, unless it carries next to no
     friction (capacity within the force band): then it only turns its
@@ -208,7 +211,10 @@ def _decide(contacts, rows, d, s, joint, law, held) -> int:
     )
     friction_force = np.where(law.friction, friction_force, 0.0)
     if law.augmented:
-        contacts.normal_multiplier = np.where(now_closed & ~closes, normal, 0.0)
+        # held closed, a contact cannot open: its multiplier stops at the joint's
+        # tensile strength instead of accumulating tension (THEORY.md section 5)
+        bounded = np.where(keep_closed, np.maximum(normal, -tensile), normal)
+        contacts.normal_multiplier = np.where(now_closed & ~closes, bounded, 0.0)
     shear_out = np.where(now_sliding, friction_force, np.where(now_locked, trial_shear, 0.0))
     contacts.shear_multiplier = np.where(
         now_sliding, friction_force, np.where(now_locked & law.augmented, trial_shear, 0.0)
@@ -330,7 +336,8 @@ def _decide_each(
             held_cohesion = cohesion_c if intact[c] else 0.0
             friction_force = direction[c] * (max(friction[c] * normal, 0.0) + held_cohesion)
         if augmented:
-            lam_n_out[c] = normal if now_closed and not closes else 0.0
+            bounded = max(normal, -tensile_c) if keep_closed[c] else normal
+            lam_n_out[c] = bounded if now_closed and not closes else 0.0
         if now == SLIDING:
             shear_out[c] = friction_force
             lam_t_out[c] = friction_force

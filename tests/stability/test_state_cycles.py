@@ -81,6 +81,28 @@ def test_a_contact_is_held_after_its_second_round_trip_not_before():
         assert keep_closed[0] == (flip >= 4), flip
 
 
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_contact_held_closed_piles_up_no_tension_in_its_multiplier(monkeypatch, compiled):
+    """AL: λ ← λ + p d would make a held contact's multiplier more tensile every solve
+    (the tunnel had held contacts at -68 MN against a median contact force of 0.14 MN).
+    Held closed, it stops at the joint's tensile strength; the spring p d stays."""
+    if not compiled:
+        monkeypatch.setattr(contact_law, "_decide_kernel", None)
+    law = contact_law.ContactLaw(augmented=True, tolerance=1e-3, shear_ratio=0.4, friction=True)
+    strong = contact_law.JointProperties(np.full(2, 0.5), np.zeros(2), np.full(2, 3.0))
+    for joint, floor in ((JOINT, 0.0), (strong, -3.0)):
+        contacts = two_contacts()
+        contacts.normal_multiplier[:] = [-2.0, 5.0]
+        contacts.intact[:] = True  # the tensile strength is still there
+        rows = SimpleNamespace(slip=np.zeros(2))
+        d = np.array([-1e-5, 1e-5])  # trial forces: -2 - 10 N (tensile), 5 + 10 N
+        held = (np.array([True, True]), np.zeros(2, bool))
+        contact_law.update(contacts, rows, d, np.zeros(2), None, joint, law, held)
+        assert contacts.state[0] != OPEN  # held closed
+        assert contacts.normal_multiplier.tolist() == [floor, 15.0]
+        assert contacts.normal_force[0] == pytest.approx(-12.0)  # the spring's pull is reported
+
+
 def test_rock_slope_steps_settle_without_cutting_the_time_step():
     """40 steps of the jointed slope: every step settles at the full Δt, energy and areas hold.
 
