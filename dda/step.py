@@ -138,13 +138,13 @@ class StateFlips:
     ``LIMIT`` = 4: the contact has come back to its first state twice. One
     round trip happens as neighbours settle; a second one is the cycle
     coming round again. Holding then instead of after 6 flips cut the
-    solves per step by 20 % (rock slope), 11 % (tunnel), 19 % (10x10 wall)
-    and 10 % (30x30), with fewer cut steps. Against holding after 12
-    flips, the walls' results differ as much with 4 as with 6 (centroids
-    2-5e-5 m, 1-2 % of the largest displacement; stresses 2-3 %;
+    solves per step by 15 % (rock slope), 6 % (tunnel), 19 % (10x10 wall)
+    and 10 % (30x30), with fewer or as many cut steps. Against holding
+    after 12 flips, the walls' results differ as much with 4 as with 6
+    (centroids 2-5e-5 m, 1-2 % of the largest displacement; stresses 2-3 %;
     docs/benchmarks.md). After 3 flips (one and a half round trips)
-    contacts that were settling get held too: the tunnel's cut steps went
-    from 51 to 246.
+    contacts that were settling get held too: the tunnel then needs 32.7
+    solves a step and 51 cut steps instead of 28.1 and 19.
     """
 
     LIMIT = 4

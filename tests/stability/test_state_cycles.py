@@ -100,7 +100,7 @@ def test_a_contact_held_closed_piles_up_no_tension_in_its_multiplier(monkeypatch
         contact_law.update(contacts, rows, d, np.zeros(2), None, joint, law, held)
         assert contacts.state[0] != OPEN  # held closed
         assert contacts.normal_multiplier.tolist() == [floor, 15.0]
-        assert contacts.normal_force[0] == pytest.approx(-12.0)  # the spring's pull is reported
+        assert contacts.normal_force[0] == pytest.approx(-12.0)  # this solve's force, as it was
 
 
 def test_rock_slope_steps_settle_without_cutting_the_time_step():
