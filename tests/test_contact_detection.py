@@ -17,7 +17,7 @@ from dda.contact.broad import candidate_pairs, overlapping_pairs
 from dda.contact.contact_set import contact_keys
 from dda.contact.narrow import detect
 from dda.contact.pipeline import _blocks_touch, _distances_where
-from dda.contact.rows import edge_projection
+from dda.contact.rows import edge_geometry
 from dda.model import build
 from tests.helpers import rectangle
 from tests.stability.scenes import base, block, scene
@@ -292,7 +292,7 @@ def test_a_new_pairing_behind_an_edge_line_needs_the_blocks_to_touch(gap, kept):
     blocks = corner_blocks(gap)
     tip = np.array([blocks.offsets[1]])
     top_edge = np.array([blocks.offsets[0] + 2])  # from (1, 1) to (0, 1)
-    penetration, _ = edge_projection(blocks, tip, top_edge)
+    penetration, _, _ = edge_geometry(blocks, tip, top_edge)
     assert penetration[0] == pytest.approx(5e-4, rel=1e-6)
     asked = np.array([True])  # seen for the first time, deeper than the touch tolerance
     _, to_block = _distances_where(blocks, tip, top_edge, asked)
@@ -321,7 +321,7 @@ def test_corners_on_each_others_edges_pair_with_those_edges():
     blocks = model.blocks
     found = detect(blocks, np.array([[0, 1]]), model.contact.search_distance, 1.0)
     assert len(found.vertex) >= 1
-    penetration, along = edge_projection(blocks, found.vertex, found.edge)
+    penetration, along, _ = edge_geometry(blocks, found.vertex, found.edge)
     np.testing.assert_allclose(penetration, 0.0, atol=1e-12)
     assert np.all((along >= 0.0) & (along <= 1.0))
 
@@ -365,7 +365,7 @@ def test_a_vertex_pair_takes_the_vertex_that_is_inside():
     found = detect(blocks, np.array([[0, 1]]), model.contact.search_distance, 1.0, 1e-5)
     inside = blocks.offsets[0] + 1  # A's corner (0.26576, 0.63764)
     assert list(found.vertex) == [inside]
-    penetration, _ = edge_projection(blocks, found.vertex, found.edge)
+    penetration, _, _ = edge_geometry(blocks, found.vertex, found.edge)
     assert penetration[0] == pytest.approx(5.3e-4, rel=0.05)
 
 

@@ -11,7 +11,7 @@ from dda.bench.scenes import wall_scene
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet, merge
 from dda.contact.pipeline import refresh_contacts
-from dda.contact.rows import contact_rows, edge_projection
+from dda.contact.rows import contact_rows, edge_geometry
 from dda.geometry import pack_polygons
 from dda.kinematics import move_points
 from dda.model import build
@@ -40,7 +40,7 @@ def two_blocks(top_offset: float) -> BlockSet:
 
 def contact_of(blocks: BlockSet) -> ContactSet:
     vertex, edge = np.array([4]), np.array([2])  # triangle tip on the square's top edge
-    d, t = edge_projection(blocks, vertex, edge)
+    d, t, _ = edge_geometry(blocks, vertex, edge)
     return merge(ContactSet.empty(), blocks, vertex, edge, d, 1.0, t, 1e-12)
 
 
@@ -68,7 +68,7 @@ def test_rows_are_the_derivatives_of_the_distance():
         owner = blocks.vertex_owner
         moved = move_points(blocks.vertices, blocks.centroid[owner], d[owner], False)
         trial = BlockSet(**{**blocks.__dict__, "vertices": moved, "centroid": None})
-        exact = edge_projection(trial, contacts.vertex, contacts.edge)[0][0]
+        exact = edge_geometry(trial, contacts.vertex, contacts.edge)[0][0]
         linear = rows.penetration[0] + rows.normal_i[0] @ d[1] + rows.normal_j[0] @ d[0]
         assert exact == pytest.approx(linear, abs=1e-12)
 

@@ -39,12 +39,6 @@ class ContactRows:
     points: np.ndarray  # (m, 2) P1
 
 
-def edge_projection(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
-    """Penetration d = (P3-P2)×(P1-P2)/l and parameter t of P1 on the edge."""
-    d, t, _ = edge_geometry(blocks, vertex, edge)
-    return d, t
-
-
 def edge_geometry(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
     """(d, t, r) of each vertex P1 and edge P2P3: penetration d = (P3-P2)×(P1-P2)/l,
     parameter t = (P1-P2)·(P3-P2)/l² and distance r = |P1 - P2 - clip(t, 0, 1)(P3-P2)|
