@@ -34,6 +34,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
+from dda.contact.node import separated_pairs
 from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertices
 from dda.jit import kernel
 
@@ -154,7 +155,9 @@ def detect(
     """Vertex-edge and vertex-vertex contacts for candidate block pairs.
 
     ``inside_depth``: a vertex deeper than this inside the other block (the
-    contact tolerance) is the one a vertex-vertex pair is resolved with.
+    contact tolerance) is the one a vertex-vertex pair is resolved with; corners
+    of a node closer than this to each other may separate a pair
+    (:mod:`dda.contact.node`).
     ``previous_keys``: contact keys of the last step; a vertex-vertex tie is
     resolved with the pairing among them, so that the contact keeps its
     identity (and its history: state, multipliers, shear reference).
@@ -166,6 +169,10 @@ def detect(
     radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
     screen = _screen_compiled if _screen_kernel is not None else _screen_numpy
     ve_vertex, ve_edge, vv_vertex, vv_edge = screen(blocks, fans, pairs, search, radius)
+    owner = blocks.vertex_owner
+    corners = (fans.to_next, fans.to_prev, vv_vertex, vv_edge)
+    apart = separated_pairs(blocks.vertices, owner, *corners, inside_depth)
+    vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
     slack = OUTSIDE_FRACTION * search
     vv_vertex, vv_edge = _resolve_vertex_vertex(
         blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys
