@@ -9,7 +9,13 @@ import pytest
 
 import dda
 import dda.contact.node as node
+from dda.bench.scenes import wall_scene
+from dda.contact.broad import candidate_pairs
+from dda.contact.contact_set import ContactSet
 from dda.contact.node import ANGLE_FILL
+from dda.contact.pipeline import refresh_contacts
+from dda.model import build
+from dda.step import NEIGHBOUR_MARGIN, pattern_neighbours
 
 
 def corners(starts_deg, spans_deg):
@@ -149,3 +155,23 @@ def pushed_node_scene() -> dict:
         "blocks": blocks,
         "loads": [{"block": "upper_left", "point": [0.0, 1.5], "force": [5.0e5, 0.0]}],
     }
+
+
+def test_a_new_pattern_leaves_out_blocks_that_meet_only_at_filled_nodes():
+    """3 x 3 wall on its base: the boxes of 23 block pairs touch, the 8 diagonal ones only
+    at the four inner nodes. A new pattern holds the 15 others (K needs no fill-in for
+    the diagonals), and a diagonal pair again once it has a contact."""
+    model = build(dda.load_scene(wall_scene(3, 3)))
+    blocks, settings = model.blocks, model.contact
+    contacts = refresh_contacts(blocks, ContactSet.empty(), settings)
+    near = candidate_pairs(blocks, NEIGHBOUR_MARGIN * settings.search_distance)
+    held = {tuple(p) for p in np.sort(pattern_neighbours(blocks, contacts, settings), axis=1)}
+    diagonal = {tuple(p) for p in np.sort(near, axis=1)} - held
+    assert (len(near), len(held), len(diagonal)) == (23, 15, 8)
+    centroids = blocks.centroid
+    for a, b in diagonal:
+        assert np.allclose(np.abs(centroids[a] - centroids[b]), 1.0)  # one block across
+    a, b = sorted(diagonal)[0]
+    contacts.block_a[0], contacts.block_b[0] = a, b  # pretend the node opened
+    held = {tuple(p) for p in np.sort(pattern_neighbours(blocks, contacts, settings), axis=1)}
+    assert (a, b) in held and len(held) == 16

@@ -165,13 +165,8 @@ def detect(
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
         return Detected(empty, empty, np.zeros(0, bool))
-    fans = VertexFans(blocks)
-    radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
-    screen = _screen_compiled if _screen_kernel is not None else _screen_numpy
-    ve_vertex, ve_edge, vv_vertex, vv_edge = screen(blocks, fans, pairs, search, radius)
-    owner = blocks.vertex_owner
-    corners = (fans.to_next, fans.to_prev, vv_vertex, vv_edge)
-    apart = separated_pairs(blocks.vertices, owner, *corners, inside_depth)
+    fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(blocks, pairs, search, vertex_radius)
+    apart = _at_filled_nodes(blocks, fans, vv_vertex, vv_edge, inside_depth)
     vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
     slack = OUTSIDE_FRACTION * search
     vv_vertex, vv_edge = _resolve_vertex_vertex(
@@ -182,6 +177,34 @@ def detect(
     kind = np.concatenate([np.zeros(len(ve_vertex), bool), np.ones(len(vv_vertex), bool)])
     keep = _first_of_each(vertex_all, edge_all)
     return Detected(vertex_all[keep], edge_all[keep], kind[keep])
+
+
+def _screened(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float):
+    """(fans, (V-E vertex, edge, V-V vertex, edge)): the candidates that pass the tests."""
+    fans = VertexFans(blocks)
+    radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
+    screen = _screen_compiled if _screen_kernel is not None else _screen_numpy
+    return fans, screen(blocks, fans, pairs, search, radius)
+
+
+def _at_filled_nodes(blocks: BlockSet, fans: VertexFans, p1, p2, tight: float) -> np.ndarray:
+    """Mask of the corner pairs that other blocks separate (:mod:`dda.contact.node`)."""
+    corners = (fans.to_next, fans.to_prev, p1, p2)
+    return separated_pairs(blocks.vertices, blocks.vertex_owner, *corners, tight)
+
+
+def separated_blocks(
+    blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float, tight: float
+) -> np.ndarray:
+    """(k, 2) block pairs (lower row first) among ``pairs`` with corners that meet at a
+    node other blocks fill: no contact between them while the node stays so."""
+    if len(pairs) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    fans, (_, _, p1, p2) = _screened(blocks, pairs, search, vertex_radius)
+    apart = _at_filled_nodes(blocks, fans, p1, p2, tight)
+    owner = blocks.vertex_owner
+    found = np.column_stack([owner[p1[apart]], owner[p2[apart]]]).astype(np.int64)
+    return np.unique(np.sort(found, axis=1), axis=0)
 
 
 def _grown_boxes(blocks: BlockSet, search: float) -> tuple[np.ndarray, np.ndarray]:
