@@ -179,6 +179,7 @@ def _separated(v, owner, start, span, p1, p2, indptr, mates, tight, fill):
 
 
 def _listed(values, begin, stop, q):
+    """True when q is among values[begin:stop]."""
     for j in range(begin, stop):
         if values[j] == q:
             return True
