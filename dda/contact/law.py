@@ -132,21 +132,16 @@ def update(
 
     A sliding contact that moves back sticks, unless it carries next to no
     friction (capacity within the force band): then it only turns its
-    friction round, which changes F but not K. With the augmented Lagrangian,
-    normal multipliers are augmented only in solves that change no state
-    (:func:`_defer_augmentation`).
+    friction round, which changes F but not K.
     """
     if held is None:
         nothing = np.zeros(len(contacts), bool)
         held = (nothing, nothing)
-    before = (contacts.state.copy(), contacts.normal_multiplier.copy())
     if _decide_kernel is not None:
         changes, violation = _decide_compiled(contacts, rows, d, s, joint, law, held)
     else:
         changes = _decide(contacts, rows, d, s, joint, law, held)
         violation = _violation(d, s, contacts.state, law)
-    if law.augmented and changes > 0:
-        _defer_augmentation(contacts, *before)
     now_closed = contacts.state != OPEN
     penalty_raised = False
     if law.augmented and changes == 0:
@@ -158,28 +153,6 @@ def update(
         state_changes=changes,
         max_violation=violation,
     )
-
-
-def _defer_augmentation(contacts: ContactSet, state, normal_multiplier) -> None:
-    """After a solve that changed contact states, keep the normal AL multiplier of
-    every contact that stayed closed in the same state: λn ← λn + p d (eq. 7) waits
-    for a solve that changes no state.
-
-    Augmenting in every solve moved each closed contact's λn, and so its friction
-    capacity tan φ·λn, by p·d while the states were still being found. On the
-    30x30 AL wall (blocks of 25.5 N, p·d of a few N) contacts near the Coulomb
-    limit crossed it one after another, 719 different ones in one step, few
-    often enough to be held, and from step 35 (63-70 once corners at filled
-    nodes were no contact) no Δt let a step settle. Contacts that changed state
-    keep what the law gave them (0 when they open or close).
-
-    The shear multipliers of locked contacts are still augmented in every solve:
-    waiting with them too let the paper's block below the friction bound creep
-    1.64e-4 ft in 100 steps, beyond the tolerance of 1e-4 ft
-    (tests/test_augmented_lagrangian.py).
-    """
-    same = (contacts.state == state) & (state != OPEN)
-    contacts.normal_multiplier[same] = normal_multiplier[same]
 
 
 def _decide(contacts, rows, d, s, joint, law, held) -> int:
