@@ -45,7 +45,8 @@ def test_penalty_penetration_is_load_over_twice_the_penalty():
 
 
 def test_pushed_block_accelerates_as_newton_says():
-    """a = (H − tan φ (V + W)) / m within 1 %."""
+    """a = (H − tan φ (V + W)) / m within 0.2 % (measured 1.1e-3; 5.6e-3 when the normal
+    multipliers were augmented only after solves that changed no state)."""
     push = 4000.0
     raw = fig2(steps=50)
     raw["loads"][0]["force"] = [push, -1000.0]
@@ -54,7 +55,7 @@ def test_pushed_block_accelerates_as_newton_says():
     moved = result.final.displacements[1, 0]
     mass = WEIGHT / G
     expected = (push - TAN30 * (1000.0 + WEIGHT)) / mass
-    assert 2 * moved / t**2 == pytest.approx(expected, rel=0.01)
+    assert 2 * moved / t**2 == pytest.approx(expected, rel=2e-3)
 
 
 def test_block_below_friction_bound_does_not_slip():
