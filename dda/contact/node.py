@@ -32,10 +32,10 @@ of them turned, it comes out near 2π, which no other wedges can fill). The
 pair is separated when both gaps are wider than ``ANGLE_FILL`` and each is
 filled, to within ``ANGLE_FILL``, by the wedges of the other corners paired
 with x or y (those whose bisector lies in the gap, of blocks other than x's
-and y's). A node with a void in either gap
-keeps the pair: a corner may move into the void and reach the other block.
-So does a loose node: every corner counted (x, y and the mates filling the
-gaps) must lie within ``tight`` (the contact tolerance) of x and of y. Among
+and y's). A node with a void in either gap keeps the pair: a corner may move
+into the void and reach the other block. So does a loose node: every corner
+counted (x, y and the mates filling the gaps) must lie within ``tight`` (the
+contact tolerance) of x and of y. Among
 fragments that have moved apart by a millimetre, corners paired within the
 vertex radius do not fill each other's gaps, and dropping such pairs let
 fragments of the pile in tests/stability run into each other (steps gaining
