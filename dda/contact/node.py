@@ -35,11 +35,10 @@ with x or y (those whose bisector lies in the gap, of blocks other than x's
 and y's). A node with a void in either gap keeps the pair: a corner may move
 into the void and reach the other block. So does a loose node: every corner
 counted (x, y and the mates filling the gaps) must lie within ``tight`` (the
-contact tolerance) of x and of y. Among
-fragments that have moved apart by a millimetre, corners paired within the
-vertex radius do not fill each other's gaps, and dropping such pairs let
-fragments of the pile in tests/stability run into each other (steps gaining
-up to 5e4 J).
+contact tolerance) of x and of y. Among fragments that have moved apart by
+a millimetre, corners paired within the vertex radius do not fill each
+other's gaps, and dropping such pairs let fragments of the pile in
+tests/stability run into each other (steps gaining up to 5e4 J).
 """
 
 from __future__ import annotations
