@@ -27,6 +27,14 @@ def previous_vertex_index(offsets: np.ndarray) -> np.ndarray:
     return prv
 
 
+def expand_counts(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For counts c_k: (k repeated c_k times, 0..c_k-1 for each k), the segment and the
+    position within it of every item of segments packed one after the other."""
+    segment = np.repeat(np.arange(len(counts)), counts)
+    starts = np.cumsum(counts) - counts
+    return segment, np.arange(counts.sum()) - starts[segment]
+
+
 def owner_of_vertex(offsets: np.ndarray) -> np.ndarray:
     """Polygon index of every packed vertex."""
     return np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))

@@ -126,14 +126,15 @@ def pattern_neighbours(blocks: BlockSet, contacts: ContactSet, settings) -> np.n
     walls these are the diagonal neighbours, half the block pairs; without
     them a factorisation of the 30x30 wall costs a third less.
     """
-    near = candidate_pairs(blocks, NEIGHBOUR_MARGIN * settings.search_distance)
+    near = candidate_pairs(blocks, NEIGHBOUR_MARGIN * settings.search_distance)  # i < j
     search, radius, tight = settings.search_distance, settings.vertex_radius, settings.law.tolerance
-    apart = separated_blocks(blocks, near, search, radius, tight)
-    n = blocks.count
-    listed = np.sort(np.column_stack([contacts.block_a, contacts.block_b]), axis=1)
-    no_contact = np.setdiff1d(apart[:, 0] * n + apart[:, 1], listed[:, 0] * n + listed[:, 1])
-    ordered = np.sort(near, axis=1)
-    return near[~np.isin(ordered[:, 0] * n + ordered[:, 1], no_contact)]
+    apart = separated_blocks(blocks, near, search, radius, tight)  # i < j
+
+    def key(a, b):  # one integer per unordered pair
+        return np.minimum(a, b) * blocks.count + np.maximum(a, b)
+
+    no_contact = np.setdiff1d(key(*apart.T), key(contacts.block_a, contacts.block_b))
+    return near[~np.isin(key(*near.T), no_contact)]
 
 
 def linear_cache(model: Model) -> LinearCache:

@@ -35,7 +35,12 @@ import numpy as np
 from dda.blocks import BlockSet
 from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
 from dda.contact.node import separated_pairs
-from dda.geometry import next_vertex_index, previous_vertex_index, reflex_vertices
+from dda.geometry import (
+    expand_counts,
+    next_vertex_index,
+    previous_vertex_index,
+    reflex_vertices,
+)
 from dda.jit import kernel
 
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
@@ -57,13 +62,6 @@ class Detected:
     vertex: np.ndarray
     edge: np.ndarray
     vertex_vertex: np.ndarray  # bool
-
-
-def _expand(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For counts c_k: (k repeated c_k times, 0..c_k-1 for each k)."""
-    owner = np.repeat(np.arange(len(counts)), counts)
-    starts = np.cumsum(counts) - counts
-    return owner, np.arange(counts.sum()) - starts[owner]
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -132,14 +130,14 @@ def _vertex_edge_candidates(blocks, pairs, search):
     a = np.concatenate([pairs[:, 0], pairs[:, 1]])
     b = np.concatenate([pairs[:, 1], pairs[:, 0]])
     counts = np.diff(blocks.offsets)
-    p, local = _expand(counts[a])
+    p, local = expand_counts(counts[a])
     vertex = blocks.offsets[a][p] + local
     lo = np.minimum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) - search
     hi = np.maximum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) + search
     pos = blocks.vertices[vertex]
     near = np.all((pos >= lo[b[p]]) & (pos <= hi[b[p]]), axis=1)
     p, vertex = p[near], vertex[near]
-    q, local = _expand(counts[b[p]])
+    q, local = expand_counts(counts[b[p]])
     edge = blocks.offsets[b[p]][q] + local
     return a[p][q], b[p][q], vertex[q], edge
 

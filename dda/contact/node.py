@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.geometry import expand_counts
 from dda.jit import kernel
 
 ANGLE_FILL = 0.05  # rad: a gap left uncovered by less than this counts as filled
@@ -134,11 +135,9 @@ def _pair_mates(p1, p2, indptr, mates):
     """(pair index, mate) for every mate of either corner of each pair, each mate once."""
     pairs, found = [], []
     for corner in (p1, p2):
-        counts = indptr[corner + 1] - indptr[corner]
-        pair = np.repeat(np.arange(len(corner)), counts)
-        offset = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+        pair, position = expand_counts(indptr[corner + 1] - indptr[corner])
         pairs.append(pair)
-        found.append(mates[indptr[corner][pair] + offset])
+        found.append(mates[indptr[corner][pair] + position])
     pair, mate = np.concatenate(pairs), np.concatenate(found)
     _, once = np.unique(pair * len(indptr) + mate, return_index=True)
     return pair[once], mate[once]
