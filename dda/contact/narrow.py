@@ -132,8 +132,7 @@ def _vertex_edge_candidates(blocks, pairs, search):
     counts = np.diff(blocks.offsets)
     p, local = expand_counts(counts[a])
     vertex = blocks.offsets[a][p] + local
-    lo = np.minimum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) - search
-    hi = np.maximum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) + search
+    lo, hi = _grown_boxes(blocks, search)
     pos = blocks.vertices[vertex]
     near = np.all((pos >= lo[b[p]]) & (pos <= hi[b[p]]), axis=1)
     p, vertex = p[near], vertex[near]
