@@ -3,12 +3,20 @@
 from __future__ import annotations
 
 import tomllib
+from dataclasses import fields
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 import dda
+import dda.contact.law as law_module
+from dda.bench.scenes import wall_scene
+from dda.contact.contact_set import ContactSet
+from dda.contact.law import ContactLaw, JointProperties, update
+from dda.result import LOCKED, OPEN
+from tests.test_contact_law import random_contacts
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 G = 32.174  # ft/s²
@@ -89,3 +97,59 @@ def test_warm_started_multipliers_settle_in_one_solve():
     raw["loads"][0]["force"] = [0.0, -1000.0]
     result = dda.simulate(raw)
     assert np.all(result.history["iterations"][-10:] == 1)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_normal_multipliers_within_tolerance_wait_for_a_solve_that_changes_no_state(
+    monkeypatch, compiled
+):
+    """After a solve that changed states, a contact that stayed closed with |d| ≤ tol
+    keeps its λn; one beyond the tolerance gets λn + p d (eq. 7) at once. After a solve
+    that changed none, every closed contact is augmented, λt of locked ones too."""
+    if not compiled:
+        monkeypatch.setattr(law_module, "_decide_kernel", None)
+    contacts, rows, d, s, joint, held, band = random_contacts(7)
+    law = ContactLaw(
+        augmented=True,
+        tolerance=1e-9,
+        shear_ratio=0.4,
+        friction=True,
+        state_band=band,
+        band_stiffness=1e6,
+    )
+    old = contacts.copy()
+    outcome = update(contacts, rows, d, s, None, joint, law, held)
+    assert outcome.state_changes > 0
+    stayed = (contacts.state == old.state) & (old.state != OPEN) & ~held[0]
+    within = stayed & (np.abs(d) <= law.tolerance)
+    beyond = stayed & (np.abs(d) > law.tolerance)
+    assert within.sum() > 100 and beyond.sum() > 100
+    np.testing.assert_array_equal(contacts.normal_multiplier[within], old.normal_multiplier[within])
+    augmented = old.normal_multiplier + old.penalty * d
+    np.testing.assert_allclose(
+        contacts.normal_multiplier[beyond], augmented[beyond], rtol=1e-12, atol=0.0
+    )
+
+    calm = ContactSet(**{f.name: getattr(old, f.name)[:3].copy() for f in fields(old)})
+    calm.state[:] = LOCKED
+    calm.penalty[:] = 1e5
+    calm.normal_multiplier[:] = 1.0
+    calm.shear_multiplier[:] = 0.0
+    calm.intact[:] = True
+    pressed, shear = np.full(3, 1e-9), np.full(3, 1e-9)
+    strong = JointProperties(np.full(3, 0.58), np.zeros(3), np.zeros(3))
+    outcome = update(calm, SimpleNamespace(slip=np.zeros(3)), pressed, shear, None, strong, law)
+    assert outcome.state_changes == 0
+    np.testing.assert_allclose(calm.normal_multiplier, 1.0 + 1e5 * 1e-9, rtol=1e-15)
+    np.testing.assert_allclose(calm.shear_multiplier, 0.4 * 1e5 * 1e-9, rtol=1e-15)
+
+
+@pytest.mark.slow  # ~12 s
+def test_the_benchmark_wall_of_900_blocks_settles_with_the_augmented_lagrangian():
+    """The 30x30 AL wall of `dda bench` runs its 100 steps. It stopped at step 35 (63-70
+    once corners at filled nodes were no contact) while every solve augmented the
+    normal multipliers: no Δt let a step settle."""
+    raw = wall_scene(30, steps=100, method="augmented-lagrangian")
+    result = dda.simulate(dda.load_scene(raw))
+    assert result.summary["steps"] == 100
+    assert result.summary["max_penetration"] <= 1e-4 * 34.0  # the default tolerance
