@@ -63,11 +63,15 @@ EXPECTED = {
     # regression: the soft penalty lets the block bounce and slide 1.6289 ft in 90 steps
     "paper_two_blocks_penalty": ({}, top_block_x, 1.62879, 1e-3),
     # regression: no fracture at the paper's loads (docs/fracture.md); rock sigma_yy after
-    # 120 steps; the peak, -3.86e5 psf = 0.52 C0, comes at step 24
+    # 120 steps; the peak, -3.77e5 psf = 0.51 C0, comes at step 23
     # (a snapshot of the ringing column around the static -1.97e5 psf; it moved from
     # -2.3955e5 when sliding contacts began to judge sticking by their motion since
-    # the step start instead of since their stale locked reference point)
-    "paper_uniaxial_fracture": ({}, block_syy("rock"), -2.2474e5, 0.02),
+    # the step start instead of since their stale locked reference point, and from
+    # -2.2474e5 when AL contacts within the tolerance stopped augmenting: their
+    # multipliers no longer stiffen them step by step, the ringing period grows from
+    # 43.5 to 45 steps and step 120 falls 2 steps earlier on the rising flank; the mean
+    # over whole periods went from 2.3 % to 0.8 % off the static value)
+    "paper_uniaxial_fracture": ({}, block_syy("rock"), -2.6079e5, 0.02),
     # the cut blocks tile the rock (1900 m2; 849.87794 m2 around the tunnel) and lose
     # area only by elastic compression under gravity while they start to move (3 steps;
     # the full runs are CLI runs). The tunnel's 3 steps used to be cut to a tiny Δt by

@@ -52,7 +52,14 @@ def test_polygon_rolls():
 
 @pytest.mark.slow
 def test_polygon_rolls_ten_revolutions():
-    result = run_checked(rolling(7.0))
+    """Ten revolutions of stable rolling. How far it rolls in a given time depends on
+    the energy each vertex impact takes: in 7 s a rigid 16-gon rolls 4.85 revolutions
+    with perfectly plastic impacts and 15.9 with none lost. It rolled 10.95 in 7 s
+    (6.3e4 J lost) while AL multipliers within the tolerance were augmented every step,
+    an integral action against the damping (the soft stack of
+    tests/test_augmented_lagrangian.py gained energy from it); since, 9.4 in 7 s
+    (7.9e4 J lost) and 11.0 in 8 s."""
+    result = run_checked(rolling(8.0))
     assert result.final.rotations[1] < -10 * 2 * np.pi
 
 
