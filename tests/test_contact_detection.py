@@ -403,3 +403,26 @@ def test_a_corner_facing_an_edge_end_across_a_block_is_no_contact(monkeypatch, c
 
     assert pairs_with_the_corner(1e-12) == 0
     assert pairs_with_the_corner(1e-6) == 1
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_vertex_inside_a_sliver_is_in_contact_with_the_edge_it_entered(monkeypatch, compiled):
+    """A needle-like block A pokes its tip into the tip of a sliver B (a 5.7° wedge),
+    just behind B's bottom edge (1 mm) and 0.5 m in front of its top edge. Both edges
+    pass the V-E tests, but their normals are 174° apart: two contacts would push the
+    tip across the sliver in opposite directions, their forces cancelling however
+    large the augmented Lagrangian made them (the tunnel case: 1e11 N, 8e7 J released).
+    The vertex entered through the bottom edge: that is its one contact."""
+    if not compiled:
+        monkeypatch.setattr(narrow, "_screen_kernel", None)
+    needle = [[5.0, 0.001], [-5.0, 0.3], [-5.0, -0.3]]
+    sliver = [[0.0, 0.0], [10.0, 0.0], [10.0, 1.0]]
+    far = [[0.0, 20.0], [1.0, 20.0], [1.0, 21.0]]
+    model = build(dda.load_scene(scene([block("a", far), block("b", sliver)], {"steps": 1})))
+    blocks = model.blocks.copy()
+    blocks.vertices = np.concatenate([np.array(needle), np.array(sliver)])
+    blocks.update_moments()
+    c = model.contact
+    found = detect(blocks, np.array([[0, 1]]), c.search_distance, c.vertex_radius)
+    tip = found.vertex == 0
+    assert sorted(found.edge[tip].tolist()) == [3]  # the bottom edge, (0, 0)-(10, 0)

@@ -173,6 +173,7 @@ def detect(
     edge_all = np.concatenate([ve_edge, vv_edge])
     kind = np.concatenate([np.zeros(len(ve_vertex), bool), np.ones(len(vv_vertex), bool)])
     keep = _first_of_each(vertex_all, edge_all)
+    keep = keep[~_opposed_deeper(blocks, fans, vertex_all[keep], edge_all[keep])]
     return Detected(vertex_all[keep], edge_all[keep], kind[keep])
 
 
@@ -572,6 +573,53 @@ def _along(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndar
     v = blocks.vertices
     e = v[fans.next[edge]] - v[edge]
     return np.einsum("ij,ij->i", v[vertex] - v[edge], e) / np.einsum("ij,ij->i", e, e)
+
+
+def _opposed_deeper(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):
+    """Mask of the contacts whose vertex has a contact with another edge of the same
+    block that faces the other way (normals at more than 90°) and lies less deep,
+    the vertex being behind both edges' lines: it is inside a thin part of that
+    block, a wedge near its tip or a sliver, and entered it through the shallower
+    edge. (In a notch, where two edges also face each other, a vertex touching one
+    wall is in front of the other's line: both contacts stay.)
+
+    Both contacts would push the vertex across the block, each towards the other
+    edge: their forces cancel, the penetration does not shrink however large they
+    grow, and the augmented Lagrangian raised them without bound. In the tunnel
+    case a vertex touching one edge of a sliver (d ≈ 3e-7 m) got a fresh contact
+    2.3 mm deep on the sliver's other edge, whose normal is at 169° to the first;
+    within one step the pair's forces reached 1e11 N at penalties of 5e13 N/m, and
+    the step they settled in released 8e7 J.
+    """
+    drop = np.zeros(len(vertex), bool)
+    if len(vertex) < 2:
+        return drop
+    group = vertex.astype(np.int64) * blocks.count + blocks.vertex_owner[edge]
+    _, inverse, counts = np.unique(group, return_inverse=True, return_counts=True)
+    shared = np.flatnonzero(counts[inverse] > 1)
+    if len(shared) == 0:
+        return drop
+    shared = shared[np.argsort(group[shared], kind="stable")]
+    first, second = _pairs_within_groups(group[shared])
+    i, j = shared[first], shared[second]
+    normal = _outward_normal(blocks, fans, edge)
+    depth = _depth(blocks, fans, vertex, edge)
+    opposed = np.einsum("ij,ij->i", normal[i], normal[j]) < 0.0
+    opposed &= (depth[i] > 0.0) & (depth[j] > 0.0)  # behind both lines: inside the part
+    drop[i[opposed & (depth[i] > depth[j])]] = True
+    drop[j[opposed & (depth[j] > depth[i])]] = True
+    return drop
+
+
+def _pairs_within_groups(sorted_group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(first, second) positions of every pair of rows with the same group (sorted)."""
+    starts = np.flatnonzero(np.r_[True, sorted_group[1:] != sorted_group[:-1]])
+    sizes = np.diff(np.r_[starts, len(sorted_group)])
+    owner, local = expand_counts(sizes * sizes)
+    first = starts[owner] + local // sizes[owner]
+    second = starts[owner] + local % sizes[owner]
+    later = first < second
+    return first[later], second[later]
 
 
 def _first_of_each(vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
