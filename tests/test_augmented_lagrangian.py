@@ -14,9 +14,9 @@ import dda
 import dda.contact.law as law_module
 from dda.bench.scenes import wall_scene
 from dda.contact.contact_set import ContactSet
-from dda.contact.law import ContactLaw, JointProperties, update
+from dda.contact.law import JointProperties, update
 from dda.result import LOCKED, OPEN
-from tests.test_contact_law import random_contacts
+from tests.test_contact_law import law_for, random_contacts
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 G = 32.174  # ft/s²
@@ -107,14 +107,7 @@ def test_multipliers_are_augmented_only_beyond_the_tolerance(monkeypatch, compil
     if not compiled:
         monkeypatch.setattr(law_module, "_decide_kernel", None)
     contacts, rows, d, s, joint, held, band = random_contacts(7)
-    law = ContactLaw(
-        augmented=True,
-        tolerance=1e-9,
-        shear_ratio=0.4,
-        friction=True,
-        state_band=band,
-        band_stiffness=1e6,
-    )
+    law = law_for(band)
     old = contacts.copy()
     update(contacts, rows, d, s, None, joint, law, held)
     stayed = (contacts.state == old.state) & (old.state != OPEN) & ~held[0]

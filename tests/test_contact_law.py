@@ -58,13 +58,9 @@ def random_contacts(seed: int, m: int = 4000):
     return contacts, rows, d, s, joint, held, band
 
 
-@compiled
-@pytest.mark.parametrize("augmented", [False, True])
-@pytest.mark.parametrize("friction", [False, True])
-@pytest.mark.parametrize("with_held", [False, True])
-def test_compiled_law_equals_numpy(monkeypatch, augmented, friction, with_held):
-    contacts, rows, d, s, joint, held, band = random_contacts(int(augmented) + 2 * int(friction))
-    law = ContactLaw(
+def law_for(band: float, augmented: bool = True, friction: bool = True) -> ContactLaw:
+    """The law the random contacts are judged by: tolerance 1e-9, shear ratio 0.4."""
+    return ContactLaw(
         augmented=augmented,
         tolerance=1e-9,
         shear_ratio=0.4,
@@ -72,6 +68,15 @@ def test_compiled_law_equals_numpy(monkeypatch, augmented, friction, with_held):
         state_band=band,
         band_stiffness=1e6,
     )
+
+
+@compiled
+@pytest.mark.parametrize("augmented", [False, True])
+@pytest.mark.parametrize("friction", [False, True])
+@pytest.mark.parametrize("with_held", [False, True])
+def test_compiled_law_equals_numpy(monkeypatch, augmented, friction, with_held):
+    contacts, rows, d, s, joint, held, band = random_contacts(int(augmented) + 2 * int(friction))
+    law = law_for(band, augmented, friction)
     held = held if with_held else None
     ours, theirs = contacts.copy(), contacts.copy()
     fast = update(ours, rows, d, s, None, joint, law, held)
