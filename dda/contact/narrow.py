@@ -601,13 +601,12 @@ def _opposed_deeper(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge
         return drop
     shared = shared[np.argsort(group[shared], kind="stable")]
     first, second = _pairs_within_groups(group[shared])
-    i, j = shared[first], shared[second]
-    normal = _outward_normal(blocks, fans, edge)
-    depth = _depth(blocks, fans, vertex, edge)
-    opposed = np.einsum("ij,ij->i", normal[i], normal[j]) < 0.0
-    opposed &= (depth[i] > 0.0) & (depth[j] > 0.0)  # behind both lines: inside the part
-    drop[i[opposed & (depth[i] > depth[j])]] = True
-    drop[j[opposed & (depth[j] > depth[i])]] = True
+    normal = _outward_normal(blocks, fans, edge[shared])
+    depth = _depth(blocks, fans, vertex[shared], edge[shared])
+    opposed = np.einsum("ij,ij->i", normal[first], normal[second]) < 0.0
+    opposed &= (depth[first] > 0.0) & (depth[second] > 0.0)  # behind both: inside the part
+    drop[shared[first[opposed & (depth[first] > depth[second])]]] = True
+    drop[shared[second[opposed & (depth[second] > depth[first])]]] = True
     return drop
 
 
