@@ -132,24 +132,38 @@ def update(
 
     A sliding contact that moves back sticks, unless it carries next to no
     friction (capacity within the force band): then it only turns its
-    friction round, which changes F but not K. With the augmented Lagrangian,
-    a contact within the tolerance keeps its multipliers
-    (:func:`_keep_multipliers_within_tolerance`).
+    friction round, which changes F but not K.
+
+    Augmented Lagrangian: eq. 7 is applied only while the gap is beyond the
+    tolerance (the paper iterates "until |d| ≤ tolerance"). A contact that kept
+    its closed state (locked or sliding) with |d| ≤ tolerance keeps its λn, and
+    one that stayed locked with |s| ≤ tolerance keeps its λt; the contact force
+    is λ + p d either way. A contact that changed state gets what the law gives
+    it (0 when it opens or closes; augmented between locked and sliding: keeping
+    λn there too took the paper's pushed block from 1.1e-3 to 2.6e-3 off
+    Newton's acceleration); a contact held closed gets its bounded multiplier.
+    Augmenting within the tolerance is an integral controller across steps: a
+    step that ends after one solve leaves λ ← λ + p d while d is still there at
+    the next step's start, so the force grows by p d per step. Against an
+    oscillation d = D sin ωt that force lags by 90°, and its power on the
+    blocks, (p D²/Δt) cos² ωt, is never negative: negative damping. A stack of
+    five blocks with p = 0.1 E (tolerance 1e-4 of the model size, Δt = 1e-3 s)
+    gained 2.4e3 J in 0.2 s and its blocks jumped; now it never gains energy.
+    Within the tolerance a contact is a spring with a fixed preload λ, which
+    stores energy and cannot create any. It also ended a failure of the AL
+    walls of ``dda bench`` from 30x30 up: every solve moved each contact's λn,
+    and with it the friction capacity tan φ·λn, by p·d (a few N on blocks of
+    25.5 N, |d| ~1e-7 m against a tolerance of 3.4e-3 m) while the open–close
+    iteration searched for the states.
     """
     if held is None:
         nothing = np.zeros(len(contacts), bool)
         held = (nothing, nothing)
-    before = None
-    if law.augmented:
-        multipliers = (contacts.normal_multiplier.copy(), contacts.shear_multiplier.copy())
-        before = (contacts.state.copy(), *multipliers)
     if _decide_kernel is not None:
         changes, violation = _decide_compiled(contacts, rows, d, s, joint, law, held)
     else:
         changes = _decide(contacts, rows, d, s, joint, law, held)
         violation = _violation(d, s, contacts.state, law)
-    if before is not None:
-        _keep_multipliers_within_tolerance(contacts, d, s, *before, held[0], law)
     now_closed = contacts.state != OPEN
     penalty_raised = False
     if law.augmented and changes == 0:
@@ -161,48 +175,6 @@ def update(
         state_changes=changes,
         max_violation=violation,
     )
-
-
-def _keep_multipliers_within_tolerance(
-    contacts: ContactSet,
-    d: np.ndarray,
-    s: np.ndarray,
-    state: np.ndarray,
-    normal_multiplier: np.ndarray,
-    shear_multiplier: np.ndarray,
-    held_closed: np.ndarray,
-    law: ContactLaw,
-) -> None:
-    """Augment only where the gap is beyond the tolerance: a contact that kept its
-    closed state (locked or sliding) with |d| ≤ tolerance keeps its λn, and one that
-    stayed locked with |s| ≤ tolerance keeps its λt (eq. 7 is applied only while
-    |d| > tolerance, as the paper iterates "until |d| ≤ tolerance"). The contact force
-    is λ + p d either way. A contact that changed state keeps what the law gave it
-    (0 when it opens or closes; augmented between locked and sliding: keeping λn there
-    too took the paper's pushed block from 1.1e-3 to 2.6e-3 off Newton's acceleration).
-
-    Augmenting within the tolerance is an integral controller across steps: a step
-    that ends after one solve leaves λ ← λ + p d, the penetration d is still there at
-    the next step's start, and the force grows by p d per step while it lasts. Against
-    an oscillation d = D sin ωt that force lags by 90°, and its power on the blocks,
-    (p D²/Δt) cos² ωt, is never negative: negative damping. A stack of five blocks with
-    p = 0.1 E (tolerance 1e-4 of the model size, Δt = 1e-3 s) gained 2.4e3 J in 0.2 s and
-    its blocks jumped; with the augmentation kept for |d| beyond the tolerance, it never
-    gains energy. Within the tolerance a contact is a spring with a fixed preload λ,
-    which stores energy and cannot create any. It also ends a failure of the AL walls
-    of ``dda bench`` from 30x30 up: every solve moved each contact's λn, and with it the
-    friction capacity tan φ·λn, by p·d (a few N on blocks of 25.5 N, |d| ~1e-7 m
-    against a tolerance of 3.4e-3 m) while the open–close iteration searched for the
-    states, and contacts near the Coulomb limit crossed it one after another.
-
-    A contact held closed (``held_closed``, :class:`dda.step.StateFlips`) keeps the
-    law's multiplier, bounded by the joint's tensile strength.
-    """
-    stayed = (state != OPEN) & (contacts.state == state) & ~held_closed
-    keep = stayed & (np.abs(d) <= law.tolerance)
-    contacts.normal_multiplier[keep] = normal_multiplier[keep]
-    locked = (state == LOCKED) & (contacts.state == LOCKED) & (np.abs(s) <= law.tolerance)
-    contacts.shear_multiplier[locked] = shear_multiplier[locked]
 
 
 def _decide(contacts, rows, d, s, joint, law, held) -> int:
@@ -264,10 +236,15 @@ def _decide(contacts, rows, d, s, joint, law, held) -> int:
         # held closed, a contact cannot open: its multiplier stops at the joint's
         # tensile strength instead of accumulating tension (THEORY.md section 5)
         bounded = np.where(keep_closed, np.maximum(normal, -tensile), normal)
-        contacts.normal_multiplier = np.where(now_closed & ~closes, bounded, 0.0)
+        kept = (new_state == state) & closed & ~keep_closed & (np.abs(d) <= law.tolerance)
+        contacts.normal_multiplier = np.where(
+            now_closed & ~closes, np.where(kept, lam_n, bounded), 0.0
+        )
     shear_out = np.where(now_sliding, friction_force, np.where(now_locked, trial_shear, 0.0))
+    stayed_locked = now_locked & (state == LOCKED) & (np.abs(s) <= law.tolerance)
+    locked_multiplier = np.where(stayed_locked, lam_t, trial_shear)
     contacts.shear_multiplier = np.where(
-        now_sliding, friction_force, np.where(now_locked & law.augmented, trial_shear, 0.0)
+        now_sliding, friction_force, np.where(now_locked & law.augmented, locked_multiplier, 0.0)
     )
     contacts.shear_multiplier[sticks] = np.where(law.augmented, friction_force[sticks], 0.0)
 
@@ -299,7 +276,7 @@ def _decide_compiled(contacts, rows, d, s, joint, law, held) -> tuple[int, float
         (joint.friction, joint.cohesion, joint.tensile),
         held,
         (law.augmented, law.friction),
-        (law.shear_ratio, law.state_band, law.band_stiffness),
+        (law.shear_ratio, law.state_band, law.band_stiffness, law.tolerance),
         (new_state, normal, shear, lam_n, lam_t),
     )
     if law.augmented:
@@ -334,7 +311,7 @@ def _decide_each(
     friction, cohesion, tensile = joint
     keep_closed, keep_sliding = held
     augmented, with_friction = switches
-    shear_ratio, band, band_stiffness = settings
+    shear_ratio, band, band_stiffness, tolerance = settings
     new_state, normal_out, shear_out, lam_n_out, lam_t_out = out
     changes = 0
     violation = 0.0
@@ -387,13 +364,16 @@ def _decide_each(
             friction_force = direction[c] * (max(friction[c] * normal, 0.0) + held_cohesion)
         if augmented:
             bounded = max(normal, -tensile_c) if keep_closed[c] else normal
+            if closed and now == was and not keep_closed[c] and abs(d[c]) <= tolerance:
+                bounded = lam_n_in[c]  # within the tolerance: not augmented
             lam_n_out[c] = bounded if now_closed and not closes else 0.0
         if now == SLIDING:
             shear_out[c] = friction_force
             lam_t_out[c] = friction_force
         elif now == LOCKED:
             shear_out[c] = trial
-            lam_t_out[c] = trial if augmented else 0.0
+            kept = was == LOCKED and abs(s[c]) <= tolerance
+            lam_t_out[c] = (lam_t_in[c] if kept else trial) if augmented else 0.0
         else:
             shear_out[c] = 0.0
             lam_t_out[c] = 0.0
