@@ -63,7 +63,7 @@ EXPECTED = {
     # regression: the soft penalty lets the block bounce and slide 1.6289 ft in 90 steps
     "paper_two_blocks_penalty": ({}, top_block_x, 1.62879, 1e-3),
     # regression: no fracture at the paper's loads (docs/fracture.md); rock sigma_yy after
-    # 120 steps; the peak, -3.77e5 psf = 0.51 C0, comes at step 23
+    # 120 steps; the peak, -3.77e5 psf = 0.50 C0, comes at step 23
     # (a snapshot of the ringing column around the static -1.97e5 psf; it moved from
     # -2.3955e5 when sliding contacts began to judge sticking by their motion since
     # the step start instead of since their stale locked reference point, and from
