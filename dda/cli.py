@@ -214,6 +214,9 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
         text += f" Largest penetration {_number(summary['max_penetration'])}."
     if summary.get("iterations") is not None:
         text += f" {summary['iterations']} solves."
+    if summary.get("held_friction_work"):
+        work = _number(summary["held_friction_work"], ".3g")
+        text += f" Friction of contacts held sliding pushed the blocks with {work} of work."
     events = summary.get("fracture_events") or 0
     count = events if isinstance(events, int) else len(events)
     if count:
