@@ -52,7 +52,7 @@ class StepSolution:
     max_penetration: float
     held: int = 0  # contacts that reached StateFlips.LIMIT (held where within tolerance)
     pushed: np.ndarray | None = None  # (n, 6) part of d that removed overlap found this step
-    held_work: float = 0.0  # work the friction of contacts held sliding did on the blocks
+    friction_work: tuple[float, float] = (0.0, 0.0)  # (dissipated, put in by holds)
 
 
 MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
@@ -191,22 +191,30 @@ class StateFlips:
         return int(np.count_nonzero((self.normal >= self.LIMIT) | (self.shear >= self.LIMIT)))
 
 
-def held_friction_work(contacts: ContactSet, keep_sliding: np.ndarray, moved: np.ndarray) -> float:
-    """Work done on the blocks by the friction of contacts held sliding, in one solve.
+def friction_work(
+    contacts: ContactSet, keep_sliding: np.ndarray, moved: np.ndarray
+) -> tuple[float, float]:
+    """(dissipated, put in by holds): the work of the sliding contacts' friction in one solve.
 
-    W = Σ |λt| max(0, -σ Δs) over the contacts held sliding (``keep_sliding``)
-    and sliding, with λt the friction force of the solve (``shear_multiplier``),
-    σ the slide direction and Δs the shear motion since the step start
-    (``moved``). Friction opposes sliding in direction σ; a held contact may
-    move the other way (held, it does not stick), and then its friction
-    pushes the blocks: W > 0 is energy the hold put in, which Coulomb's law
-    cannot. Call before the law's update (which may turn the direction).
+    With λt the friction force of the solve (``shear_multiplier``), σ the
+    slide direction and Δs the shear motion since the step start (``moved``):
+
+        dissipated = Σ |λt| max(0, σ Δs)    over the sliding contacts,
+        put in     = Σ |λt| max(0, -σ Δs)   over those held sliding (``keep_sliding``).
+
+    Friction opposes sliding in direction σ. A held contact may move the other
+    way (held, it does not stick), and then its friction pushes the blocks:
+    energy the hold put in, which Coulomb's law cannot. Call before the law's
+    update (which may turn the direction).
     """
-    held = np.flatnonzero(keep_sliding & (contacts.state == SLIDING))
-    if len(held) == 0:
-        return 0.0
-    against = np.maximum(0.0, -contacts.slide_direction[held] * moved[held])
-    return float(np.sum(np.abs(contacts.shear_multiplier[held]) * against))
+    sliding = np.flatnonzero(contacts.state == SLIDING)
+    if len(sliding) == 0:
+        return 0.0, 0.0
+    force = np.abs(contacts.shear_multiplier[sliding])
+    along = contacts.slide_direction[sliding] * moved[sliding]
+    dissipated = float(np.sum(force * np.maximum(0.0, along)))
+    held = keep_sliding[sliding]
+    return dissipated, float(np.sum((force * np.maximum(0.0, -along))[held]))
 
 
 def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
@@ -341,7 +349,7 @@ def solve_step(
     pattern = None
     k = springs = assembled = updates = None
     previous_pen = None
-    held_work = 0.0
+    work = (0.0, 0.0)
     iterations = 0
     converged = False
     d = np.zeros((blocks.count, 6))
@@ -377,7 +385,7 @@ def solve_step(
             pen, slip = gaps_after(rows, contacts.block_a, contacts.block_b, d)
             before = contacts.state.copy()
             held = flips.held(pen, slip - rows.slip, law.tolerance)
-            held_work = held_friction_work(contacts, held[1], slip - rows.slip)
+            work = friction_work(contacts, held[1], slip - rows.slip)
             outcome = contact_law.update(contacts, rows, pen, slip, previous_pen, joints, law, held)
             flips.count(before, contacts.state)
         previous_pen = pen
@@ -396,5 +404,5 @@ def solve_step(
             masses = model.inertia.masses(blocks)
             pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
     return StepSolution(
-        d, contacts, iterations, made, converged, max_pen, flips.held_count(), pushed, held_work
+        d, contacts, iterations, made, converged, max_pen, flips.held_count(), pushed, work
     )

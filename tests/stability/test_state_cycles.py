@@ -20,7 +20,7 @@ import pytest
 from dda.contact import law as contact_law
 from dda.contact.contact_set import ContactSet
 from dda.result import LOCKED, OPEN, SLIDING
-from dda.step import StateFlips, held_friction_work
+from dda.step import StateFlips, friction_work
 from tests.stability.checks import run_checked
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
@@ -57,19 +57,19 @@ def test_held_contacts_stay_closed_and_sliding():
     assert apply_law(held).tolist() == [LOCKED, SLIDING]
 
 
-def test_held_friction_work_counts_held_contacts_pushed_against_their_slide_direction():
-    """Contact 1 slides in +s with a 5 N friction force and moved back 1e-4 m: held, its
-    friction pushed the blocks with 5e-4 J; not held it would stick, and one moving
-    forward (friction opposing the motion) dissipates: neither counts."""
+def test_friction_work_splits_dissipation_from_what_holds_put_in():
+    """Contact 1 slides in +s with a 5 N friction force. Moved back 1e-4 m and held, its
+    friction pushed the blocks with 5e-4 J; not held it would stick. Moved forward 2e-4 m,
+    its friction dissipated 1e-3 J. Contact 0 is locked: a spring, no friction work."""
     contacts = two_contacts()
     contacts.shear_multiplier[:] = [3.0, 5.0]
     back, forward = np.array([-1e-4, -1e-4]), np.array([-1e-4, 2e-4])
     both = np.array([True, True])
-    assert held_friction_work(contacts, both, back) == pytest.approx(5e-4, rel=1e-12)
-    assert held_friction_work(contacts, np.array([True, False]), back) == 0.0
-    assert held_friction_work(contacts, both, forward) == 0.0
+    assert friction_work(contacts, both, back) == pytest.approx((0.0, 5e-4), rel=1e-12)
+    assert friction_work(contacts, np.array([True, False]), back) == (0.0, 0.0)
+    assert friction_work(contacts, both, forward) == pytest.approx((1e-3, 0.0), rel=1e-12)
     contacts.slide_direction[1] = -1.0  # sliding in -s: moving +2e-4 m is moving back
-    assert held_friction_work(contacts, both, forward) == pytest.approx(1e-3, rel=1e-12)
+    assert friction_work(contacts, both, forward) == pytest.approx((0.0, 1e-3), rel=1e-12)
 
 
 def test_flips_are_counted_per_direction_and_hold_only_within_tolerance():
