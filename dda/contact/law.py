@@ -123,12 +123,15 @@ def update(
     ``held`` = (keep_closed, keep_sliding) masks: contacts that keep
     flipping open/closed (sliding/locked) within one step are held closed
     (sliding), which ends a cycle of state changes among contacts whose
-    flips move next to nothing. Held closed, a contact is a spring (it
-    stores energy, it cannot create any) whose AL multiplier stays within
-    the joint's tensile strength: the augmentation λ ← λ + p d would
-    otherwise pile up tension in it, solve after solve and, warm-started,
-    step after step; held sliding, it carries the Coulomb force, which is
-    right for a contact at the friction limit.
+    flips move next to nothing. Held closed, a contact is a spring whose AL
+    multiplier stays within the joint's tensile strength (one that was open
+    is closed at its gap, a spring stretched by p·d from the start: energy
+    that appears from nothing, docs/contact.md "What holding closed costs in
+    energy"): the augmentation λ ← λ + p d would otherwise pile up tension
+    in it, solve after solve and, warm-started, step after step; held
+    sliding, it carries the Coulomb force, which is right for a contact at
+    the friction limit (one that moves back pushes the blocks: the
+    summary's held_friction_work).
 
     A sliding contact that moves back sticks, unless it carries next to no
     friction (capacity within the force band): then it only turns its
