@@ -384,8 +384,9 @@ def solve_step(
         with timer("contact_law"):
             pen, slip = gaps_after(rows, contacts.block_a, contacts.block_b, d)
             before = contacts.state.copy()
-            held = flips.held(pen, slip - rows.slip, law.tolerance)
-            work = friction_work(contacts, held[1], slip - rows.slip)
+            moved = slip - rows.slip  # shear motion this step
+            held = flips.held(pen, moved, law.tolerance)
+            work = friction_work(contacts, held[1], moved)
             outcome = contact_law.update(contacts, rows, pen, slip, previous_pen, joints, law, held)
             flips.count(before, contacts.state)
         previous_pen = pen
