@@ -214,14 +214,8 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
         text += f" Largest penetration {_number(summary['max_penetration'])}."
     if summary.get("iterations") is not None:
         text += f" {summary['iterations']} solves."
-    if summary.get("held_friction_work"):
-        work = _number(summary["held_friction_work"], ".3g")
-        text += f" Friction of contacts held sliding pushed the blocks with {work} of work"
-        dissipated = summary.get("friction_dissipation") or 0.0
-        if dissipated > 0.0:
-            share = 100.0 * summary["held_friction_work"] / dissipated
-            text += f" ({share:.2g} % of the {_number(dissipated, '.3g')} friction dissipated)"
-        text += "."
+    if summary.get("friction_dissipation"):
+        text += f" Friction dissipated {_number(summary['friction_dissipation'], '.3g')}."
     events = summary.get("fracture_events") or 0
     count = events if isinstance(events, int) else len(events)
     if count:

@@ -7,8 +7,8 @@ Per step the engine records (``Result.history``)::
     potential V = Σ mᵢ g·(x_low − x_cᵢ)         (gravity; datum: the lowest vertex
                                                of the model at t = 0, so V ≥ 0 there)
     elastic   U = ½ Σ Sᵢ σᵢᵀ Eᵢ⁻¹ σᵢ
-    contact   C = ½ Σ p d² + ½ Σ p_s s²        (closed contacts; shear only while
-                                               locked; d, s after the step)
+    contact   C = Σ N²/2p + Σ F²/2p_s          (closed contacts: the contact springs
+                                               at their forces after the step)
     springs   ½ Σ p_f |x − x₀|²                (fixed points)
     work      W = Σ_steps Σ_loads F(t)·T(x) D  (point loads)
 
@@ -31,7 +31,7 @@ from dda.effects.gravity import Gravity
 from dda.effects.inertia import mass_matrices
 from dda.effects.loads import PointLoads
 from dda.kinematics import displacement_matrices
-from dda.result import LOCKED, OPEN
+from dda.result import OPEN
 
 TERMS = ("kinetic", "potential", "elastic", "contact", "springs")
 
@@ -99,19 +99,23 @@ def elastic_energy(elasticity: np.ndarray, blocks: BlockSet) -> float:
 
 
 def contact_energy(contacts: ContactSet, shear_ratio: float, friction: bool) -> float:
-    """C = ½ Σ p d² (closed) + ½ Σ p_s s² (locked, p_s = shear_ratio · p).
+    """C = Σ N² / (2p) + Σ F² / (2 p_s) over the closed contacts (p_s = shear_ratio · p).
 
-    ``d`` and ``s`` are the penetration and shear position after the last
-    solve; without friction no shear spring is built and none is counted.
+    The energy the contact springs hold at the forces of the last solve: N and
+    F are the normal and shear forces. For the penalty method N = p d, and the
+    normal part is Shi's ½ p d²; with the augmented Lagrangian it is what the
+    spring of the step's potential holds at that force (dda.contact.potential).
+    A sliding contact's spring is stretched to its friction bound. Without
+    friction no shear spring is built and none is counted.
     """
     if not len(contacts):
         return 0.0
     closed = contacts.state != OPEN
-    normal = 0.5 * np.sum(contacts.penalty[closed] * contacts.penetration[closed] ** 2)
-    if not friction:
+    p = contacts.penalty[closed]
+    normal = np.sum(contacts.normal_force[closed] ** 2 / (2.0 * p))
+    if not friction or shear_ratio <= 0.0:
         return float(normal)
-    locked = contacts.state == LOCKED
-    shear = 0.5 * np.sum(shear_ratio * contacts.penalty[locked] * contacts.slip[locked] ** 2)
+    shear = np.sum(contacts.shear_force[closed] ** 2 / (2.0 * shear_ratio * p))
     return float(normal + shear)
 
 

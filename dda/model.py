@@ -24,7 +24,6 @@ from dda.scene import Scene
 log = logging.getLogger(__name__)
 
 SEARCH_FACTOR = 2.5  # search distance / largest displacement allowed per step (Shi)
-STATE_BAND = 1e-9  # contact state changes need evidence above this fraction of the model size
 TOUCH = 1e-9  # a new contact closer than this fraction of the model size starts closed
 
 
@@ -207,8 +206,6 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
         shear_ratio=c.shear_ratio,
         friction=table.has_friction,
         max_penalty=max(1e4 * young_max, penalty),
-        state_band=(c.state_band if c.state_band is not None else STATE_BAND) * extent,
-        band_stiffness=young_max,
     )
     search = SEARCH_FACTOR * allowed
     return ContactModel(

@@ -80,12 +80,8 @@ class Result:
 
     ``summary`` keys: steps, time, wall_seconds, iterations (total solves),
     iterations_per_step, max_penetration, active_effects, stage_seconds,
-    contact_method, cut_steps, held_contacts (contact-steps held closed or
-    sliding to end a cycle of state changes, see dda.step.StateFlips),
-    friction_dissipation (work of the sliding contacts' friction against the
-    motion), held_friction_work (work the friction of contacts held sliding
-    did on the blocks where they moved against their slide direction, the
-    energy the holds put in; both dda.step.friction_work), status.
+    contact_method, cut_steps, friction_dissipation (work of the friction
+    forces against the slips, dda.contact.law.friction_dissipation), status.
     """
 
     frames: list[Frame]

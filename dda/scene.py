@@ -67,7 +67,6 @@ class ContactSettings:
     tolerance: float | None = None  # AL: largest penetration; default 1e-4 x model size
     max_iterations: int = 50
     shear_ratio: float = 0.4  # shear penalty / normal penalty
-    state_band: float | None = None  # evidence for a state change, x model size; default 1e-9
 
 
 @dataclass(frozen=True)
@@ -326,6 +325,8 @@ class _Checker:
         if not isinstance(value, Mapping):
             self.fail(key, f"expected a table, got {_kind(value)}")
         for name in value:
+            if _join(key, name) in _RETIRED:
+                self.fail(_join(key, name), _RETIRED[_join(key, name)])
             if name not in allowed:
                 self.fail(_join(key, name), "unknown key; " + _suggest(str(name), allowed))
         return value
@@ -502,7 +503,11 @@ _CONTACT: dict[str, _Spec] = {
     "tolerance": _real(_POSITIVE),
     "max_iterations": _Checker.count,
     "shear_ratio": _real(_POSITIVE),
-    "state_band": _real(_OPEN_UNIT),
+}
+# keys that earlier versions read and this one refuses, with the reason
+_RETIRED = {
+    "contact.state_band": "no longer used: each step's contact problem is solved to "
+    "convergence, with no state band (docs/contact.md); remove the key",
 }
 
 _STRENGTH_KEYS = ("cohesion", "friction_angle", "tensile_strength")

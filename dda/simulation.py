@@ -50,9 +50,7 @@ class _Run:
         self.factorisations = 0
         self.cut_steps = 0
         self.max_iterations_step = 0
-        self.held_contacts = 0
         self.friction_dissipation = 0.0
-        self.held_friction_work = 0.0
         self.max_penetration = 0.0
         self.events: list[FractureEvent] = []
         self.energy = EnergyAccount(model, self.blocks)
@@ -136,11 +134,7 @@ def _advance(run: _Run) -> None:
     run.step += 1
     run.dt = min(m.max_time_step, dt * GROWTH)
     run.max_iterations_step = max(run.max_iterations_step, solution.iterations)
-    run.held_contacts += solution.held
-    run.friction_dissipation += solution.friction_work[0]
-    run.held_friction_work += solution.friction_work[1]
-    if solution.held:
-        log.debug("step %d: %d contacts held to end a state cycle", run.step, solution.held)
+    run.friction_dissipation += solution.friction_dissipation
     run.max_penetration = max(run.max_penetration, solution.max_penetration)
     _record(run, dt, solution)
     if m.fracture is not None:
@@ -275,9 +269,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "max_iterations_step": state.max_iterations_step,
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
-        "held_contacts": state.held_contacts,
         "friction_dissipation": state.friction_dissipation,
-        "held_friction_work": state.held_friction_work,
         "contact_method": None if m.contact is None else m.scene.contact.method,
         "active_effects": list(m.active_effects),
         "stage_seconds": state.timer.as_dict(),

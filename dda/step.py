@@ -1,8 +1,8 @@
-"""One time step: assemble, factorise, solve, apply the contact law, repeat.
+"""One time step: the minimiser of the step's incremental potential (:mod:`dda.newton`).
 
-K changes only when contact states or penalties change; between such
-changes every augmentation (AL) or friction update re-uses K and only
-rebuilds F. Across steps, while the contact graph is the same, the block
+K changes only when contact pieces or penalties change; between such
+changes every Newton iteration, augmentation (AL) or friction update re-uses
+K and only rebuilds F. Across steps, while the contact graph is the same, the block
 pattern of K (its fill-reducing order, CSR structure and scatter indices)
 and the last factorisation are kept: a new K is solved by conjugate
 gradients preconditioned with that factorisation (:mod:`dda.linsolve`),
@@ -29,14 +29,17 @@ from dda.blocks import BlockSet
 from dda.contact import law as contact_law
 from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet
+from dda.contact.law import UNBOUNDED, BoundIteration
 from dda.contact.narrow import separated_blocks
+from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.contact.push_out import push_out_displacement, pushed_overlap
-from dda.contact.rows import contact_rows, gaps_after
+from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
 from dda.linsolve import ReusingSolver, block_ordering
 from dda.low_rank import StepUpdates
 from dda.model import Model
-from dda.result import OPEN, SLIDING
+from dda.newton import BlockQuadratic, ContactGeometry, better_start, minimise
+from dda.result import LOCKED, OPEN, SLIDING
 from dda.timing import StageTimer
 
 
@@ -50,14 +53,16 @@ class StepSolution:
     factorisations: int
     converged: bool
     max_penetration: float
-    held: int = 0  # contacts that reached StateFlips.LIMIT (held where within tolerance)
     pushed: np.ndarray | None = None  # (n, 6) part of d that removed overlap found this step
-    friction_work: tuple[float, float] = (0.0, 0.0)  # (dissipated, put in by holds)
+    friction_dissipation: float = 0.0  # work of the friction forces against the slips
 
 
 MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
 
 
+# Newton iterations on one set of friction bounds before the bounds follow the normal
+# forces (tunnel case, 0.2 s: 23 solves a step against 29 when each set is solved to the end)
+INNER_SOLVES = 2
 SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
 NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
 
@@ -145,76 +150,6 @@ def linear_cache(model: Model) -> LinearCache:
         cache = LinearCache()
         model.__dict__["_linear_cache"] = cache
     return cache
-
-
-class StateFlips:
-    """How often each contact changed state within one step.
-
-    A contact that flipped open/closed (or sliding/locked) ``LIMIT`` times
-    is caught in a cycle: the states of a few contacts feed back on each
-    other and the open–close iteration never settles (seen in jointed rock
-    masses: period 4 to 12 among a handful of contacts, one step after
-    another, and cutting Δt does not help). Such a contact is held closed
-    (sliding, at the Coulomb force) for the rest of the step, as long as
-    what holding it costs stays within the contact tolerance: its
-    penetration or gap (its shear motion this step) is at most ``tolerance``.
-
-    ``LIMIT`` = 4: the contact has come back to its first state twice. One
-    round trip happens as neighbours settle; a second one is the cycle
-    coming round again. Holding then instead of after 6 flips cut the
-    solves per step by 15 % (rock slope), 6 % (tunnel), 19 % (10x10 wall)
-    and 10 % (30x30), with fewer or as many cut steps. Against holding
-    after 12 flips, the walls' results differ as much with 4 as with 6
-    (centroids 2-5e-5 m, 1-2 % of the largest displacement; stresses 2-3 %;
-    docs/benchmarks.md). After 3 flips (one and a half round trips)
-    contacts that were settling get held too: the tunnel then needs 32.7
-    solves a step and 51 cut steps instead of 28.1 and 19.
-    """
-
-    LIMIT = 4
-
-    def __init__(self, count: int) -> None:
-        self.normal = np.zeros(count, np.int64)
-        self.shear = np.zeros(count, np.int64)
-
-    def held(self, penetration, moved, tolerance: float):
-        """(keep closed, keep sliding) masks for the next law update."""
-        keep_closed = (self.normal >= self.LIMIT) & (np.abs(penetration) <= tolerance)
-        keep_sliding = (self.shear >= self.LIMIT) & (np.abs(moved) <= tolerance)
-        return keep_closed, keep_sliding
-
-    def count(self, before: np.ndarray, after: np.ndarray) -> None:
-        self.normal += (before == OPEN) != (after == OPEN)
-        self.shear += (before != OPEN) & (after != OPEN) & (before != after)
-
-    def held_count(self) -> int:
-        return int(np.count_nonzero((self.normal >= self.LIMIT) | (self.shear >= self.LIMIT)))
-
-
-def friction_work(
-    contacts: ContactSet, keep_sliding: np.ndarray, moved: np.ndarray
-) -> tuple[float, float]:
-    """(dissipated, put in by holds): the work of the sliding contacts' friction in one solve.
-
-    With λt the friction force of the solve (``shear_multiplier``), σ the
-    slide direction and Δs the shear motion since the step start (``moved``):
-
-        dissipated = Σ |λt| max(0, σ Δs)    over the sliding contacts,
-        put in     = Σ |λt| max(0, -σ Δs)   over those held sliding (``keep_sliding``).
-
-    Friction opposes sliding in direction σ. A held contact may move the other
-    way (held, it does not stick), and then its friction pushes the blocks:
-    energy the hold put in, which Coulomb's law cannot. Call before the law's
-    update (which may turn the direction).
-    """
-    sliding = np.flatnonzero(contacts.state == SLIDING)
-    if len(sliding) == 0:
-        return 0.0, 0.0
-    force = np.abs(contacts.shear_multiplier[sliding])
-    along = contacts.slide_direction[sliding] * moved[sliding]
-    dissipated = float(np.sum(force * np.maximum(0.0, along)))
-    held = keep_sliding[sliding]
-    return dissipated, float(np.sum((force * np.maximum(0.0, -along))[held]))
 
 
 def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
@@ -316,6 +251,104 @@ def _solve(
     return pattern.from_matrix_order(x, blocks.count)
 
 
+class _PieceSystem:
+    """The linear system of one Newton iteration, K(springs) D = F(offsets), with reuse.
+
+    K is re-assembled only when some contact spring changed (only those contacts
+    are added again, on the same pattern); the solve re-uses the kept
+    factorisation through PCG or low-rank updates (:class:`dda.low_rank.StepUpdates`)
+    when few springs changed since it was made.
+    """
+
+    def __init__(self, cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer):
+        self.cache, self.blocks, self.contacts, self.rows = cache, blocks, contacts, rows
+        self.base_k, self.base_f, self.law = base_k, base_f, law
+        self.neighbours, self.timer = neighbours, timer
+        self.pattern = self.k = self.keyed = self.assembled = self.updates = None
+
+    def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
+        blocks, contacts, cache = self.blocks, self.contacts, self.cache
+        coefficients = (kn, ks, offset_n, offset_t)
+        with self.timer("assembly"):
+            if self.assembled is None or not np.array_equal(np.stack([kn, ks]), self.assembled[2]):
+                active = (kn > 0.0) | (ks > 0.0)  # contacts that add to K
+                self.pattern = cache.pattern_for(
+                    blocks.fixed, contacts.block_a, contacts.block_b, self.neighbours, active
+                )
+                self.k, springs = _stiffness(
+                    self.pattern,
+                    blocks,
+                    self.base_k,
+                    coefficients,
+                    self.rows,
+                    self.law,
+                    self.assembled,
+                )
+                self.assembled = (self.pattern, self.k, springs)
+                self.keyed = _keyed_springs(contacts, springs)
+            f = _forces(self.base_f, contacts, self.rows, coefficients)
+        d = _solve(
+            cache,
+            self.pattern,
+            self.k,
+            f,
+            blocks,
+            self.timer,
+            self.keyed,
+            self.updates,
+            self.assembled[2],
+        )
+        k = self.k
+        if cache.solver.factored is k and (self.updates is None or self.updates.factored is not k):
+            self.updates = StepUpdates(
+                k,
+                self.assembled[2],
+                self.pattern,
+                self.rows,
+                contacts.block_a,
+                contacts.block_b,
+                cache.solver.solve_many,
+            )
+        return d
+
+    def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
+        """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
+        none = np.zeros(len(normal))
+        zero = np.zeros_like(self.base_f)
+        return -_forces(zero, self.contacts, self.rows, (none, none, normal, shear))
+
+
+def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
+    """Friction bounds of the step's first solve, from the larger of each contact's
+    normal force at the end of the last step and at this step's start geometry
+    (a contact of blocks that turn together may open by the second-order rotation
+    of one step and close again in the next: its last force is the better guess);
+    a contact found this step (no force known yet) starts stuck (``UNBOUNDED``)."""
+    if not law.friction:
+        return np.zeros(len(contacts))
+    start = contact_law.contact_terms(contacts, joints, law, np.zeros(len(contacts)))
+    normal = np.maximum(start.normal_force(rows.penetration), contacts.normal_force)
+    bound = contact_law.friction_bound(contacts, joints, normal)
+    return np.where(contacts.fresh, UNBOUNDED, bound)
+
+
+def _remembered_pieces(contacts: ContactSet, terms, g: np.ndarray, s: np.ndarray):
+    """Pieces for the step's first Newton iteration: the states the contacts ended the
+    last step in (a contact closed then is taken closed, one sliding then is taken
+    sliding the same way), else the pieces at the start point."""
+    normal, shear = terms.pieces(g, s)
+    normal = np.where(contacts.state != OPEN, NORMAL_ELASTIC, normal).astype(np.int8)
+    sliding = np.where(contacts.slide_direction < 0.0, SLIP_BACK, SLIP_FORWARD)
+    shear = np.where(contacts.state == SLIDING, sliding, shear)
+    shear = np.where(contacts.state == LOCKED, STICK, shear).astype(np.int8)
+    return normal, shear
+
+
+def _constant_velocity(blocks: BlockSet, ctx: StepContext) -> np.ndarray:
+    """D = v0 Δt: the step if nothing changed the blocks' motion (fixed blocks: 0)."""
+    return np.where(blocks.fixed[:, None], 0.0, blocks.velocity * ctx.dt)
+
+
 def solve_step(
     model: Model,
     blocks: BlockSet,
@@ -323,7 +356,15 @@ def solve_step(
     ctx: StepContext,
     timer: StageTimer,
 ) -> StepSolution:
-    """Iterate solves and contact-law updates until the contacts settle."""
+    """Minimise the step's incremental potential (:mod:`dda.newton`).
+
+    Outer loop: Newton on the potential with the contact data frozen, then the
+    law's update (:func:`dda.contact.law.update`: AL multipliers and variable
+    penalty, friction bounds from the new normal forces, broken bonds), until
+    that changes nothing beyond its tolerances. Every linear solve counts
+    against ``[contact] max_iterations``; a step that does not settle within
+    them is not converged (the caller cuts Δt).
+    """
     cache = linear_cache(model)
     factorisations_before = cache.solver.factorisations
     with timer("assembly"):
@@ -342,59 +383,52 @@ def solve_step(
     with timer("contact_law"):
         rows = contact_rows(blocks, contacts)
         joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
+        bounds = BoundIteration(_first_bounds(contacts, rows, joints, law))
 
     def neighbours():
         return pattern_neighbours(blocks, contacts, cm)
 
-    pattern = None
-    k = springs = assembled = updates = None
-    previous_pen = None
-    work = (0.0, 0.0)
-    iterations = 0
-    converged = False
+    system = _PieceSystem(cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer)
+    quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed)
+    geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
+    budget = model.scene.contact.max_iterations
     d = np.zeros((blocks.count, 6))
-    flips = StateFlips(len(contacts))
-    for _ in range(model.scene.contact.max_iterations):
-        with timer("assembly"):
-            coefficients = contact_law.contact_coefficients(contacts, rows, law)  # K and F
-            if k is None:
-                closed_now = contacts.state != OPEN  # open contacts add nothing to K
-                pattern = cache.pattern_for(
-                    blocks.fixed, contacts.block_a, contacts.block_b, neighbours, closed_now
-                )
-                k, springs = _stiffness(pattern, blocks, base_k, coefficients, rows, law, assembled)
-                assembled = (pattern, k, springs)
-                springs = _keyed_springs(contacts, springs)
-            f = _forces(base_f, contacts, rows, coefficients)
-        d = _solve(cache, pattern, k, f, blocks, timer, springs, updates, assembled[2])
-        iterations += 1
-        if cache.solver.factored is k and (updates is None or updates.factored is not k):
-            updates = StepUpdates(
-                k,
-                assembled[2],
-                pattern,
-                rows,
-                contacts.block_a,
-                contacts.block_b,
-                cache.solver.solve_many,
-            )
+    solves, converged, previous_g = 0, False, None
+    while solves < budget:
+        terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
+        guess = None
+        if solves == 0:
+            if not ctx.static:
+                d = better_start(quadratic, geometry, terms, [d, _constant_velocity(blocks, ctx)])
+            guess = _remembered_pieces(contacts, terms, *geometry.at(d))
+        inner = min(budget - solves, INNER_SOLVES) if law.friction else budget - solves
+        newton = minimise(
+            quadratic, geometry, terms, system, system.contact_vector, d, inner, guess
+        )
+        solves += newton.solves
+        d = newton.d
         if not np.all(np.isfinite(d)):
             cache.solver.reset()
             break
+        if not newton.converged:
+            if solves >= budget:
+                break
+            with timer("contact_law"):  # the bounds follow the normal forces as they come
+                normal = terms.normal_force(geometry.at(d)[0])
+                bounds.advance(contact_law.friction_bound(contacts, joints, normal))
+            continue
         with timer("contact_law"):
-            pen, slip = gaps_after(rows, contacts.block_a, contacts.block_b, d)
-            before = contacts.state.copy()
-            moved = slip - rows.slip  # shear motion this step
-            held = flips.held(pen, moved, law.tolerance)
-            work = friction_work(contacts, held[1], moved)
-            outcome = contact_law.update(contacts, rows, pen, slip, previous_pen, joints, law, held)
-            flips.count(before, contacts.state)
-        previous_pen = pen
+            g, s = geometry.at(d)
+            outcome = contact_law.update(contacts, terms, g, s, previous_g, joints, law)
         if outcome.settled:
             converged = True
             break
-        if outcome.stiffness_changed:
-            k = None
+        bounds.advance(outcome.bound)
+        previous_g = g
+    with timer("contact_law"):
+        g, s = geometry.at(d)
+        dissipated = contact_law.friction_dissipation(terms, s)
+        contact_law.record(contacts, terms, g, s)
     closed = contacts.state != OPEN
     max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
     made = cache.solver.factorisations - factorisations_before
@@ -404,6 +438,4 @@ def solve_step(
         if overlap.any():
             masses = model.inertia.masses(blocks)
             pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
-    return StepSolution(
-        d, contacts, iterations, made, converged, max_pen, flips.held_count(), pushed, work
-    )
+    return StepSolution(d, contacts, solves, made, converged, max_pen, pushed, dissipated)

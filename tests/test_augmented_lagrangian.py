@@ -4,17 +4,12 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 import dda
-import dda.contact.law as law_module
 from dda.bench.scenes import wall_scene
-from dda.contact.law import JointProperties, update
-from dda.result import LOCKED, OPEN
-from tests.test_contact_law import law_for, random_contacts
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 G = 32.174  # ft/s²
@@ -95,48 +90,6 @@ def test_warm_started_multipliers_settle_in_one_solve():
     raw["loads"][0]["force"] = [0.0, -1000.0]
     result = dda.simulate(raw)
     assert np.all(result.history["iterations"][-10:] == 1)
-
-
-@pytest.mark.parametrize("compiled", [True, False])
-def test_multipliers_are_augmented_only_beyond_the_tolerance(monkeypatch, compiled):
-    """λn ← λn + p d (eq. 7) only where |d| > tol: a contact that kept its closed state
-    with |d| ≤ tol keeps its λn, a locked one with |s| ≤ tol its λt (dda.contact.law);
-    contacts held closed keep the law's bounded multiplier."""
-    if not compiled:
-        monkeypatch.setattr(law_module, "_decide_kernel", None)
-    contacts, rows, d, s, joint, held, band = random_contacts(7)
-    law = law_for(band)
-    old = contacts.copy()
-    update(contacts, rows, d, s, None, joint, law, held)
-    stayed = (contacts.state == old.state) & (old.state != OPEN) & ~held[0]
-    within = stayed & (np.abs(d) <= law.tolerance)
-    beyond = stayed & (np.abs(d) > law.tolerance)
-    assert within.sum() > 100 and beyond.sum() > 100
-    np.testing.assert_array_equal(contacts.normal_multiplier[within], old.normal_multiplier[within])
-    augmented = old.normal_multiplier + old.penalty * d
-    np.testing.assert_allclose(
-        contacts.normal_multiplier[beyond], augmented[beyond], rtol=1e-12, atol=0.0
-    )
-    locked = (old.state == LOCKED) & (contacts.state == LOCKED)
-    assert np.count_nonzero(locked & (np.abs(s) <= law.tolerance)) > 50
-    keeps = locked & (np.abs(s) <= law.tolerance)
-    np.testing.assert_array_equal(contacts.shear_multiplier[keeps], old.shear_multiplier[keeps])
-    moves = locked & (np.abs(s) > law.tolerance)
-    trial = old.shear_multiplier + law.shear_ratio * old.penalty * s
-    np.testing.assert_allclose(contacts.shear_multiplier[moves], trial[moves], rtol=1e-12)
-
-    calm = old.subset(np.arange(3))
-    calm.state[:] = LOCKED
-    calm.penalty[:] = 1e5
-    calm.normal_multiplier[:] = 1.0
-    calm.shear_multiplier[:] = 0.0
-    calm.intact[:] = True
-    pressed = np.array([0.5e-9, 2e-9, 3e-9])  # the first within the tolerance
-    strong = JointProperties(np.full(3, 0.58), np.zeros(3), np.zeros(3))
-    outcome = update(calm, SimpleNamespace(slip=np.zeros(3)), pressed, pressed, None, strong, law)
-    assert outcome.state_changes == 0
-    np.testing.assert_allclose(calm.normal_multiplier, [1.0, 1.0 + 2e-4, 1.0 + 3e-4], rtol=1e-15)
-    np.testing.assert_allclose(calm.shear_multiplier, [0.0, 0.8e-4, 1.2e-4], rtol=1e-15)
 
 
 def test_a_soft_al_stack_never_gains_energy():

@@ -53,37 +53,12 @@ def test_bench_command_registers():
     assert args.sizes == [2] and args.method == "penalty" and args.func is cli.run_command
 
 
-def test_state_band_experiment_is_undone_after_the_run():
-    from dda import model as engine_model
-
-    kept = engine_model.STATE_BAND
-    m = measure(2, "penalty", steps=2, warm_up=False, state_band=1e-9)
-    assert m.status == "finished" and engine_model.STATE_BAND == kept
-
-
 def test_stage_table_runs_on_a_tiny_wall():
     from dda.bench.stages import stage_rows
 
     rows = stage_rows(2)
     names = [name for name, _ in rows]
     assert "assemble K, scatter kernel" in names and all(t >= 0 for _, t in rows)
-
-
-def test_a_wider_state_band_from_the_scene_costs_fewer_solves():
-    """``[contact] state_band``: on the 10 x 10 wall, 1e-7 of the model size instead of
-    1e-9 takes 3.0 solves per step instead of 5.6 (measured, docs/benchmarks.md); the
-    top row settles the same to 0.5 % (-1.0447e-3 and -1.0466e-3 m after 50 steps)."""
-    runs = {}
-    for band in (None, 1e-7):
-        raw = wall_scene(10, 10, "penalty")
-        raw["analysis"]["steps"] = 50
-        if band is not None:
-            raw["contact"]["state_band"] = band
-        runs[band] = dda.simulate(dda.load_scene(raw))
-    default, wide = runs[None], runs[1e-7]
-    assert wide.summary["iterations_per_step"] < 0.75 * default.summary["iterations_per_step"]
-    settle = [r.final.displacements[-10:, 1].mean() for r in (default, wide)]
-    assert settle[1] == pytest.approx(settle[0], rel=5e-3)
 
 
 def test_machine_line_names_the_solver_threads_and_mkl_reproducibility(monkeypatch):

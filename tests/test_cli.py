@@ -160,21 +160,17 @@ def test_run_writes_all_outputs(case, capsys):
     assert (out / "history.csv").read_text().count("\n") == 1 + 3 * 2
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "finished" and summary["steps"] == 6
-    assert summary["held_friction_work"] == 0.0  # one block at rest: no contact held
     assert summary["friction_dissipation"] == 0.0
     assert (out / "final.png").stat().st_size > 1000
     assert "Block on a base" in capsys.readouterr().out
 
 
-def test_the_run_paragraph_tells_the_work_of_held_friction_only_when_there_is_some():
+def test_the_run_paragraph_tells_the_friction_dissipation_only_when_there_is_some():
     base = {"title": "t", "steps": 2, "time": 0.2, "wall_seconds": 1.0, "iterations": 9}
-    quiet = cli.summary_paragraph({**base, "held_friction_work": 0.0}, Path("out"))
-    pushed = {**base, "held_friction_work": 7.87e5, "friction_dissipation": 7.61e6}
-    assert "held" not in quiet
-    assert (
-        "held sliding pushed the blocks with 7.87e+05 of work (10 % of the 7.61e+06 "
-        "friction dissipated)." in cli.summary_paragraph(pushed, Path("out"))
-    )
+    quiet = cli.summary_paragraph({**base, "friction_dissipation": 0.0}, Path("out"))
+    sliding = {**base, "friction_dissipation": 7.61e6}
+    assert "Friction" not in quiet
+    assert "Friction dissipated 7.61e+06." in cli.summary_paragraph(sliding, Path("out"))
 
 
 # ------------------------------------------------------------------ dda render

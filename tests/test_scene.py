@@ -269,8 +269,7 @@ BAD = [
     (("contact", "penalty"), 0.0, "contact.penalty"),
     (("contact", "tolerance"), -1.0, "contact.tolerance"),
     (("contact", "max_iterations"), 0, "contact.max_iterations"),
-    (("contact", "state_band"), 0.0, "contact.state_band"),
-    (("contact", "state_band"), 1.0, "contact.state_band"),
+    (("contact", "state_band"), 1e-9, "contact.state_band"),  # retired key
     (("contact", "max_iterations"), 1.5, "contact.max_iterations"),
     (("contact", "shear_ratio"), 0.0, "contact.shear_ratio"),
     # materials

@@ -7,7 +7,6 @@ import math
 
 import pytest
 
-from dda.model import STATE_BAND
 from dda.tradeoff.cases import fine_setting, get_case
 from dda.tradeoff.cli import register
 from dda.tradeoff.grid import Setting, expand, parse_grid
@@ -29,27 +28,16 @@ def test_grid_spec_fills_defaults_and_expands_without_duplicates():
     assert {s.method for s in settings} == {"augmented-lagrangian", "penalty"}
 
 
-def test_the_state_band_is_an_optional_grid_key_that_reaches_the_scene():
-    grid = parse_grid("state_band=1e-9,1e-6", get_case("sliding_block").grid)
-    bands = sorted({s.state_band for s in expand(grid)})
-    assert bands == [1e-9, 1e-6]
-    case = get_case("sliding_block")
-    wide = next(s for s in expand(grid) if s.state_band == 1e-6)
-    assert case.scene(wide)["contact"]["state_band"] == 1e-6
-    assert "band=1e-06" in wide.label
-    assert parse_grid("", case.grid)["state_band"] == [STATE_BAND]
-
-
-def test_the_wall_case_sweeps_the_state_band_against_a_fine_run():
+def test_the_wall_case_sweeps_the_tolerance_against_a_fine_run():
     case = get_case("wall")
     assert case.reference is None and not case.per_model_size
-    assert len(case.grid["state_band"]) > 1
-    assert fine_setting(case.grid).state_band == min(case.grid["state_band"])
+    assert len(case.grid["tolerance"]) > 1
+    assert fine_setting(case.grid).tolerance == min(case.grid["tolerance"]) / 10
     assert len(case.raw["blocks"]) == 101
 
 
 @pytest.mark.parametrize(
-    "spec", ["speed=1", "method=fast", "time_step=-1", "ratio=x", "penalty=", "state_band=1"]
+    "spec", ["speed=1", "method=fast", "time_step=-1", "ratio=x", "penalty=", "state_band=1e-9"]
 )
 def test_bad_grid_specs_are_refused(spec):
     with pytest.raises(ValueError):

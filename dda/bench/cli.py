@@ -39,14 +39,6 @@ def register(subparsers: Any) -> None:
         help="contact method (default: both)",
     )
     parser.add_argument("--steps", type=int, default=100, help="time steps (default: 100)")
-    parser.add_argument(
-        "--state-band",
-        type=float,
-        default=None,
-        metavar="FRACTION",
-        help="experiment: the evidence a contact needs to change state, as a fraction of "
-        "the model size (replaces dda.model.STATE_BAND in the benchmark processes)",
-    )
     parser.set_defaults(func=run_command)
 
 
@@ -58,17 +50,16 @@ def run_command(args: argparse.Namespace) -> int:
         for method in methods:
             log.info("wall %dx%d, %s, %d steps", size, size, method, args.steps)
             try:
-                m = measure_in_subprocess(size, method, args.steps, state_band=args.state_band)
+                m = measure_in_subprocess(size, method, args.steps)
             except RuntimeError as exc:
                 log.error("%dx%d %s: %s", size, size, method, exc)
                 return 1
             results.append(m)
             print(table([m]).splitlines()[-1] if len(results) > 1 else table([m]), flush=True)
     print(f"\nmachine: {machine_line()}")
-    extra = "" if args.state_band is None else f" --state-band {args.state_band:g}"
     print(
         f"command: dda bench --sizes {' '.join(map(str, args.sizes))} "
-        f"--method {args.method} --steps {args.steps}{extra}"
+        f"--method {args.method} --steps {args.steps}"
     )
     return 0 if all(m.status == "finished" for m in results) else 3
 

@@ -68,7 +68,6 @@ def measure(
     steps: int = 100,
     rows: int | None = None,
     warm_up: bool = True,
-    state_band: float | None = None,
 ) -> Measurement:
     """Run the wall scene in this process and time it.
 
@@ -79,19 +78,9 @@ def measure(
     steps : time steps
     warm_up : run a 2 x 2 wall for 3 steps first (imports, compiled kernels) and
         load the PARDISO library when it is used
-    state_band : experiment: replace ``dda.model.STATE_BAND`` (the evidence, as a
-        fraction of the model size, a contact needs to change state) in this process
     """
     rows = columns if rows is None else rows
-    from dda import model as engine_model
-
-    kept = engine_model.STATE_BAND
-    if state_band is not None:
-        engine_model.STATE_BAND = float(state_band)
-    try:
-        return _measure(columns, rows, method, steps, warm_up)
-    finally:
-        engine_model.STATE_BAND = kept
+    return _measure(columns, rows, method, steps, warm_up)
 
 
 def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) -> Measurement:
@@ -144,13 +133,10 @@ def measure_in_subprocess(
     method: str = "penalty",
     steps: int = 100,
     rows: int | None = None,
-    state_band: float | None = None,
 ) -> Measurement:
     """:func:`measure` in a fresh Python process (its own peak memory)."""
     rows = columns if rows is None else rows
     cmd = [sys.executable, "-m", "dda.bench.run", str(columns), str(rows), method, str(steps)]
-    if state_band is not None:
-        cmd += ["--state-band", repr(float(state_band))]
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"benchmark process failed ({done.returncode}): {done.stderr[-2000:]}")
@@ -165,9 +151,8 @@ def _main(argv: list[str] | None = None) -> int:
     parser.add_argument("rows", type=int)
     parser.add_argument("method")
     parser.add_argument("steps", type=int)
-    parser.add_argument("--state-band", type=float, default=None)
     args = parser.parse_args(argv)
-    m = measure(args.columns, args.method, args.steps, args.rows, state_band=args.state_band)
+    m = measure(args.columns, args.method, args.steps, args.rows)
     sys.stdout.write(json.dumps(asdict(m)) + "\n")
     return 0
 

@@ -29,7 +29,6 @@ import dda.assembly as assembly
 import dda.contact.broad as broad
 import dda.contact.narrow as narrow
 from dda.bench.scenes import wall_scene
-from dda.contact import law as contact_law
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.rows import contact_rows
@@ -109,6 +108,12 @@ def _search_rows(model, blocks) -> list[tuple[str, float]]:
     return out
 
 
+def _all_stuck(contacts: ContactSet, law) -> tuple[np.ndarray, ...]:
+    """(kn, ks, normal offsets, shear offsets) with every contact closed and stuck."""
+    none = np.zeros(len(contacts))
+    return contacts.penalty, law.shear_ratio * contacts.penalty, none, none
+
+
 def stage_rows(columns: int) -> list[tuple[str, float]]:
     """(what, milliseconds) for every stage and implementation on a columns x columns wall."""
     model = build(dda.load_scene(wall_scene(columns, steps=2)))
@@ -119,7 +124,7 @@ def stage_rows(columns: int) -> list[tuple[str, float]]:
     base_k, base_f = _effect_terms(model, blocks, ctx)
     crows = contact_rows(blocks, contacts)
     law = model.contact.law
-    coefficients = contact_law.contact_coefficients(contacts, crows, law)
+    coefficients = _all_stuck(contacts, law)
     pattern = assembly.BlockPattern(
         blocks.fixed, contacts.block_a, contacts.block_b, block_ordering
     )

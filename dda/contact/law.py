@@ -1,17 +1,27 @@
-"""Contact laws: open-close with Coulomb friction, penalty or augmented Lagrangian.
+"""The contact law between Newton solves: multipliers, friction bounds, broken bonds.
 
-Per closed contact the energy is λn d + p d²/2 (paper eq. 8) in the normal
-direction and, while locked, λt s + ps s²/2 in the shear direction
-(ps = shear_ratio · p). The pure penalty method is the same with λ ≡ 0.
-A sliding contact instead carries a friction force λt = ±(μ N + c l) as a
-pair of point loads. Contributions (eqs. 16-21):
+Each Newton solve minimises the step's potential with the contact data
+frozen (:mod:`dda.contact.potential`). Between solves (the outer loop of
+:func:`dda.step.solve_step`) this module updates that data from the solution:
 
-    K_ii += p EᵀE, K_ij += p EᵀG, K_ji += p GᵀE, K_jj += p GᵀG
-    F_i  -= (λ + p S0/l) Eᵀ,  F_j -= (λ + p S0/l) Gᵀ
+* **augmented Lagrangian** (paper §3): a contact on its elastic normal piece
+  whose |g| exceeds the tolerance is augmented, λn ← max(λn + p g, −T)
+  (eq. 7); a stuck contact whose shear motion |s| exceeds it likewise,
+  λt ← λt + ps s. A contact within the tolerance keeps its multipliers. An
+  open contact's λn is reset to 0 (which does not move the solution: its force
+  is 0 either way). Where the penetration did not shrink below
+  ``shrink_target`` of its previous value, p ← growth · p (the variable
+  penalty; never above ``max_penalty``).
+* **Coulomb friction**: the bound of the next solve is b = tan φ ⟨N⟩₊ + c l
+  from this solve's normal force N (Tresca within a solve, Coulomb across
+  solves); another solve is needed while that changes some contact's shear
+  force by more than ``friction_tolerance`` of the largest bound.
+* **bonds**: an intact contact (cohesion and tensile strength still there)
+  that reached its tensile strength or slipped loses both for good.
 
-After each solve, d = S0/l + E D_i + G D_j and s likewise; the law updates
-states and multipliers (λ_{k+1} = λ_k + p d, eq. 7) and, in AL mode, raises
-the penalty of contacts whose penetration does not shrink fast enough.
+The pure penalty method is the same with λn ≡ 0. λt is, for both methods,
+the shear force the contact carries from one step to the next (its elastic
+shear spring force); each step measures s from the step start.
 """
 
 from __future__ import annotations
@@ -21,9 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from dda.contact.contact_set import ContactSet
-from dda.contact.rows import ContactRows
-from dda.jit import kernel
+from dda.contact.potential import NORMAL_ELASTIC, STICK, ContactTerms
 from dda.result import LOCKED, OPEN, SLIDING
+
+UNBOUNDED = 1e300  # the friction bound of a contact whose normal force is not known yet
 
 
 @dataclass(frozen=True)
@@ -31,29 +42,15 @@ class ContactLaw:
     """Settings of the contact law.
 
     augmented : augmented Lagrangian (True) or pure penalty (False)
-    tolerance : AL convergence: largest |d| (closed) and |s| (locked) accepted
+    tolerance : AL convergence: largest |g| of a closed contact and |s| of a stuck one
     shear_ratio : ps / p
-    friction : False when no joint has friction or cohesion (every closed
-        contact then slides freely and no shear spring is built)
-    penalty_growth : factor applied to a contact's penalty when its
-        penetration did not shrink below ``shrink_target`` of its previous value
+    friction : False when no joint has friction or cohesion (no shear term is built)
+    penalty_growth : factor applied to a contact's penalty when its penetration
+        did not shrink below ``shrink_target`` of its previous value
     max_penalty : the penalty is never raised above this
-    state_band : the evidence a contact state change needs, as a length
-        (``[contact] state_band``, default ``dda.model.STATE_BAND``, of the
-        model size): an open contact closes
-        when d > band, a closed one opens when its normal force is tensile
-        beyond T·l + k·band, a locked one slips when its shear force exceeds
-        the Coulomb bound by ks·band, a sliding one sticks when it moved back
-        by more than band since the step start (not since its shear reference
-        point: a contact that slipped during this step still has the
-        reference of its locked state). k = min(p, band_stiffness) and
-        ks = shear_ratio·k: the force band does not grow with a huge penalty
-        (which would let a contact hold tension). Without a band, contacts
-        that touch with next to no force (at rest, or the side joints of a
-        wall under gravity) flip state on motions of 1e-10 of the model
-        forever, each flip costing a solve.
-    band_stiffness : the largest spring constant of the force band (the
-        stiffest material's Young's modulus)
+    friction_tolerance : the friction bounds are consistent with the normal forces
+        when no shear force would change by more than this fraction of the largest
+        bound (a relative residual of the friction forces)
     """
 
     augmented: bool
@@ -63,8 +60,7 @@ class ContactLaw:
     penalty_growth: float = 10.0
     shrink_target: float = 0.25
     max_penalty: float = np.inf
-    state_band: float = 0.0
-    band_stiffness: float = np.inf
+    friction_tolerance: float = 1e-3
 
 
 @dataclass
@@ -78,351 +74,185 @@ class JointProperties:
 
 @dataclass
 class LawOutcome:
-    """What one law update decided."""
+    """What one update between Newton solves decided."""
 
-    settled: bool  # nothing changed and every tolerance met
-    stiffness_changed: bool  # states or penalties changed: K must be rebuilt
-    state_changes: int
-    max_violation: float
+    settled: bool  # multipliers, bounds and bonds consistent: the step is solved
+    bound: np.ndarray  # the friction bounds the solution's normal forces give
+    augmented: int  # contacts whose multipliers moved
+    broken: int  # bonds lost
+    max_violation: float  # largest |g| (closed) or |s| (stuck) beyond which AL augments
 
 
-def contact_coefficients(contacts: ContactSet, rows: ContactRows, law: ContactLaw):
-    """Per-contact stiffness (normal, shear) and force coefficients (normal, shear).
+def friction_bound(contacts: ContactSet, joint: JointProperties, normal: np.ndarray):
+    """b = tan φ ⟨N⟩₊ + c l (cohesion only while the contact is intact)."""
+    cohesion = np.where(contacts.intact, joint.cohesion, 0.0)
+    return joint.friction * np.maximum(normal, 0.0) + cohesion
 
-    The generalised force is F -= coef·(row); the stiffness is k·rowᵀrow.
+
+def contact_terms(
+    contacts: ContactSet, joint: JointProperties, law: ContactLaw, bound: np.ndarray
+) -> ContactTerms:
+    """The frozen data of one Newton solve, with the friction bounds ``bound``.
+
+    λn is kept at or above −T and λt within ±b (a bound that fell since the last
+    solve clamps the carried shear force: that is slip, it dissipates).
     """
-    closed = contacts.state != OPEN
-    locked = contacts.state == LOCKED
-    p = np.where(closed, contacts.penalty, 0.0)
-    ps = np.where(locked, law.shear_ratio * contacts.penalty, 0.0)
-    lam_n = contacts.normal_multiplier if law.augmented else 0.0
-    normal_force = np.where(closed, lam_n + p * rows.penetration, 0.0)
-    lam_t_locked = contacts.shear_multiplier if law.augmented else 0.0
-    shear_force = np.where(
-        locked,
-        lam_t_locked + ps * rows.slip,
-        np.where(contacts.state == SLIDING, contacts.shear_multiplier, 0.0),
+    tension = np.where(contacts.intact, joint.tensile, 0.0)
+    lam_n = contacts.normal_multiplier if law.augmented else np.zeros(len(contacts))
+    if law.friction:
+        shear_penalty = law.shear_ratio * contacts.penalty
+    else:
+        bound = shear_penalty = np.zeros(len(contacts))
+    return ContactTerms(
+        normal_base=np.maximum(lam_n, -tension),
+        penalty=contacts.penalty,
+        tension=tension,
+        shear_base=np.clip(contacts.shear_multiplier, -bound, bound),
+        shear_penalty=shear_penalty,
+        bound=bound,
     )
-    return p, ps, normal_force, shear_force
+
+
+class BoundIteration:
+    """The friction bounds of the successive Newton solves of one step.
+
+    The bound of each solve comes from the normal forces of the last one,
+    b_target = G(b) = tan φ ⟨N⟩₊ + c l. Taken as it is, b ← G(b), the
+    iteration converges slowly where contacts' friction bears on each other's
+    normal forces (in a jointed rock mass, by a few per cent a solve, swinging).
+    Anderson acceleration mixes the last ``DEPTH`` iterates: with the residuals
+    r_k = G(b_k) − b_k,
+
+        b ← G(b_k) − Σ_j γ_j (G(b_{k−j+1}) − G(b_{k−j})),
+        γ = argmin ‖r_k − Σ_j γ_j (r_{k−j+1} − r_{k−j})‖,
+
+    which converges in a few steps where G is close to linear, clipped at
+    b ≥ 0. Any b ≥ 0 gives a convex potential, so this changes how fast the
+    bounds settle, not whether a solve can create energy.
+    """
+
+    DEPTH = 4
+
+    def __init__(self, bound: np.ndarray) -> None:
+        self.bound = bound
+        self._history: list[tuple[np.ndarray, np.ndarray]] = []  # (G(b), r) per solve
+
+    def advance(self, target: np.ndarray) -> None:
+        """Move the bounds on, given ``target`` = G(current bounds)."""
+        if np.any(self.bound >= 0.5 * UNBOUNDED):  # a first guess, not an iterate
+            self._history, self.bound = [], target
+            return
+        self._history = [*self._history[-self.DEPTH :], (target, target - self.bound)]
+        if len(self._history) < 2:
+            self.bound = target
+            return
+        values = np.array([v for v, _ in self._history])
+        residuals = np.array([r for _, r in self._history])
+        d_values, d_residuals = np.diff(values, axis=0), np.diff(residuals, axis=0)
+        gamma = np.linalg.lstsq(d_residuals.T, residuals[-1], rcond=None)[0]
+        self.bound = np.maximum(target - gamma @ d_values, 0.0)
 
 
 def update(
     contacts: ContactSet,
-    rows: ContactRows,
-    d: np.ndarray,
+    terms: ContactTerms,
+    g: np.ndarray,
     s: np.ndarray,
-    previous_d: np.ndarray | None,
+    previous_g: np.ndarray | None,
     joint: JointProperties,
     law: ContactLaw,
-    held: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> LawOutcome:
-    """Apply the law after a solve; edits ``contacts`` in place.
+    """Update multipliers, penalties and bonds after a converged Newton solve (in place).
 
-    ``d`` and ``s`` are the normal penetration and the shear position of each
-    contact after the solve; ``previous_d`` those of the previous iteration.
-    ``held`` = (keep_closed, keep_sliding) masks: contacts that keep
-    flipping open/closed (sliding/locked) within one step are held closed
-    (sliding), which ends a cycle of state changes among contacts whose
-    flips move next to nothing. Held closed, a contact is a spring whose AL
-    multiplier stays within the joint's tensile strength (one that was open
-    is closed at its gap, a spring stretched by p·d from the start: energy
-    that appears from nothing, docs/contact.md "What holding closed costs in
-    energy"): the augmentation λ ← λ + p d would otherwise pile up tension
-    in it, solve after solve and, warm-started, step after step; held
-    sliding, it carries the Coulomb force, which is right for a contact at
-    the friction limit (one that moves back pushes the blocks: the
-    summary's held_friction_work).
-
-    A sliding contact that moves back sticks, unless it carries next to no
-    friction (capacity within the force band): then it only turns its
-    friction round, which changes F but not K.
-
-    Augmented Lagrangian: eq. 7 is applied only while the gap is beyond the
-    tolerance (the paper iterates "until |d| ≤ tolerance"). A contact that kept
-    its closed state (locked or sliding) with |d| ≤ tolerance keeps its λn, and
-    one that stayed locked with |s| ≤ tolerance keeps its λt; the contact force
-    is λ + p d either way. A contact that changed state gets what the law gives
-    it (0 when it opens or closes; augmented between locked and sliding: keeping
-    λn there too took the paper's pushed block from 1.1e-3 to 2.6e-3 off
-    Newton's acceleration); a contact held closed gets its bounded multiplier.
-    Augmenting within the tolerance is an integral controller across steps: a
-    step that ends after one solve leaves λ ← λ + p d while d is still there at
-    the next step's start, so the force grows by p d per step. Against an
-    oscillation d = D sin ωt that force lags by 90°, and its power on the
-    blocks, (p D²/Δt) cos² ωt, is never negative: negative damping. A stack of
-    five blocks with p = 0.1 E (tolerance 1e-4 of the model size, Δt = 1e-3 s)
-    gained 2.4e3 J in 0.2 s and its blocks jumped; now it never gains energy.
-    Within the tolerance a contact is a spring with a fixed preload λ, which
-    stores energy and cannot create any. It also ended a failure of the AL
-    walls of ``dda bench`` from 30x30 up: every solve moved each contact's λn,
-    and with it the friction capacity tan φ·λn, by p·d (a few N on blocks of
-    25.5 N, |d| ~1e-7 m against a tolerance of 3.4e-3 m) while the open–close
-    iteration searched for the states.
+    ``g``, ``s``: penetration and shear motion of each contact at the solution;
+    ``previous_g``: the penetrations of the previous solve of this step (None for
+    the first). Returns whether another solve is needed.
     """
-    if held is None:
-        nothing = np.zeros(len(contacts), bool)
-        held = (nothing, nothing)
-    if _decide_kernel is not None:
-        changes, violation = _decide_compiled(contacts, rows, d, s, joint, law, held)
-    else:
-        changes = _decide(contacts, rows, d, s, joint, law, held)
-        violation = _violation(d, s, contacts.state, law)
-    now_closed = contacts.state != OPEN
-    penalty_raised = False
-    if law.augmented and changes == 0:
-        penalty_raised = _raise_penalties(contacts, d, previous_d, now_closed, law)
-    settled = changes == 0 and (not law.augmented or violation <= law.tolerance)
-    return LawOutcome(
-        settled=settled,
-        stiffness_changed=changes > 0 or penalty_raised,
-        state_changes=changes,
-        max_violation=violation,
-    )
-
-
-def _decide(contacts, rows, d, s, joint, law, held) -> int:
-    """numpy: new states, directions, multipliers and forces (edits ``contacts``); the
-    number of state changes. ``held``: (keep closed, keep sliding) masks."""
-    state = contacts.state
-    closed = state != OPEN
-    p = contacts.penalty
-    lam_n = contacts.normal_multiplier if law.augmented else np.zeros_like(p)
-    normal = lam_n + p * d  # trial normal force (compression > 0)
-    tensile = np.where(contacts.intact, joint.tensile, 0.0)
-    cohesion = np.where(contacts.intact, joint.cohesion, 0.0)
-
-    eps = law.state_band
-    moved = s - rows.slip  # shear motion since the step start
-    band_force = np.minimum(p, law.band_stiffness) * eps
-    keep_closed, keep_sliding = held
-    opens = closed & ~keep_closed & (normal < -tensile - band_force)
-    closes = ~closed & ((d > eps) | keep_closed)
-    new_state = state.copy()
-    new_state[opens] = OPEN
-    new_state[closes] = LOCKED
-
-    shear_capacity = np.maximum(joint.friction * normal, 0.0) + cohesion
-    lam_t = contacts.shear_multiplier if law.augmented else np.zeros_like(p)
-    trial_shear = lam_t + law.shear_ratio * p * s
-    still_closed = closed & ~opens
+    normal = terms.normal_force(g)
+    settled = True
+    bound = friction_bound(contacts, joint, normal) if law.friction else terms.bound
     if law.friction:
-        shear_noise = law.shear_ratio * band_force
-        slips = (
-            still_closed
-            & (state == LOCKED)
-            & ((np.abs(trial_shear) > shear_capacity + shear_noise) | keep_sliding)
-        )
-        moved_back = still_closed & (state == SLIDING) & (contacts.slide_direction * moved < -eps)
-        weightless = shear_capacity <= shear_noise
-        sticks = moved_back & ~weightless & ~keep_sliding
-        reverses = moved_back & weightless
-        new_state[slips] = SLIDING
-        new_state[sticks] = LOCKED
-        contacts.slide_direction[slips] = np.sign(trial_shear[slips])
-        contacts.slide_direction[reverses] = np.sign(moved[reverses])
-    else:
-        slips = still_closed & (state == LOCKED)
-        sticks = np.zeros_like(slips)
-        new_state[slips] = SLIDING
-        contacts.slide_direction[still_closed] = np.sign(s[still_closed])
-    contacts.intact &= ~(opens | slips)
-
-    now_closed = new_state != OPEN
-    now_sliding = new_state == SLIDING
-    now_locked = new_state == LOCKED
-    normal = np.where(now_closed, normal, 0.0)
-    friction_force = contacts.slide_direction * (
-        np.maximum(joint.friction * normal, 0.0) + np.where(contacts.intact, cohesion, 0.0)
-    )
-    friction_force = np.where(law.friction, friction_force, 0.0)
+        changed = np.abs(np.clip(terms.shear_trial(s), -bound, bound) - terms.shear_force(s))
+        settled = not np.any(changed > law.friction_tolerance * bound.max(initial=0.0))
+    augmented, violation = 0, 0.0
     if law.augmented:
-        # held closed, a contact cannot open: its multiplier stops at the joint's
-        # tensile strength instead of accumulating tension (THEORY.md section 5)
-        bounded = np.where(keep_closed, np.maximum(normal, -tensile), normal)
-        kept = (new_state == state) & closed & ~keep_closed & (np.abs(d) <= law.tolerance)
-        contacts.normal_multiplier = np.where(
-            now_closed & ~closes, np.where(kept, lam_n, bounded), 0.0
-        )
-    shear_out = np.where(now_sliding, friction_force, np.where(now_locked, trial_shear, 0.0))
-    stayed_locked = now_locked & (state == LOCKED) & (np.abs(s) <= law.tolerance)
-    locked_multiplier = np.where(stayed_locked, lam_t, trial_shear)
-    contacts.shear_multiplier = np.where(
-        now_sliding, friction_force, np.where(now_locked & law.augmented, locked_multiplier, 0.0)
-    )
-    contacts.shear_multiplier[sticks] = np.where(law.augmented, friction_force[sticks], 0.0)
-
+        augmented, violation = _augment(contacts, terms, g, s, previous_g, law)
+        settled &= augmented == 0
+    broken = 0
+    if settled:  # bonds are judged on consistent forces only: a break is for good
+        broken = _break_bonds(contacts, terms, joint, *terms.pieces(g, s))
+        settled = broken == 0
     contacts.normal_force = normal
-    contacts.shear_force = shear_out
-    contacts.penetration = d
-    contacts.slip = s
-
-    changes = int(np.count_nonzero(new_state != state))
-    contacts.state = new_state
-    return changes
+    return LawOutcome(bool(settled), bound, augmented, broken, violation)
 
 
-def _decide_compiled(contacts, rows, d, s, joint, law, held) -> tuple[int, float]:
-    """:func:`_decide` and :func:`_violation` in one compiled pass (the same numbers)."""
-    m = len(contacts)
-    new_state = np.empty(m, contacts.state.dtype)
-    normal, shear, lam_n, lam_t = (np.empty(m) for _ in range(4))
-    changes, violation = _decide_kernel(
-        contacts.state,
-        contacts.penalty,
-        np.ascontiguousarray(d, dtype=np.float64),
-        np.ascontiguousarray(s, dtype=np.float64),
-        rows.slip,
-        contacts.normal_multiplier,
-        contacts.shear_multiplier,
-        contacts.slide_direction,
-        contacts.intact,
-        (joint.friction, joint.cohesion, joint.tensile),
-        held,
-        (law.augmented, law.friction),
-        (law.shear_ratio, law.state_band, law.band_stiffness, law.tolerance),
-        (new_state, normal, shear, lam_n, lam_t),
+def _break_bonds(contacts, terms, joint, normal_piece, shear_piece) -> int:
+    """Intact contacts (with a tensile strength or cohesion) pulled to their tensile
+    strength, or slipping, lose both for good."""
+    bonded = contacts.intact & ((terms.tension > 0.0) | (joint.cohesion > 0.0))
+    at_tension = (normal_piece != NORMAL_ELASTIC) & (terms.tension > 0.0)
+    slipping = (shear_piece != STICK) & (terms.shear_penalty > 0.0)
+    lost = bonded & (at_tension | slipping)
+    contacts.intact &= ~lost
+    return int(np.count_nonzero(lost))
+
+
+def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
+    """Eq. 7 beyond the tolerance, and the variable penalty; returns (count, violation)."""
+    tolerance = law.tolerance
+    trial_n = terms.normal_trial(g)
+    elastic = trial_n >= -terms.tension
+    far = elastic & (np.abs(g) > tolerance)
+    stuck = (np.abs(terms.shear_trial(s)) < terms.bound) & (terms.shear_penalty > 0.0)
+    slid = stuck & (np.abs(s) > tolerance)
+    contacts.normal_multiplier = np.where(
+        elastic, np.where(far, np.maximum(trial_n, -terms.tension), terms.normal_base), 0.0
     )
-    if law.augmented:
-        contacts.normal_multiplier = lam_n
-    contacts.shear_multiplier = lam_t
+    contacts.shear_multiplier = np.where(slid, terms.shear_trial(s), contacts.shear_multiplier)
+    if previous_g is not None:
+        slow = far & (np.abs(g) > law.shrink_target * np.abs(previous_g))
+        slow &= contacts.penalty < law.max_penalty
+        contacts.penalty = np.where(
+            slow,
+            np.minimum(contacts.penalty * law.penalty_growth, law.max_penalty),
+            contacts.penalty,
+        )
+    violation = max(
+        float(np.max(np.abs(g[elastic]), initial=0.0)), float(np.max(np.abs(s[stuck]), initial=0.0))
+    )
+    return int(np.count_nonzero(far | slid)), violation
+
+
+def record(contacts: ContactSet, terms: ContactTerms, g: np.ndarray, s: np.ndarray) -> None:
+    """Write the step's solution into the contact set (in place).
+
+    States: open where the normal force is at its limit 0, else sliding where
+    the shear force is at the friction bound (or there is no shear term), else
+    locked. λt becomes the shear force carried into the next step.
+    """
+    normal_piece, shear_piece = terms.pieces(g, s)
+    closed = (normal_piece == NORMAL_ELASTIC) | (terms.tension > 0.0)
+    normal = np.where(closed, terms.normal_force(g), 0.0)
+    shear = np.where(closed, terms.shear_force(s), 0.0)
+    stuck = (shear_piece == STICK) & (terms.shear_penalty > 0.0)
+    contacts.state = np.where(closed, np.where(stuck, LOCKED, SLIDING), OPEN).astype(np.int8)
+    sliding = contacts.state == SLIDING
+    contacts.slide_direction = np.where(sliding, np.sign(terms.shear_trial(s)), 0.0)
     contacts.normal_force = normal
     contacts.shear_force = shear
-    contacts.penetration = d
+    contacts.shear_multiplier = shear
+    contacts.penetration = g
     contacts.slip = s
-    contacts.state = new_state
-    return int(changes), float(violation)
 
 
-def _decide_each(
-    state,
-    penalty,
-    d,
-    s,
-    start_slip,
-    lam_n_in,
-    lam_t_in,
-    direction,
-    intact,
-    joint,
-    held,
-    switches,
-    settings,
-    out,
-):
-    """Compiled :func:`_decide` contact by contact, with the same floating-point
-    operations in the same order; ``direction`` and ``intact`` are edited in place."""
-    friction, cohesion, tensile = joint
-    keep_closed, keep_sliding = held
-    augmented, with_friction = switches
-    shear_ratio, band, band_stiffness, tolerance = settings
-    new_state, normal_out, shear_out, lam_n_out, lam_t_out = out
-    changes = 0
-    violation = 0.0
-    for c in range(state.shape[0]):
-        was = state[c]
-        closed = was != OPEN
-        p = penalty[c]
-        normal = (lam_n_in[c] if augmented else 0.0) + p * d[c]
-        cohesion_c = cohesion[c] if intact[c] else 0.0
-        tensile_c = tensile[c] if intact[c] else 0.0
-        band_force = min(p, band_stiffness) * band
-        opens = closed and not keep_closed[c] and normal < -tensile_c - band_force
-        closes = not closed and (d[c] > band or keep_closed[c])
-        now = OPEN if opens else (LOCKED if closes else was)
-        capacity = max(friction[c] * normal, 0.0) + cohesion_c
-        trial = (lam_t_in[c] if augmented else 0.0) + shear_ratio * p * s[c]
-        still_closed = closed and not opens
-        sticks = False
-        if with_friction:
-            noise = shear_ratio * band_force
-            slips = (
-                still_closed
-                and was == LOCKED
-                and (abs(trial) > capacity + noise or keep_sliding[c])
-            )
-            moved = s[c] - start_slip[c]
-            moved_back = still_closed and was == SLIDING and direction[c] * moved < -band
-            weightless = capacity <= noise
-            sticks = moved_back and not weightless and not keep_sliding[c]
-            if slips:
-                now = SLIDING
-                direction[c] = np.sign(trial)
-            if sticks:
-                now = LOCKED
-            if moved_back and weightless:
-                direction[c] = np.sign(moved)
-        else:
-            slips = still_closed and was == LOCKED
-            if slips:
-                now = SLIDING
-            if still_closed:
-                direction[c] = np.sign(s[c])
-        if opens or slips:
-            intact[c] = False
-        now_closed = now != OPEN
-        normal = normal if now_closed else 0.0
-        friction_force = 0.0
-        if with_friction:
-            held_cohesion = cohesion_c if intact[c] else 0.0
-            friction_force = direction[c] * (max(friction[c] * normal, 0.0) + held_cohesion)
-        if augmented:
-            bounded = max(normal, -tensile_c) if keep_closed[c] else normal
-            if closed and now == was and not keep_closed[c] and abs(d[c]) <= tolerance:
-                bounded = lam_n_in[c]  # within the tolerance: not augmented
-            lam_n_out[c] = bounded if now_closed and not closes else 0.0
-        if now == SLIDING:
-            shear_out[c] = friction_force
-            lam_t_out[c] = friction_force
-        elif now == LOCKED:
-            shear_out[c] = trial
-            kept = was == LOCKED and abs(s[c]) <= tolerance
-            lam_t_out[c] = (lam_t_in[c] if kept else trial) if augmented else 0.0
-        else:
-            shear_out[c] = 0.0
-            lam_t_out[c] = 0.0
-        if sticks:
-            lam_t_out[c] = friction_force if augmented else 0.0
-        normal_out[c] = normal
-        new_state[c] = now
-        changes += now != was
-        if now_closed:
-            violation = max(violation, abs(d[c]))
-        if with_friction and now == LOCKED:
-            violation = max(violation, abs(s[c]))
-    return changes, violation
+def friction_dissipation(terms: ContactTerms, s: np.ndarray) -> float:
+    """Work of the friction forces against the slips of the step: Σ b ⟨|λt + ps s| − b⟩₊ / ps.
 
-
-_decide_kernel = kernel(_decide_each)
-
-
-def _violation(d: np.ndarray, s: np.ndarray, state: np.ndarray, law: ContactLaw) -> float:
-    """Largest |d| over closed contacts and |s| over locked ones."""
-    closed = state != OPEN
-    parts = [np.abs(d[closed])]
-    if law.friction:
-        parts.append(np.abs(s[state == LOCKED]))
-    values = np.concatenate(parts)
-    return float(values.max()) if len(values) else 0.0
-
-
-def _raise_penalties(contacts, d, previous_d, closed, law) -> bool:
-    """Variable penalty: p ← growth·p where |d| > tol and |d| > target·|d_prev|.
-
-    Each augmentation shrinks the penetration by about k/(k+p) (k: the
-    contact's stiffness without the spring); when that ratio is poor, a
-    larger p is worth one re-factorisation.
+    The plastic part of a contact's shear motion is the trial force's excess
+    over the bound divided by ps; friction does b times that.
     """
-    if previous_d is None:
-        return False
-    slow = (
-        closed
-        & (np.abs(d) > law.tolerance)
-        & (np.abs(d) > law.shrink_target * np.abs(previous_d))
-        & (contacts.penalty < law.max_penalty)
-    )
-    if not slow.any():
-        return False
-    contacts.penalty[slow] = np.minimum(
-        contacts.penalty[slow] * law.penalty_growth, law.max_penalty
-    )
-    return True
+    ps = terms.shear_penalty
+    excess = np.maximum(np.abs(terms.shear_trial(s)) - terms.bound, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        work = np.where(ps > 0.0, terms.bound * excess / ps, 0.0)
+    return float(np.sum(work))

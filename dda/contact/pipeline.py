@@ -11,7 +11,6 @@ from dda.contact.contact_set import ContactSet, contact_keys, merge, rows_in
 from dda.contact.narrow import OUTSIDE_FRACTION, detect
 from dda.contact.point_distance import block_polygons, point_distances
 from dda.contact.rows import edge_geometry
-from dda.result import SLIDING
 
 
 def refresh_contacts(
@@ -24,10 +23,12 @@ def refresh_contacts(
     vertex paired with the far side of a block. Persisting contacts may be
     deeper (a soft penalty lets blocks sink). Pairings that only an edge's
     extended line makes look like contacts are dropped (see
-    ``_geometrically_sound`` and ``_blocks_touch``). Sliding contacts get their
-    shear reference point moved under the vertex: their slip is measured from
-    the step start. ``kept_pairs``: the run's broad-phase list, kept between
-    steps (the same pairs as a new search, found faster).
+    ``_geometrically_sound`` and ``_blocks_touch``). Every contact's shear
+    reference point is moved under its vertex: shear motion is measured from
+    the step start, and the shear force carried from the last step is the
+    contact's ``shear_multiplier`` (:mod:`dda.contact.law`). ``kept_pairs``: the
+    run's broad-phase list, kept between steps (the same pairs as a new search,
+    found faster).
     """
     if kept_pairs is None:
         pairs = candidate_pairs(blocks, settings.search_distance)
@@ -70,8 +71,7 @@ def refresh_contacts(
         keys=keys[plausible],
         previous_rows=previous_rows[plausible],
     )
-    sliding = contacts.state == SLIDING
-    contacts.reference[sliding] = parameter[sliding]
+    contacts.reference = parameter  # shear motion is measured from the step start
     contacts.penetration = penetration
     return contacts
 

@@ -31,7 +31,7 @@ def register(subparsers: Any) -> None:
         default="",
         metavar="SPEC",
         help="e.g. 'method=al,penalty;penalty=1,10;tolerance=1e-4;time_step=0.01;"
-        "ratio=0.01;state_band=1e-9,1e-7' (keys not given keep the case's defaults)",
+        "ratio=0.01' (keys not given keep the case's defaults)",
     )
     p.add_argument("-o", "--outdir", type=Path, default=Path("out/tradeoff"))
     p.add_argument(
@@ -76,7 +76,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
 def _progress(done: int, total: int, row: dict) -> None:
     print(
         f"[{done}/{total}] {row['method']:<22} p={row['penalty']:<6g} "
-        f"dt={row['time_step']:<7g} band={row['state_band']:<6g} "
+        f"dt={row['time_step']:<7g} "
         f"{row['seconds']:6.2f} s {row['status']}",
         file=sys.stderr,
         flush=True,

@@ -7,10 +7,7 @@ A grid is written ``key=v1,v2;key=v1,...`` with the keys
 * ``tolerance``: AL tolerance as a fraction of the model size (ignored by the
   penalty method, which runs once per other combination);
 * ``time_step``: the maximum time step, in the case's time unit;
-* ``ratio``: the maximum displacement ratio g2;
-* ``state_band``: the evidence a contact state change needs, as a fraction
-  of the model size (``[contact] state_band``; optional, default
-  ``dda.model.STATE_BAND``).
+* ``ratio``: the maximum displacement ratio g2.
 
 Every combination is one run (a Cartesian product).
 """
@@ -20,15 +17,12 @@ from __future__ import annotations
 import itertools
 from dataclasses import asdict, dataclass
 
-from dda.model import STATE_BAND
-
 ALIASES = {
     "al": "augmented-lagrangian",
     "augmented-lagrangian": "augmented-lagrangian",
     "penalty": "penalty",
 }
-KEYS = ("method", "penalty", "tolerance", "time_step", "ratio", "state_band")
-OPTIONAL = {"state_band": [STATE_BAND]}
+KEYS = ("method", "penalty", "tolerance", "time_step", "ratio")
 
 
 @dataclass(frozen=True)
@@ -40,7 +34,6 @@ class Setting:
     tolerance: float
     time_step: float
     ratio: float
-    state_band: float = STATE_BAND
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -48,10 +41,7 @@ class Setting:
     @property
     def label(self) -> str:
         tol = f" tol={self.tolerance:g}" if self.method != "penalty" else ""
-        band = f" band={self.state_band:g}" if self.state_band != STATE_BAND else ""
-        return (
-            f"{self.method} p={self.penalty:g}E{tol} dt={self.time_step:g} g2={self.ratio:g}{band}"
-        )
+        return f"{self.method} p={self.penalty:g}E{tol} dt={self.time_step:g} g2={self.ratio:g}"
 
 
 def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, list]:
@@ -62,7 +52,7 @@ def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, 
     ValueError
         For an unknown key, method or a value that is not a positive number.
     """
-    values = {k: list(v) for k, v in {**OPTIONAL, **(defaults or {})}.items()}
+    values = {k: list(v) for k, v in (defaults or {}).items()}
     for part in filter(None, (p.strip() for p in text.split(";"))):
         key, _, items = part.partition("=")
         key = key.strip()
@@ -74,8 +64,6 @@ def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, 
         values[key] = (
             [_method(w) for w in words] if key == "method" else [_positive(w, key) for w in words]
         )
-    if any(band >= 1.0 for band in values["state_band"]):
-        raise ValueError("grid key 'state_band' is a fraction of the model size: below 1")
     missing = [k for k in KEYS if k not in values]
     if missing:
         raise ValueError(f"grid lacks {', '.join(missing)}")
@@ -101,10 +89,10 @@ def _positive(word: str, key: str) -> float:
 def expand(grid: dict[str, list]) -> list[Setting]:
     """Every combination, once; the penalty method ignores the tolerance."""
     seen, out = set(), []
-    for method, p, tol, dt, ratio, band in itertools.product(*(grid[k] for k in KEYS)):
+    for method, p, tol, dt, ratio in itertools.product(*(grid[k] for k in KEYS)):
         if method == "penalty":
             tol = grid["tolerance"][0]
-        setting = Setting(method, float(p), float(tol), float(dt), float(ratio), float(band))
+        setting = Setting(method, float(p), float(tol), float(dt), float(ratio))
         if setting not in seen:
             seen.add(setting)
             out.append(setting)

@@ -15,7 +15,6 @@ COLUMNS = (
     "tolerance",
     "time_step",
     "ratio",
-    "state_band",
     "status",
     "steps",
     "seconds",
@@ -50,16 +49,15 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
     lines = [
         f"Quantity: {quantity}." if quantity else "",
         "",
-        "| method | penalty (×E) | tolerance (×size) | Δt | g2 | state band (×size) "
-        "| error | seconds | steps |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| method | penalty (×E) | tolerance (×size) | Δt | g2 | error | seconds | steps |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for method, front in fronts_by_method(rows).items():
         for r in front:
             tol = "–" if method == "penalty" else f"{r['tolerance']:g}"
             lines.append(
                 f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
-                f"| {r['ratio']:g} | {r['state_band']:g} "
+                f"| {r['ratio']:g} "
                 f"| {r['error']:.2e} | {r['seconds']:.2f} "
                 f"| {r['steps']} |"
             )

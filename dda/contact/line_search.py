@@ -1,0 +1,97 @@
+"""Exact line search on the step's potential along a Newton direction.
+
+Along D(α) = D + α ΔD the potential is π(α) = Π(D + α ΔD): the quadratic
+part of the blocks plus the contact terms of :mod:`dda.contact.potential`.
+Its derivative
+
+    π'(α) = a + c α + Σ N_k(g_k + α δg_k) δg_k + Σ F_k(s_k + α δs_k) δs_k
+
+(a = ΔDᵀ(K₀ D − F₀), c = ΔDᵀ K₀ ΔD > 0, δg = ∇g·ΔD, δs = ∇s·ΔD) is
+continuous, non-decreasing and piecewise linear: its slope changes by
+± p δg² (± ps δs²) where a contact's force reaches or leaves the tension it
+holds (the friction bound). The minimiser is the root of π': sort those
+breakpoints, follow π' from one to the next, and solve the linear piece where
+it changes sign. O(m log m) for m contacts, with no solve of K.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.contact.potential import ContactTerms
+
+
+def _normal_breaks(terms: ContactTerms, g, dg):
+    """(α, slope change) where λn + p g crosses −T along the line (α > 0 only)."""
+    p = terms.penalty
+    with np.errstate(divide="ignore", invalid="ignore"):
+        alpha = (-terms.tension - terms.normal_trial(g)) / (p * dg)
+    jump = np.sign(dg) * p * dg * dg  # entering the elastic piece when g grows
+    keep = (dg != 0.0) & (alpha > 0.0) & np.isfinite(alpha)
+    return alpha[keep], jump[keep]
+
+
+def _shear_breaks(terms: ContactTerms, s, ds):
+    """(α, slope change) where λt + ps s crosses ±b along the line (α > 0 only)."""
+    ps, b = terms.shear_penalty, terms.bound
+    live = (ps > 0.0) & (b > 0.0) & (ds != 0.0)
+    trial, ps, b, ds = terms.shear_trial(s)[live], ps[live], b[live], ds[live]
+    k = ps * ds * ds
+    with np.errstate(over="ignore"):  # a bound not known yet (dda.contact.law.UNBOUNDED)
+        alpha_up = (b - trial) / (ps * ds)  # reaches +b: leaves the stuck piece when ds > 0
+        alpha_down = (-b - trial) / (ps * ds)  # reaches -b: leaves it when ds < 0
+    alpha = np.concatenate([alpha_up, alpha_down])
+    jump = np.concatenate([-np.sign(ds) * k, np.sign(ds) * k])
+    keep = (alpha > 0.0) & np.isfinite(alpha)
+    return alpha[keep], jump[keep]
+
+
+def _slope_at_start(terms: ContactTerms, g, dg, s, ds) -> float:
+    """Σ of the contact springs active just after α = 0 (weighted by δ²)."""
+    trial_n = terms.normal_trial(g)
+    elastic = (trial_n > -terms.tension) | ((trial_n == -terms.tension) & (dg > 0.0))
+    slope = float(np.sum(np.where(elastic, terms.penalty * dg * dg, 0.0)))
+    trial_t, b = terms.shear_trial(s), terms.bound
+    inside = (np.abs(trial_t) < b) | ((trial_t == b) & (ds < 0.0)) | ((trial_t == -b) & (ds > 0.0))
+    stuck = inside & (terms.shear_penalty > 0.0) & (b > 0.0)
+    return slope + float(np.sum(np.where(stuck, terms.shear_penalty * ds * ds, 0.0)))
+
+
+def line_minimum(
+    terms: ContactTerms,
+    gradient: float,
+    curvature: float,
+    g: np.ndarray,
+    dg: np.ndarray,
+    s: np.ndarray,
+    ds: np.ndarray,
+) -> tuple[float, bool]:
+    """The α ≥ 0 that minimises π(α), and whether any contact changes piece before it.
+
+    Parameters
+    ----------
+    terms : the contacts' frozen potential data
+    gradient, curvature : a and c of the blocks' quadratic part (module docstring)
+    g, dg, s, ds : (m,) penetration and shear motion at α = 0, and their rates along ΔD
+    """
+    slope0 = gradient + float(np.dot(terms.normal_force(g), dg) + np.dot(terms.shear_force(s), ds))
+    if not slope0 < 0.0:
+        return 0.0, False  # no descent along ΔD (already at the minimum)
+    alpha_n, jump_n = _normal_breaks(terms, g, dg)
+    alpha_t, jump_t = _shear_breaks(terms, s, ds)
+    alphas = np.concatenate([alpha_n, alpha_t])
+    jumps = np.concatenate([jump_n, jump_t])
+    order = np.argsort(alphas, kind="stable")
+    alphas, jumps = alphas[order], jumps[order]
+    slope = curvature + _slope_at_start(terms, g, dg, s, ds)
+    # slopes of π' on [0, α1], [α1, α2], ... and π' at each breakpoint
+    slopes = slope + np.concatenate([[0.0], np.cumsum(jumps)])
+    starts = np.concatenate([[0.0], alphas])
+    rises = slopes[:-1] * np.diff(starts)
+    values = slope0 + np.concatenate([[0.0], np.cumsum(rises)])  # π'(starts)
+    crossing = np.flatnonzero(values[1:] >= 0.0)
+    k = int(crossing[0]) if len(crossing) else len(alphas)  # root on [starts[k], starts[k+1]]
+    if slopes[k] <= 0.0:  # flat piece with π' < 0: cannot happen with c > 0
+        return float(starts[min(k + 1, len(alphas))]), k > 0
+    alpha = float(starts[k] - values[k] / slopes[k])
+    return alpha, k > 0

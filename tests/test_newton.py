@@ -1,0 +1,110 @@
+"""Newton with an exact line search on a step's potential (dda.newton), on random
+problems solved densely: Π falls at every iteration, and the result is Π's minimiser
+(its gradient vanishes and no nearby point is lower)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dda.contact.potential import ContactTerms
+from dda.contact.rows import _empty_rows
+from dda.newton import BlockQuadratic, ContactGeometry, minimise, potential
+
+
+def problem(seed: int, blocks: int = 6, contacts: int = 40):
+    """Block-diagonal SPD K₀ (mass-like), loads, and contacts between random block pairs,
+    half of them touching or overlapping at D = 0, with friction and some tension."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(blocks, 6, 6))
+    stiffness = np.einsum("nij,nkj->nik", a, a) + 1e4 * np.eye(6)
+    forces = rng.normal(0, 300, (blocks, 6))
+    pair = np.array([rng.choice(blocks, 2, replace=False) for _ in range(contacts)])
+    rows = _empty_rows(contacts)
+    for name in ("normal_i", "normal_j", "shear_i", "shear_j"):
+        getattr(rows, name)[:] = rng.normal(size=(contacts, 6))
+    rows.penetration[:] = rng.normal(0, 2e-3, contacts)
+    rows.slip[:] = 0.0
+    penalty = np.full(contacts, 1e5)
+    tension = np.where(rng.random(contacts) < 0.2, 20.0, 0.0)
+    bound = rng.uniform(0, 80, contacts)
+    terms = ContactTerms(
+        normal_base=np.maximum(rng.normal(0, 20, contacts), -tension),
+        penalty=penalty,
+        tension=tension,
+        shear_base=np.clip(rng.normal(0, 30, contacts), -bound, bound),
+        shear_penalty=0.4 * penalty,
+        bound=bound,
+    )
+    quadratic = BlockQuadratic(stiffness, forces, np.ones(blocks, bool))
+    geometry = ContactGeometry(rows, pair[:, 0].copy(), pair[:, 1].copy())
+    return quadratic, geometry, terms
+
+
+def dense(quadratic, geometry):
+    """The piece solver and the contact force vector, with dense matrices."""
+    n = quadratic.forces.shape[0]
+    rows, a, b = geometry.rows, geometry.block_a, geometry.block_b
+
+    def spread(row_i, row_j):  # (m, 6n) gradients
+        out = np.zeros((len(a), 6 * n))
+        for c in range(len(a)):
+            out[c, 6 * a[c] : 6 * a[c] + 6] += row_i[c]
+            out[c, 6 * b[c] : 6 * b[c] + 6] += row_j[c]
+        return out
+
+    grad_n, grad_t = spread(rows.normal_i, rows.normal_j), spread(rows.shear_i, rows.shear_j)
+    k0 = np.zeros((6 * n, 6 * n))
+    for i in range(n):
+        k0[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = quadratic.stiffness[i]
+
+    def solve(kn, ks, offset_n, offset_t):
+        k = k0 + grad_n.T @ (kn[:, None] * grad_n) + grad_t.T @ (ks[:, None] * grad_t)
+        f = quadratic.forces.ravel() - grad_n.T @ offset_n - grad_t.T @ offset_t
+        return np.linalg.solve(k, f).reshape(n, 6)
+
+    def contact_vector(normal, shear):
+        return (grad_n.T @ normal + grad_t.T @ shear).reshape(n, 6)
+
+    return solve, contact_vector
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_potential_falls_at_every_iteration_to_its_minimum(seed):
+    quadratic, geometry, terms = problem(seed)
+    solve, contact_vector = dense(quadratic, geometry)
+    start = np.zeros_like(quadratic.forces)
+    iterates = [start]
+    result = minimise(quadratic, geometry, terms, solve, contact_vector, start, 50, None, iterates)
+    assert result.converged
+    values = [potential(quadratic, geometry, terms, d) for d in iterates]
+    assert all(b <= a + 1e-12 * abs(a) for a, b in zip(values, values[1:], strict=False))
+    g, s = geometry.at(result.d)
+    gradient = (
+        quadratic.product(result.d)
+        - quadratic.forces
+        + contact_vector(terms.normal_force(g), terms.shear_force(s))
+    )
+    assert np.linalg.norm(gradient) <= 1e-6 * np.linalg.norm(quadratic.forces)
+    rng = np.random.default_rng(seed + 100)
+    best = values[-1]
+    for _ in range(50):  # convex: the minimiser is lower than any point around it
+        nearby = result.d + rng.normal(0, 1e-4, result.d.shape)
+        assert potential(quadratic, geometry, terms, nearby) >= best - 1e-9 * abs(best)
+
+
+def test_any_first_pieces_lead_to_the_same_minimum():
+    """Wrong first guesses (every contact closed and stuck, or all open) cost iterations,
+    not the answer."""
+    quadratic, geometry, terms = problem(42)
+    solve, contact_vector = dense(quadratic, geometry)
+    start = np.zeros_like(quadratic.forces)
+    m = len(terms.penalty)
+    answers = []
+    for normal, shear in ((1, 0), (0, 1)):
+        guess = (np.full(m, normal, np.int8), np.full(m, shear, np.int8))
+        answers.append(
+            minimise(quadratic, geometry, terms, solve, contact_vector, start, 50, guess)
+        )
+    assert all(r.converged for r in answers)
+    np.testing.assert_allclose(answers[0].d, answers[1].d, rtol=1e-6, atol=1e-12)
