@@ -96,6 +96,7 @@ def test_a_run_with_the_compiled_law_equals_one_with_numpy(monkeypatch):
     raw["analysis"].pop("duration", None)
     raw["analysis"]["steps"] = 10
     scene = dda.load_scene(raw)
+    monkeypatch.setattr("dda.jit.MIN_WORK", 0)  # the kernels, however short the run
     fast = dda.simulate(scene)
     monkeypatch.setattr(law_module, "_decide_kernel", None)
     slow = dda.simulate(scene)

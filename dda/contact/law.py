@@ -22,7 +22,7 @@ import numpy as np
 
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import ContactRows
-from dda.jit import kernel
+from dda.jit import compiled, kernel
 from dda.result import LOCKED, OPEN, SLIDING
 
 
@@ -162,7 +162,7 @@ def update(
     if held is None:
         nothing = np.zeros(len(contacts), bool)
         held = (nothing, nothing)
-    if _decide_kernel is not None:
+    if compiled(_decide_kernel):
         changes, violation = _decide_compiled(contacts, rows, d, s, joint, law, held)
     else:
         changes = _decide(contacts, rows, d, s, joint, law, held)
