@@ -26,11 +26,10 @@ from pathlib import Path
 import numpy as np
 
 import dda
+import dda.cases
 from dda.bench.scenes import wall_scene
 from dda.model import STATE_BAND
 from dda.tradeoff.grid import Setting
-
-CASES_DIR = Path(__file__).resolve().parents[2] / "cases"
 
 
 @dataclass(frozen=True)
@@ -74,7 +73,7 @@ def relative_error(value: np.ndarray, reference: np.ndarray, scale: float | None
 
 
 def _load(name: str, **analysis) -> dict:
-    raw = tomllib.loads((CASES_DIR / f"{name}.toml").read_text())
+    raw = tomllib.loads(dda.cases.text(name))
     raw["analysis"].update(analysis)
     return raw
 
