@@ -8,9 +8,10 @@ import sys
 import tomllib
 from pathlib import Path
 
+from tomli_w import dumps
+
 from dda.errors import SceneError
 from dda.rockmass.expand import cut_rock_mass
-from dda.rockmass.toml_writer import dumps
 
 log = logging.getLogger(__name__)
 
