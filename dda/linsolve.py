@@ -173,14 +173,18 @@ _PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (loading MKL 
 
 
 def new_pardiso_handle():
-    """A PARDISO solver handle for symmetric positive definite matrices (defaults unset)."""
+    """A PARDISO solver handle for symmetric positive definite matrices (defaults unset).
+
+    The calling thread's MKL threads are set to :func:`solver_threads` each time
+    (MKL keeps the count per thread: a dask worker's task threads differ).
+    """
     global _PARDISO_PROTOTYPE
     if _PARDISO_PROTOTYPE is None:
         import pypardiso
 
         _point_pypardiso_at_mkl()
         _PARDISO_PROTOTYPE = pypardiso.PyPardisoSolver(mtype=2)  # real SPD
-        _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
+    _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
     handle = copy.copy(_PARDISO_PROTOTYPE)  # shares the library, not the solver state
     handle.pt = np.zeros_like(_PARDISO_PROTOTYPE.pt)
     handle.iparm = np.zeros_like(_PARDISO_PROTOTYPE.iparm)

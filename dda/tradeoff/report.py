@@ -19,6 +19,10 @@ COLUMNS = (
     "status",
     "steps",
     "seconds",
+    "repeats",
+    "seconds_all",
+    "threads",
+    "host",
     "error",
     "max_penetration",
     "value",
@@ -51,8 +55,8 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
         f"Quantity: {quantity}." if quantity else "",
         "",
         "| method | penalty (×E) | tolerance (×size) | Δt | g2 | state band (×size) "
-        "| error | seconds | steps |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| error | seconds (median) | steps | host |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for method, front in fronts_by_method(rows).items():
         for r in front:
@@ -61,7 +65,7 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
                 f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
                 f"| {r['ratio']:g} | {r['state_band']:g} "
                 f"| {r['error']:.2e} | {r['seconds']:.2f} "
-                f"| {r['steps']} |"
+                f"| {r['steps']} | {r.get('host', '')} |"
             )
     failed = sum(r["status"] != "finished" for r in rows)
     lines.append("")
@@ -96,7 +100,7 @@ def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("wall time of the run (s)")
+    ax.set_xlabel("wall time of a run, median of its repeats (s)")
     ax.set_ylabel("relative error")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
