@@ -270,9 +270,11 @@ def render_command(args: argparse.Namespace) -> int:
 
     frame = read_frame(found.blocks, found.contacts, time=found.time, step=found.step)
     output = args.output or found.default_png(args.scalars)
+    run = found.summary()  # the run's title and units, when its summary.json is there
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
-        window_size=tuple(args.size),
+        window_size=tuple(args.size), scene_title=run.get("title") or "",
+        units=run.get("units"),
     )  # fmt: skip
     logger.info("wrote %s", output)
     print(output)

@@ -82,6 +82,29 @@ class ContactSettings:
 
 
 @dataclass(frozen=True)
+class Units:
+    """``[units]``: names of the units the scene's numbers are in, for pictures and tables.
+
+    The engine needs only a consistent set; these names label axes and colour bars.
+    """
+
+    length: str = "m"
+    force: str = "N"
+    time: str = "s"
+
+    @property
+    def stress(self) -> str:
+        """Force per area: ``Pa`` for N and m, else ``force/length²``."""
+        if (self.force, self.length) == ("N", "m"):
+            return "Pa"
+        return f"{self.force}/{self.length}²"
+
+    @property
+    def velocity(self) -> str:
+        return f"{self.length}/{self.time}"
+
+
+@dataclass(frozen=True)
 class Material:
     """``[materials.NAME]``. Strength keys (all three) make it breakable."""
 
@@ -169,6 +192,7 @@ class Scene:
     source: str = "<dict>"
     # named sets of blocks (rock-mass scenes): group name -> block names
     groups: Mapping[str, tuple[str, ...]] = field(default_factory=_empty_mapping)
+    units: Units = field(default_factory=Units)
 
     @property
     def block_names(self) -> tuple[str, ...]:
@@ -251,7 +275,10 @@ _TOP_KEYS = (
     "interfaces",
     *_ROCK_MASS_KEYS,
     "groups",
+    "units",
 )
+
+_UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time": Checker.text}
 
 _ANALYSIS: dict[str, Spec] = {
     "mode": choice("dynamic", "static"),
@@ -291,6 +318,15 @@ _JOINT: dict[str, Spec] = {
     "cohesion": real(NON_NEGATIVE),
     "tensile_strength": real(NON_NEGATIVE),
 }
+
+
+def _units(chk: Checker, raw: Mapping[str, Any]) -> Units:
+    """``[units]``: unit names (non-empty text), SI by default."""
+    values = checked_fields(chk, raw.get("units", {}), "units", _UNITS)
+    for name, text in values.items():
+        if not text.strip():
+            chk.fail(join_key("units", name), "must not be empty")
+    return Units(**values)
 
 
 def _analysis(chk: Checker, raw: Mapping[str, Any]) -> Analysis:
@@ -702,6 +738,7 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
         fracture=_fracture(chk, raw, joints),
         source=source,
         groups=_groups(chk, raw, names),
+        units=_units(chk, raw),
     )
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene
