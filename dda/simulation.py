@@ -183,6 +183,7 @@ def run(
     scene: Scene,
     progress: bool | Callable[[float, dict], None] = False,
     on_frame: Callable[[Frame], None] | None = None,
+    keep_frames: bool = True,
 ) -> Result:
     """Run a scene to its end.
 
@@ -191,6 +192,8 @@ def run(
     scene : a validated Scene
     progress : True for a progress bar on stderr, or a callable(fraction, info)
     on_frame : called with every kept frame as the run proceeds (for writers)
+    keep_frames : False: ``Result.frames`` holds only the first and the latest
+        frame (long runs whose frames ``on_frame`` writes away)
     """
     start = wallclock.perf_counter()
     solver_threads()  # a bad DDA_THREADS stops the run before it starts
@@ -210,7 +213,10 @@ def run(
                 if state.step % model.save_every == 0 or last:
                     with state.timer("output"):
                         frame = make_frame(state.blocks, state.contacts, state.time, state.step)
-                        frames.append(frame)
+                        if keep_frames or len(frames) == 1:
+                            frames.append(frame)
+                        else:
+                            frames[-1] = frame
                         if on_frame:
                             on_frame(frame)
                 if report:
