@@ -9,7 +9,7 @@ assembly then only writes numbers into a preallocated CSR data array:
 no COO duplicates, no sorting, no ``np.add.at``.
 
 A contact term with spring constant k and gradient rows r_i, r_j (w.r.t.
-D_i, D_j) adds (THEORY.md section 4)::
+D_i, D_j) adds (docs/theory.md §4)::
 
     K_ii += k r_iᵀ r_i,  K_ij += k r_iᵀ r_j,  K_ji += k r_jᵀ r_i,  K_jj += k r_jᵀ r_j
 """

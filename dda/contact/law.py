@@ -237,7 +237,7 @@ def _decide(contacts, rows, d, s, joint, law, held) -> int:
     friction_force = np.where(law.friction, friction_force, 0.0)
     if law.augmented:
         # held closed, a contact cannot open: its multiplier stops at the joint's
-        # tensile strength instead of accumulating tension (THEORY.md section 5)
+        # tensile strength instead of accumulating tension (docs/theory.md §5)
         bounded = np.where(keep_closed, np.maximum(normal, -tensile), normal)
         kept = (new_state == state) & closed & ~keep_closed & (np.abs(d) <= law.tolerance)
         contacts.normal_multiplier = np.where(
