@@ -92,6 +92,8 @@ def picture(path: Path) -> None:
         ["augmented Lagrangian, 315 steps", "penalty, 90 steps"],
         path,
         scalars="syy",
+        scene_title="Paper Fig. 2: two blocks from an initial penalty of 1e4 lb/ft",
+        units={"length": "ft", "force": "lb", "time": "s"},
     )
 
 

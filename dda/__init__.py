@@ -5,9 +5,16 @@ dynamic analysis) with the augmented-Lagrangian contact and the
 Mohr-Coulomb block fracturing of Lin, Amadei, Sture & Jung (1994).
 """
 
+from importlib import metadata
+
 from dda.errors import SceneError, SimulationError
 from dda.result import Contacts, FractureEvent, Frame, Result
 from dda.scene import Scene, load_scene
+
+try:
+    __version__ = metadata.version("dda-rock")
+except metadata.PackageNotFoundError:  # a source tree that was never installed
+    __version__ = "0+unknown"
 
 
 def simulate(scene, progress: bool = False, **kwargs) -> Result:
@@ -27,6 +34,7 @@ __all__ = [
     "Scene",
     "SceneError",
     "SimulationError",
+    "__version__",
     "load_scene",
     "simulate",
 ]

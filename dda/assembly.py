@@ -9,7 +9,7 @@ assembly then only writes numbers into a preallocated CSR data array:
 no COO duplicates, no sorting, no ``np.add.at``.
 
 A contact term with spring constant k and gradient rows r_i, r_j (w.r.t.
-D_i, D_j) adds (THEORY.md section 4)::
+D_i, D_j) adds (docs/theory.md §4)::
 
     K_ii += k r_iᵀ r_i,  K_ij += k r_iᵀ r_j,  K_ji += k r_jᵀ r_i,  K_jj += k r_jᵀ r_j
 """
@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from dda.jit import kernel
+from dda.jit import compiled, kernel
 
 BLOCK = 6  # unknowns per block
 
@@ -124,7 +124,7 @@ class BlockPattern:
 
     def _slot_of(self, brow: np.ndarray, bcol: np.ndarray) -> np.ndarray:
         """Slot of block (brow, bcol) (both in matrix order), -1 where K has no such block."""
-        if _find_slots_kernel is not None:
+        if compiled(_find_slots_kernel):
             return _find_slots_kernel(
                 self.block_indptr,
                 np.asarray(self.block_cols, dtype=np.int64),
@@ -353,7 +353,7 @@ def _add_terms(pattern, data, terms, contacts) -> None:
     slots = [pattern.slot_ii, pattern.slot_jj, pattern.slot_ij, pattern.slot_ji]
     if contacts is not None:
         slots = [slot[contacts] for slot in slots]
-    if _scatter_kernel is not None:
+    if compiled(_scatter_kernel):
         _scatter_kernel(
             data,
             pattern.slot_base,
@@ -449,7 +449,7 @@ def add_forces(forces: np.ndarray, block: np.ndarray, row: np.ndarray, coef: np.
     best passed concatenated in one call (compiled: one pass; numpy: one
     ``bincount`` per column).
     """
-    if _subtract_kernel is not None and forces.flags.c_contiguous:
+    if compiled(_subtract_kernel) and forces.flags.c_contiguous:
         _subtract_kernel(
             forces,
             np.asarray(block, dtype=np.int64),
@@ -471,7 +471,7 @@ def add_force_terms(
     Compiled: one pass per kind, no copies; numpy: the kinds concatenated, one
     ``bincount`` per column.
     """
-    if _subtract_kernel is not None and forces.flags.c_contiguous:
+    if compiled(_subtract_kernel) and forces.flags.c_contiguous:
         for block, row, coef in terms:
             add_forces(forces, block, row, coef)
         return

@@ -69,6 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "-v", "--verbose", action="count", default=0, help="more log output (-v info, -vv debug)"
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {dda.__version__}")
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
     _add_run(subparsers)
     _add_render(subparsers)
@@ -263,9 +264,11 @@ def render_command(args: argparse.Namespace) -> int:
 
     frame = read_frame(found.blocks, found.contacts, time=found.time, step=found.step)
     output = args.output or found.default_png(args.scalars)
+    run = found.summary()  # the run's title and units, when its summary.json is there
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
-        window_size=tuple(args.size),
+        window_size=tuple(args.size), scene_title=run.get("title") or "",
+        units=run.get("units"),
     )  # fmt: skip
     logger.info("wrote %s", output)
     print(output)

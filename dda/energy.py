@@ -3,7 +3,7 @@
 Per step the engine records (``Result.history``)::
 
     kinetic   T = ½ Σ vᵢᵀ Mᵢ vᵢ                 (Shi's six velocity components,
-                                               Mᵢ = ρ ∫ Tᵢᵀ Tᵢ dA, THEORY.md §3)
+                                               Mᵢ = ρ ∫ Tᵢᵀ Tᵢ dA, docs/theory.md §3)
     potential V = Σ mᵢ g·(x_low − x_cᵢ)         (gravity; datum: the lowest vertex
                                                of the model at t = 0, so V ≥ 0 there)
     elastic   U = ½ Σ Sᵢ σᵢᵀ Eᵢ⁻¹ σᵢ

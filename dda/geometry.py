@@ -1,4 +1,4 @@
-"""Polygon integrals and checks on packed polygons (THEORY.md section 2).
+"""Polygon integrals and checks on packed polygons (docs/theory.md §2).
 
 Polygons are stored packed: ``vertices`` (NV, 2) with ``offsets`` (n+1,) so
 that block i owns rows ``offsets[i]:offsets[i+1]``. All functions are

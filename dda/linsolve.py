@@ -17,16 +17,18 @@ from __future__ import annotations
 import copy
 import ctypes
 import glob
+import importlib.util
 import logging
 import os
 import sys
-from collections.abc import Callable
-from contextlib import nullcontext
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
+from threadpoolctl import ThreadpoolController
 
 from dda.pardiso_call import PardisoCall
 
@@ -62,7 +64,7 @@ class Factorisation:
 
     SuperLU in symmetric mode without pivoting (K is symmetric positive
     definite), by default with the minimum-degree ordering on Aᵀ+A: about 200
-    times faster than SuperLU's defaults on DDA matrices (TOOLCHAIN.md). Pass
+    times faster than SuperLU's defaults on DDA matrices (docs/design.md). Pass
     ``permc_spec="NATURAL"`` for a matrix already in a fill-reducing order.
     """
 
@@ -171,14 +173,18 @@ _PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (loading MKL 
 
 
 def new_pardiso_handle():
-    """A PARDISO solver handle for symmetric positive definite matrices (defaults unset)."""
+    """A PARDISO solver handle for symmetric positive definite matrices (defaults unset).
+
+    The calling thread's MKL threads are set to :func:`solver_threads` each time
+    (MKL keeps the count per thread: a dask worker's task threads differ).
+    """
     global _PARDISO_PROTOTYPE
     if _PARDISO_PROTOTYPE is None:
         import pypardiso
 
         _point_pypardiso_at_mkl()
         _PARDISO_PROTOTYPE = pypardiso.PyPardisoSolver(mtype=2)  # real SPD
-        _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
+    _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
     handle = copy.copy(_PARDISO_PROTOTYPE)  # shares the library, not the solver state
     handle.pt = np.zeros_like(_PARDISO_PROTOTYPE.pt)
     handle.iparm = np.zeros_like(_PARDISO_PROTOTYPE.iparm)
@@ -208,6 +214,20 @@ def solver_threads() -> int:
     return int(text)
 
 
+@contextmanager
+def single_threaded_blas() -> Iterator[None]:
+    """Within the block numpy's and scipy's OpenBLAS use one thread; restored after.
+
+    The engine's BLAS calls are small (dot products of one K-sized vector,
+    16 x 16 capacitance matrices), but a vector of 60,000 numbers wakes
+    OpenBLAS's threads, which then spin on the cores PARDISO's threads solve
+    on (at 10,000 blocks a back-substitution took twice as long). MKL, which
+    PARDISO uses, keeps its own count (:func:`solver_threads`).
+    """
+    with ThreadpoolController().select(internal_api="openblas").limit(limits=1):
+        yield
+
+
 def _point_pypardiso_at_mkl() -> None:
     """Name the MKL library pip installs beside Python in ``PYPARDISO_MKL_RT``.
 
@@ -233,14 +253,14 @@ def _set_mkl_threads(library, threads: int) -> None:
 
 
 def pardiso_available() -> bool:
-    """True when ``pypardiso`` imports and ``DDA_SOLVER`` does not ask for SuperLU."""
+    """True when ``pypardiso`` is installed and ``DDA_SOLVER`` does not ask for SuperLU.
+
+    Nothing is imported: pypardiso (and MKL) load when a system of
+    ``PARDISO_MIN_SIZE`` rows is first factorised, so small runs never pay for them.
+    """
     if os.environ.get("DDA_SOLVER", "").lower() == "superlu":
         return False
-    try:
-        import pypardiso  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    return importlib.util.find_spec("pypardiso") is not None
 
 
 def block_ordering(nfree: int, pairs: np.ndarray) -> np.ndarray:

@@ -17,28 +17,39 @@ Validation runs in three layers:
 
 from __future__ import annotations
 
-import difflib
 import logging
-import math
-import numbers
-import reprlib
 import tomllib
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, NamedTuple, NoReturn
+from typing import Any, NamedTuple
 
 import numpy as np
 import shapely
 
+from dda.checks import (
+    ANGLE,
+    NON_NEGATIVE,
+    OPEN_UNIT,
+    POISSON,
+    POSITIVE,
+    Checker,
+    Point,
+    Spec,
+    checked_fields,
+    choice,
+    join_key,
+    real,
+    require,
+    table_list,
+    vector,
+)
 from dda.errors import SceneError
 from dda.geometry import next_vertex_index
 
 logger = logging.getLogger(__name__)
-
-Point = tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -67,6 +78,29 @@ class ContactSettings:
     tolerance: float | None = None  # AL: largest penetration; default 1e-4 x model size
     max_iterations: int = 50
     shear_ratio: float = 0.4  # shear penalty / normal penalty
+
+
+@dataclass(frozen=True)
+class Units:
+    """``[units]``: names of the units the scene's numbers are in, for pictures and tables.
+
+    The engine needs only a consistent set; these names label axes and colour bars.
+    """
+
+    length: str = "m"
+    force: str = "N"
+    time: str = "s"
+
+    @property
+    def stress(self) -> str:
+        """Force per area: ``Pa`` for N and m, else ``force/length²``."""
+        if (self.force, self.length) == ("N", "m"):
+            return "Pa"
+        return f"{self.force}/{self.length}²"
+
+    @property
+    def velocity(self) -> str:
+        return f"{self.length}/{self.time}"
 
 
 @dataclass(frozen=True)
@@ -157,6 +191,7 @@ class Scene:
     source: str = "<dict>"
     # named sets of blocks (rock-mass scenes): group name -> block names
     groups: Mapping[str, tuple[str, ...]] = field(default_factory=_empty_mapping)
+    units: Units = field(default_factory=Units)
 
     @property
     def block_names(self) -> tuple[str, ...]:
@@ -224,248 +259,6 @@ def _parse_toml(text: str, source: str) -> dict[str, Any]:
         raise SceneError(source, "<toml>", str(exc)) from None
 
 
-# --------------------------------------------------------------------------- values
-
-
-class _Interval(NamedTuple):
-    """A range of allowed real values, for checks and messages."""
-
-    low: float = -math.inf
-    high: float = math.inf
-    low_closed: bool = False
-    high_closed: bool = False
-
-    def holds(self, x: float) -> bool:
-        above = x >= self.low if self.low_closed else x > self.low
-        below = x <= self.high if self.high_closed else x < self.high
-        return above and below
-
-    def describe(self) -> str:
-        if self.high == math.inf:
-            return f"{'>=' if self.low_closed else '>'} {self.low:g}"
-        left = "[" if self.low_closed else "("
-        right = "]" if self.high_closed else ")"
-        return f"in {left}{self.low:g}, {self.high:g}{right}"
-
-
-_ANY = _Interval()
-# positions (block vertices, fixed points, load points) beyond this are refused: they
-# leave no precision for contacts, and squares of them overflow in the geometry checks
-MAX_COORDINATE = 1e15
-_POSITIVE = _Interval(0.0)
-_NON_NEGATIVE = _Interval(0.0, low_closed=True)
-_POISSON = _Interval(-1.0, 0.5)
-_ANGLE = _Interval(0.0, 90.0, low_closed=True)
-_OPEN_UNIT = _Interval(0.0, 1.0)
-
-_KINDS = {
-    bool: "a boolean",
-    np.bool_: "a boolean",
-    str: "a string",
-    Mapping: "a table",
-    list: "a list",
-    tuple: "a list",
-}
-
-
-def _kind(value: object) -> str:
-    """Plain-words type of a value for messages."""
-    for cls, words in _KINDS.items():
-        if isinstance(value, cls):
-            return words
-    if isinstance(value, numbers.Number):
-        return f"the number {reprlib.repr(value)}"
-    return f"a {type(value).__name__}"
-
-
-def _plain_points(items: Sequence[Any]) -> tuple[Point, ...] | None:
-    """Fast path: pairs of plain finite floats or ints, else None (check in detail)."""
-    plain = (float, int)
-    for p in items:
-        if type(p) not in (list, tuple) or len(p) != 2:
-            return None
-        if type(p[0]) not in plain or type(p[1]) not in plain:
-            return None
-    try:
-        array = np.array(items, dtype=float).reshape(-1, 2)
-    except OverflowError:
-        return None
-    if not np.isfinite(array).all():
-        return None
-    return tuple(map(tuple, array.tolist()))
-
-
-def _join(prefix: str, name: object) -> str:
-    """Dotted key of ``name`` inside the table at ``prefix``."""
-    text = str(name) if name != "" else '""'
-    return f"{prefix}.{text}" if prefix else text
-
-
-def _suggest(word: str, options: Collection[str]) -> str:
-    """A "did you mean" hint for a near miss, or the list of options."""
-    close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
-    if close:
-        return f"did you mean {close[0]!r}?"
-    if len(options) <= 12:
-        return "expected one of " + ", ".join(repr(o) for o in sorted(options))
-    return "no similar name"
-
-
-@dataclass(frozen=True)
-class _Checker:
-    """Type and range checks of raw values; every failure is a SceneError."""
-
-    source: str
-
-    def fail(self, key: str, reason: str) -> NoReturn:
-        raise SceneError(self.source, key, reason)
-
-    def table(self, value: object, key: str, allowed: Collection[str]) -> Mapping[str, Any]:
-        """A mapping whose keys are all in ``allowed``."""
-        if not isinstance(value, Mapping):
-            self.fail(key, f"expected a table, got {_kind(value)}")
-        for name in value:
-            if _join(key, name) in _RETIRED:
-                self.fail(_join(key, name), _RETIRED[_join(key, name)])
-            if name not in allowed:
-                self.fail(_join(key, name), "unknown key; " + _suggest(str(name), allowed))
-        return value
-
-    def named_tables(self, value: object, key: str) -> Mapping[str, Any]:
-        """A mapping of user-chosen, non-empty string names."""
-        if not isinstance(value, Mapping):
-            self.fail(key, f"expected a table, got {_kind(value)}")
-        for name in value:
-            if not isinstance(name, str) or not name:
-                self.fail(_join(key, name), "names must be non-empty strings")
-        return value
-
-    def sequence(self, value: object, key: str) -> Sequence[Any]:
-        """A list (or tuple, or 1-D+ numpy array)."""
-        if isinstance(value, list | tuple):
-            return value
-        if isinstance(value, np.ndarray) and value.ndim >= 1:
-            return value
-        self.fail(key, f"expected a list, got {_kind(value)}")
-
-    def real(self, value: object, key: str, interval: _Interval = _ANY) -> float:
-        """A finite real number (not a boolean) inside ``interval``."""
-        if type(value) is not float:
-            if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-                self.fail(key, f"expected a number, got {_kind(value)}")
-            try:
-                value = float(value)
-            except OverflowError:
-                self.fail(key, "number too large")
-        if not math.isfinite(value):
-            self.fail(key, f"must be finite, got {value}")
-        if not interval.holds(value):
-            self.fail(key, f"must be {interval.describe()}, got {value:g}")
-        return value
-
-    def count(self, value: object, key: str) -> int:
-        """A positive integer (not a boolean, not a float)."""
-        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
-            self.fail(key, f"expected a positive integer, got {_kind(value)}")
-        if value < 1:
-            self.fail(key, f"must be a positive integer, got {value}")
-        return int(value)
-
-    def boolean(self, value: object, key: str) -> bool:
-        if not isinstance(value, bool | np.bool_):
-            self.fail(key, f"expected true or false, got {_kind(value)}")
-        return bool(value)
-
-    def text(self, value: object, key: str) -> str:
-        if not isinstance(value, str):
-            self.fail(key, f"expected a string, got {_kind(value)}")
-        return value
-
-    def choice(self, value: object, key: str, options: tuple[str, ...]) -> str:
-        """One of ``options``, with a near-miss hint otherwise."""
-        word = self.text(value, key)
-        if word not in options:
-            self.fail(key, f"unknown value {word!r}; " + _suggest(word, options))
-        return word
-
-    def vector(self, value: object, key: str, size: int) -> tuple[float, ...]:
-        """A list of exactly ``size`` finite numbers."""
-        items = self.sequence(value, key)
-        if len(items) != size:
-            self.fail(key, f"expected {size} numbers, got {len(items)}")
-        return tuple(self.real(x, f"{key}[{k}]") for k, x in enumerate(items))
-
-    def points(self, value: object, key: str, min_count: int = 0) -> tuple[Point, ...]:
-        """A list of [x, y] pairs, at least ``min_count`` of them."""
-        items = self.sequence(value, key)
-        if len(items) < min_count:
-            self.fail(key, f"expected at least {min_count} pairs, got {len(items)}")
-        plain = _plain_points(items)
-        if plain is not None:
-            return plain
-        return tuple(self.vector(p, f"{key}[{k}]", 2) for k, p in enumerate(items))
-
-    def positions(self, value: object, key: str, min_count: int = 0) -> tuple[Point, ...]:
-        """:meth:`points` within ±``MAX_COORDINATE``."""
-        pairs = self.points(value, key, min_count)
-        for k, pair in enumerate(pairs):
-            self.bounded(pair, f"{key}[{k}]")
-        return pairs
-
-    def position(self, value: object, key: str) -> tuple[float, ...]:
-        """One [x, y] within ±``MAX_COORDINATE``."""
-        return self.bounded(self.vector(value, key, 2), key)
-
-    def bounded(self, pair: tuple[float, ...], key: str) -> tuple[float, ...]:
-        """``pair`` itself, refused when a coordinate lies beyond ±``MAX_COORDINATE``."""
-        if max(abs(pair[0]), abs(pair[1])) > MAX_COORDINATE:
-            self.fail(
-                key,
-                f"{list(pair)} lies beyond ±{MAX_COORDINATE:g}: a model this large keeps no "
-                "precision for its contacts (use a length unit that fits)",
-            )
-        return pair
-
-    def known(self, value: object, key: str, names: Collection[str], what: str) -> str:
-        """The name of an existing ``what`` (material, joint, block)."""
-        name = self.text(value, key)
-        if name not in names:
-            self.fail(key, f"unknown {what} {name!r}; " + _suggest(name, names))
-        return name
-
-
-_Spec = Callable[[_Checker, Any, str], Any]
-
-
-def _real(interval: _Interval = _ANY) -> _Spec:
-    return partial(_Checker.real, interval=interval)
-
-
-def _choice(*options: str) -> _Spec:
-    return partial(_Checker.choice, options=options)
-
-
-def _vector(size: int) -> _Spec:
-    return partial(_Checker.vector, size=size)
-
-
-def _fields(chk: _Checker, value: object, key: str, specs: Mapping[str, _Spec]) -> dict:
-    """Check a table against per-key specs; return the converted values given."""
-    table = chk.table(value, key, specs)
-    return {name: specs[name](chk, item, _join(key, name)) for name, item in table.items()}
-
-
-def _require(chk: _Checker, values: Mapping[str, Any], key: str, names: Sequence[str]) -> None:
-    for name in names:
-        if name not in values:
-            chk.fail(_join(key, name), "is required")
-
-
-def _table_list(chk: _Checker, raw: Mapping[str, Any], key: str) -> Sequence[Any]:
-    """An optional array of tables (``[[blocks]]`` etc.), empty when absent."""
-    return chk.sequence(raw.get(key, []), key)
-
-
 # --------------------------------------------------------------------------- sections
 
 _ROCK_MASS_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
@@ -481,55 +274,62 @@ _TOP_KEYS = (
     "interfaces",
     *_ROCK_MASS_KEYS,
     "groups",
+    "units",
 )
 
-_ANALYSIS: dict[str, _Spec] = {
-    "mode": _choice("dynamic", "static"),
-    "time_step": _real(_POSITIVE),
-    "duration": _real(_POSITIVE),
-    "steps": _Checker.count,
-    "gravity": _vector(2),
-    "plane": _choice("stress", "strain"),
-    "rotation": _choice("exact", "linear"),
-    "max_displacement_ratio": _real(_OPEN_UNIT),
-    "save_every": _Checker.count,
-    "fixed_point_penalty": _real(_POSITIVE),
-    "accuracy": _choice("fast", "balanced", "precise"),
+_UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time": Checker.text}
+
+_ANALYSIS: dict[str, Spec] = {
+    "mode": choice("dynamic", "static"),
+    "time_step": real(POSITIVE),
+    "duration": real(POSITIVE),
+    "steps": Checker.count,
+    "gravity": vector(2),
+    "plane": choice("stress", "strain"),
+    "rotation": choice("exact", "linear"),
+    "max_displacement_ratio": real(OPEN_UNIT),
+    "save_every": Checker.count,
+    "fixed_point_penalty": real(POSITIVE),
+    "accuracy": choice("fast", "balanced", "precise"),
 }
 
-_CONTACT: dict[str, _Spec] = {
-    "method": _choice("augmented-lagrangian", "penalty"),
-    "penalty": _real(_POSITIVE),
-    "tolerance": _real(_POSITIVE),
-    "max_iterations": _Checker.count,
-    "shear_ratio": _real(_POSITIVE),
-}
-# keys that earlier versions read and this one refuses, with the reason
-_RETIRED = {
-    "contact.state_band": "no longer used: each step's contact problem is solved to "
-    "convergence, with no state band (docs/contact.md); remove the key",
+_CONTACT: dict[str, Spec] = {
+    "method": choice("augmented-lagrangian", "penalty"),
+    "penalty": real(POSITIVE),
+    "tolerance": real(POSITIVE),
+    "max_iterations": Checker.count,
+    "shear_ratio": real(POSITIVE),
 }
 
 _STRENGTH_KEYS = ("cohesion", "friction_angle", "tensile_strength")
-_MATERIAL: dict[str, _Spec] = {
-    "density": _real(_POSITIVE),
-    "young": _real(_POSITIVE),
-    "poisson": _real(_POISSON),
-    "cohesion": _real(_NON_NEGATIVE),
-    "friction_angle": _real(_ANGLE),
-    "tensile_strength": _real(_NON_NEGATIVE),
+_MATERIAL: dict[str, Spec] = {
+    "density": real(POSITIVE),
+    "young": real(POSITIVE),
+    "poisson": real(POISSON),
+    "cohesion": real(NON_NEGATIVE),
+    "friction_angle": real(ANGLE),
+    "tensile_strength": real(NON_NEGATIVE),
 }
 
-_JOINT: dict[str, _Spec] = {
-    "friction_angle": _real(_ANGLE),
-    "cohesion": _real(_NON_NEGATIVE),
-    "tensile_strength": _real(_NON_NEGATIVE),
+_JOINT: dict[str, Spec] = {
+    "friction_angle": real(ANGLE),
+    "cohesion": real(NON_NEGATIVE),
+    "tensile_strength": real(NON_NEGATIVE),
 }
 
 
-def _analysis(chk: _Checker, raw: Mapping[str, Any]) -> Analysis:
+def _units(chk: Checker, raw: Mapping[str, Any]) -> Units:
+    """``[units]``: unit names (non-empty text), SI by default."""
+    values = checked_fields(chk, raw.get("units", {}), "units", _UNITS)
+    for name, text in values.items():
+        if not text.strip():
+            chk.fail(join_key("units", name), "must not be empty")
+    return Units(**values)
+
+
+def _analysis(chk: Checker, raw: Mapping[str, Any]) -> Analysis:
     """``[analysis]``; duration defaults to 1 s when neither it nor steps is given."""
-    values = _fields(chk, raw.get("analysis", {}), "analysis", _ANALYSIS)
+    values = checked_fields(chk, raw.get("analysis", {}), "analysis", _ANALYSIS)
     if "duration" in values and "steps" in values:
         chk.fail("analysis.steps", "give either duration or steps, not both")
     if "steps" not in values:
@@ -537,54 +337,54 @@ def _analysis(chk: _Checker, raw: Mapping[str, Any]) -> Analysis:
     return Analysis(**values)
 
 
-def _contact(chk: _Checker, raw: Mapping[str, Any]) -> ContactSettings:
-    return ContactSettings(**_fields(chk, raw.get("contact", {}), "contact", _CONTACT))
+def _contact(chk: Checker, raw: Mapping[str, Any]) -> ContactSettings:
+    return ContactSettings(**checked_fields(chk, raw.get("contact", {}), "contact", _CONTACT))
 
 
-def _material(chk: _Checker, name: str, value: object) -> Material:
+def _material(chk: Checker, name: str, value: object) -> Material:
     """One material; the strength keys come all three or not at all."""
-    key = _join("materials", name)
-    values = _fields(chk, value, key, _MATERIAL)
-    _require(chk, values, key, ("density", "young", "poisson"))
+    key = join_key("materials", name)
+    values = checked_fields(chk, value, key, _MATERIAL)
+    require(chk, values, key, ("density", "young", "poisson"))
     given = [k for k in _STRENGTH_KEYS if k in values]
     missing = [k for k in _STRENGTH_KEYS if k not in values]
     if given and missing:
         chk.fail(
-            _join(key, missing[0]),
+            join_key(key, missing[0]),
             f"is required because {', '.join(given)} given: a breakable material "
             "needs all of cohesion, friction_angle and tensile_strength",
         )
     return Material(name=name, **values)
 
 
-def _materials(chk: _Checker, raw: Mapping[str, Any]) -> Mapping[str, Material]:
+def _materials(chk: Checker, raw: Mapping[str, Any]) -> Mapping[str, Material]:
     table = chk.named_tables(raw.get("materials", {}), "materials")
     return MappingProxyType({name: _material(chk, name, v) for name, v in table.items()})
 
 
-def _joints(chk: _Checker, raw: Mapping[str, Any]) -> Mapping[str, Joint]:
+def _joints(chk: Checker, raw: Mapping[str, Any]) -> Mapping[str, Joint]:
     """Declared joints plus a frictionless ``default`` unless one is declared."""
     table = chk.named_tables(raw.get("joints", {}), "joints")
     joints = {
-        name: Joint(name=name, **_fields(chk, v, _join("joints", name), _JOINT))
+        name: Joint(name=name, **checked_fields(chk, v, join_key("joints", name), _JOINT))
         for name, v in table.items()
     }
     joints.setdefault("default", Joint("default"))
     return MappingProxyType(joints)
 
 
-def _fracture(chk: _Checker, raw: Mapping[str, Any], joints: Collection[str]) -> FractureSettings:
-    specs: dict[str, _Spec] = {
-        "joint": partial(_Checker.known, names=joints, what="joint"),
-        "min_area": _real(_POSITIVE),
+def _fracture(chk: Checker, raw: Mapping[str, Any], joints: Collection[str]) -> FractureSettings:
+    specs: dict[str, Spec] = {
+        "joint": partial(Checker.known, names=joints, what="joint"),
+        "min_area": real(POSITIVE),
     }
-    return FractureSettings(**_fields(chk, raw.get("fracture", {}), "fracture", specs))
+    return FractureSettings(**checked_fields(chk, raw.get("fracture", {}), "fracture", specs))
 
 
 # --------------------------------------------------------------------------- blocks
 
 
-def _ring(chk: _Checker, value: object, key: str) -> tuple[Point, ...]:
+def _ring(chk: Checker, value: object, key: str) -> tuple[Point, ...]:
     """Polygon vertices: >= 3 pairs, a repeated closing vertex dropped."""
     vertices = chk.positions(value, key)
     if len(vertices) > 1 and vertices[0] == vertices[-1]:
@@ -595,7 +395,7 @@ def _ring(chk: _Checker, value: object, key: str) -> tuple[Point, ...]:
 
 
 def _edge_joints(
-    chk: _Checker, value: object, key: str, joints: Collection[str]
+    chk: Checker, value: object, key: str, joints: Collection[str]
 ) -> tuple[str | None, ...]:
     """Joint name per edge; an empty string means the default joint (None)."""
     items = chk.sequence(value, key)
@@ -606,7 +406,7 @@ def _edge_joints(
     return tuple(name or None for name in names)
 
 
-def _block_name(chk: _Checker, value: object, key: str) -> str:
+def _block_name(chk: Checker, value: object, key: str) -> str:
     name = chk.text(value, key)
     if not name:
         chk.fail(key, "must not be empty")
@@ -615,23 +415,23 @@ def _block_name(chk: _Checker, value: object, key: str) -> str:
     return name
 
 
-def _block_specs(materials: Collection[str], joints: Collection[str]) -> dict[str, _Spec]:
+def _block_specs(materials: Collection[str], joints: Collection[str]) -> dict[str, Spec]:
     return {
         "name": _block_name,
-        "material": partial(_Checker.known, names=materials, what="material"),
+        "material": partial(Checker.known, names=materials, what="material"),
         "vertices": _ring,
-        "fixed": _Checker.boolean,
-        "fixed_points": _Checker.positions,
-        "velocity": _vector(3),
-        "stress": _vector(3),
+        "fixed": Checker.boolean,
+        "fixed_points": Checker.positions,
+        "velocity": vector(3),
+        "stress": vector(3),
         "edge_joints": partial(_edge_joints, joints=joints),
     }
 
 
-def _block_values(chk: _Checker, value: object, key: str, specs: Mapping[str, _Spec]) -> dict:
+def _block_values(chk: Checker, value: object, key: str, specs: Mapping[str, Spec]) -> dict:
     """One ``[[blocks]]`` entry as converted values (geometry not yet checked)."""
-    values = _fields(chk, value, key, specs)
-    _require(chk, values, key, ("name", "material", "vertices"))
+    values = checked_fields(chk, value, key, specs)
+    require(chk, values, key, ("name", "material", "vertices"))
     edge_joints = values.get("edge_joints")
     if edge_joints is not None and len(edge_joints) != len(values["vertices"]):
         chk.fail(
@@ -641,7 +441,7 @@ def _block_values(chk: _Checker, value: object, key: str, specs: Mapping[str, _S
     return values
 
 
-def _unique_names(chk: _Checker, blocks: Sequence[Mapping[str, Any]]) -> None:
+def _unique_names(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> None:
     first: dict[str, int] = {}
     for i, values in enumerate(blocks):
         j = first.setdefault(values["name"], i)
@@ -661,14 +461,14 @@ def _counter_clockwise(values: dict) -> dict:
 
 
 def _blocks(
-    chk: _Checker,
+    chk: Checker,
     raw: Mapping[str, Any],
     materials: Collection[str],
     joints: Collection[str],
 ) -> tuple[Block, ...]:
     """All ``[[blocks]]``: fields, unique names, then the geometry at once."""
     specs = _block_specs(materials, joints)
-    items = _table_list(chk, raw, "blocks")
+    items = table_list(chk, raw, "blocks")
     if len(items) == 0:
         chk.fail("blocks", "a scene needs at least one block")
     blocks = [_block_values(chk, v, f"blocks[{i}]", specs) for i, v in enumerate(items)]
@@ -703,7 +503,7 @@ def _pack(blocks: Sequence[Mapping[str, Any]]) -> tuple[np.ndarray, np.ndarray, 
 
 
 def _repeated_vertices(
-    chk: _Checker, coords: np.ndarray, owner: np.ndarray, offsets: np.ndarray
+    chk: Checker, coords: np.ndarray, owner: np.ndarray, offsets: np.ndarray
 ) -> None:
     """Refuse a vertex equal to the next one (a zero-length edge)."""
     nxt = next_vertex_index(offsets)
@@ -717,7 +517,7 @@ def _repeated_vertices(
         )
 
 
-def _simple_polygons(chk: _Checker, polygons: np.ndarray) -> None:
+def _simple_polygons(chk: Checker, polygons: np.ndarray) -> None:
     """Refuse self-intersecting or otherwise invalid polygons."""
     invalid = np.flatnonzero(~shapely.is_valid(polygons))
     if invalid.size:
@@ -726,7 +526,7 @@ def _simple_polygons(chk: _Checker, polygons: np.ndarray) -> None:
         chk.fail(f"blocks[{i}].vertices", f"not a simple polygon ({reason})")
 
 
-def _sized_polygons(chk: _Checker, areas: np.ndarray, sizes: np.ndarray) -> None:
+def _sized_polygons(chk: Checker, areas: np.ndarray, sizes: np.ndarray) -> None:
     """Refuse slivers: area must exceed 1e-12 of the squared bbox diagonal (compared as
     √area > 1e-6 x diagonal, which does not overflow for huge coordinates)."""
     thin = np.flatnonzero(~(np.sqrt(np.maximum(areas, 0.0)) > 1e-6 * sizes))
@@ -739,7 +539,7 @@ def _sized_polygons(chk: _Checker, areas: np.ndarray, sizes: np.ndarray) -> None
         )
 
 
-def _build_polygons(chk: _Checker, blocks: Sequence[Mapping[str, Any]]) -> _Packed:
+def _build_polygons(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> _Packed:
     """Pack the block vertices and make valid shapely polygons of them."""
     coords, owner, offsets = _pack(blocks)
     _repeated_vertices(chk, coords, owner, offsets)
@@ -769,7 +569,7 @@ def _box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.clip(width, 0.0, None) * np.clip(height, 0.0, None)
 
 
-def _overlaps(chk: _Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]]) -> None:
+def _overlaps(chk: Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]]) -> None:
     """Refuse two blocks sharing more than 1e-9 of the smaller area.
 
     Candidate pairs come from one STRtree query ("intersects"), so the cost is
@@ -794,7 +594,7 @@ def _overlaps(chk: _Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]
 
 
 def _fixed_points_on_blocks(
-    chk: _Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]]
+    chk: Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]]
 ) -> None:
     """Every fixed point lies inside or on its block (within 1e-9 x size)."""
     owner = [i for i, b in enumerate(blocks) for _ in b.get("fixed_points", ())]
@@ -814,7 +614,7 @@ def _fixed_points_on_blocks(
         )
 
 
-def _check_geometry(chk: _Checker, blocks: Sequence[Mapping[str, Any]]) -> np.ndarray:
+def _check_geometry(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> np.ndarray:
     """Check every block polygon at once; return which ones are clockwise."""
     packed = _build_polygons(chk, blocks)
     _fixed_points_on_blocks(chk, packed, blocks)
@@ -825,7 +625,7 @@ def _check_geometry(chk: _Checker, blocks: Sequence[Mapping[str, Any]]) -> np.nd
 # --------------------------------------------------------------------------- references
 
 
-def _history(chk: _Checker, value: object, key: str) -> tuple[Point, ...]:
+def _history(chk: Checker, value: object, key: str) -> tuple[Point, ...]:
     """(time, factor) pairs with strictly increasing time."""
     pairs = chk.points(value, key, min_count=1)
     for k in range(1, len(pairs)):
@@ -834,22 +634,22 @@ def _history(chk: _Checker, value: object, key: str) -> tuple[Point, ...]:
     return pairs
 
 
-def _loads(chk: _Checker, raw: Mapping[str, Any], blocks: Collection[str]) -> tuple[Load, ...]:
-    specs: dict[str, _Spec] = {
-        "block": partial(_Checker.known, names=blocks, what="block"),
-        "point": _Checker.position,
-        "force": _vector(2),
+def _loads(chk: Checker, raw: Mapping[str, Any], blocks: Collection[str]) -> tuple[Load, ...]:
+    specs: dict[str, Spec] = {
+        "block": partial(Checker.known, names=blocks, what="block"),
+        "point": Checker.position,
+        "force": vector(2),
         "history": _history,
     }
     loads = []
-    for i, value in enumerate(_table_list(chk, raw, "loads")):
-        values = _fields(chk, value, f"loads[{i}]", specs)
-        _require(chk, values, f"loads[{i}]", ("block", "point", "force"))
+    for i, value in enumerate(table_list(chk, raw, "loads")):
+        values = checked_fields(chk, value, f"loads[{i}]", specs)
+        require(chk, values, f"loads[{i}]", ("block", "point", "force"))
         loads.append(Load(**values))
     return tuple(loads)
 
 
-def _block_pair(chk: _Checker, value: object, key: str, blocks: Collection[str]) -> tuple[str, str]:
+def _block_pair(chk: Checker, value: object, key: str, blocks: Collection[str]) -> tuple[str, str]:
     items = chk.sequence(value, key)
     if len(items) != 2:
         chk.fail(key, f"expected two block names, got {len(items)}")
@@ -860,18 +660,18 @@ def _block_pair(chk: _Checker, value: object, key: str, blocks: Collection[str])
 
 
 def _interfaces(
-    chk: _Checker, raw: Mapping[str, Any], blocks: Collection[str], joints: Collection[str]
+    chk: Checker, raw: Mapping[str, Any], blocks: Collection[str], joints: Collection[str]
 ) -> tuple[Interface, ...]:
     """``[[interfaces]]``: distinct existing blocks, an existing joint, one per pair."""
-    specs: dict[str, _Spec] = {
+    specs: dict[str, Spec] = {
         "blocks": partial(_block_pair, blocks=blocks),
-        "joint": partial(_Checker.known, names=joints, what="joint"),
+        "joint": partial(Checker.known, names=joints, what="joint"),
     }
     interfaces = []
     seen: dict[frozenset[str], int] = {}
-    for i, value in enumerate(_table_list(chk, raw, "interfaces")):
-        values = _fields(chk, value, f"interfaces[{i}]", specs)
-        _require(chk, values, f"interfaces[{i}]", ("blocks", "joint"))
+    for i, value in enumerate(table_list(chk, raw, "interfaces")):
+        values = checked_fields(chk, value, f"interfaces[{i}]", specs)
+        require(chk, values, f"interfaces[{i}]", ("blocks", "joint"))
         j = seen.setdefault(frozenset(values["blocks"]), i)
         if j != i:
             chk.fail(f"interfaces[{i}].blocks", f"the same pair as interfaces[{j}]")
@@ -880,13 +680,13 @@ def _interfaces(
 
 
 def _groups(
-    chk: _Checker, raw: Mapping[str, Any], blocks: Collection[str]
+    chk: Checker, raw: Mapping[str, Any], blocks: Collection[str]
 ) -> Mapping[str, tuple[str, ...]]:
     """``groups``: group name -> names of existing blocks."""
     table = chk.named_tables(raw.get("groups", {}), "groups")
     groups = {}
     for name, members in table.items():
-        key = _join("groups", name)
+        key = join_key("groups", name)
         items = chk.sequence(members, key)
         groups[name] = tuple(
             chk.known(m, f"{key}[{k}]", blocks, "block") for k, m in enumerate(items)
@@ -915,7 +715,7 @@ def _expand_rock_mass(raw: Mapping[str, Any], source: str) -> Mapping[str, Any]:
 
 def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
     """Validate a raw nested mapping section by section into a Scene."""
-    chk = _Checker(source)
+    chk = Checker(source)
     raw = chk.table(_expand_rock_mass(raw, source), "", _TOP_KEYS)
     title = chk.text(raw.get("title", ""), "title")
     analysis = _analysis(chk, raw)
@@ -936,6 +736,7 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
         fracture=_fracture(chk, raw, joints),
         source=source,
         groups=_groups(chk, raw, names),
+        units=_units(chk, raw),
     )
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene

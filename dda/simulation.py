@@ -8,7 +8,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from dda.blas_threads import single_threaded_blas
 from dda.blocks import BlockSet
 from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
@@ -17,7 +16,8 @@ from dda.effects.base import StepContext
 from dda.energy import TERMS, EnergyAccount
 from dda.errors import SimulationError
 from dda.frames import make_frame
-from dda.linsolve import solver_threads
+from dda.jit import run_work
+from dda.linsolve import single_threaded_blas, solver_threads
 from dda.model import Model, build
 from dda.result import FractureEvent, Frame, Result
 from dda.scene import Scene
@@ -177,6 +177,7 @@ def run(
     scene: Scene,
     progress: bool | Callable[[float, dict], None] = False,
     on_frame: Callable[[Frame], None] | None = None,
+    keep_frames: bool = True,
 ) -> Result:
     """Run a scene to its end.
 
@@ -185,6 +186,8 @@ def run(
     scene : a validated Scene
     progress : True for a progress bar on stderr, or a callable(fraction, info)
     on_frame : called with every kept frame as the run proceeds (for writers)
+    keep_frames : False: ``Result.frames`` holds only the first and the latest
+        frame (long runs whose frames ``on_frame`` writes away)
     """
     start = wallclock.perf_counter()
     solver_threads()  # a bad DDA_THREADS stops the run before it starts
@@ -196,14 +199,18 @@ def run(
     report = _progress_reporter(progress, model)
     status = "finished"
     try:
-        with single_threaded_blas():  # PARDISO's threads get the cores (dda.blas_threads)
+        # PARDISO's threads get the cores; numba's kernels only where they pay (dda.jit)
+        with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
             while not state.finished():
                 _advance(state)
                 last = state.finished()
                 if state.step % model.save_every == 0 or last:
                     with state.timer("output"):
                         frame = make_frame(state.blocks, state.contacts, state.time, state.step)
-                        frames.append(frame)
+                        if keep_frames or len(frames) == 1:
+                            frames.append(frame)
+                        else:
+                            frames[-1] = frame
                         if on_frame:
                             on_frame(frame)
                 if report:
@@ -225,6 +232,13 @@ def _result(state: _Run, frames: list[Frame], start: float, status: str) -> Resu
         summary=_summary(state, wallclock.perf_counter() - start, status),
         history={k: np.asarray(v) for k, v in state.history.items()},
     )
+
+
+def _expected_steps(model: Model) -> float:
+    """Steps the run will take: its ``steps``, else duration / largest time step."""
+    if model.steps is not None:
+        return float(model.steps)
+    return model.duration / model.max_time_step
 
 
 def _fraction(state: _Run) -> float:

@@ -138,3 +138,15 @@ def test_stack_of_five_blocks_stays_put():
     on_base = closed & (np.array(final.names)[contacts.block_b] == "base")
     on_base |= closed & (np.array(final.names)[contacts.block_a] == "base")
     assert contacts.normal_force[on_base].sum() == pytest.approx(weight, rel=1e-3)
+
+
+def test_keep_frames_false_keeps_the_first_and_the_last_frame_and_hands_every_one_on():
+    import dda.cases
+
+    scene = dda.load_scene(dda.cases.text("sliding_block"))
+    seen = []
+    lean = dda.simulate(scene, keep_frames=False, on_frame=seen.append)
+    full = dda.simulate(scene)
+    assert [f.step for f in lean.frames] == [0, full.frames[-1].step]
+    assert [f.step for f in seen] == [f.step for f in full.frames]
+    np.testing.assert_array_equal(lean.final.centroids, full.final.centroids)

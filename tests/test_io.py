@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import os
 
@@ -353,3 +354,35 @@ def test_io_does_not_import_pyvista_until_a_picture_is_made():
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.stdout.strip() == "False", out.stderr
+
+
+def test_colour_bar_labels_differ_even_for_a_nearly_constant_field():
+    from dda.io.images import distinct_labels
+
+    assert distinct_labels([-322.349, -322.348, -322.347]) == ["-322.349", "-322.348", "-322.347"]
+    assert distinct_labels([0.0, 2.5e5, 5e5]) == ["0", "2.5e+05", "5e+05"]
+    assert distinct_labels([-1e-17, 0.5, 1.0]) == ["0", "0.5", "1"]  # round-off zero
+
+
+def test_final_picture_names_the_scene_and_its_units(tmp_path, monkeypatch):
+    """The writer passes the scene's title and [units] to the picture and the summary."""
+    import dda
+    from dda.io import run_writer
+
+    scene = dda.load_scene("cases/paper_two_blocks.toml")
+    short = dataclasses.replace(scene.analysis, steps=2)
+    result = dda.simulate(dataclasses.replace(scene, analysis=short))
+    seen = {}
+    original = run_writer.render_frame
+
+    def spy(frame, path, **kwargs):
+        seen.update(kwargs)
+        return original(frame, path, **kwargs)
+
+    monkeypatch.setattr(run_writer, "render_frame", spy)
+    summary = run_writer.RunWriter(tmp_path).finish(result, scene)
+    assert seen["scene_title"] == scene.title
+    assert seen["units"] == {"length": "ft", "force": "lb", "time": "s"}
+    assert json.loads((tmp_path / "summary.json").read_text())["units"]["length"] == "ft"
+    assert summary["image"] == "final.png"
+    assert_picture(tmp_path / "final.png")

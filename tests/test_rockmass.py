@@ -13,11 +13,11 @@ import pytest
 import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from tomli_w import dumps
 
 from dda.errors import SceneError
 from dda.rockmass import expand_rock_mass
 from dda.rockmass.cli import register
-from dda.rockmass.toml_writer import dumps
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "cases"
@@ -405,26 +405,7 @@ def test_bad_input_is_refused_by_name(change, key):
     assert err.value.source == "scene.toml"
 
 
-# --- TOML writer and the `dda cut` command ------------------------------------------------
-
-toml_keys = st.text(min_size=1, max_size=8)
-toml_scalars = (
-    st.booleans()
-    | st.integers(-(2**63), 2**63 - 1)
-    | st.text(max_size=12)
-    | st.floats(allow_nan=False)
-)
-toml_values = st.recursive(
-    toml_scalars,
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(toml_keys, inner, max_size=4),
-    max_leaves=12,
-)
-
-
-@settings(max_examples=200, deadline=None)
-@given(st.dictionaries(toml_keys, toml_values, max_size=5))
-def test_toml_writer_round_trips(data):
-    assert tomllib.loads(dumps(data)) == data
+# --- the `dda cut` command ----------------------------------------------------------------
 
 
 def run_cli(*argv: str) -> int:

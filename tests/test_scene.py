@@ -745,3 +745,15 @@ def test_huge_coordinates_are_refused_without_overflow(path, value):
         error = refused(raw)
     assert "beyond ±1e+15" in str(error)
     assert error.key.startswith(f"{path[0]}[{path[1]}].{path[2]}")
+
+
+def test_units_name_the_unit_of_each_quantity():
+    """[units] labels pictures and tables; SI by default, stress derived from force/length."""
+    default = load_scene(full()).units
+    assert (default.length, default.stress, default.velocity) == ("m", "Pa", "m/s")
+    raw = {**full(), "units": {"length": "ft", "force": "lb"}}
+    assert load_scene(raw).units.stress == "lb/ft²"
+    with pytest.raises(SceneError, match="units.lenght"):
+        load_scene({**full(), "units": {"lenght": "ft"}})
+    with pytest.raises(SceneError, match="units.force"):
+        load_scene({**full(), "units": {"force": " "}})

@@ -5,14 +5,14 @@ from __future__ import annotations
 import argparse
 import math
 
+import numpy as np
 import pytest
 
 from dda.tradeoff.cases import fine_setting, get_case
 from dda.tradeoff.cli import register
 from dda.tradeoff.grid import Setting, expand, parse_grid
 from dda.tradeoff.pareto import cheapest_within, pareto_front
-from dda.tradeoff.report import markdown_table
-from dda.tradeoff.runner import add_errors, run_one, sweep
+from dda.tradeoff.runner import Cluster, add_errors, make_tasks, run_task, sweep
 
 TINY = "method=al,penalty;penalty=1;tolerance=1e-4;time_step=0.02;ratio=0.01"
 
@@ -56,12 +56,18 @@ def test_pareto_front_keeps_only_undominated_runs():
     assert cheapest_within(rows, 1e-9) is None
 
 
-def test_sliding_block_run_measures_the_closed_form_error():
+def test_a_task_times_its_repeats_and_measures_the_closed_form_error():
+    case = get_case("sliding_block")
     setting = Setting("augmented-lagrangian", 1.0, 1e-4, 0.02, 0.01)
-    out = run_one("sliding_block", setting)
+    (task,) = make_tasks(case, [setting], threads=1, repeats=3)
+    assert task.scene["contact"]["method"] == "augmented-lagrangian"  # a dict, no file
+    out = run_task(task)
     assert out["status"] == "finished" and out["steps"] == 50
+    assert out["repeats"] == 3 and len(out["seconds_all"]) == 3
+    assert out["seconds"] == sorted(out["seconds_all"])[1]  # the median
+    assert out["host"] and out["threads"] == 1
     rows = [out]
-    add_errors(rows, "sliding_block", get_case("sliding_block").reference)
+    add_errors(rows, case, case.reference)
     assert rows[0]["error"] < 0.01
 
 
@@ -73,6 +79,7 @@ def test_serial_sweep_writes_csv_table_and_plot(tmp_path, capsys):
     )
     assert args.func(args) == 0
     assert (tmp_path / "sliding_block.csv").read_text().count("\n") == 3
+    assert "host" in (tmp_path / "sliding_block.csv").read_text().splitlines()[0]
     assert "| augmented-lagrangian |" in (tmp_path / "sliding_block.md").read_text()
     assert (tmp_path / "pareto_sliding_block.png").stat().st_size > 1000
     assert "[2/2]" in capsys.readouterr().err
@@ -85,11 +92,19 @@ def test_unknown_case_is_bad_input(tmp_path):
     assert args.func(args) == 2
 
 
-def test_sweep_runs_in_dask_workers():
+def test_sweep_runs_in_dask_workers_with_the_reference_as_a_task(capfd):
+    """A scene-file case on a local cluster: the fine run is a task like the others."""
     pytest.importorskip("dask.distributed")
-    settings = expand(parse_grid(TINY, get_case("sliding_block").grid))
+    case = get_case("cases/sliding_block.toml")
+    grid = parse_grid(TINY + ";method=penalty", case.grid)
+    tasks = make_tasks(case, expand(grid), threads=1, repeats=3)
+    reference = make_tasks(case, [fine_setting(grid)], threads=1, repeats=3)[0]
     seen = []
-    rows = sweep("sliding_block", settings, progress=lambda d, t, r: seen.append(d))
-    assert sorted(seen) == [1, 2] and all(r["status"] == "finished" for r in rows)
-    add_errors(rows, "sliding_block", get_case("sliding_block").reference)
-    assert "2 runs, 0 stopped" in markdown_table(rows)
+    rows, fine = sweep(
+        tasks, reference, Cluster(workers=1), progress=lambda d, t, r: seen.append(d)
+    )
+    assert seen == [1] and rows[0]["status"] == "finished" and rows[0]["repeats"] == 3
+    assert fine["status"] == "finished" and fine["time_step"] < rows[0]["time_step"]
+    add_errors(rows, case, np.asarray(fine["value"]))
+    assert rows[0]["error"] < 0.01
+    assert "INFO" not in capfd.readouterr().err  # distributed's logs at WARNING

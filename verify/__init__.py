@@ -11,19 +11,26 @@ Pipeline per case (``cases/verify/NAME.toml`` + ``NAME.expect.toml``)::
 ``dda`` never imports ``verify``.
 """
 
-from verify.cases import CaseResult, discover, run_case
-from verify.fem import FemOptions, FemSolution, solve_fem
-from verify.mesh import BlockMesh, mesh_blocks
-from verify.suite import run_suite
+import importlib
+from typing import Any
 
-__all__ = [
-    "BlockMesh",
-    "CaseResult",
-    "FemOptions",
-    "FemSolution",
-    "discover",
-    "mesh_blocks",
-    "run_case",
-    "run_suite",
-    "solve_fem",
-]
+_WHERE = {
+    "BlockMesh": "verify.mesh",
+    "CaseResult": "verify.cases",
+    "FemOptions": "verify.fem",
+    "FemSolution": "verify.fem",
+    "discover": "verify.cases",
+    "mesh_blocks": "verify.mesh",
+    "run_case": "verify.cases",
+    "run_suite": "verify.suite",
+    "solve_fem": "verify.fem",
+}
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str) -> Any:
+    """The public names, imported on first use (``dda`` loads ``verify.cli`` for every
+    command to register ``dda verify``; scikit-fem is needed only when it runs)."""
+    if name in _WHERE:
+        return getattr(importlib.import_module(_WHERE[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,7 +1,8 @@
 """Verification cases: discover them, run the DDA and the FEM, judge the comparison.
 
 A case is a scene file ``cases/verify/NAME.toml`` with its expectations in
-``cases/verify/NAME.expect.toml`` (:mod:`verify.expect`).
+``cases/verify/NAME.expect.toml`` (:mod:`verify.expect`); both ship with dda
+as package data (:mod:`dda.cases`), so an installed suite finds them too.
 """
 
 from __future__ import annotations
@@ -9,11 +10,13 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
 import numpy as np
 
 import dda
+import dda.cases
 from dda.scene import Scene
 from verify.compare import Row, compare, max_errors
 from verify.dda_side import DdaSide
@@ -23,16 +26,14 @@ from verify.interfaces import find_interfaces, joint_between, sticks, with_dda_c
 
 log = logging.getLogger(__name__)
 
-CASES_DIR = Path(__file__).resolve().parents[1] / "cases" / "verify"
-
 
 @dataclass(frozen=True)
 class Case:
     """A scene file and its expectation file."""
 
     name: str
-    scene_path: Path
-    expect_path: Path
+    scene_path: Path | Traversable
+    expect_path: Path | Traversable
 
     def load(self) -> tuple[Scene, Expectation]:
         """The scene and its expectations."""
@@ -74,14 +75,20 @@ class CaseResult:
 
 
 def discover(
-    directory: Path | None = None, names: list[str] | None = None, quick: bool = False
+    directory: Path | Traversable | None = None,
+    names: list[str] | None = None,
+    quick: bool = False,
 ) -> list[Case]:
-    """Cases in ``directory`` (default ``cases/verify``), optionally by name or quick only."""
-    directory = Path(directory or CASES_DIR)
+    """Cases in ``directory`` (default: the shipped ``cases/verify``), optionally by name or
+    quick only."""
+    directory = dda.cases.folder("verify") if directory is None else directory
+    if isinstance(directory, str):
+        directory = Path(directory)
     cases = []
-    for expect in sorted(directory.glob("*.expect.toml")):
+    expects = [e for e in directory.iterdir() if e.name.endswith(".expect.toml")]
+    for expect in sorted(expects, key=lambda e: e.name):
         name = expect.name.removesuffix(".expect.toml")
-        cases.append(Case(name, directory / f"{name}.toml", expect))
+        cases.append(Case(name, directory.joinpath(f"{name}.toml"), expect))
     if names:
         known = {c.name: c for c in cases}
         missing = [n for n in names if n not in known]

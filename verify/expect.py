@@ -66,7 +66,8 @@ class Expectation:
 
 def load_expectation(path: Path) -> Expectation:
     """Read and check an expectation file."""
-    raw = tomllib.loads(Path(path).read_text())
+    path = Path(path) if isinstance(path, str) else path
+    raw = tomllib.loads(path.read_text(encoding="utf-8"))
     checks = {}
     for name, table in raw.get("checks", {}).items():
         if name not in KNOWN_CHECKS:

@@ -4,7 +4,7 @@ The FEM model of a scene, term by term as the DDA sees it:
 
 - elasticity per block, plane stress or plane strain as ``[analysis] plane``
   says (plane stress uses λ* = Eν/(1−ν²), μ = E/(2(1+ν)); both give the
-  DDA's E matrix of THEORY.md section 3);
+  DDA's E matrix of docs/theory.md §3);
 - gravity as the body force ρ g;
 - point loads on the node at the load point (load points on a block
   boundary are mesh nodes, see :mod:`verify.geometry`);
@@ -208,7 +208,7 @@ def solve_with_contact(
 
     Solve with the closed points; open those whose force would be tensile,
     close those that penetrate; repeat until the set no longer changes. With
-    a tolerance (augmented Lagrangian, as the DDA's THEORY.md section 5), each
+    a tolerance (augmented Lagrangian, as in docs/theory.md §5), each
     closed point also carries a multiplier λ, updated λ ← λ + k g with the
     same factorisation until no closed point penetrates more than the
     tolerance.

@@ -7,8 +7,6 @@ import logging
 import sys
 from typing import Any
 
-from dda.bench.report import machine_line, table
-from dda.bench.run import measure_in_subprocess
 from dda.bench.scenes import METHODS
 
 log = logging.getLogger(__name__)
@@ -44,6 +42,9 @@ def register(subparsers: Any) -> None:
 
 def run_command(args: argparse.Namespace) -> int:
     """Measure every (size, method) and print the Markdown table; 0 on success."""
+    from dda.bench.report import machine_line, table
+    from dda.bench.run import measure_in_subprocess
+
     methods = METHODS if args.method == "both" else (args.method,)
     results = []
     for size in args.sizes:

@@ -17,7 +17,7 @@ import numpy as np
 import shapely
 
 from dda.blocks import BlockSet
-from dda.jit import kernel
+from dda.jit import compiled, kernel
 
 MAX_CELLS_PER_BOX = 64  # boxes covering more cells are tested against every box
 
@@ -77,7 +77,7 @@ class KeptPairs:
             self._margin = margin
             self.searches += 1
         boxes = bounding_boxes(blocks, margin / 2.0)
-        if _still_overlapping_kernel is not None:
+        if compiled(_still_overlapping_kernel):
             return self._pairs[_still_overlapping_kernel(boxes, self._pairs)]
         a, b = boxes[self._pairs[:, 0]], boxes[self._pairs[:, 1]]
         apart = (
@@ -102,7 +102,7 @@ class KeptPairs:
 
 def overlapping_pairs(boxes: np.ndarray) -> np.ndarray:
     """(p, 2) sorted pairs i < j of overlapping (touching counts) boxes (n, 4)."""
-    if _grid_kernel is not None:
+    if compiled(_grid_kernel):
         pairs = _grid_pairs(boxes)
     else:
         pairs = _tree_pairs(boxes)

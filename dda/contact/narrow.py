@@ -41,7 +41,7 @@ from dda.geometry import (
     previous_vertex_index,
     reflex_vertices,
 )
-from dda.jit import kernel
+from dda.jit import compiled, kernel
 
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
 ANGLE_TIE = 0.05  # vertex-vertex: edge scores this close are a tie, decided by position
@@ -80,7 +80,7 @@ class VertexFans:
         v = blocks.vertices
         self.next = next_vertex_index(blocks.offsets)
         self.prev = previous_vertex_index(blocks.offsets)
-        if _fans_kernel is not None:
+        if compiled(_fans_kernel):
             self.to_next, self.to_prev, self.reflex, self.shortest = _fans_kernel(
                 np.ascontiguousarray(v, dtype=np.float64), self.next, self.prev
             )
@@ -181,7 +181,7 @@ def _screened(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius:
     """(fans, (V-E vertex, edge, V-V vertex, edge)): the candidates that pass the tests."""
     fans = VertexFans(blocks)
     radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
-    screen = _screen_compiled if _screen_kernel is not None else _screen_numpy
+    screen = _screen_compiled if compiled(_screen_kernel) else _screen_numpy
     return fans, screen(blocks, fans, pairs, search, radius)
 
 
@@ -361,7 +361,7 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     """
     if len(p1) == 0:
         return p1, p2
-    if _resolve_kernel is not None:
+    if compiled(_resolve_kernel):
         return _resolve_compiled(blocks, fans, p1, p2, slack, inside_depth, previous_keys)
     candidates = [
         (p1, p2),  # p1 onto edge starting at p2

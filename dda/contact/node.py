@@ -46,7 +46,7 @@ from __future__ import annotations
 import numpy as np
 
 from dda.geometry import expand_counts
-from dda.jit import kernel
+from dda.jit import compiled, kernel
 
 ANGLE_FILL = 0.05  # rad: a gap left uncovered by less than this counts as filled
 TWO_PI = 2.0 * np.pi
@@ -85,7 +85,7 @@ def separated_pairs(
     p1, p2 = p1.astype(np.int64), p2.astype(np.int64)
     indptr, mates = _mates(p1, p2, len(owner))
     v = np.ascontiguousarray(vertices, dtype=np.float64)
-    if _separated_kernel is not None:
+    if compiled(_separated_kernel):
         own = owner.astype(np.int64)
         return _separated_kernel(v, own, start, span, p1, p2, indptr, mates, tight, ANGLE_FILL)
     return _separated_numpy(v, owner, start, span, p1, p2, indptr, mates, tight)

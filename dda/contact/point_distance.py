@@ -13,7 +13,7 @@ import numpy as np
 import shapely
 
 from dda.blocks import BlockSet
-from dda.jit import kernel
+from dda.jit import compiled, kernel
 
 
 def block_polygons(blocks: BlockSet, rows: np.ndarray) -> np.ndarray:
@@ -34,7 +34,7 @@ def point_distances(
     """
     if len(rows) == 0:
         return np.zeros(0), np.zeros(0)
-    if _distances_kernel is not None:
+    if compiled(_distances_kernel):
         return _distances_kernel(
             np.ascontiguousarray(points, dtype=np.float64),
             np.asarray(rows, dtype=np.int64),

@@ -18,7 +18,7 @@ import numpy as np
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
 from dda.geometry import next_vertex_index, previous_vertex_index
-from dda.jit import kernel
+from dda.jit import compiled, kernel
 from dda.kinematics import displacement_matrices
 
 
@@ -44,7 +44,7 @@ def edge_geometry(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
     parameter t = (P1-P2)·(P3-P2)/l² and distance r = |P1 - P2 - clip(t, 0, 1)(P3-P2)|
     from the edge segment."""
     nxt = next_vertex_index(blocks.offsets)
-    if _edge_geometry_kernel is not None:
+    if compiled(_edge_geometry_kernel):
         return _edge_geometry_kernel(
             np.ascontiguousarray(blocks.vertices, dtype=np.float64),
             np.asarray(vertex, dtype=np.int64),
@@ -86,7 +86,7 @@ def gaps_after(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Penetration d = S0/l + E D_a + G D_b and shear position s = s0 + Es D_a + Gs D_b
     of every contact after the step D (n, 6) (eqs. 9-13, linearised)."""
-    if _gaps_kernel is not None:
+    if compiled(_gaps_kernel):
         return _gaps_kernel(
             rows.penetration,
             rows.slip,
@@ -134,7 +134,7 @@ def contact_rows(blocks: BlockSet, contacts: ContactSet) -> ContactRows:
     """E, G, Es, Gs and the gaps of every contact at the current positions."""
     offsets, v = blocks.offsets, blocks.vertices
     nxt, prv = next_vertex_index(offsets), previous_vertex_index(offsets)
-    if _rows_kernel is not None:
+    if compiled(_rows_kernel):
         return _contact_rows_compiled(blocks, contacts, nxt, prv)
     i, j = contacts.block_a, contacts.block_b
     p1, p2, p3 = v[contacts.vertex], v[contacts.edge], v[nxt[contacts.edge]]

@@ -1,5 +1,5 @@
 """Physical effects: one module per term of the potential energy.
 
 An effect adds 6x6 blocks to the diagonal of K and 6-vectors to F
-(THEORY.md section 3); ``build`` instantiates only the effects a scene needs.
+(docs/theory.md §3); ``build`` instantiates only the effects a scene needs.
 """

@@ -14,7 +14,7 @@ class FixedPoints(Effect):
     """Spring p_f to the initial position: K_ii += p_f TᵀT, F_i += p_f Tᵀ(x₀ - x).
 
     ``x₀ - x`` is the displacement that brings the point back where it
-    started (THEORY.md section 3, "point fixed by a spring").
+    started (docs/theory.md §3, "point held by a spring").
     """
 
     name = "fixed_points"

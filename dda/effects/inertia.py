@@ -9,7 +9,7 @@ from dda.effects.base import Effect, StepContext
 
 
 def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
-    """M_i = ρ ∫ T_iᵀ T_i dA about the centroid (THEORY.md section 3), (n, 6, 6)."""
+    """M_i = ρ ∫ T_iᵀ T_i dA about the centroid (docs/theory.md §3), (n, 6, 6)."""
     s, ixx, iyy, ixy = blocks.area, blocks.ixx, blocks.iyy, blocks.ixy
     m = np.zeros((blocks.count, 6, 6))
     m[:, 0, 0] = m[:, 1, 1] = s

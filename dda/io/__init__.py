@@ -1,7 +1,7 @@
 """Output of runs: VTU + PVD for ParaView, CSV/JSON tables, PNG pictures.
 
 The light parts (VTU, tables, the run writer) import meshio and numpy only;
-:mod:`dda.io.images` imports pyvista only when a picture is made.
+:mod:`dda.io.images` imports matplotlib only when a picture is made.
 """
 
 from dda.io.atomic import atomic_path, write_bytes, write_text

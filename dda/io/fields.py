@@ -16,6 +16,7 @@ Stresses are the block's constant stress ``(sxx, syy, sxy)``. Derived measures
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -24,23 +25,44 @@ from dda.result import Frame
 
 
 class ScalarInfo(NamedTuple):
-    """How to show one per-block scalar: its label and whether it has a sign."""
+    """How to show one per-block scalar: its label, whether it has a sign, its dimension."""
 
     label: str
     signed: bool
+    dimension: str  # "stress", "length", "velocity" or "angle"
 
 
 SCALARS: dict[str, ScalarInfo] = {
-    "sxx": ScalarInfo("stress xx", True),
-    "syy": ScalarInfo("stress yy", True),
-    "sxy": ScalarInfo("stress xy", True),
-    "s1": ScalarInfo("major principal stress", True),
-    "s2": ScalarInfo("minor principal stress", True),
-    "von_mises": ScalarInfo("von Mises stress", False),
-    "displacement": ScalarInfo("displacement", False),
-    "velocity": ScalarInfo("speed", False),
-    "rotation": ScalarInfo("rotation (rad)", True),
+    "sxx": ScalarInfo("stress xx", True, "stress"),
+    "syy": ScalarInfo("stress yy", True, "stress"),
+    "sxy": ScalarInfo("stress xy", True, "stress"),
+    "s1": ScalarInfo("major principal stress", True, "stress"),
+    "s2": ScalarInfo("minor principal stress", True, "stress"),
+    "von_mises": ScalarInfo("von Mises stress", False, "stress"),
+    "displacement": ScalarInfo("displacement", False, "length"),
+    "velocity": ScalarInfo("speed", False, "velocity"),
+    "rotation": ScalarInfo("rotation", True, "angle"),
 }
+
+
+def unit_name(dimension: str, units: Mapping[str, str] | None = None) -> str:
+    """The unit of a dimension in a scene's ``[units]`` (SI where not given).
+
+    >>> unit_name("stress", {"length": "ft", "force": "lb"})
+    'lb/ft²'
+    """
+    from dda.scene import Units
+
+    scene_units = Units(**{k: v for k, v in (units or {}).items() if k in _UNIT_KEYS})
+    return {
+        "stress": scene_units.stress,
+        "length": scene_units.length,
+        "velocity": scene_units.velocity,
+        "angle": "rad",
+    }[dimension]
+
+
+_UNIT_KEYS = ("length", "force", "time")
 
 
 def stress_measures(stresses: np.ndarray) -> dict[str, np.ndarray]:

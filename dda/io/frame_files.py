@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -22,12 +23,23 @@ class FrameFiles:
     time: float
     step: int
 
+    @property
+    def run_folder(self) -> Path:
+        """The output directory of the run (the parent of ``frames/``)."""
+        folder = self.blocks.parent
+        return folder.parent if folder.name == "frames" else folder
+
     def default_png(self, scalars: str) -> Path:
         """``<blocks stem>_<scalars>.png``, in the output directory of the run."""
-        folder = self.blocks.parent
-        if folder.name == "frames":
-            folder = folder.parent
-        return folder / f"{self.blocks.stem}_{scalars}.png"
+        return self.run_folder / f"{self.blocks.stem}_{scalars}.png"
+
+    def summary(self) -> dict:
+        """The run's ``summary.json`` (its title, units, ...), or {} if absent or unreadable."""
+        try:
+            summary = json.loads((self.run_folder / "summary.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return {}
+        return summary if isinstance(summary, dict) else {}
 
 
 def find_frame(source: str | os.PathLike[str], step: int | None = None) -> FrameFiles:

@@ -1,46 +1,38 @@
-"""Off-screen pictures of frames with pyvista (EGL; no display needed).
+"""Pictures of frames (PNG), drawn with matplotlib's Agg canvas (no display needed).
 
-Blocks are filled and coloured by one per-block scalar (a stress measure,
-displacement, ...; see :data:`dda.io.fields.SCALARS`) with a scalar bar,
-outlined in black; compressive contact normal forces are drawn as segments
-along the contact normal, centred on the contact point, with length
-proportional to the force. The camera looks down ``-z`` with a parallel
-projection, fitted to the blocks.
+Blocks are filled by one per-block scalar (a stress measure, displacement,
+...; see :data:`dda.io.fields.SCALARS`) and outlined in black; fixed blocks
+carry no computed field and are grey. Compressive contact normal forces are
+magenta segments along the contact normal, centred on the contact point,
+their length proportional to the force. The picture has the scene's title,
+axes in the scene's length unit, a colour bar naming the quantity and its
+unit with ticks that read differently from one another, and a legend for
+the grey and the magenta.
 
-pyvista is imported lazily, after ``VTK_DEFAULT_OPENGL_WINDOW`` is set to
-``vtkEGLRenderWindow`` (the X fallback is slower and warns; OSMesa crashes).
+matplotlib is imported when a picture is made, never by ``import dda.io``.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Sequence
+import textwrap
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from dda.io.atomic import atomic_path
-from dda.io.fields import SCALARS, scalar_field
+from dda.io.fields import SCALARS, scalar_field, unit_name
 from dda.result import Frame
 
 logger = logging.getLogger(__name__)
 
-# fraction of the view (width, height) the blocks may use; the rest is for
-# the scalar bar (bottom) and the title (top)
-_FIT = (0.90, 0.70)
-_CENTRE = (0.50, 0.56)  # where the blocks' centre goes, in view fractions
+FIXED_COLOUR = "#a9a9a9"
+CONTACT_COLOUR = "magenta"
 _CONTACT_LENGTH = 0.06  # longest contact segment, as a fraction of the model size
-
-
-def _pyvista() -> Any:
-    """Import pyvista for off-screen use (EGL window chosen before vtk loads)."""
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    import pyvista
-
-    pyvista.OFF_SCREEN = True
-    return pyvista
+_DPI = 100
 
 
 def render_frame(
@@ -51,6 +43,8 @@ def render_frame(
     show_contacts: bool = True,
     window_size: tuple[int, int] = (1200, 900),
     clim: tuple[float, float] | None = None,
+    scene_title: str = "",
+    units: Mapping[str, str] | None = None,
 ) -> Path:
     """Render one frame to a PNG file.
 
@@ -64,13 +58,17 @@ def render_frame(
         Block colouring: ``sxx, syy, sxy, s1, s2, von_mises, displacement,
         velocity`` or ``rotation``.
     title
-        Text above the picture; default ``"t = <time> s (step <step>)"``.
+        Text above the frame; default ``"t = <time> s (step <step>)"``.
     show_contacts
         Draw contact normal forces when the frame has contacts.
     window_size
         Picture size in pixels (width, height).
     clim
         Colour range; default: the range of the frame's values.
+    scene_title
+        The scene's title, at the top of the picture.
+    units
+        The scene's ``[units]`` (``length``, ``force``, ``time``); SI where absent.
 
     Returns
     -------
@@ -79,7 +77,7 @@ def render_frame(
     """
     return render_side_by_side(
         [frame], [title], path, scalars=scalars, show_contacts=show_contacts,
-        window_size=window_size, clim=clim,
+        window_size=window_size, clim=clim, scene_title=scene_title, units=units,
     )  # fmt: skip
 
 
@@ -91,6 +89,8 @@ def render_side_by_side(
     show_contacts: bool = True,
     window_size: tuple[int, int] | None = None,
     clim: tuple[float, float] | None = None,
+    scene_title: str = "",
+    units: Mapping[str, str] | None = None,
 ) -> Path:
     """Render frames next to each other, with one shared colour range and view.
 
@@ -110,6 +110,8 @@ def render_side_by_side(
         Picture size; default 700 x 600 pixels per frame.
     clim
         Colour range; default: the range over all frames.
+    scene_title, units
+        As in :func:`render_frame`.
 
     Returns
     -------
@@ -125,24 +127,24 @@ def render_side_by_side(
     info = SCALARS[scalars]
     clim, cmap = color_range(np.concatenate(values), info.signed, clim)
     size = window_size or (700 * len(frames), 600)
-    bounds = _bounds(frames)  # one view for all: motion between frames shows
-    pv = _pyvista()
-    plotter = pv.Plotter(
-        off_screen=True, shape=(1, len(frames)), window_size=list(size),
-        border=False, theme=pv.themes.DocumentTheme(),
-    )  # fmt: skip
-    try:
-        for k, (frame, title, value) in enumerate(zip(frames, titles, values, strict=True)):
-            plotter.subplot(0, k)
-            last = k == len(frames) - 1
-            _draw_frame(plotter, frame, value, clim, cmap, info.label, show_contacts, last)
-            plotter.add_text(title or default_title(frame), position="upper_edge", font_size=12)
-            _fit_camera(plotter, bounds, aspect=size[0] / len(frames) / size[1])
-        path = Path(path)
-        with atomic_path(path) as tmp:
-            plotter.screenshot(str(tmp))
-    finally:
-        plotter.close()
+    figure = _figure(size)
+    axes = figure.subplots(1, len(frames), squeeze=False)[0]
+    mappable = None
+    length = unit_name("length", units)
+    for ax, frame, title, value in zip(axes, frames, titles, values, strict=True):
+        mappable = _draw_frame(ax, frame, value, clim, cmap, show_contacts)
+        ax.set_title(title or default_title(frame), fontsize=11)
+        ax.set_xlabel(f"x ({length})")
+        ax.set_ylabel(f"y ({length})")
+    _share_view(axes, frames)
+    label = f"{info.label} ({unit_name(info.dimension, units)})"
+    _colour_bar(figure, mappable, axes, clim, label)
+    _legend(figure, frames, show_contacts)
+    if scene_title:
+        figure.suptitle("\n".join(textwrap.wrap(scene_title, 90)), fontsize=13)
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=_DPI)
     logger.debug("wrote %s (%s, range %.4g..%.4g)", path, scalars, *clim)
     return path
 
@@ -190,45 +192,91 @@ def color_range(
     return (float(clim[0]), float(clim[1])), ("coolwarm" if diverging else "viridis")
 
 
-def _draw_frame(plotter, frame, values, clim, cmap, label, show_contacts, scalar_bar) -> None:
-    size = _model_size(frame)
-    blocks = blocks_polydata(frame, values)
-    plotter.add_mesh(
-        blocks.triangulate(), scalars="value", cmap=cmap, clim=clim, show_edges=False,
-        lighting=False, show_scalar_bar=scalar_bar,
-        scalar_bar_args={
-            "title": label, "vertical": False, "position_x": 0.2, "position_y": 0.055,
-            "width": 0.6, "height": 0.1, "fmt": "%.3g", "title_font_size": 14,
-            "label_font_size": 12, "n_labels": 5,
-        },
+def distinct_labels(ticks: Sequence[float], max_digits: int = 12) -> list[str]:
+    """Tick labels with the fewest significant digits (3 at least) that tell them apart.
+
+    >>> distinct_labels([-322.4, -322.2, -322.0])
+    ['-322.4', '-322.2', '-322']
+    """
+    ticks = [float(t) for t in ticks]
+    for digits in range(3, max_digits + 1):
+        labels = [_format(t, digits, ticks) for t in ticks]
+        if len(set(labels)) == len(labels):
+            return labels
+    return [repr(t) for t in ticks]
+
+
+def _format(value: float, digits: int, ticks: Sequence[float]) -> str:
+    span = max(abs(t) for t in ticks) if ticks else 0.0
+    if value == 0.0 or (span and abs(value) < span * 1e-12):
+        return "0"
+    return f"{value:.{digits}g}"
+
+
+def _figure(size: tuple[int, int]) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI, layout="constrained")
+
+
+def _draw_frame(ax, frame: Frame, values: np.ndarray, clim, cmap, show_contacts: bool) -> Any:
+    """Blocks (coloured or grey), outlines and contact forces on ``ax``; the colour mapping."""
+    from matplotlib.collections import LineCollection, PolyCollection
+
+    polygons = [np.asarray(v, dtype=float) for v in frame.vertices]
+    coloured = PolyCollection(
+        [p for p, v in zip(polygons, values, strict=True) if np.isfinite(v)],
+        array=values[np.isfinite(values)], cmap=cmap, clim=clim,
+        edgecolors="black", linewidths=0.8,
     )  # fmt: skip
-    if scalar_bar:  # the bar's own title would overlap its labels: caption below instead
-        plotter.scalar_bar.SetTitle("")
-        caption = plotter.add_text(label, position=(0.5, 0.012), viewport=True, font_size=10)
-        caption.GetTextProperty().SetJustificationToCentered()
-    plotter.add_mesh(outlines_polydata(frame, z=1e-3 * size), color="black", line_width=1.5)
-    contacts = contact_segments(frame, _CONTACT_LENGTH * size, z=2e-3 * size)
-    if show_contacts and contacts is not None:
-        plotter.add_mesh(contacts, color="magenta", line_width=3)
+    ax.add_collection(coloured)
+    fixed = [p for p, v in zip(polygons, values, strict=True) if not np.isfinite(v)]
+    if fixed:
+        grey = PolyCollection(fixed, facecolors=FIXED_COLOUR, edgecolors="black", linewidths=0.8)
+        ax.add_collection(grey)
+    segments = contact_segments(frame, _CONTACT_LENGTH * _model_size(frame))
+    if show_contacts and segments is not None:
+        ax.add_collection(LineCollection(segments, colors=CONTACT_COLOUR, linewidths=2.0))
+    ax.set_aspect("equal", adjustable="datalim")  # the axes fill their box
+    return coloured
 
 
-def _bounds(frames: Sequence[Frame]) -> tuple[np.ndarray, np.ndarray]:
+def _share_view(axes, frames: Sequence[Frame]) -> None:
+    """One view for all frames (motion between them shows), with a margin."""
     points = np.concatenate([np.concatenate(f.vertices) for f in frames])
-    return points.min(axis=0), points.max(axis=0)
+    corners = np.array([points.min(axis=0), points.max(axis=0)])
+    for ax in axes:
+        ax.update_datalim(corners)
+        ax.margins(0.05)
+        ax.autoscale_view()
 
 
-def _fit_camera(plotter, bounds: tuple[np.ndarray, np.ndarray], aspect: float) -> None:
-    """Parallel projection down -z, ``bounds`` in the part of the view left for blocks."""
-    low, high = bounds
-    extent = np.maximum(high - low, 1e-9 * max(float(np.abs([low, high]).max()), 1.0))
-    scale = max(extent[1] / (2 * _FIT[1]), extent[0] / (2 * _FIT[0] * aspect))
-    view = np.array([2 * scale * aspect, 2 * scale])
-    focus = 0.5 * (low + high) + (0.5 - np.array(_CENTRE)) * view
-    distance = 10.0 * float(max(extent.max(), scale))
-    plotter.camera_position = [(*focus, distance), (*focus, 0.0), (0.0, 1.0, 0.0)]
-    plotter.enable_parallel_projection()
-    plotter.camera.parallel_scale = scale
-    plotter.reset_camera_clipping_range()
+def _colour_bar(figure, mappable, axes, clim, label: str) -> None:
+    from matplotlib.ticker import FixedFormatter, FixedLocator, MaxNLocator
+
+    ticks = [t for t in MaxNLocator(6).tick_values(*clim) if clim[0] <= t <= clim[1]]
+    bar = figure.colorbar(mappable, ax=list(axes), orientation="horizontal", shrink=0.7)
+    bar.locator = FixedLocator(ticks)
+    bar.formatter = FixedFormatter(distinct_labels(ticks))
+    bar.update_ticks()
+    bar.set_label(label)
+
+
+def _legend(figure, frames: Sequence[Frame], show_contacts: bool) -> None:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = []
+    if any(np.any(f.fixed) for f in frames):
+        handles.append(Patch(facecolor=FIXED_COLOUR, edgecolor="black", label="fixed block"))
+    if show_contacts and any(contact_segments(f, 1.0) is not None for f in frames):
+        handles.append(
+            Line2D(
+                [], [], color=CONTACT_COLOUR, lw=2, label="contact normal force (length ∝ force)"
+            )
+        )
+    if handles:
+        figure.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=9)
 
 
 def _model_size(frame: Frame) -> float:
@@ -236,57 +284,7 @@ def _model_size(frame: Frame) -> float:
     return float(np.ptp(points, axis=0).max()) or 1.0
 
 
-def _vertex_layout(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    counts = np.array([len(v) for v in frame.vertices], dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-    points = np.column_stack([np.concatenate(frame.vertices), np.zeros(counts.sum())])
-    return counts, starts, points
-
-
-def blocks_polydata(frame: Frame, values: np.ndarray | None = None) -> Any:
-    """The blocks as a ``pyvista.PolyData`` of polygons, one cell per block.
-
-    Parameters
-    ----------
-    frame
-        The frame.
-    values
-        Optional ``(n,)`` cell values, stored as cell array ``"value"``.
-
-    Returns
-    -------
-    pyvista.PolyData
-        Polygons in frame row order (concave ones are fine after
-        ``triangulate()``).
-    """
-    counts, starts, points = _vertex_layout(frame)
-    faces = np.empty(counts.sum() + len(counts), dtype=np.int64)
-    headers = starts + np.arange(len(counts))
-    is_header = np.zeros(len(faces), dtype=bool)
-    is_header[headers] = True
-    faces[headers] = counts
-    faces[~is_header] = np.arange(counts.sum())
-    mesh = _pyvista().PolyData(points, faces=faces)
-    if values is not None:
-        mesh.cell_data["value"] = np.asarray(values, dtype=float)
-    return mesh
-
-
-def outlines_polydata(frame: Frame, z: float = 0.0) -> Any:
-    """Closed block outlines as a ``pyvista.PolyData`` of poly-lines at height ``z``."""
-    counts, starts, points = _vertex_layout(frame)
-    points[:, 2] = z
-    offsets = np.concatenate([[0], np.cumsum(counts + 2)[:-1]])
-    lines = np.empty(int((counts + 2).sum()), dtype=np.int64)
-    lines[offsets] = counts + 1
-    lines[np.arange(counts.sum()) + np.repeat(offsets + 1 - starts, counts)] = np.arange(
-        counts.sum()
-    )
-    lines[offsets + 1 + counts] = starts
-    return _pyvista().PolyData(points, lines=lines)
-
-
-def contact_segments(frame: Frame, length: float, z: float = 0.0) -> Any | None:
+def contact_segments(frame: Frame, length: float) -> np.ndarray | None:
     """Compressive contact forces as segments along the normals (``None`` if there are none).
 
     Parameters
@@ -295,13 +293,12 @@ def contact_segments(frame: Frame, length: float, z: float = 0.0) -> Any | None:
         The frame.
     length
         Length of the segment of the largest normal force.
-    z
-        Height of the segments (above the blocks, so they stay visible).
 
     Returns
     -------
-    pyvista.PolyData or None
-        One line per contact with a positive normal force.
+    numpy.ndarray or None
+        ``(m, 2, 2)``: the two ends of one segment per contact with a positive
+        normal force.
     """
     c = frame.contacts
     force = np.asarray(c.normal_force, dtype=float)
@@ -309,8 +306,4 @@ def contact_segments(frame: Frame, length: float, z: float = 0.0) -> Any | None:
     if not keep.any():
         return None
     half = 0.5 * length * (force[keep] / force[keep].max())[:, None] * c.normals[keep]
-    ends = np.concatenate([c.points[keep] - half, c.points[keep] + half])
-    m = int(keep.sum())
-    points = np.column_stack([ends, np.full(2 * m, z)])
-    lines = np.column_stack([np.full(m, 2), np.arange(m), np.arange(m) + m]).ravel()
-    return _pyvista().PolyData(points, lines=lines)
+    return np.stack([c.points[keep] - half, c.points[keep] + half], axis=1)

@@ -16,6 +16,7 @@ atomically, so a run that stops early leaves a readable partial result.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from itertools import chain
@@ -107,7 +108,7 @@ class RunWriter:
         result
             The run's result, or ``None`` if the run did not return one.
         scene
-            The scene (its ``title`` and ``source`` go into the summary).
+            The scene (its ``title``, ``source`` and ``units`` go into the summary).
         status
             Run status; default ``result.summary["status"]``, else
             ``"finished"`` with a result and ``"failed"`` without.
@@ -127,7 +128,7 @@ class RunWriter:
         summary = self._summary(result, scene, status, error, final)
         self._write_history()
         if self.image and final is not None:
-            summary["image"] = self._render_final(final)
+            summary["image"] = self._render_final(final, summary)
         write_summary(self.outdir / "summary.json", summary)
         return summary
 
@@ -141,6 +142,9 @@ class RunWriter:
         if scene is not None:
             summary.setdefault("title", getattr(scene, "title", None))
             summary.setdefault("scene", getattr(scene, "source", None))
+            units = getattr(scene, "units", None)
+            if units is not None:
+                summary.setdefault("units", dataclasses.asdict(units))
         if final is not None:
             summary.setdefault("steps", int(final.step))
             summary.setdefault("time", float(final.time))
@@ -153,9 +157,12 @@ class RunWriter:
         rows = (self._history[step] for step in sorted(self._history))
         write_text(self.outdir / "history.csv", "".join(chain([history_header()], rows)))
 
-    def _render_final(self, frame: Frame) -> str | None:
+    def _render_final(self, frame: Frame, summary: dict[str, Any]) -> str | None:
         try:
-            render_frame(frame, self.outdir / "final.png", scalars=self.scalars)
+            render_frame(
+                frame, self.outdir / "final.png", scalars=self.scalars,
+                scene_title=summary.get("title") or "", units=summary.get("units"),
+            )  # fmt: skip
         except Exception:  # a missing OpenGL must not cost the run's data
             logger.exception("could not render final.png")
             return None

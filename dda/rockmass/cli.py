@@ -9,8 +9,6 @@ import tomllib
 from pathlib import Path
 
 from dda.errors import SceneError
-from dda.rockmass.expand import cut_rock_mass
-from dda.rockmass.toml_writer import dumps
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +31,8 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 def run_cut(args: argparse.Namespace) -> int:
     """Run ``dda cut``: 0 on success, 2 on a bad scene (nothing written)."""
+    from tomli_w import dumps
+
     try:
         cut, scene = _cut(Path(args.scene))
         _check_loadable(scene, str(args.scene))
@@ -61,6 +61,8 @@ def _cut(path: Path):
         raw = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(str(path), "<toml>", str(exc)) from None
+    from dda.rockmass.expand import cut_rock_mass
+
     return cut_rock_mass(raw, str(path))
 
 

@@ -26,15 +26,18 @@ from pathlib import Path
 import numpy as np
 
 import dda
+import dda.cases
 from dda.bench.scenes import wall_scene
 from dda.tradeoff.grid import Setting
-
-CASES_DIR = Path(__file__).resolve().parents[2] / "cases"
 
 
 @dataclass(frozen=True)
 class Case:
-    """A scene (raw dict), what to measure in its result and the closed form if any."""
+    """A scene (raw dict), what to measure in its result and the closed form if any.
+
+    ``measure`` is a module-level function, so that a dask worker receives it by
+    name together with the scene dict and reads no file.
+    """
 
     name: str
     raw: dict
@@ -72,7 +75,7 @@ def relative_error(value: np.ndarray, reference: np.ndarray, scale: float | None
 
 
 def _load(name: str, **analysis) -> dict:
-    raw = tomllib.loads((CASES_DIR / f"{name}.toml").read_text())
+    raw = tomllib.loads(dda.cases.text(name))
     raw["analysis"].update(analysis)
     return raw
 
@@ -94,13 +97,18 @@ def _grid(
     }
 
 
+def slid_distance(r: dda.Result) -> np.ndarray:
+    """How far the block called ``slider`` moved."""
+    return np.array([np.linalg.norm(r.final.displacements[_row(r, "slider")])])
+
+
 def sliding_block() -> Case:
     g, theta, phi = 9.81, np.radians(30.0), np.radians(20.0)
     exact = 0.5 * g * (np.sin(theta) - np.cos(theta) * np.tan(phi))
     return Case(
         "sliding_block",
         _load("sliding_block"),
-        lambda r: np.array([np.linalg.norm(r.final.displacements[_row(r, "slider")])]),
+        slid_distance,
         np.array([exact]),
         "distance slid in 1 s (m)",
         _grid(penalty=[0.1, 1.0, 10.0], time_step=[0.02, 0.01, 0.005], ratio=[0.01, 0.002]),
@@ -110,6 +118,11 @@ def sliding_block() -> Case:
 PUSH = 4000.0
 
 
+def acceleration(r: dda.Result) -> np.ndarray:
+    """2 x / t² of the block called ``top`` (constant acceleration from rest)."""
+    return np.array([2 * r.final.displacements[_row(r, "top"), 0] / r.final.time**2])
+
+
 def pushed_block() -> Case:
     raw = _load("paper_two_blocks", duration=0.5)
     raw["analysis"].pop("steps")
@@ -117,9 +130,6 @@ def pushed_block() -> Case:
     g, density = 32.174, 4.0405
     weight = density * g * 32.0
     exact = (PUSH - np.tan(np.radians(30.0)) * (1000.0 + weight)) / (weight / g)
-
-    def acceleration(r: dda.Result) -> np.ndarray:
-        return np.array([2 * r.final.displacements[_row(r, "top"), 0] / r.final.time**2])
 
     return Case(
         "pushed_block",
@@ -131,27 +141,42 @@ def pushed_block() -> Case:
     )
 
 
+def bottom_stress(r: dda.Result) -> np.ndarray:
+    """σyy of the block called ``block1``."""
+    return np.array([r.final.stresses[_row(r, "block1"), 1]])
+
+
 def stack() -> Case:
     raw = _load("stack", duration=0.2)
     exact = -2700.0 * 9.81 * 4.5
     return Case(
         "stack",
         raw,
-        lambda r: np.array([r.final.stresses[_row(r, "block1"), 1]]),
+        bottom_stress,
         np.array([exact]),
         "σyy of the bottom block at 0.2 s (Pa)",
         _grid(penalty=[0.1, 1.0, 10.0], time_step=[0.004, 0.002, 0.001], ratio=[0.01, 0.002]),
     )
 
 
+def centroids(r: dda.Result) -> np.ndarray:
+    """The final centroids of every block."""
+    return r.final.centroids.ravel()
+
+
+def displacements(r: dda.Result) -> np.ndarray:
+    """The final x and y displacements of every block."""
+    return r.final.displacements[:, :2].ravel()
+
+
 def scene_file(path: str) -> Case:
-    """Any scene file: final centroids against a fine run."""
-    raw = tomllib.loads(Path(path).read_text())
+    """Any scene file: final centroids against a fine run (the file is read here, once)."""
+    raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
     time_step = raw.get("analysis", {}).get("time_step", 1e-3)
     return Case(
         Path(path).stem,
         raw,
-        lambda r: r.final.centroids.ravel(),
+        centroids,
         None,
         "final centroids (error / model size)",
         _grid(penalty=[1.0, 10.0], time_step=[time_step], ratio=[0.01]),
@@ -166,7 +191,7 @@ def wall() -> Case:
     return Case(
         "wall",
         raw,
-        lambda r: r.final.displacements[:, :2].ravel(),
+        displacements,
         None,
         "block displacements at 0.1 s (error / largest displacement)",
         _grid(penalty=[50.0], tolerance=[1e-3, 1e-4, 1e-5], time_step=[1e-3, 5e-4], ratio=[0.01]),

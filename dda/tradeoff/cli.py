@@ -1,4 +1,5 @@
-"""``dda tradeoff CASE [--grid SPEC] [-o DIR] [--scheduler ADDRESS] [--serial]``."""
+"""``dda tradeoff CASE [--grid SPEC] [-o DIR] [--workers N | --scheduler ADDRESS |
+--scheduler-file FILE | --serial] [--threads N] [--repeats N]``."""
 
 from __future__ import annotations
 
@@ -7,11 +8,6 @@ import logging
 import sys
 from pathlib import Path
 from typing import Any
-
-from dda.tradeoff.cases import fine_setting, get_case
-from dda.tradeoff.grid import expand, parse_grid
-from dda.tradeoff.report import markdown_table, pareto_plot, write_csv
-from dda.tradeoff.runner import add_errors, run_one, sweep
 
 log = logging.getLogger(__name__)
 
@@ -23,7 +19,8 @@ def register(subparsers: Any) -> None:
         help="accuracy against time: sweep contact and time-step settings",
         description="Run CASE (sliding_block, pushed_block, stack, wall or a scene file) for every "
         "setting of the grid, measure the error against the closed form (or a fine run) and "
-        "the wall time; write DIR/CASE.csv, DIR/CASE.md and DIR/pareto_CASE.png.",
+        "the median wall time of repeated runs; write DIR/CASE.csv, DIR/CASE.md and "
+        "DIR/pareto_CASE.png. The client reads the case and sends scenes: workers need no files.",
     )
     p.add_argument("case", help="built-in case name or scene file")
     p.add_argument(
@@ -34,36 +31,79 @@ def register(subparsers: Any) -> None:
         "ratio=0.01' (keys not given keep the case's defaults)",
     )
     p.add_argument("-o", "--outdir", type=Path, default=Path("out/tradeoff"))
-    p.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="dask scheduler (default: a local cluster of 2 workers)",
+    where = p.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=_count,
+        default=2,
+        metavar="N",
+        help="workers of the local cluster (default 2; one thread each)",
     )
-    p.add_argument("--serial", action="store_true", help="run in this process (debugging)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="a running dask scheduler")
+    where.add_argument(
+        "--scheduler-file", metavar="FILE", help="the file a running dask scheduler wrote"
+    )
+    where.add_argument("--serial", action="store_true", help="run in this process")
+    p.add_argument(
+        "--threads", type=_count, default=1, metavar="N", help="solver threads per run (default 1)"
+    )
+    p.add_argument(
+        "--repeats",
+        type=_repeats,
+        default=3,
+        metavar="N",
+        help="runs per setting, timed by their median (at least 3; default 3)",
+    )
     p.set_defaults(func=tradeoff_command)
 
 
+def _count(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
+    return int(text)
+
+
+def _repeats(text: str) -> int:
+    from dda.tradeoff.runner import MIN_REPEATS
+
+    value = _count(text)
+    if value < MIN_REPEATS:
+        raise argparse.ArgumentTypeError(f"at least {MIN_REPEATS} (the time is their median)")
+    return value
+
+
 def tradeoff_command(args: argparse.Namespace) -> int:
-    """Run the study; return the exit code (0 ok, 2 bad input)."""
+    """Run the study; return the exit code (0 ok, 2 bad input, 3 the reference run failed)."""
+    from dda.tradeoff.cases import fine_setting, get_case
+    from dda.tradeoff.grid import Setting, expand, parse_grid
+    from dda.tradeoff.report import markdown_table, pareto_plot, write_csv
+    from dda.tradeoff.runner import Cluster, Task, add_errors, make_tasks, sweep
+
     try:
         case = get_case(args.case)
         grid = parse_grid(args.grid, case.grid)
     except ValueError as exc:
         print(f"dda tradeoff: {exc}", file=sys.stderr)
         return 2
-    settings = expand(grid)
-    reference = case.reference
-    if reference is None:
-        fine = run_one(args.case, fine_setting(grid))
-        if fine["value"] is None:
-            print("dda tradeoff: the fine reference run failed", file=sys.stderr)
-            return 3
-        reference = fine["value"]
-    print(f"{case.name}: {len(settings)} runs", file=sys.stderr)
-    rows = sweep(
-        args.case, settings, scheduler=args.scheduler, serial=args.serial, progress=_progress
+    settings: list[Setting] = expand(grid)
+    tasks = make_tasks(case, settings, args.threads, args.repeats)
+    reference = None
+    if case.reference is None:
+        fine = fine_setting(grid)
+        reference = Task(case.name, case.scene(fine), case.measure, fine, args.threads, 1)
+    cluster = Cluster(
+        args.scheduler, args.scheduler_file, args.workers, getattr(args, "verbose", 0) > 0
     )
-    add_errors(rows, args.case, reference)
+    print(
+        f"{case.name}: {len(settings)} settings x {args.repeats} runs"
+        + (" and the fine reference run" if reference else ""),
+        file=sys.stderr,
+    )
+    rows, fine_row = sweep(tasks, reference, cluster, serial=args.serial, progress=_progress)
+    if reference is not None and (fine_row is None or fine_row["value"] is None):
+        print("dda tradeoff: the fine reference run failed", file=sys.stderr)
+        return 3
+    add_errors(rows, case, case.reference if reference is None else fine_row["value"])
     outdir = args.outdir
     write_csv(rows, outdir / f"{case.name}.csv")
     (outdir / f"{case.name}.md").write_text(markdown_table(rows, case.quantity))
@@ -77,7 +117,7 @@ def _progress(done: int, total: int, row: dict) -> None:
     print(
         f"[{done}/{total}] {row['method']:<22} p={row['penalty']:<6g} "
         f"dt={row['time_step']:<7g} "
-        f"{row['seconds']:6.2f} s {row['status']}",
+        f"{row['seconds']:6.2f} s (median of {row['repeats']}) {row['status']} on {row['host']}",
         file=sys.stderr,
         flush=True,
     )

@@ -18,6 +18,10 @@ COLUMNS = (
     "status",
     "steps",
     "seconds",
+    "repeats",
+    "seconds_all",
+    "threads",
+    "host",
     "error",
     "max_penetration",
     "value",
@@ -49,8 +53,9 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
     lines = [
         f"Quantity: {quantity}." if quantity else "",
         "",
-        "| method | penalty (×E) | tolerance (×size) | Δt | g2 | error | seconds | steps |",
-        "|---|---|---|---|---|---|---|---|",
+        "| method | penalty (×E) | tolerance (×size) | Δt | g2 "
+        "| error | seconds (median) | steps | host |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for method, front in fronts_by_method(rows).items():
         for r in front:
@@ -59,7 +64,7 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
                 f"| {method} | {r['penalty']:g} | {tol} | {r['time_step']:g} "
                 f"| {r['ratio']:g} "
                 f"| {r['error']:.2e} | {r['seconds']:.2f} "
-                f"| {r['steps']} |"
+                f"| {r['steps']} | {r.get('host', '')} |"
             )
     failed = sum(r["status"] != "finished" for r in rows)
     lines.append("")
@@ -94,7 +99,7 @@ def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("wall time of the run (s)")
+    ax.set_xlabel("wall time of a run, median of its repeats (s)")
     ax.set_ylabel("relative error")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)

@@ -1,27 +1,57 @@
-"""Run the grid: one run per setting, in dask.distributed workers or serially.
+"""Run the grid: one task per setting, in dask.distributed workers or serially.
 
-``run_one`` is a top-level function of an importable module and returns a
-plain dict, so that spawned worker processes can run it and send the result
-back. dask is imported only when a sweep uses it (optional extra
-``dda-rock[tradeoff]``).
+A :class:`Task` carries everything a run needs: the scene as a dict (the
+setting already applied by the client), the module-level function that
+measures the result, the solver threads and the number of repeats. Workers
+read no file, so a sweep runs on any dask cluster whose workers have dda
+installed, whatever their working directory. The converged reference run of
+a case without a closed form is a task too, submitted first (it is the
+longest). Each task times its run ``repeats`` times in the same process and
+reports the median (the first run of a process also loads compiled kernels;
+identical runs on a shared machine vary by a factor of several), and the
+host it ran on.
+
+dask is imported only when a sweep uses it (optional extra ``dda-rock[tradeoff]``).
 """
 
 from __future__ import annotations
 
 import logging
+import os
+import socket
+import statistics
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 import dda
 from dda.linsolve import THREADS_VARIABLE
-from dda.tradeoff.cases import get_case, model_size, relative_error
+from dda.tradeoff.cases import Case, model_size, relative_error
 from dda.tradeoff.grid import Setting
 
 log = logging.getLogger(__name__)
 
 Progress = Callable[[int, int, dict], None]
+MIN_REPEATS = 3  # a setting's time is the median of at least this many runs
+
+
+@dataclass(frozen=True)
+class Task:
+    """One setting of one case, ready to run anywhere."""
+
+    case: str
+    scene: dict  # the raw scene with the setting applied
+    measure: Callable[[dda.Result], np.ndarray]
+    setting: Setting
+    threads: int = 1  # PARDISO threads of this run (DDA_THREADS)
+    repeats: int = MIN_REPEATS
+
+
+def make_tasks(case: Case, settings: list[Setting], threads: int, repeats: int) -> list[Task]:
+    """One task per setting (the scene dicts are built here, in the client)."""
+    return [Task(case.name, case.scene(s), case.measure, s, threads, repeats) for s in settings]
 
 
 _WARM = False
@@ -50,38 +80,48 @@ def _warm_up() -> None:
         _WARM = True
 
 
-def run_one(case_name: str, setting: Setting) -> dict:
-    """Run ``case_name`` with ``setting``; return the measured values and the wall time.
+def run_task(task: Task) -> dict:
+    """Run ``task`` ``task.repeats`` times; return its measured value and median wall time.
 
-    A run that stops (``dda.SimulationError``) is reported with status
-    ``failed`` and no value.
+    The process's solver threads are set to ``task.threads`` first. A run that
+    stops (``dda.SimulationError``) is reported once, with status ``failed``
+    and no value.
     """
-    case = get_case(case_name)
-    scene = dda.load_scene(case.scene(setting))
+    os.environ[THREADS_VARIABLE] = str(task.threads)
+    scene = dda.load_scene(task.scene)
     _warm_up()
-    start = time.perf_counter()
-    try:
-        result = dda.simulate(scene)
-        value, status, steps = case.measure(result), "finished", result.summary["steps"]
-        penetration = result.summary["max_penetration"]
-    except dda.SimulationError as exc:
-        value, status, steps, penetration = None, "failed", 0, float("nan")
-        log.info("%s %s: %s", case_name, setting.label, exc)
-    seconds = time.perf_counter() - start
+    seconds: list[float] = []
+    value, status, steps, penetration = None, "finished", 0, float("nan")
+    for k in range(task.repeats):
+        start = time.perf_counter()
+        try:
+            result = dda.simulate(scene)
+        except dda.SimulationError as exc:
+            seconds.append(time.perf_counter() - start)
+            status = "failed"
+            log.info("%s %s: %s", task.case, task.setting.label, exc)
+            break
+        seconds.append(time.perf_counter() - start)
+        if k == 0:
+            value = np.asarray(task.measure(result), float).tolist()
+            steps, penetration = result.summary["steps"], result.summary["max_penetration"]
     return {
-        **setting.as_dict(),
-        "case": case_name,
+        **task.setting.as_dict(),
+        "case": task.case,
         "status": status,
-        "seconds": seconds,
+        "seconds": statistics.median(seconds),
+        "seconds_all": seconds,
+        "repeats": len(seconds),
+        "threads": task.threads,
+        "host": socket.gethostname(),
         "steps": steps,
         "max_penetration": penetration,
-        "value": None if value is None else np.asarray(value, float).tolist(),
+        "value": value if status == "finished" else None,
     }
 
 
-def add_errors(rows: list[dict], case_name: str, reference: np.ndarray | None) -> None:
+def add_errors(rows: list[dict], case: Case, reference: np.ndarray | None) -> None:
     """Fill ``error`` (relative) and ``reference`` in place."""
-    case = get_case(case_name)
     scale = model_size(case.raw) if case.per_model_size else None
     for row in rows:
         row["reference"] = None if reference is None else np.asarray(reference).tolist()
@@ -91,46 +131,83 @@ def add_errors(rows: list[dict], case_name: str, reference: np.ndarray | None) -
             row["error"] = relative_error(np.asarray(row["value"]), reference, scale)
 
 
+@dataclass(frozen=True)
+class Cluster:
+    """Where the tasks run: a scheduler (address or file), else a local cluster."""
+
+    scheduler: str | None = None
+    scheduler_file: str | None = None
+    workers: int = 2  # local cluster only
+    verbose: bool = False  # distributed's INFO logs
+
+
 def sweep(
-    case_name: str,
-    settings: list[Setting],
-    scheduler: str | None = None,
+    tasks: list[Task],
+    reference: Task | None = None,
+    cluster: Cluster | None = None,
     serial: bool = False,
     progress: Progress | None = None,
-) -> list[dict]:
-    """Run every setting; rows in completion order (with ``progress(done, total, row)``)."""
+) -> tuple[list[dict], dict | None]:
+    """Run the reference task (if any) and every task.
+
+    Returns
+    -------
+    (rows in completion order, the reference's row or None); ``progress(done,
+    total, row)`` is called for each row of ``tasks``.
+    """
     if serial:
+        fine = run_task(reference) if reference is not None else None
         rows = []
-        for k, s in enumerate(settings):
-            rows.append(run_one(case_name, s))
+        for task in tasks:
+            rows.append(run_task(task))
             if progress:
-                progress(k + 1, len(settings), rows[-1])
-        return rows
-    return _distributed(case_name, settings, scheduler, progress)
+                progress(len(rows), len(tasks), rows[-1])
+        return rows, fine
+    return _distributed(tasks, reference, cluster or Cluster(), progress)
 
 
-def _distributed(case_name, settings, scheduler, progress) -> list[dict]:
-    from dask.distributed import Client, LocalCluster, as_completed
+def _distributed(
+    tasks: list[Task], reference: Task | None, cluster: Cluster, progress: Progress | None
+) -> tuple[list[dict], dict | None]:
+    from dask.distributed import as_completed
 
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            env={THREADS_VARIABLE: "1"},  # two workers share the cores: no MKL threads
-        )
-    client = Client(scheduler or cluster)
+    client, local = _connect(cluster)
     try:
-        futures = client.map(run_one, [case_name] * len(settings), settings, pure=False)
+        fine = None
+        if reference is not None:  # first in the queue: the longest run
+            fine = client.submit(run_task, reference, pure=False, priority=1)
+        futures = client.map(run_task, tasks, pure=False)
         rows = []
         for future in as_completed(futures):
             rows.append(future.result())
             if progress:
-                progress(len(rows), len(settings), rows[-1])
-        return rows
+                progress(len(rows), len(tasks), rows[-1])
+        return rows, None if fine is None else fine.result()
     finally:
         client.close()
-        if cluster is not None:
-            cluster.close()
+        if local is not None:
+            local.close()
+
+
+def _connect(cluster: Cluster):
+    """A client of the given scheduler, or of a new local cluster (returned second)."""
+    import dask
+    from dask.distributed import Client, LocalCluster
+
+    level = logging.INFO if cluster.verbose else logging.WARNING
+    dask.config.set({"logging.distributed": logging.getLevelName(level).lower()})
+    logging.getLogger("distributed").setLevel(level)
+    if cluster.scheduler or cluster.scheduler_file:
+        client = Client(address=cluster.scheduler, scheduler_file=cluster.scheduler_file)
+        log.info("connected to %s (dashboard %s)", client.scheduler.address, client.dashboard_link)
+        return client, None
+    local = LocalCluster(
+        n_workers=cluster.workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",  # a free port, never a fixed one another program may hold
+        silence_logs=level,
+    )
+    client = Client(local)
+    log.info("local cluster of %d workers (dashboard %s)", cluster.workers, client.dashboard_link)
+    return client, local

@@ -1,0 +1,45 @@
+"""numba's kernels run where they pay: large runs and direct calls, not small runs."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from dda import jit
+from dda.contact import rows as rows_module
+
+needs_numba = pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
+
+
+@needs_numba
+def test_kernels_are_used_outside_a_run_and_in_runs_with_enough_work():
+    kernel = rows_module._rows_kernel
+    assert jit.compiled(kernel)
+    with jit.run_work(blocks=2, steps=300) as used:  # 600 block-steps
+        assert not used and not jit.compiled(kernel)
+        with jit.run_work(blocks=900, steps=100) as inner:
+            assert inner and jit.compiled(kernel)
+        assert not jit.compiled(kernel)
+    assert jit.compiled(kernel)
+    assert not jit.compiled(None)
+
+
+def test_a_small_run_imports_neither_numba_nor_pardiso():
+    """The paper's two blocks: the numpy path and a dense Cholesky (start-up as without them)."""
+    code = (
+        "import sys, dda; dda.simulate('cases/paper_two_blocks.toml'); "
+        "print('numba' in sys.modules, 'pypardiso' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "False"]
+
+
+@needs_numba
+def test_a_kernel_binds_the_compiled_helpers_it_calls():
+    """The rows kernel calls the helper ``_project``: compiling it compiles the helper."""
+    kernel = rows_module._rows_kernel
+    assert kernel.dispatcher is kernel.dispatcher  # made once
+    assert not isinstance(rows_module._project, jit.Kernel)
+    assert hasattr(rows_module._project, "py_func")  # a numba dispatcher
