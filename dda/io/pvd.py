@@ -8,39 +8,65 @@ A PVD is a small XML collection::
       </Collection>
     </VTKFile>
 
-:class:`PvdIndex` rewrites the whole index atomically after every frame, so
-a run that stops early still leaves a readable index of what was written.
+:class:`PvdIndex` writes the index once, atomically, and then adds each
+frame in O(1): one ``pwrite`` of the new ``DataSet`` line and the closing
+tags over the old closing tags. After every write the file is a complete
+document, so a run that stops early, even by SIGKILL, leaves a readable
+index of what was written.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 from dda.io.atomic import write_text
 
+HEAD = (
+    '<?xml version="1.0"?>\n'
+    '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">\n'
+    "  <Collection>\n"
+)
+TAIL = "  </Collection>\n</VTKFile>\n"
+STEP_OF_FILE = re.compile(r"_(\d+)\.vtu$")
+
 
 class PvdIndex:
-    """A time series index that is kept written to disk.
+    """A time series index kept written to disk, extended in O(1) per data set.
 
     Parameters
     ----------
     path
         The ``.pvd`` file. Data set file names are stored relative to its
-        directory.
+        directory. It is (re)written at once, holding ``entries``.
+    entries
+        ``(file, time)`` pairs to start with, files relative to the index's
+        directory (as :func:`read_pvd_entries` gives them).
     """
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
+    def __init__(
+        self, path: str | os.PathLike[str], entries: Iterable[tuple[str, float]] = ()
+    ) -> None:
         self.path = Path(path)
-        self._entries: dict[str, float] = {}
+        entries = list(entries)
+        lines = [_line(file, time) for file, time in entries]
+        self._count = len(lines)
+        self._last: tuple[str, int] | None = None  # (file, offset of its line)
+        body = HEAD + "".join(lines)
+        write_text(self.path, body + TAIL)
+        self._end = len(body.encode("utf-8"))  # where the closing tags start
+        if entries:
+            self._last = (entries[-1][0], self._end - len(lines[-1].encode("utf-8")))
 
     def __len__(self) -> int:
-        return len(self._entries)
+        return self._count
 
     def add(self, time: float, file: str | os.PathLike[str]) -> None:
-        """Record ``file`` at ``time`` (replacing an earlier entry for the same file) and save.
+        """Record ``file`` at ``time`` and save; the same file as the last entry replaces it.
 
         Parameters
         ----------
@@ -51,12 +77,25 @@ class PvdIndex:
             stored relative to the index's directory.
         """
         relative = os.path.relpath(Path(file).resolve(), self.path.parent.resolve())
-        self._entries[Path(relative).as_posix()] = float(time)
-        self.save()
+        name = Path(relative).as_posix()
+        line = _line(name, time).encode("utf-8")
+        replace = self._last is not None and self._last[0] == name
+        offset = self._last[1] if replace else self._end
+        data = line + TAIL.encode("utf-8")
+        fd = os.open(self.path, os.O_WRONLY)
+        try:
+            os.pwrite(fd, data, offset)  # one write: the file is whole before and after
+            if os.fstat(fd).st_size > offset + len(data):
+                os.ftruncate(fd, offset + len(data))
+        finally:
+            os.close(fd)
+        self._last = (name, offset)
+        self._end = offset + len(line)
+        self._count += 0 if replace else 1
 
-    def save(self) -> None:
-        """Write the index atomically."""
-        write_text(self.path, pvd_text(self._entries.items()))
+
+def _line(file: str, time: float) -> str:
+    return f'    <DataSet timestep="{float(time)!r}" group="" part="0" file={quoteattr(file)}/>\n'
 
 
 def pvd_text(entries: Iterable[tuple[str, float]]) -> str:
@@ -72,14 +111,24 @@ def pvd_text(entries: Iterable[tuple[str, float]]) -> str:
     str
         The document.
     """
-    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
-    collection = ET.SubElement(root, "Collection")
-    for file, time in entries:
-        ET.SubElement(
-            collection, "DataSet", timestep=repr(float(time)), group="", part="0", file=str(file)
-        )
-    ET.indent(root)
-    return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    return HEAD + "".join(_line(str(file), time) for file, time in entries) + TAIL
+
+
+def read_pvd_entries(path: str | os.PathLike[str]) -> list[tuple[str, float]]:
+    """The ``(file, time)`` entries of a PVD index as written (files relative to it).
+
+    Parameters
+    ----------
+    path
+        The ``.pvd`` file.
+
+    Returns
+    -------
+    list of (str, float)
+        In file order.
+    """
+    root = ET.parse(path).getroot()
+    return [(d.get("file", ""), float(d.get("timestep", "nan"))) for d in root.iter("DataSet")]
 
 
 def read_pvd(path: str | os.PathLike[str]) -> list[tuple[float, Path]]:
@@ -96,8 +145,10 @@ def read_pvd(path: str | os.PathLike[str]) -> list[tuple[float, Path]]:
         In file order.
     """
     path = Path(path)
-    root = ET.parse(path).getroot()
-    return [
-        (float(d.get("timestep", "nan")), path.parent / d.get("file", ""))
-        for d in root.iter("DataSet")
-    ]
+    return [(time, path.parent / file) for file, time in read_pvd_entries(path)]
+
+
+def step_of_file(file: str | os.PathLike[str]) -> int:
+    """The step in a frame file's name (``frames/blocks_000010.vtu`` -> 10); -1 if none."""
+    match = STEP_OF_FILE.search(Path(file).name)
+    return int(match.group(1)) if match else -1
