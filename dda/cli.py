@@ -60,7 +60,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     verbosity = _verbosity(argv)
     configure_logging(verbosity)
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a refused argument (one line written), or --help
+        return exc.code if isinstance(exc.code, int) else EXIT_INPUT
     if not hasattr(args, "func"):
         parser.print_help(sys.stderr)
         return EXIT_INPUT
@@ -290,11 +293,17 @@ def _check_output_size(scene, args: argparse.Namespace) -> None:
             f"--max-output {args.max_output:g} GB; keep fewer frames (analysis.save_every, "
             "--save-every) or raise --max-output",
         )
-    outdir = args.outdir or Path("out")
-    existing = next((p for p in [outdir, *outdir.absolute().parents] if p.is_dir()), None)
-    if existing is not None and size > shutil.disk_usage(existing).free:
-        free = shutil.disk_usage(existing).free / 1e9
-        logger.warning("the run may write %.3g GB; %s has %.3g GB free", size / 1e9, existing, free)
+
+
+def _warn_about_free_space(scene, outdir: Path) -> None:
+    """A warning when the run's estimated output exceeds the free space of ``outdir``."""
+    from dda.limits import estimated_output_bytes
+
+    size, disk = estimated_output_bytes(scene), shutil.disk_usage(outdir)
+    if disk.total and size > disk.free:  # (pseudo file systems report no total)
+        logger.warning(
+            "the run may write %.3g GB; %s has %.3g GB free", size / 1e9, outdir, disk.free / 1e9
+        )
 
 
 def _run_in(folder, scene, args: argparse.Namespace) -> int:
@@ -310,6 +319,7 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
             return EXIT_OK
         checkpoint = read_checkpoint(folder.checkpoint_path)
         check_scene(checkpoint, scene)
+    _warn_about_free_space(scene, folder.outdir)
     resume_step = None if checkpoint is None else checkpoint.step
     writer = RunWriter(folder, scalars=args.scalars, resume_step=resume_step, scene=scene)
     minutes = args.checkpoint_minutes
@@ -408,24 +418,25 @@ def _add_render(subparsers: Any) -> None:
     p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
     p.add_argument("--step", type=int, help="step of the frame (OUTDIR only; default last)")
     p.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")
-    p.add_argument("--size", type=int, nargs=2, default=(1200, 900), metavar=("W", "H"))
+    p.add_argument("--size", type=positive_int, nargs=2, default=(1200, 900), metavar=("W", "H"))
     p.set_defaults(func=render_command)
 
 
 def render_command(args: argparse.Namespace) -> int:
     """``dda render``: read a frame back from VTU and draw it."""
-    from dda.io.frame_files import find_frame
+    from dda.io.frame_files import find_frame, read_found_frame
+    from dda.io.output_paths import OutputError, check_output_file
 
     try:
         found = find_frame(args.source, args.step)
-    except (FileNotFoundError, ValueError) as exc:
+        output = args.output or found.default_png(args.scalars)
+        check_output_file(output)
+        frame = read_found_frame(found)
+    except (FileNotFoundError, ValueError, OutputError) as exc:
         print(f"dda render: {exc}", file=sys.stderr)
         return EXIT_INPUT
     from dda.io.images import render_frame
-    from dda.io.vtu import read_frame
 
-    frame = read_frame(found.blocks, found.contacts, time=found.time, step=found.step)
-    output = args.output or found.default_png(args.scalars)
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
         window_size=tuple(args.size),

@@ -78,6 +78,10 @@ class FractureEvent(NamedTuple):
 class Result:
     """Frames kept during the run, fracture events and a summary dict.
 
+    ``frames``: every kept frame, or with ``simulate(..., keep_frames=False)``
+    the first and the latest only; a run resumed from a checkpoint starts with
+    the checkpoint's state. ``history``: one value per step (13 columns).
+
     ``summary`` keys: steps, time, wall_seconds, iterations (total solves),
     iterations_per_step, max_penetration, active_effects, stage_seconds,
     contact_method, cut_steps, held_contacts (contact-steps held closed or
@@ -85,7 +89,8 @@ class Result:
     friction_dissipation (work of the sliding contacts' friction against the
     motion), held_friction_work (work the friction of contacts held sliding
     did on the blocks where they moved against their slide direction, the
-    energy the holds put in; both dda.step.friction_work), status.
+    energy the holds put in; both dda.step.friction_work), status ("finished",
+    "interrupted" by ``stop``, "failed"), environment (dda.environment).
     """
 
     frames: list[Frame]

@@ -25,9 +25,9 @@ from dda.io import (
 )
 from dda.io.fields import scalar_field, stress_measures
 from dda.io.frame_files import find_frame
+from dda.io.images import color_range
 from dda.io.pvd import PvdIndex, read_pvd_entries
 from dda.io.run_folder import OutputError
-from dda.io.images import color_range
 from dda.io.tables import HISTORY_COLUMNS
 from dda.io.vtu import blocks_mesh
 from dda.result import Contacts, FractureEvent, Frame, Result

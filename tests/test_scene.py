@@ -349,8 +349,11 @@ BAD = [
     (("loads", 0, "block"), "base", "loads[0].block"),  # a fixed block
     (("blocks", 1, "velocity"), [0.1, 0.0, 0.0], "blocks[1].velocity"),  # a fixed block
     (("blocks", 0, "fixed"), True, "blocks"),  # every block fixed
-    (("blocks", 0, "vertices"), [[math.cos(k / 163), math.sin(k / 163)] for k in range(1024)],
-     "blocks[0].vertices"),  # fmt: skip
+    (
+        ("blocks", 0, "vertices"),
+        [[math.cos(k / 163), math.sin(k / 163)] for k in range(1024)],
+        "blocks[0].vertices",
+    ),  # fmt: skip
     # interfaces
     (("interfaces", 0, "blocks"), ["slider"], "interfaces[0].blocks"),
     (("interfaces", 0, "blocks"), ["slider", "slider"], "interfaces[0].blocks"),

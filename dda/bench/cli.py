@@ -10,6 +10,7 @@ from typing import Any
 from dda.bench.report import machine_line, table
 from dda.bench.run import measure_in_subprocess
 from dda.bench.scenes import METHODS
+from dda.cli import positive_int
 
 log = logging.getLogger(__name__)
 
@@ -26,7 +27,7 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--sizes",
-        type=int,
+        type=positive_int,
         nargs="+",
         default=list(DEFAULT_SIZES),
         metavar="N",
@@ -38,7 +39,7 @@ def register(subparsers: Any) -> None:
         default="both",
         help="contact method (default: both)",
     )
-    parser.add_argument("--steps", type=int, default=100, help="time steps (default: 100)")
+    parser.add_argument("--steps", type=positive_int, default=100, help="time steps (default: 100)")
     parser.add_argument(
         "--state-band",
         type=float,

@@ -52,7 +52,10 @@ def check_output_file(path: str | os.PathLike[str]) -> None:
     path = Path(path)
     if path.is_dir():
         raise OutputError(path, "is a directory, not a file")
+    parent = path.parent
+    if parent.exists() and not parent.is_dir():
+        raise OutputError(path, f"{parent} is a file, not a directory")
     try:
-        check_output_dir(path.parent)
+        check_output_dir(parent)
     except OutputError as exc:
         raise OutputError(path, exc.reason) from None

@@ -52,6 +52,7 @@ class PvdIndex:
         self, path: str | os.PathLike[str], entries: Iterable[tuple[str, float]] = ()
     ) -> None:
         self.path = Path(path)
+        self._directory = self.path.parent.resolve()
         entries = list(entries)
         lines = [_line(file, time) for file, time in entries]
         self._count = len(lines)
@@ -76,7 +77,7 @@ class PvdIndex:
             The data set file (absolute, or relative to the working directory);
             stored relative to the index's directory.
         """
-        relative = os.path.relpath(Path(file).resolve(), self.path.parent.resolve())
+        relative = os.path.relpath(Path(file).resolve(), self._directory)
         name = Path(relative).as_posix()
         line = _line(name, time).encode("utf-8")
         replace = self._last is not None and self._last[0] == name

@@ -66,7 +66,10 @@ class PreviousRun:
 
 
 class RunFolder:
-    """The claim of one run on an output directory, held until :meth:`release`.
+    """The hold of one run on an output directory, until :meth:`release`.
+
+    Made, it holds the lock and has checked the directory; :meth:`claim`
+    then makes the directory the run's (the writer does, when it starts).
 
     Parameters
     ----------
@@ -87,22 +90,38 @@ class RunFolder:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
         self.outdir = Path(outdir)
         self.mode = mode
-        _make_directory(self.outdir)
-        self._fd: int | None = _open_lock_file(self.outdir)
+        if mode == "resume" and not self.outdir.is_dir():
+            raise OutputError(self.outdir, "holds no run to resume")
+        made = _make_directory(self.outdir)
+        lock_existed = (self.outdir / LOCK_NAME).exists()
+        self._fd: int | None = None
         try:
+            self._fd = _open_lock_file(self.outdir)
             record = _lock(self._fd, self.outdir)
             self.previous = _previous_run(self.outdir, record)
             self._check_mode()
-            if mode == "overwrite" and self.previous is not None:
-                remove_outputs(self.outdir)
             resumed = self.previous.run_id if mode == "resume" and self.previous else None
             self.run_id = resumed or new_run_id()
             self.started = time.time()
-            self._write_record()
-            (self.outdir / "frames").mkdir(exist_ok=True)
+            self.claimed = False
         except BaseException:
             self.release()
+            if not lock_existed:  # refused: leave nothing behind
+                (self.outdir / LOCK_NAME).unlink(missing_ok=True)
+            for path in made:
+                path.rmdir()
             raise
+
+    def claim(self) -> None:
+        """Make the directory this run's: remove an earlier run's outputs (``overwrite``),
+        write the lock file's record, make ``frames/``. Until then nothing is changed."""
+        if self.claimed:
+            return
+        if self.mode == "overwrite" and self.previous is not None:
+            remove_outputs(self.outdir)
+        self._write_record()
+        (self.outdir / "frames").mkdir(exist_ok=True)
+        self.claimed = True
 
     @property
     def checkpoint_path(self) -> Path:
@@ -160,12 +179,15 @@ def remove_outputs(outdir: Path) -> int:
     return len(old)
 
 
-def _make_directory(outdir: Path) -> None:
+def _make_directory(outdir: Path) -> list[Path]:
+    """Create ``outdir`` and its missing parents; return those made, deepest first."""
     check_output_dir(outdir)
+    made = [p for p in [outdir, *outdir.parents] if not p.exists()]
     try:
         outdir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(outdir, f"cannot create it ({exc.strerror or exc})") from None
+    return made
 
 
 def _open_lock_file(outdir: Path) -> int:
@@ -182,8 +204,10 @@ def _lock(fd: int, outdir: Path) -> dict[str, Any]:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             holder = _read_record(fd)
-            who = f"run {holder.get('run_id', '?')} (process {holder.get('pid', '?')} on "
-            who += f"{holder.get('host', '?')}, started {holder.get('started', '?')})"
+            who = "another run, starting"
+            if holder.get("run_id"):
+                who = f"run {holder['run_id']} (process {holder.get('pid', '?')} on "
+                who += f"{holder.get('host', '?')}, started {holder.get('started', '?')})"
             reason = f"in use by {who}; wait for it to end or write elsewhere"
             raise OutputError(outdir, reason) from None
     return _read_record(fd)

@@ -76,6 +76,7 @@ class RunWriter:
         else:
             mode = "resume" if resume_step is not None else "overwrite" if overwrite else "new"
             self.folder = RunFolder(outdir, mode)
+        self.folder.claim()
         self.outdir = self.folder.outdir
         self.frames_dir = self.outdir / "frames"
         self.frames_dir.mkdir(parents=True, exist_ok=True)

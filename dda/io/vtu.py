@@ -169,7 +169,7 @@ def read_frame(
         Rows in the original order. Block names are not stored in VTU files:
         they come back as ``"#<id>"``.
     """
-    mesh = meshio.read(blocks_path)
+    mesh = _read_vtu(blocks_path)
     data = {name: np.concatenate(parts) for name, parts in mesh.cell_data.items()}
     vertices = [mesh.points[cell, :2] for block in mesh.cells for cell in block.data]
     order = np.argsort(data["row"], kind="stable")
@@ -197,7 +197,7 @@ def read_frame(
 def _read_contacts(path: str | os.PathLike[str], ids: np.ndarray) -> Contacts:
     if not Path(path).is_file():
         return Contacts.empty()
-    mesh = meshio.read(path)
+    mesh = _read_vtu(path)
     d = mesh.point_data
     return Contacts(
         block_a=_rows_of(ids, d["block_a"]),
@@ -215,3 +215,8 @@ def _rows_of(ids: np.ndarray, wanted: np.ndarray) -> np.ndarray:
     """Rows of ``ids`` holding each of ``wanted`` (all present)."""
     sorter = np.argsort(ids)
     return sorter[np.searchsorted(ids, wanted, sorter=sorter)].astype(np.int64)
+
+
+def _read_vtu(path: str | os.PathLike[str]) -> meshio.Mesh:
+    """meshio's VTU reader itself: ``meshio.read`` prints a failure and calls ``sys.exit``."""
+    return meshio.vtu.read(os.fspath(path))

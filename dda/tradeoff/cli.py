@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dda.io.output_paths import OutputError, check_output_dir
 from dda.tradeoff.cases import fine_setting, get_case
 from dda.tradeoff.grid import expand, parse_grid
 from dda.tradeoff.report import markdown_table, pareto_plot, write_csv
@@ -46,8 +47,12 @@ def register(subparsers: Any) -> None:
 def tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study; return the exit code (0 ok, 2 bad input)."""
     try:
+        check_output_dir(args.outdir)
         case = get_case(args.case)
         grid = parse_grid(args.grid, case.grid)
+    except OutputError as exc:
+        print(f"dda tradeoff: -o {exc}", file=sys.stderr)
+        return 2
     except ValueError as exc:
         print(f"dda tradeoff: {exc}", file=sys.stderr)
         return 2
