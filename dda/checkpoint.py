@@ -358,11 +358,15 @@ class _Saver:
     def __init__(self) -> None:
         self.arrays: dict[str, np.ndarray] = {}
         self.meta: dict[str, Any] = {}
-        self._seen: dict[int, str] = {}  # object id -> key it was saved under
+        self._seen: dict[int, str] = {}  # object (or ndarray) id -> key it was saved under
 
     def save(self, value: Any, key: str) -> None:
         kind = _kind(value)
-        if kind == "array":
+        if kind == "array" and isinstance(value, np.ndarray) and id(value) in self._seen:
+            self.meta[key] = {"same_as": self._seen[id(value)]}  # one array, shared
+        elif kind == "array":
+            if isinstance(value, np.ndarray):
+                self._seen[id(value)] = key
             self.arrays[key] = np.asarray(value)
         elif kind in ("scalar", "scalars"):
             self.meta[key] = _plain(value)
@@ -444,7 +448,12 @@ class _Loader:
                 return live
             return out
         if "same_as" in value:
-            return self._objects[value["same_as"]]
+            first = value["same_as"]
+            return (
+                self.checkpoint.arrays[first]
+                if first in self.checkpoint.arrays
+                else (self._objects[first])
+            )
         return self._load_object(live, key, value)
 
     def _load_object(self, live: Any, key: str, value: dict) -> Any:

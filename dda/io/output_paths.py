@@ -22,12 +22,8 @@ class OutputError(Exception):
 
 
 def check_output_dir(path: str | os.PathLike[str]) -> None:
-    """Refuse a directory path that exists as a file, lies under one or cannot be written.
-
-    Raises
-    ------
-    OutputError
-    """
+    """Raise :class:`OutputError` for a directory path that exists as a file, lies under
+    one or cannot be written (read-only file system, no permission)."""
     path = Path(path)
     if path.exists():
         if not path.is_dir():
@@ -43,12 +39,8 @@ def check_output_dir(path: str | os.PathLike[str]) -> None:
 
 
 def check_output_file(path: str | os.PathLike[str]) -> None:
-    """Refuse a file path that is a directory or whose directory cannot be made or written.
-
-    Raises
-    ------
-    OutputError
-    """
+    """Raise :class:`OutputError` for a file path that is a directory, or whose directory
+    cannot be made or written."""
     path = Path(path)
     if path.is_dir():
         raise OutputError(path, "is a directory, not a file")

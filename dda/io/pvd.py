@@ -54,14 +54,14 @@ class PvdIndex:
         self.path = Path(path)
         self._directory = self.path.parent.resolve()
         entries = list(entries)
-        lines = [_line(file, time) for file, time in entries]
-        self._count = len(lines)
+        text = pvd_text(entries).encode("utf-8")
+        write_text(self.path, text.decode("utf-8"))
+        self._count = len(entries)
+        self._end = len(text) - len(TAIL.encode("utf-8"))  # where the closing tags start
         self._last: tuple[str, int] | None = None  # (file, offset of its line)
-        body = HEAD + "".join(lines)
-        write_text(self.path, body + TAIL)
-        self._end = len(body.encode("utf-8"))  # where the closing tags start
         if entries:
-            self._last = (entries[-1][0], self._end - len(lines[-1].encode("utf-8")))
+            last = _line(*entries[-1]).encode("utf-8")
+            self._last = (entries[-1][0], self._end - len(last))
 
     def __len__(self) -> int:
         return self._count
@@ -95,8 +95,9 @@ class PvdIndex:
         self._count += 0 if replace else 1
 
 
-def _line(file: str, time: float) -> str:
-    return f'    <DataSet timestep="{float(time)!r}" group="" part="0" file={quoteattr(file)}/>\n'
+def _line(file: str | os.PathLike[str], time: float) -> str:
+    name = quoteattr(str(file))
+    return f'    <DataSet timestep="{float(time)!r}" group="" part="0" file={name}/>\n'
 
 
 def pvd_text(entries: Iterable[tuple[str, float]]) -> str:
@@ -112,22 +113,12 @@ def pvd_text(entries: Iterable[tuple[str, float]]) -> str:
     str
         The document.
     """
-    return HEAD + "".join(_line(str(file), time) for file, time in entries) + TAIL
+    return HEAD + "".join(_line(file, time) for file, time in entries) + TAIL
 
 
 def read_pvd_entries(path: str | os.PathLike[str]) -> list[tuple[str, float]]:
-    """The ``(file, time)`` entries of a PVD index as written (files relative to it).
-
-    Parameters
-    ----------
-    path
-        The ``.pvd`` file.
-
-    Returns
-    -------
-    list of (str, float)
-        In file order.
-    """
+    """The ``(file, time)`` entries of the index ``path`` in file order, files as written
+    (relative to the index): what :class:`PvdIndex` takes to start from."""
     root = ET.parse(path).getroot()
     return [(d.get("file", ""), float(d.get("timestep", "nan"))) for d in root.iter("DataSet")]
 
