@@ -86,7 +86,8 @@ def read_found_frame(found: FrameFiles):
     try:
         return read_frame(found.blocks, found.contacts, time=found.time, step=found.step)
     except (meshio.ReadError, OSError, KeyError, IndexError, ValueError, SyntaxError) as exc:
-        raise ValueError(f"{found.blocks}: cannot read it as a frame ({exc!r})") from None
+        detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+        raise ValueError(f"{found.blocks}: cannot read it as a frame ({detail})") from None
 
 
 def _times(pvd: Path) -> dict[Path, float]:
