@@ -67,7 +67,7 @@ _KINDS = {
 }
 
 
-def _kind(value: object) -> str:
+def value_kind(value: object) -> str:
     """Plain-words type of a value for messages."""
     for cls, words in _KINDS.items():
         if isinstance(value, cls):
@@ -129,7 +129,7 @@ class Checker:
     def table(self, value: object, key: str, allowed: Collection[str]) -> Mapping[str, Any]:
         """A mapping whose keys are all in ``allowed``."""
         if not isinstance(value, Mapping):
-            self.fail(key, f"expected a table, got {_kind(value)}")
+            self.fail(key, f"expected a table, got {value_kind(value)}")
         for name in value:
             if join_key(key, name) in RETIRED:
                 self.fail(join_key(key, name), RETIRED[join_key(key, name)])
@@ -140,7 +140,7 @@ class Checker:
     def named_tables(self, value: object, key: str) -> Mapping[str, Any]:
         """A mapping of user-chosen, non-empty string names."""
         if not isinstance(value, Mapping):
-            self.fail(key, f"expected a table, got {_kind(value)}")
+            self.fail(key, f"expected a table, got {value_kind(value)}")
         for name in value:
             if not isinstance(name, str) or not name:
                 self.fail(join_key(key, name), "names must be non-empty strings")
@@ -152,13 +152,13 @@ class Checker:
             return value
         if isinstance(value, np.ndarray) and value.ndim >= 1:
             return value
-        self.fail(key, f"expected a list, got {_kind(value)}")
+        self.fail(key, f"expected a list, got {value_kind(value)}")
 
     def real(self, value: object, key: str, interval: Interval = ANY) -> float:
         """A finite real number (not a boolean) inside ``interval``."""
         if type(value) is not float:
             if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-                self.fail(key, f"expected a number, got {_kind(value)}")
+                self.fail(key, f"expected a number, got {value_kind(value)}")
             try:
                 value = float(value)
             except OverflowError:
@@ -176,7 +176,7 @@ class Checker:
     def integer(self, value: object, key: str, minimum: int = 0) -> int:
         """An integer (not a boolean, not a float) of at least ``minimum``."""
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
-            self.fail(key, f"expected an integer, got {_kind(value)}")
+            self.fail(key, f"expected an integer, got {value_kind(value)}")
         if value < minimum:
             words = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
             self.fail(key, f"must be {words}, got {value}")
@@ -184,12 +184,12 @@ class Checker:
 
     def boolean(self, value: object, key: str) -> bool:
         if not isinstance(value, bool | np.bool_):
-            self.fail(key, f"expected true or false, got {_kind(value)}")
+            self.fail(key, f"expected true or false, got {value_kind(value)}")
         return bool(value)
 
     def text(self, value: object, key: str) -> str:
         if not isinstance(value, str):
-            self.fail(key, f"expected a string, got {_kind(value)}")
+            self.fail(key, f"expected a string, got {value_kind(value)}")
         return value
 
     def choice(self, value: object, key: str, options: tuple[str, ...]) -> str:

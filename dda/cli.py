@@ -7,7 +7,10 @@ adds its parser and sets ``func`` (``func(args) -> int``) with
 warning, so a broken or absent optional package never breaks ``dda run``.
 
 Exit codes: 0 success, 1 other failure, 2 bad input (scene refused, missing
-file), 3 the simulation failed, 130 interrupted.
+file, an argument or output path that cannot be used), 3 the simulation
+failed, 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM. Every error ends
+in one line on stderr naming the file, key or argument and the reason; a
+traceback only with ``-v``.
 """
 
 from __future__ import annotations
@@ -15,8 +18,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import logging
+import shutil
 import sys
-import time
 from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
@@ -29,6 +32,15 @@ logger = logging.getLogger(__name__)
 
 PLUGIN_GROUP = "dda.commands"
 EXIT_OK, EXIT_FAILURE, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+CHECKPOINT_MINUTES = 10.0  # default wall time between checkpoints of ``dda run``
+MAX_OUTPUT_GB = 20.0  # ``dda run`` refuses runs estimated to write more, unless told
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (and exit code 2)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_INPUT, f"{self.prog}: {message} (see {self.prog} -h)\n")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -45,9 +57,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         The exit code.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    configure_logging(_verbosity(argv))
+    verbosity = _verbosity(argv)
+    configure_logging(verbosity)
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a refused argument (one line written), or --help
+        return exc.code if isinstance(exc.code, int) else EXIT_INPUT
     if not hasattr(args, "func"):
         parser.print_help(sys.stderr)
         return EXIT_INPUT
@@ -58,19 +74,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         print(f"dda: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    return int(args.func(args) or 0)
+    label = f"dda {args.command}" if getattr(args, "command", None) else "dda"
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print(f"\n{label}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # the last resort: one line, the traceback with -v
+        if verbosity:
+            raise
+        print(f"{label}: {_one_line(exc)} (dda -v {args.command} ... shows where)", file=sys.stderr)
+        return EXIT_FAILURE
+
+
+def _one_line(exc: BaseException) -> str:
+    """``TypeName: message`` of an exception on one line (OSError: file and reason)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f"{exc.filename}: " if exc.filename else ""
+        return f"{where}{exc.strerror}"
+    text = " ".join(str(exc).split()) or "no message"
+    return f"{type(exc).__name__}: {text}"
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with the built-in and the plugin sub-commands."""
-    parser = argparse.ArgumentParser(
-        prog="dda", description="2-D Discontinuous Deformation Analysis of blocky rock."
-    )
+    description = "2-D Discontinuous Deformation Analysis of blocky rock."
+    parser = Parser(prog="dda", description=description)
     parser.add_argument(
         "-v", "--verbose", action="count", default=0, help="more log output (-v info, -vv debug)"
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {dda.__version__}")
-    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
+    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND", dest="command")
     _add_run(subparsers)
     _add_render(subparsers)
     load_plugins(subparsers)
@@ -136,56 +170,189 @@ def _add_run(subparsers: Any) -> None:
         "run",
         help="run a scene and write VTU/PVD, CSV, JSON and a picture",
         description="Run CASE.toml; write OUTDIR/blocks.pvd, frames/*.vtu, history.csv, "
-        "summary.json and final.png.",
+        "summary.json, checkpoints and final.png. OUTDIR belongs to one run: a second run "
+        "into it is refused unless --overwrite (replace it) or --resume (continue it). "
+        "SIGINT or SIGTERM stops after the current step with a checkpoint.",
     )
     p.add_argument("case", type=Path, help="scene file (TOML)")
     p.add_argument("-o", "--outdir", type=Path, help="output directory (default out/<case>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument(
-        "--save-every", type=_positive_int, metavar="N", help="keep every N-th step (overrides)"
+        "--save-every", type=positive_int, metavar="N", help="keep every N-th step (overrides)"
     )
     p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="final.png colour")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument(
+        "--overwrite", action="store_true", help="replace the outputs of a run in OUTDIR"
+    )
+    again.add_argument(
+        "--resume", action="store_true", help="continue the run in OUTDIR from its checkpoint"
+    )
+    p.add_argument(
+        "--checkpoint-every",
+        type=positive_int,
+        metavar="STEPS",
+        help="write a checkpoint every STEPS steps (overrides analysis.checkpoint_every)",
+    )
+    p.add_argument(
+        "--checkpoint-minutes",
+        type=non_negative_float,
+        metavar="M",
+        default=CHECKPOINT_MINUTES,
+        help="and every M minutes of wall time (default %(default)g; 0: not by time)",
+    )
+    p.add_argument(
+        "--max-steps", type=positive_int, metavar="N", help="overrides analysis.max_steps"
+    )
+    p.add_argument(
+        "--max-output",
+        type=non_negative_float,
+        metavar="GB",
+        default=MAX_OUTPUT_GB,
+        help="refuse a run estimated to write more than GB gigabytes (default %(default)g)",
+    )
     p.set_defaults(func=run_command)
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
+def positive_int(text: str) -> int:
+    """argparse type: an integer of at least 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
     if value < 1:
-        raise argparse.ArgumentTypeError("must be at least 1")
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """argparse type: a finite number of at least 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0.0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value
 
 
 def run_command(args: argparse.Namespace) -> int:
-    """``dda run``: load, simulate with live output, summarise."""
-    from dda.io.run_writer import RunWriter
+    """``dda run``: load, claim OUTDIR, simulate with live output and checkpoints, summarise."""
+    from dda.checkpoint import CheckpointError
+    from dda.io.output_paths import OutputError
+    from dda.io.run_folder import RunFolder
 
     try:
-        scene = dda.load_scene(args.case)
+        scene = _run_scene(args)
     except dda.SceneError as exc:
         print(f"dda run: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    if args.save_every:
-        analysis = dataclasses.replace(scene.analysis, save_every=args.save_every)
-        scene = dataclasses.replace(scene, analysis=analysis)
     outdir = args.outdir or Path("out") / args.case.stem
-    writer = RunWriter(outdir, scalars=args.scalars)
-    logger.info("running %s into %s", args.case, outdir)
-    start = time.perf_counter()
+    mode = "resume" if args.resume else "overwrite" if args.overwrite else "new"
     try:
-        result = dda.simulate(scene, progress=not args.quiet, on_frame=writer.add_frame)
-    except dda.SimulationError as exc:
-        print(f"dda run: simulation failed: {exc}", file=sys.stderr)
-        writer.finish(getattr(exc, "result", None), scene, status="failed", error=str(exc))
-        print(f"partial output in {outdir}", file=sys.stderr)
-        return EXIT_SIMULATION
-    except KeyboardInterrupt:
-        writer.finish(None, scene, status="interrupted", error="interrupted by the user")
-        print(f"\ndda run: interrupted; partial output in {outdir}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        folder = RunFolder(outdir, mode)
+    except OutputError as exc:
+        print(f"dda run: -o {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    with folder:
+        try:
+            return _run_in(folder, scene, args)
+        except CheckpointError as exc:
+            print(f"dda run: {exc}", file=sys.stderr)
+            return EXIT_INPUT
+
+
+def _run_scene(args: argparse.Namespace):
+    """The scene with the command line's overrides, checked for its size."""
+    from dda.limits import check_run_size
+
+    scene = dda.load_scene(args.case)
+    overrides = {
+        "save_every": args.save_every,
+        "checkpoint_every": args.checkpoint_every,
+        "max_steps": args.max_steps,
+    }
+    overrides = {k: v for k, v in overrides.items() if v is not None}
+    if overrides:
+        analysis = dataclasses.replace(scene.analysis, **overrides)
+        scene = dataclasses.replace(scene, analysis=analysis)
+    check_run_size(scene)
+    _check_output_size(scene, args)
+    return scene
+
+
+def _check_output_size(scene, args: argparse.Namespace) -> None:
+    """Refuse a run whose frames would take more than ``--max-output``; warn beyond free space."""
+    from dda.limits import estimated_frames, estimated_output_bytes
+
+    size = estimated_output_bytes(scene)
+    if size > args.max_output * 1e9:
+        raise dda.SceneError(
+            scene.source,
+            "analysis.save_every",
+            f"about {estimated_frames(scene):,} frames, {size / 1e9:.3g} GB on disk, more than "
+            f"--max-output {args.max_output:g} GB; keep fewer frames (analysis.save_every, "
+            "--save-every) or raise --max-output",
+        )
+
+
+def _warn_about_free_space(scene, outdir: Path) -> None:
+    """A warning when the run's estimated output exceeds the free space of ``outdir``."""
+    from dda.limits import estimated_output_bytes
+
+    size, disk = estimated_output_bytes(scene), shutil.disk_usage(outdir)
+    if disk.total and size > disk.free:  # (pseudo file systems report no total)
+        logger.warning(
+            "the run may write %.3g GB; %s has %.3g GB free", size / 1e9, outdir, disk.free / 1e9
+        )
+
+
+def _run_in(folder, scene, args: argparse.Namespace) -> int:
+    """Run ``scene`` into the claimed ``folder`` (new, overwritten or resumed)."""
+    from dda.checkpoint import CheckpointPlan, check_scene, read_checkpoint
+    from dda.io.run_writer import RunWriter
+    from dda.stop import StopOnSignal
+
+    checkpoint = None
+    if args.resume:
+        if folder.previous.status == "finished":
+            print(f"dda run: {folder.outdir}: the run finished already; nothing to resume")
+            return EXIT_OK
+        checkpoint = read_checkpoint(folder.checkpoint_path)
+        check_scene(checkpoint, scene)
+    _warn_about_free_space(scene, folder.outdir)
+    resume_step = None if checkpoint is None else checkpoint.step
+    writer = RunWriter(folder, scalars=args.scalars, resume_step=resume_step, scene=scene)
+    minutes = args.checkpoint_minutes
+    plan = CheckpointPlan(
+        folder.checkpoint_path, scene.analysis.checkpoint_every, minutes * 60 if minutes else None
+    )
+    logger.info("running %s into %s (run %s)", args.case, folder.outdir, writer.run_id)
+    with StopOnSignal("dda run") as stop:
+        try:
+            result = dda.simulate(
+                scene, progress=not args.quiet, on_frame=writer.add_frame, keep_frames=False,
+                stop=stop, checkpoints=plan, resume=checkpoint,
+            )  # fmt: skip
+        except dda.SimulationError as exc:
+            print(f"dda run: simulation failed: {exc}", file=sys.stderr)
+            writer.finish(getattr(exc, "result", None), scene, status="failed", error=str(exc))
+            print(f"partial output in {folder.outdir}", file=sys.stderr)
+            return EXIT_SIMULATION
+        except KeyboardInterrupt:
+            writer.finish(None, scene, status="interrupted", error="interrupted by the user")
+            print(f"\ndda run: interrupted; partial output in {folder.outdir}", file=sys.stderr)
+            return stop.exit_code
     summary = writer.finish(result, scene)
-    summary.setdefault("wall_seconds", time.perf_counter() - start)
+    if summary["status"] == "interrupted":
+        print(
+            f"dda run: stopped at step {summary.get('steps')} ({stop.name}); continue with: "
+            f"dda run {args.case} -o {folder.outdir} --resume",
+            file=sys.stderr,
+        )
+        return stop.exit_code
     if not args.quiet:
-        print(summary_paragraph(summary, outdir))
+        print(summary_paragraph(summary, folder.outdir))
     return EXIT_OK
 
 
@@ -246,24 +413,25 @@ def _add_render(subparsers: Any) -> None:
     p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
     p.add_argument("--step", type=int, help="step of the frame (OUTDIR only; default last)")
     p.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")
-    p.add_argument("--size", type=int, nargs=2, default=(1200, 900), metavar=("W", "H"))
+    p.add_argument("--size", type=positive_int, nargs=2, default=(1200, 900), metavar=("W", "H"))
     p.set_defaults(func=render_command)
 
 
 def render_command(args: argparse.Namespace) -> int:
     """``dda render``: read a frame back from VTU and draw it."""
-    from dda.io.frame_files import find_frame
+    from dda.io.frame_files import find_frame, read_found_frame
+    from dda.io.output_paths import OutputError, check_output_file
 
     try:
         found = find_frame(args.source, args.step)
-    except (FileNotFoundError, ValueError) as exc:
+        output = args.output or found.default_png(args.scalars)
+        check_output_file(output)
+        frame = read_found_frame(found)
+    except (FileNotFoundError, ValueError, OutputError) as exc:
         print(f"dda render: {exc}", file=sys.stderr)
         return EXIT_INPUT
     from dda.io.images import render_frame
-    from dda.io.vtu import read_frame
 
-    frame = read_frame(found.blocks, found.contacts, time=found.time, step=found.step)
-    output = args.output or found.default_png(args.scalars)
     run = found.summary()  # the run's title and units, when its summary.json is there
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,

@@ -396,6 +396,19 @@ class ReusingSolver:
         """Forget the factorisation (the next solve factorises)."""
         self._factor, self._factored, self._key, self._analysed_key = None, None, None, None
 
+    def refactor(self, matrix: sp.csc_matrix, key: object, stale: bool = False) -> None:
+        """Make ``matrix``, of pattern ``key``, the kept factorisation, as a run had it.
+
+        A run resumed from a checkpoint (:mod:`dda.checkpoint`) factorises the
+        matrix the interrupted run had factorised: its next solves (PCG on
+        that factorisation) repeat those of the uninterrupted run. Counts of
+        factorisations and PCG iterations are left as they were.
+        """
+        made = self.factorisations
+        self.reset()
+        self._factorise(matrix, key)
+        self._stale, self.factorisations = stale, made
+
     @property
     def pcg_budget(self) -> int:
         """PCG iterations that cost no more than a factorisation of the kept kind.

@@ -78,10 +78,15 @@ class FractureEvent(NamedTuple):
 class Result:
     """Frames kept during the run, fracture events and a summary dict.
 
+    ``frames``: every kept frame, or with ``simulate(..., keep_frames=False)``
+    the first and the latest only; a run resumed from a checkpoint starts with
+    the checkpoint's state. ``history``: one value per step (13 columns).
+
     ``summary`` keys: steps, time, wall_seconds, iterations (total solves),
     iterations_per_step, max_penetration, active_effects, stage_seconds,
     contact_method, cut_steps, friction_dissipation (work of the friction
-    forces against the slips, dda.contact.law.friction_dissipation), status.
+    forces against the slips, dda.contact.law.friction_dissipation), status
+    ("finished", "interrupted" by ``stop``, "failed"), environment (dda.environment).
     """
 
     frames: list[Frame]

@@ -11,13 +11,19 @@ Validation runs in three layers:
    every value for its type, finiteness and physical range;
 2. names are resolved (materials, joints, blocks of loads and interfaces);
 3. block geometry is checked for all blocks at once with shapely: simple
-   polygons of non-zero area, stored counter-clockwise, fixed points on the
-   block, and no overlap at the start (an STRtree query, never all pairs).
+   polygons of non-zero area and at most ``MAX_BLOCK_VERTICES`` vertices,
+   stored counter-clockwise, fixed points and load points on their block,
+   and no overlap at the start (an STRtree query, never all pairs); at least
+   one block free to move, and no velocity or load on a fixed block.
+
+The run-size limits (``analysis.max_steps``) are checked when a run starts
+(:mod:`dda.limits`), after command-line overrides.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import tomllib
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -44,12 +50,18 @@ from dda.checks import (
     real,
     require,
     table_list,
+    value_kind,
     vector,
 )
 from dda.errors import SceneError
 from dda.geometry import next_vertex_index
+from dda.limits import DEFAULT_MAX_STEPS
 
 logger = logging.getLogger(__name__)
+
+# contact keys number a block's vertices in 10 bits and blocks in 20 (dda.contact.contact_set)
+MAX_BLOCK_VERTICES = (1 << 10) - 1
+MAX_BLOCKS = 1 << 19  # half the ids: the other half is for fracture fragments
 
 
 @dataclass(frozen=True)
@@ -67,6 +79,8 @@ class Analysis:
     save_every: int = 10
     fixed_point_penalty: float | None = None  # default: 100 x largest Young's modulus
     accuracy: str | None = None  # "fast" | "balanced" | "precise"; None: engine default
+    max_steps: int = DEFAULT_MAX_STEPS  # refuse (and stop) runs longer than this (dda.limits)
+    checkpoint_every: int | None = None  # steps between checkpoints (dda run writes them)
 
 
 @dataclass(frozen=True)
@@ -239,10 +253,16 @@ def _read_raw(scene: str | Path | Mapping[str, Any]) -> tuple[Mapping[str, Any],
         return _read_file(Path(scene)), str(scene)
     if isinstance(scene, str):
         return _parse_toml(scene, "<text>"), "<text>"
-    raise TypeError(f"load_scene expects a path, TOML text or a dict, not {type(scene).__name__}")
+    raise SceneError(
+        f"<{type(scene).__name__}>",
+        "<scene>",
+        f"expected a path, TOML text or a dict, got {value_kind(scene)}",
+    )
 
 
 def _read_file(path: Path) -> dict[str, Any]:
+    if path.is_dir():
+        raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
     try:
@@ -291,6 +311,8 @@ _ANALYSIS: dict[str, Spec] = {
     "save_every": Checker.count,
     "fixed_point_penalty": real(POSITIVE),
     "accuracy": choice("fast", "balanced", "precise"),
+    "max_steps": Checker.count,
+    "checkpoint_every": Checker.count,
 }
 
 _CONTACT: dict[str, Spec] = {
@@ -391,6 +413,12 @@ def _ring(chk: Checker, value: object, key: str) -> tuple[Point, ...]:
         vertices = vertices[:-1]
     if len(vertices) < 3:
         chk.fail(key, f"a polygon needs at least 3 distinct vertices, got {len(vertices)}")
+    if len(vertices) > MAX_BLOCK_VERTICES:
+        chk.fail(
+            key,
+            f"{len(vertices)} vertices, at most {MAX_BLOCK_VERTICES} per block "
+            "(contacts number a block's vertices in 10 bits)",
+        )
     return vertices
 
 
@@ -432,6 +460,8 @@ def _block_values(chk: Checker, value: object, key: str, specs: Mapping[str, Spe
     """One ``[[blocks]]`` entry as converted values (geometry not yet checked)."""
     values = checked_fields(chk, value, key, specs)
     require(chk, values, key, ("name", "material", "vertices"))
+    if values.get("fixed") and any(v != 0.0 for v in values.get("velocity", ())):
+        chk.fail(f"{key}.velocity", "the block is fixed and cannot move: drop velocity or fixed")
     edge_joints = values.get("edge_joints")
     if edge_joints is not None and len(edge_joints) != len(values["vertices"]):
         chk.fail(
@@ -471,7 +501,11 @@ def _blocks(
     items = table_list(chk, raw, "blocks")
     if len(items) == 0:
         chk.fail("blocks", "a scene needs at least one block")
+    if len(items) > MAX_BLOCKS:
+        chk.fail("blocks", f"{len(items)} blocks, at most {MAX_BLOCKS}")
     blocks = [_block_values(chk, v, f"blocks[{i}]", specs) for i, v in enumerate(items)]
+    if all(values.get("fixed", False) for values in blocks):
+        chk.fail("blocks", "every block is fixed: nothing can move; free at least one block")
     _unique_names(chk, blocks)
     clockwise = _check_geometry(chk, blocks)
     for i in np.flatnonzero(clockwise):
@@ -634,7 +668,8 @@ def _history(chk: Checker, value: object, key: str) -> tuple[Point, ...]:
     return pairs
 
 
-def _loads(chk: Checker, raw: Mapping[str, Any], blocks: Collection[str]) -> tuple[Load, ...]:
+def _loads(chk: Checker, raw: Mapping[str, Any], blocks: Mapping[str, Block]) -> tuple[Load, ...]:
+    """``[[loads]]``: on an existing free block, the point on (or in) the block."""
     specs: dict[str, Spec] = {
         "block": partial(Checker.known, names=blocks, what="block"),
         "point": Checker.position,
@@ -645,8 +680,21 @@ def _loads(chk: Checker, raw: Mapping[str, Any], blocks: Collection[str]) -> tup
     for i, value in enumerate(table_list(chk, raw, "loads")):
         values = checked_fields(chk, value, f"loads[{i}]", specs)
         require(chk, values, f"loads[{i}]", ("block", "point", "force"))
+        block = blocks[values["block"]]
+        if block.fixed:
+            chk.fail(f"loads[{i}].block", f"{block.name!r} is fixed: a load on it does nothing")
+        _on_block(chk, values["point"], block, f"loads[{i}].point")
         loads.append(Load(**values))
     return tuple(loads)
+
+
+def _on_block(chk: Checker, point: Point, block: Block, key: str) -> None:
+    """Refuse a point farther than 1e-9 x its size from ``block`` (as for fixed points)."""
+    polygon = shapely.Polygon(block.vertices)
+    xmin, ymin, xmax, ymax = polygon.bounds
+    distance = polygon.distance(shapely.Point(point))
+    if distance > 1e-9 * math.hypot(xmax - xmin, ymax - ymin):
+        chk.fail(key, f"lies outside block {block.name!r} (distance {distance:g})")
 
 
 def _block_pair(chk: Checker, value: object, key: str, blocks: Collection[str]) -> tuple[str, str]:
@@ -724,6 +772,7 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
     joints = _joints(chk, raw)
     blocks = _blocks(chk, raw, materials, joints)
     names = frozenset(b.name for b in blocks)
+    by_name = {b.name: b for b in blocks}
     scene = Scene(
         title=title,
         analysis=analysis,
@@ -731,7 +780,7 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
         materials=materials,
         joints=joints,
         blocks=blocks,
-        loads=_loads(chk, raw, names),
+        loads=_loads(chk, raw, by_name),
         interfaces=_interfaces(chk, raw, names, joints),
         fracture=_fracture(chk, raw, joints),
         source=source,

@@ -4,19 +4,23 @@ from __future__ import annotations
 
 import logging
 import time as wallclock
+from array import array
 from collections.abc import Callable
 
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
 from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.effects.base import StepContext
 from dda.energy import TERMS, EnergyAccount
+from dda.environment import environment
 from dda.errors import SimulationError
 from dda.frames import make_frame
 from dda.jit import run_work
+from dda.limits import check_run_size
 from dda.linsolve import single_threaded_blas, solver_threads
 from dda.model import Model, build
 from dda.result import FractureEvent, Frame, Result
@@ -54,8 +58,9 @@ class _Run:
         self.max_penetration = 0.0
         self.events: list[FractureEvent] = []
         self.energy = EnergyAccount(model, self.blocks)
-        self.history: dict[str, list[float]] = {
-            k: [] for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
+        self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
+            k: array("q" if k == "iterations" else "d")
+            for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
         }
 
     def finished(self) -> bool:
@@ -177,7 +182,11 @@ def run(
     scene: Scene,
     progress: bool | Callable[[float, dict], None] = False,
     on_frame: Callable[[Frame], None] | None = None,
+    *,
     keep_frames: bool = True,
+    stop: Callable[[], bool] | None = None,
+    checkpoints: CheckpointPlan | None = None,
+    resume: Checkpoint | None = None,
 ) -> Result:
     """Run a scene to its end.
 
@@ -186,15 +195,31 @@ def run(
     scene : a validated Scene
     progress : True for a progress bar on stderr, or a callable(fraction, info)
     on_frame : called with every kept frame as the run proceeds (for writers)
-    keep_frames : False: ``Result.frames`` holds only the first and the latest
-        frame (long runs whose frames ``on_frame`` writes away)
+    keep_frames : False: the Result keeps only the first and the latest frame
+        (``on_frame`` still sees every one), so memory does not grow with the run
+    stop : asked before every step; True ends the run there with status
+        "interrupted" (after a last checkpoint when ``checkpoints`` is given)
+    checkpoints : where and when to write checkpoints (:mod:`dda.checkpoint`)
+    resume : a checkpoint of this scene to continue from; the Result's first
+        frame is then the checkpoint's state, which ``on_frame`` does not see
+
+    Raises
+    ------
+    SceneError : the run would exceed ``analysis.max_steps`` (:mod:`dda.limits`)
+    CheckpointError : ``resume`` was written for another scene or version
+    SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
     """
     start = wallclock.perf_counter()
     solver_threads()  # a bad DDA_THREADS stops the run before it starts
+    check_run_size(scene)
     model = build(scene)
     state = _Run(model)
-    frames = [make_frame(state.blocks, state.contacts, 0.0, 0)]
-    if on_frame:
+    if resume is not None:
+        check_scene(resume, scene)
+        restore(state, resume)
+        start -= resume.wall_seconds
+    frames = [make_frame(state.blocks, state.contacts, state.time, state.step)]
+    if on_frame and resume is None:
         on_frame(frames[0])
     report = _progress_reporter(progress, model)
     status = "finished"
@@ -202,19 +227,25 @@ def run(
         # PARDISO's threads get the cores; numba's kernels only where they pay (dda.jit)
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
             while not state.finished():
+                if stop is not None and stop():
+                    status = "interrupted"
+                    break
+                _check_step_limit(state)
                 _advance(state)
                 last = state.finished()
                 if state.step % model.save_every == 0 or last:
                     with state.timer("output"):
                         frame = make_frame(state.blocks, state.contacts, state.time, state.step)
-                        if keep_frames or len(frames) == 1:
-                            frames.append(frame)
-                        else:
-                            frames[-1] = frame
+                        _keep(frames, frame, keep_frames)
                         if on_frame:
                             on_frame(frame)
+                if checkpoints is not None and not last and checkpoints.due(state.step):
+                    with state.timer("checkpoint"):
+                        checkpoints.write(state, wallclock.perf_counter() - start)
                 if report:
                     report(_fraction(state), {"step": state.step, "time": state.time})
+            if status == "interrupted" and checkpoints is not None:
+                checkpoints.write(state, wallclock.perf_counter() - start)
     except SimulationError as exc:
         status = "failed"
         exc.result = _result(state, frames, start, status)  # what was computed, for writers
@@ -225,12 +256,29 @@ def run(
     return _result(state, frames, start, status)
 
 
+def _keep(frames: list[Frame], frame: Frame, keep_all: bool) -> None:
+    """Add ``frame``; unless ``keep_all``, only the first and the latest frame stay."""
+    if keep_all or len(frames) < 2:
+        frames.append(frame)
+    else:
+        frames[-1] = frame
+
+
+def _check_step_limit(state: _Run) -> None:
+    limit = state.model.scene.analysis.max_steps
+    if state.step >= limit:
+        raise SimulationError(
+            f"step {state.step} at t = {state.time:.6g}: reached analysis.max_steps = {limit} "
+            "(cut steps made the run longer than estimated); raise it to go on"
+        )
+
+
 def _result(state: _Run, frames: list[Frame], start: float, status: str) -> Result:
     return Result(
         frames=frames,
         fracture_events=state.events,
         summary=_summary(state, wallclock.perf_counter() - start, status),
-        history={k: np.asarray(v) for k, v in state.history.items()},
+        history={k: np.array(v) for k, v in state.history.items()},
     )
 
 
@@ -290,4 +338,5 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "fracture_events": len(state.events),
         "initial_energy": state.energy.initial.total,
         "external_work": state.energy.work,
+        "environment": environment(),
     }

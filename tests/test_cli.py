@@ -107,7 +107,7 @@ def test_run_refuses_a_bad_thread_count_and_writes_nothing(tmp_path, monkeypatch
 
 
 def test_run_failure_keeps_partial_output_and_exits_3(case, monkeypatch, capsys):
-    def failing(scene, progress=False, on_frame=None):
+    def failing(scene, progress=False, on_frame=None, **options):
         on_frame(square_frame(0))
         on_frame(square_frame(3, 0.003))
         raise dda.SimulationError("step 4 at t = 0.004: contact did not settle")
@@ -124,8 +124,9 @@ def test_run_failure_keeps_partial_output_and_exits_3(case, monkeypatch, capsys)
 def test_run_passes_options_to_the_engine(case, monkeypatch, capsys):
     seen = {}
 
-    def fake(scene, progress=False, on_frame=None):
+    def fake(scene, progress=False, on_frame=None, **options):
         seen.update(save_every=scene.analysis.save_every, progress=progress)
+        seen.update(keep_frames=options["keep_frames"], stop=callable(options["stop"]))
         frames = [square_frame(0), square_frame(7, 0.007)]
         for frame in frames:
             on_frame(frame)
@@ -142,7 +143,7 @@ def test_run_passes_options_to_the_engine(case, monkeypatch, capsys):
 
     monkeypatch.setattr(dda, "simulate", fake)
     assert cli.main(["run", str(case), "--save-every", "7"]) == 0
-    assert seen == {"save_every": 7, "progress": True}
+    assert seen == {"save_every": 7, "progress": True, "keep_frames": False, "stop": True}
     out = capsys.readouterr().out
     assert "7 steps" in out and "out/small" in out.replace("\\", "/")
     assert Path("out/small/final.png").is_file()

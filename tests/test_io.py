@@ -27,6 +27,8 @@ from dda.io import (
 from dda.io.fields import scalar_field, stress_measures
 from dda.io.frame_files import find_frame
 from dda.io.images import color_range
+from dda.io.pvd import PvdIndex, read_pvd_entries
+from dda.io.run_folder import OutputError
 from dda.io.tables import HISTORY_COLUMNS
 from dda.io.vtu import blocks_mesh
 from dda.result import Contacts, FractureEvent, Frame, Result
@@ -162,6 +164,18 @@ def test_contacts_vtu_round_trip_and_empty(tmp_path):
     assert len(read_frame(write_blocks_vtu(lonely, tmp_path / "b1.vtu"), empty).contacts) == 0
 
 
+def test_an_empty_contacts_vtu_reads_in_meshio_and_pyvista(tmp_path):
+    import pyvista
+
+    path = write_contacts_vtu(make_frame((4,), contacts=False), tmp_path / "empty.vtu")
+    mesh = meshio.read(path)
+    assert mesh.points.shape == (0, 3)
+    assert set(mesh.point_data) >= {"normal_force", "state", "block_a", "normal"}
+    assert all(len(values) == 0 for values in mesh.point_data.values())
+    grid = pyvista.read(path)
+    assert grid.n_points == 0 and "normal_force" in grid.point_data
+
+
 def test_pvd_lists_every_frame_and_pyvista_reads_the_times(tmp_path):
     import pyvista
 
@@ -178,6 +192,28 @@ def test_pvd_lists_every_frame_and_pyvista_reads_the_times(tmp_path):
     reader.set_active_time_value(0.5)
     assert reader.read()[0].n_cells == 2
     assert no_temp_files(tmp_path)
+
+
+def test_pvd_grows_by_appending_and_stays_a_whole_document(tmp_path, monkeypatch):
+    import xml.etree.ElementTree as ET
+
+    from dda.io import pvd
+
+    index = PvdIndex(tmp_path / "a.pvd")
+    rewrites = []
+    monkeypatch.setattr(pvd, "write_text", lambda *a: rewrites.append(a))
+    before = (tmp_path / "a.pvd").read_bytes()
+    for k in range(50):
+        index.add(0.1 * k, tmp_path / f"frames/blocks_{k:06d}.vtu")
+        ET.parse(tmp_path / "a.pvd")  # a whole document after every frame
+    text = (tmp_path / "a.pvd").read_bytes()
+    assert rewrites == [] and len(index) == 50
+    assert text.startswith(before[: before.index(b"  </Collection>")])  # only appended
+    assert [t for t, _ in read_pvd(tmp_path / "a.pvd")] == [0.1 * k for k in range(50)]
+    monkeypatch.undo()
+    again = PvdIndex(tmp_path / "b.pvd", read_pvd_entries(tmp_path / "a.pvd")[:3])
+    again.add(9.0, tmp_path / "frames/blocks_000099.vtu")
+    assert [t for t, _ in read_pvd(tmp_path / "b.pvd")] == [0.0, 0.1, 0.2, 9.0]
 
 
 def test_pvd_replaces_a_repeated_step(tmp_path):
@@ -294,7 +330,8 @@ def test_run_writer_writes_everything(tmp_path):
     )
     names = sorted(p.name for p in out.iterdir())
     assert names == [
-        "blocks.pvd", "contacts.pvd", "final.png", "frames", "history.csv", "summary.json"
+        "blocks.pvd", "contacts.pvd", "final.png", "frames", "history.csv", "run.lock",
+        "summary.json",
     ]  # fmt: skip
     assert len(list((out / "frames").glob("blocks_*.vtu"))) == 3
     assert len(list((out / "frames").glob("contacts_*.vtu"))) == 3
@@ -321,14 +358,54 @@ def test_run_writer_writes_frames_of_a_result_it_did_not_see(tmp_path):
     assert len(read_pvd(tmp_path / "blocks.pvd")) == 2
 
 
-def test_run_writer_clears_an_earlier_run(tmp_path):
+def test_run_writer_refuses_an_earlier_run_and_overwrite_clears_it(tmp_path):
     writer = RunWriter(tmp_path, image=False)
     for step in (0, 1, 2):
         writer.add_frame(make_frame(step=step))
+    with pytest.raises(OutputError, match="in use by run"):
+        RunWriter(tmp_path, image=False)  # the first writer still holds the directory
+    writer.finish(None, status="interrupted")
+    with pytest.raises(OutputError, match=r"holds run .* \(interrupted at step 2\)"):
+        RunWriter(tmp_path, image=False)
     (tmp_path / "notes.txt").write_text("mine")
-    RunWriter(tmp_path, image=False).add_frame(make_frame(step=0))
+    RunWriter(tmp_path, image=False, overwrite=True).add_frame(make_frame(step=0))
     assert [p.name for p in (tmp_path / "frames").glob("blocks_*")] == ["blocks_000000.vtu"]
     assert (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_run_writer_streams_history_and_a_running_summary(tmp_path):
+    writer = RunWriter(tmp_path, image=False)
+    for step in (0, 4):
+        writer.add_frame(make_frame((4, 3), step=step, time=step / 10))
+        rows = (tmp_path / "history.csv").read_text().splitlines()
+        summary = json.loads((tmp_path / "summary.json").read_text())
+        assert len(rows) == 1 + 2 * (1 + step // 4)
+        assert summary["status"] == "running" and summary["steps"] == step
+        assert summary["run_id"] == writer.run_id and summary["pid"] == os.getpid()
+    assert not hasattr(writer, "_history")  # rows go to the file, not to memory
+    writer.finish(None, status="failed")
+
+
+def test_run_writer_resumes_a_run_cut_back_to_the_checkpoint(tmp_path):
+    writer = RunWriter(tmp_path, image=False)
+    for step in range(6):
+        writer.add_frame(make_frame(step=step, time=step / 10))
+    run_id = writer.run_id
+    writer.close()
+    with open(tmp_path / "history.csv", "a") as stream:
+        stream.write("6,0.6,block0,10")  # a row cut short by a kill
+    writer.folder.release()
+    resumed = RunWriter(tmp_path, image=False, resume_step=3)
+    assert resumed.run_id == run_id and resumed.frame_count == 4
+    assert sorted(p.name for p in (tmp_path / "frames").glob("blocks_*")) == [
+        f"blocks_{k:06d}.vtu" for k in range(4)
+    ]
+    resumed.add_frame(make_frame(step=5, time=0.5))
+    steps = [int(r.split(",")[0]) for r in (tmp_path / "history.csv").read_text().splitlines()[1:]]
+    assert steps == [0, 0, 1, 1, 2, 2, 3, 3, 5, 5]
+    assert [t for t, _ in read_pvd(tmp_path / "contacts.pvd")] == [0.0, 0.1, 0.2, 0.3, 0.5]
+    summary = resumed.finish(None, status="finished")
+    assert summary["resumed_from_step"] == 3 and summary["frames_written"] == 5
 
 
 def test_find_frame(tmp_path):

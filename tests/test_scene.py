@@ -260,6 +260,9 @@ BAD = [
     (("analysis", "max_displacement_ratio"), 0.0, "analysis.max_displacement_ratio"),
     (("analysis", "max_displacement_ratio"), 1.0, "analysis.max_displacement_ratio"),
     (("analysis", "save_every"), 0, "analysis.save_every"),
+    (("analysis", "max_steps"), 0, "analysis.max_steps"),
+    (("analysis", "max_steps"), 1e7, "analysis.max_steps"),
+    (("analysis", "checkpoint_every"), -5, "analysis.checkpoint_every"),
     (("analysis", "save_every"), 2.0, "analysis.save_every"),
     (("analysis", "save_every"), True, "analysis.save_every"),
     (("analysis", "fixed_point_penalty"), 0.0, "analysis.fixed_point_penalty"),
@@ -341,6 +344,15 @@ BAD = [
     (("loads", 0, "history"), [], "loads[0].history"),
     (("loads", 0, "history"), [[0.0, 1.0, 2.0]], "loads[0].history[0]"),
     (("loads",), {"block": "slider"}, "loads"),
+    (("loads", 0, "point"), [0.5, 48.5], "loads[0].point"),  # 48 units outside the block
+    (("loads", 0, "block"), "base", "loads[0].block"),  # a fixed block
+    (("blocks", 1, "velocity"), [0.1, 0.0, 0.0], "blocks[1].velocity"),  # a fixed block
+    (("blocks", 0, "fixed"), True, "blocks"),  # every block fixed
+    (
+        ("blocks", 0, "vertices"),
+        [[math.cos(k / 163), math.sin(k / 163)] for k in range(1024)],
+        "blocks[0].vertices",
+    ),  # fmt: skip
     # interfaces
     (("interfaces", 0, "blocks"), ["slider"], "interfaces[0].blocks"),
     (("interfaces", 0, "blocks"), ["slider", "slider"], "interfaces[0].blocks"),
@@ -496,6 +508,7 @@ def test_concave_block_is_accepted():
     raw = edited(("blocks", 0, "vertices"), [[0, 0], [1, 0], [1, 0.5], [0.5, 0.2], [0, 0.5]])
     raw["blocks"][0]["edge_joints"] = ["", "", "", "", ""]
     raw["blocks"][0]["fixed_points"] = [[0.0, 0.0]]  # a vertex lies on the block
+    raw["loads"][0]["point"] = [0.25, 0.1]  # under the notch
     assert len(load_scene(raw).blocks[0].vertices) == 5
 
 

@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from dda.bench.scenes import METHODS
+from dda.cli import positive_int
 
 log = logging.getLogger(__name__)
 
@@ -24,7 +25,7 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--sizes",
-        type=int,
+        type=positive_int,
         nargs="+",
         default=list(DEFAULT_SIZES),
         metavar="N",
@@ -36,7 +37,7 @@ def register(subparsers: Any) -> None:
         default="both",
         help="contact method (default: both)",
     )
-    parser.add_argument("--steps", type=int, default=100, help="time steps (default: 100)")
+    parser.add_argument("--steps", type=positive_int, default=100, help="time steps (default: 100)")
     parser.set_defaults(func=run_command)
 
 

@@ -5,13 +5,10 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from dda.io.pvd import read_pvd
-
-BLOCKS_NAME = re.compile(r"blocks_(\d+)\.vtu$")
+from dda.io.pvd import read_pvd, step_of_file
 
 
 @dataclass(frozen=True)
@@ -63,26 +60,56 @@ def find_frame(source: str | os.PathLike[str], step: int | None = None) -> Frame
     ------
     FileNotFoundError
         Nothing to read at ``source``, or no frame with that step.
+    ValueError
+        ``source`` is a file but not a blocks ``.vtu`` file.
     """
     source = Path(source)
     if source.is_file():
+        if source.suffix != ".vtu":
+            raise ValueError(
+                f"{source}: not a frame file (expected an output directory or "
+                "frames/blocks_NNNNNN.vtu)"
+            )
         return _describe(source, _times(source.parent.parent / "blocks.pvd"))
     if not source.is_dir():
         raise FileNotFoundError(f"{source}: no such file or directory")
     times = _times(source / "blocks.pvd")
-    candidates = list(times) or sorted((source / "frames").glob("blocks_*.vtu"), key=_step_of)
+    candidates = list(times) or sorted((source / "frames").glob("blocks_*.vtu"), key=step_of_file)
     if step is not None:
-        candidates = [path for path in candidates if _step_of(path) == step]
+        candidates = [path for path in candidates if step_of_file(path) == step]
     if not candidates:
         wanted = f"step {step}" if step is not None else "any frame"
         raise FileNotFoundError(f"{source}: no written frame ({wanted})")
     return _describe(candidates[-1], times)
 
 
+def read_found_frame(found: FrameFiles):
+    """The :class:`~dda.result.Frame` in ``found``'s files.
+
+    Raises
+    ------
+    ValueError
+        A file that is not a frame written by :mod:`dda.io.vtu` (or is damaged).
+    """
+    import meshio
+
+    from dda.io.vtu import read_frame
+
+    try:
+        return read_frame(found.blocks, found.contacts, time=found.time, step=found.step)
+    except (meshio.ReadError, OSError, KeyError, IndexError, ValueError, SyntaxError) as exc:
+        detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+        raise ValueError(f"{found.blocks}: cannot read it as a frame ({detail})") from None
+
+
 def _times(pvd: Path) -> dict[Path, float]:
     if not pvd.is_file():
         return {}
-    return {file.resolve(): time for time, file in read_pvd(pvd) if file.is_file()}
+    try:
+        entries = read_pvd(pvd)
+    except SyntaxError:  # xml.etree's ParseError: a damaged index lists nothing
+        return {}
+    return {file.resolve(): time for time, file in entries if file.is_file()}
 
 
 def _describe(blocks: Path, times: dict[Path, float]) -> FrameFiles:
@@ -91,10 +118,5 @@ def _describe(blocks: Path, times: dict[Path, float]) -> FrameFiles:
         blocks=blocks,
         contacts=contacts if contacts.is_file() and contacts != blocks else None,
         time=times.get(blocks.resolve(), math.nan),
-        step=_step_of(blocks),
+        step=step_of_file(blocks),
     )
-
-
-def _step_of(path: Path) -> int:
-    match = BLOCKS_NAME.search(path.name)
-    return int(match.group(1)) if match else -1

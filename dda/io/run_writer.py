@@ -2,16 +2,22 @@
 
 Layout of ``outdir``::
 
+    run.lock                the run that owns the directory (dda.io.run_folder)
     blocks.pvd              time index of the block files (ParaView: open this)
     contacts.pvd            time index of the contact files
     frames/blocks_NNNNNN.vtu    one per kept frame (NNNNNN = step)
     frames/contacts_NNNNNN.vtu
     history.csv             one row per block per kept frame
-    summary.json            the run summary (status "finished", "failed", ...)
+    summary.json            the run summary (status "running", "finished", "failed", ...)
+    checkpoint.npz          the last checkpoint, while the run is not finished (dda.checkpoint)
     final.png               the last frame, coloured by a stress component
 
-Frame files and the PVD indexes are written as each frame arrives, every file
-atomically, so a run that stops early leaves a readable partial result.
+Per kept frame, in this order: the two VTU files (each atomically), a line
+in each PVD index (O(1), the index stays a whole document), the frame's rows
+appended to ``history.csv`` (one write, so the file holds whole frames) and
+``summary.json`` rewritten atomically with status ``"running"``. Whenever the
+run stops, even by SIGKILL, the directory holds a readable prefix of the run;
+the writer keeps no frame and no history in memory.
 """
 
 from __future__ import annotations
@@ -19,76 +25,111 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
-from itertools import chain
+import time
 from pathlib import Path
 from typing import Any
 
 from dda.io.atomic import TEMP_MARK, write_text
 from dda.io.images import render_frame
-from dda.io.pvd import PvdIndex
+from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
+from dda.io.run_folder import SUMMARY_NAME, RunFolder
 from dda.io.tables import history_header, history_rows, write_summary
 from dda.io.vtu import write_blocks_vtu, write_contacts_vtu
 from dda.result import Frame, Result
 
 logger = logging.getLogger(__name__)
 
-OUTPUTS = ("blocks.pvd", "contacts.pvd", "history.csv", "summary.json", "final.png")
-FRAME_PATTERNS = ("blocks_*.vtu", "contacts_*.vtu", f"*{TEMP_MARK}*")
-
 
 class RunWriter:
-    """Writes the frames of a run as they come, then the tables and the picture.
-
-    Outputs of an earlier run in ``outdir`` (the files listed in the module
-    docstring) are removed first, so the directory never mixes two runs.
+    """Writes the frames of a run as they come, then the summary and the picture.
 
     Parameters
     ----------
     outdir
-        Output directory, created with ``outdir/frames`` if needed.
+        Output directory, or a :class:`~dda.io.run_folder.RunFolder` already
+        claimed. A directory is claimed here: refused (``OutputError``) when
+        another run holds it or it holds an earlier run, unless ``overwrite``.
     scalars
         Colouring of ``final.png`` (see :func:`dda.io.images.render_frame`).
     image
         Whether :meth:`finish` renders ``final.png``.
+    overwrite
+        Replace the outputs of an earlier run in ``outdir``.
+    resume_step
+        Continue the run in ``outdir`` from this step (its checkpoint's):
+        frames, index entries and history rows of later steps are removed,
+        the rest is kept and extended.
+    scene
+        The scene (title and source for the summaries written while running).
     """
 
     def __init__(
-        self, outdir: str | os.PathLike[str], scalars: str = "syy", image: bool = True
+        self,
+        outdir: str | os.PathLike[str] | RunFolder,
+        scalars: str = "syy",
+        image: bool = True,
+        overwrite: bool = False,
+        resume_step: int | None = None,
+        scene: Any = None,
     ) -> None:
-        self.outdir = Path(outdir)
+        if isinstance(outdir, RunFolder):
+            self.folder = outdir
+        else:
+            mode = "resume" if resume_step is not None else "overwrite" if overwrite else "new"
+            self.folder = RunFolder(outdir, mode)
+        self.folder.claim()
+        self.outdir = self.folder.outdir
         self.frames_dir = self.outdir / "frames"
+        self.frames_dir.mkdir(parents=True, exist_ok=True)
         self.scalars = scalars
         self.image = image
-        self.frames_dir.mkdir(parents=True, exist_ok=True)
-        _remove_old_outputs(self.outdir)
-        self.blocks_index = PvdIndex(self.outdir / "blocks.pvd")
-        self.contacts_index = PvdIndex(self.outdir / "contacts.pvd")
-        self._history: dict[int, str] = {}  # step -> CSV rows of that frame
+        self.scene = scene
+        self.history_path = self.outdir / "history.csv"
+        if resume_step is None:
+            blocks, contacts = [], []
+            write_text(self.history_path, history_header())
+        else:
+            blocks, contacts = _truncate_run(self.outdir, int(resume_step))
+        self.resumed_from = resume_step
+        self.blocks_index = PvdIndex(self.outdir / "blocks.pvd", blocks)
+        self.contacts_index = PvdIndex(self.outdir / "contacts.pvd", contacts)
+        self.frame_count = len(blocks)
+        self.last_step = step_of_file(blocks[-1][0]) if blocks else -1
         self.last_frame: Frame | None = None
+        self._history_fd: int | None = os.open(self.history_path, os.O_WRONLY | os.O_APPEND)
+        self._start = time.perf_counter()
 
     @property
-    def frame_count(self) -> int:
-        """Number of distinct frames written."""
-        return len(self._history)
+    def run_id(self) -> str:
+        """The id of the run (kept when a run is resumed)."""
+        return self.folder.run_id
 
     def add_frame(self, frame: Frame) -> None:
-        """Write one frame's VTU files and update both PVD indexes.
+        """Write one frame: VTU files, index lines, history rows, a "running" summary.
 
-        A frame with the step of an earlier one replaces it.
+        Frames come in step order; a frame with the step of the last one
+        replaces its files and index entries (its history rows stay).
 
         Parameters
         ----------
         frame
             The frame (usually passed by the engine's ``on_frame`` callback).
         """
-        stem = f"{int(frame.step):06d}"
+        step = int(frame.step)
+        if step < self.last_step:
+            raise ValueError(f"frame of step {step} after step {self.last_step}")
+        stem = f"{step:06d}"
         blocks = write_blocks_vtu(frame, self.frames_dir / f"blocks_{stem}.vtu")
         contacts = write_contacts_vtu(frame, self.frames_dir / f"contacts_{stem}.vtu")
         self.blocks_index.add(frame.time, blocks)
         self.contacts_index.add(frame.time, contacts)
-        self._history[int(frame.step)] = history_rows(frame)
+        if step > self.last_step:
+            os.write(self._history_fd, history_rows(frame).encode("utf-8"))
+            self.frame_count += 1
+        self.last_step = step
         self.last_frame = frame
-        logger.debug("frame step %d t=%g written", frame.step, frame.time)
+        write_summary(self.outdir / SUMMARY_NAME, self._summary(None, "running", None, frame))
+        logger.debug("frame step %d t=%g written", step, frame.time)
 
     def finish(
         self,
@@ -97,11 +138,12 @@ class RunWriter:
         status: str | None = None,
         error: str | None = None,
     ) -> dict[str, Any]:
-        """Write ``history.csv``, ``summary.json`` and ``final.png``.
+        """Write ``summary.json`` and ``final.png``; release the directory.
 
-        Frames of ``result`` that were not passed to :meth:`add_frame` are
-        written first. Without a result (the run failed) the summary holds
-        what is known: the status, the error and the last frame written.
+        When no frame came through :meth:`add_frame`, the frames of ``result``
+        are written first (:func:`write_run`). Without a result (the run failed)
+        the summary holds what is known: the status, the error and the last
+        frame written. A finished run's checkpoint is removed.
 
         Parameters
         ----------
@@ -120,42 +162,57 @@ class RunWriter:
         dict
             The summary as written.
         """
-        if result is not None:
+        if scene is not None:
+            self.scene = scene
+        if result is not None and self.frame_count == 0:
             for frame in result.frames:
-                if int(frame.step) not in self._history:
-                    self.add_frame(frame)
+                self.add_frame(frame)
         final = result.final if result is not None and result.frames else self.last_frame
-        summary = self._summary(result, scene, status, error, final)
-        self._write_history()
+        if final is not None and self.last_frame is not None and final.step < self.last_step:
+            final = self.last_frame
+        summary = self._summary(result, status, error, final)
+        self.close()
         if self.image and final is not None:
             summary["image"] = self._render_final(final, summary)
-        write_summary(self.outdir / "summary.json", summary)
+        write_summary(self.outdir / SUMMARY_NAME, summary)
+        if summary["status"] == "finished":
+            self.folder.checkpoint_path.unlink(missing_ok=True)
+        self.folder.release()
         return summary
 
-    def _summary(self, result, scene, status, error, final) -> dict[str, Any]:
-        summary: dict[str, Any] = dict(result.summary) if result is not None else {}
+    def close(self) -> None:
+        """Close ``history.csv`` (all rows are written already)."""
+        if self._history_fd is not None:
+            os.close(self._history_fd)
+            self._history_fd = None
+
+    def _summary(self, result, status, error, final) -> dict[str, Any]:
+        summary: dict[str, Any] = {"run_id": self.run_id}
+        summary.update(result.summary if result is not None else {})
         summary["status"] = (
             status or summary.get("status") or ("finished" if result is not None else "failed")
         )
         if error:
             summary["error"] = error
-        if scene is not None:
-            summary.setdefault("title", getattr(scene, "title", None))
-            summary.setdefault("scene", getattr(scene, "source", None))
-            units = getattr(scene, "units", None)
+        if self.scene is not None:
+            summary.setdefault("title", getattr(self.scene, "title", None))
+            summary.setdefault("scene", getattr(self.scene, "source", None))
+            units = getattr(self.scene, "units", None)
             if units is not None:
                 summary.setdefault("units", dataclasses.asdict(units))
         if final is not None:
             summary.setdefault("steps", int(final.step))
             summary.setdefault("time", float(final.time))
+        if result is None:
+            summary["wall_seconds"] = round(time.perf_counter() - self._start, 6)
+        if summary["status"] == "running":
+            summary["pid"] = os.getpid()
         summary["frames_written"] = self.frame_count
+        if self.resumed_from is not None:
+            summary["resumed_from_step"] = self.resumed_from
         if result is not None:
             summary.setdefault("fracture_events", list(result.fracture_events))
         return summary
-
-    def _write_history(self) -> None:
-        rows = (self._history[step] for step in sorted(self._history))
-        write_text(self.outdir / "history.csv", "".join(chain([history_header()], rows)))
 
     def _render_final(self, frame: Frame, summary: dict[str, Any]) -> str | None:
         try:
@@ -183,7 +240,7 @@ def write_run(
     scene
         The scene, for the summary's title and source.
     **options
-        Passed to :class:`RunWriter` (``scalars``, ``image``).
+        Passed to :class:`RunWriter` (``scalars``, ``image``, ``overwrite``).
 
     Returns
     -------
@@ -193,11 +250,36 @@ def write_run(
     return RunWriter(outdir, **options).finish(result, scene)
 
 
-def _remove_old_outputs(outdir: Path) -> None:
-    old = [outdir / name for name in OUTPUTS if (outdir / name).is_file()]
-    old += [p for pattern in FRAME_PATTERNS for p in (outdir / "frames").glob(pattern)]
-    old += list(outdir.glob(f"*{TEMP_MARK}*"))
-    for path in old:
-        path.unlink(missing_ok=True)
-    if old:
-        logger.info("removed %d files of an earlier run in %s", len(old), outdir)
+def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:
+    """Cut the outputs in ``outdir`` back to ``step``; return the index entries kept."""
+    kept = []
+    for name in ("blocks.pvd", "contacts.pvd"):
+        path = outdir / name
+        entries = read_pvd_entries(path) if path.is_file() else []
+        kept.append([(file, t) for file, t in entries if 0 <= step_of_file(file) <= step])
+    for pattern in ("blocks_*.vtu", "contacts_*.vtu", f"*{TEMP_MARK}*"):
+        for path in (outdir / "frames").glob(pattern):
+            if TEMP_MARK in path.name or step_of_file(path) > step:
+                path.unlink(missing_ok=True)
+    _truncate_history(outdir / "history.csv", step)
+    logger.info("resuming %s at step %d: %d frames kept", outdir, step, len(kept[0]))
+    return kept[0], kept[1]
+
+
+def _truncate_history(path: Path, step: int) -> None:
+    """Keep the header and the whole rows of steps up to ``step`` (rows are in step order)."""
+    if not path.is_file():
+        write_text(path, history_header())
+        return
+    end = 0
+    with open(path, "rb") as stream:
+        for number, line in enumerate(stream):
+            if not line.endswith(b"\n"):
+                break  # a row cut short
+            if number > 0 and int(line.split(b",", 1)[0]) > step:
+                break
+            end += len(line)
+    if end == 0:
+        write_text(path, history_header())
+        return
+    os.truncate(path, end)

@@ -9,6 +9,8 @@ import tomllib
 from pathlib import Path
 
 from dda.errors import SceneError
+from dda.io.atomic import write_text
+from dda.io.output_paths import OutputError, check_output_file
 
 log = logging.getLogger(__name__)
 
@@ -30,31 +32,43 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 
 def run_cut(args: argparse.Namespace) -> int:
-    """Run ``dda cut``: 0 on success, 2 on a bad scene (nothing written)."""
+    """Run ``dda cut``: 0 on success, 2 on a bad scene or output path (nothing written)."""
     from tomli_w import dumps
 
+    output = Path(args.output)
+    png = None if args.no_png else Path(args.png) if args.png else output.with_suffix(".png")
     try:
+        for path, option in ((output, "-o"), (png, "--png")):
+            if path is not None:
+                _check_output(path, option)
         cut, scene = _cut(Path(args.scene))
         _check_loadable(scene, str(args.scene))
-    except SceneError as exc:
+    except (SceneError, OutputError) as exc:
         log.debug("refused: %s", exc)
         sys.stderr.write(f"dda cut: {exc}\n")
         return 2
-    output = Path(args.output)
     header = f"# Blocks cut from {args.scene} by `dda cut`: {len(cut.names)} blocks.\n"
-    output.write_text(header + dumps(scene))
+    write_text(output, header + dumps(scene))
     log.info("wrote %s", output)
-    if not args.no_png:
+    if png is not None:
         from dda.rockmass.picture import draw_cut
 
-        png = Path(args.png) if args.png else output.with_suffix(".png")
         draw_cut(cut, png, title=str(scene.get("title", "")) or Path(args.scene).stem)
         log.info("wrote %s", png)
     sys.stdout.write(f"{output}: {len(cut.names)} blocks, {int(cut.fixed.sum())} fixed\n")
     return 0
 
 
+def _check_output(path: Path, option: str) -> None:
+    try:
+        check_output_file(path)
+    except OutputError as exc:
+        raise OutputError(f"{option} {path}", exc.reason) from None
+
+
 def _cut(path: Path):
+    if path.is_dir():
+        raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
     try:

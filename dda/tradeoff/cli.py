@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dda.io.output_paths import OutputError, check_output_dir
+
 log = logging.getLogger(__name__)
 
 
@@ -80,8 +82,12 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     from dda.tradeoff.runner import Cluster, Task, add_errors, make_tasks, sweep
 
     try:
+        check_output_dir(args.outdir)
         case = get_case(args.case)
         grid = parse_grid(args.grid, case.grid)
+    except OutputError as exc:
+        print(f"dda tradeoff: -o {exc}", file=sys.stderr)
+        return 2
     except ValueError as exc:
         print(f"dda tradeoff: {exc}", file=sys.stderr)
         return 2
