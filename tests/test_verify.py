@@ -36,7 +36,7 @@ def rotate(points, degrees):
     return [[c * x - s * y, s * x + c * y] for x, y in points]
 
 
-def stack_scene(heights=(1.0, 1.0), friction=0.0, angle=0.0, plane="stress"):
+def stack_scene(heights=(1.0, 1.0), friction=0.0, angle=0.0, plane="stress", contact=None):
     """Blocks of width 1 stacked on a fixed base, the whole scene rotated by ``angle``."""
     blocks = [
         {
@@ -60,7 +60,7 @@ def stack_scene(heights=(1.0, 1.0), friction=0.0, angle=0.0, plane="stress"):
     return dda.load_scene(
         {
             "analysis": {"mode": "static", "gravity": g, "plane": plane},
-            "contact": {"method": "penalty"},
+            "contact": contact or {"method": "penalty"},
             "materials": {"rock": {"density": RHO, "young": E, "poisson": NU}},
             "joints": {"default": {"friction_angle": friction}},
             "blocks": blocks,
@@ -310,21 +310,8 @@ def test_fem_cohesion_and_tensile_strength_hold_until_exceeded():
 
 
 def test_fem_augmented_lagrangian_closes_to_the_tolerance():
-    raw = {
-        "analysis": {"mode": "static", "gravity": [0.0, -G]},
-        "contact": {"method": "augmented-lagrangian", "tolerance": 1e-10},
-        "materials": {"rock": {"density": RHO, "young": E, "poisson": NU}},
-        "blocks": [
-            {
-                "name": "base",
-                "material": "rock",
-                "fixed": True,
-                "vertices": rectangle(-1, -1, 2, 0),
-            },
-            {"name": "block", "material": "rock", "vertices": rectangle(0, 0, 1, 2)},
-        ],
-    }
-    solution = solve_fem(dda.load_scene(raw), FemOptions(size=0.25))
+    contact = {"method": "augmented-lagrangian", "tolerance": 1e-10}
+    solution = solve_fem(stack_scene((2.0,), contact=contact), FemOptions(size=0.25))
     gaps = solution.contact.gaps(solution.u)[solution.active]
     assert -gaps.min() <= 1e-10
     assert fields.interface_forces(solution)[0]["normal_force"] == pytest.approx(
@@ -449,6 +436,24 @@ def test_predicted_offsets_are_signed(quick_results):
     assert row.offset > 0 and row.error < 1e-3
     flipped = dataclasses.replace(row, offset=-row.offset)
     assert flipped.error > 0.3
+
+
+def test_verify_uses_only_the_engines_public_api():
+    """verify imports dda, its scene and its result types: nothing else of the engine."""
+    import ast
+    from pathlib import Path
+
+    import verify
+
+    allowed = {"dda", "dda.scene", "dda.result"}
+    for path in Path(verify.__file__).parent.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("dda"):
+                assert node.module in allowed, (path.name, node.module)
+            if isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.startswith("dda"):
+                        assert alias.name in allowed, (path.name, alias.name)
 
 
 def test_fem_side_reads_nothing_from_the_engine(monkeypatch):

@@ -77,10 +77,6 @@ class DdaSide:
             time=float(final.time),
         )
 
-    def closed_pairs(self) -> set[tuple[int, int]]:
-        """Block pairs with a closed contact."""
-        return {pair for pair, i in self.interfaces.items() if i.closed}
-
 
 def block_strain(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     """(exx, eyy, gxy) of the affine map that takes a block's vertices ``before`` to ``after``.

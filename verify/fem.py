@@ -218,14 +218,28 @@ def base_system(
 
 def make_basis(bm: BlockMesh, order: int) -> CellBasis:
     """Vector Lagrange basis of the given order on the block mesh."""
-    element = ElementTriP2() if order == 2 else ElementTriP1()
-    return Basis(bm.mesh, ElementVector(element))
+    return vector_basis(bm.mesh, order)
+
+
+def vector_basis(mesh, order: int) -> CellBasis:
+    """Vector Lagrange basis, P1 or P2, on a triangle mesh."""
+    return Basis(mesh, ElementVector(ElementTriP2() if order == 2 else ElementTriP1()))
+
+
+def uniform_elasticity(
+    basis: CellBasis, young: float, poisson: float, plane: str = "stress"
+) -> tuple[sp.csr_matrix, float, float]:
+    """Stiffness of one homogeneous material on the whole basis, and its (λ, μ)."""
+    lam, mu = lame_parameters(young, poisson, plane)
+    ones = np.ones((basis.nelems, basis.X.shape[1]))
+    return elasticity.assemble(basis, lam=lam * ones, mu=mu * ones).tocsr(), lam, mu
 
 
 def contact_tolerance_of(scene: Scene) -> float | None:
-    """The DDA's augmented-Lagrangian tolerance (None for the pure penalty method).
+    """The scene's augmented-Lagrangian tolerance (None for the pure penalty method).
 
-    As the engine: ``[contact] tolerance``, else 1e-4 of the model's larger extent.
+    ``[contact] tolerance``, else its documented default: 1e-4 of the model's
+    larger extent (docs/scene.md).
     """
     if scene.contact.method != "augmented-lagrangian":
         return None

@@ -286,12 +286,7 @@ def case_image(result: CaseResult, path: Path) -> Path:
         title += f"; components along a frame at {result.expectation.frame:g}°"
     fig.suptitle(title, fontsize=12)
     fig.tight_layout(rect=(0, 0.03, 1, 0.97))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    log.info("wrote %s", path)
-    return path
+    return save(fig, path, dpi=90)
 
 
 def summary_chart(results: list[CaseResult], path: Path) -> Path:
@@ -313,10 +308,16 @@ def summary_chart(results: list[CaseResult], path: Path) -> Path:
     ax.set_title("DDA against FEM: every check, every case")
     ax.legend(fontsize=7, ncol=3)
     fig.tight_layout()
+    return save(fig, path, dpi=100)
+
+
+def save(fig, path: Path, dpi: int) -> Path:
+    """Write a figure (folders made as needed) and close it; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
+    log.info("wrote %s", path)
     return path
 
 
@@ -352,8 +353,4 @@ def refinement_chart(points, path: Path) -> Path:
             ax.legend(fontsize=8)
     fig.suptitle("Block refinement: DDA blocks with locked joints against the FEM continuum")
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save(fig, path, dpi=100)

@@ -51,11 +51,11 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse.linalg as spla
 import shapely
-from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, LinearForm, MeshTri, condense
+from skfem import Basis, LinearForm, MeshTri, condense
 from skfem.helpers import sym_grad
 
 import dda
-from verify.fem import elasticity, lame_parameters
+from verify.fem import uniform_elasticity, vector_basis
 
 log = logging.getLogger(__name__)
 
@@ -191,11 +191,8 @@ def triangulation(body: Body, k: int) -> MeshTri:
 
 def solve_continuum(body: Body, mesh: MeshTri, order: int = 2) -> Reference:
     """Linear elasticity under self-weight with the clamped side held exactly."""
-    element = ElementVector(ElementTriP2() if order == 2 else ElementTriP1())
-    basis = Basis(mesh, element)
-    lam, mu = lame_parameters(YOUNG, POISSON, "stress")
-    ones = np.ones((basis.nelems, basis.X.shape[1]))
-    stiffness = elasticity.assemble(basis, lam=lam * ones, mu=mu * ones)
+    basis = vector_basis(mesh, order)
+    stiffness, lam, mu = uniform_elasticity(basis, YOUNG, POISSON)
 
     @LinearForm
     def weight(v, w):
