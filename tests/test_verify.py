@@ -586,6 +586,19 @@ def test_cli_returns_nonzero_when_a_tolerance_fails(tmp_path):
     assert code == 1
 
 
+def test_cli_refuses_a_bad_expectation_file_in_one_line(tmp_path, capsys):
+    from verify.cli import main
+
+    source = discover(names=["self_weight"])[0]
+    (tmp_path / "bad.toml").write_text(source.scene_path.read_text())
+    text = source.expect_path.read_text().replace("[checks.centroid]", "[checks.centroids]")
+    (tmp_path / "bad.expect.toml").write_text(text)
+    assert main(["--cases-dir", str(tmp_path), "-o", str(tmp_path / "out"), *QUICK_CLI]) == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "bad.expect.toml" in error and "checks.centroids" in error and "Traceback" not in error
+    assert not (tmp_path / "out" / "report.md").exists()
+
+
 def test_dda_command_has_verify():
     from dda.cli import build_parser
 

@@ -16,7 +16,7 @@ import dda
 from dda import Scene
 from verify.compare import Row, max_errors
 from verify.dda_side import DdaSide
-from verify.expect import Expectation, load_expectation
+from verify.expect import Expectation, ExpectationError, load_expectation
 from verify.fem import FemOptions, FemSolution
 from verify.runners import RUNNERS
 
@@ -127,7 +127,9 @@ def run_case(case: Case, reference=None) -> CaseResult:
     result = RUNNERS[expectation.kind](scene, expectation, fem_options(expectation), reference)
     unknown = set(expectation.offsets) - {r.key for r in result.rows}
     if unknown:
-        raise ValueError(f"{case.expect_path}: offsets: no such rows: {', '.join(sorted(unknown))}")
+        raise ExpectationError(
+            f"{case.expect_path}: offsets: no such rows: {', '.join(sorted(unknown))}"
+        )
     verdicts = judge(result.rows, expectation)
     log.info(
         "%s: %s",

@@ -62,6 +62,8 @@ def register(subparsers) -> None:
 
 def run_verify(args: argparse.Namespace) -> int:
     """Run the suite, print the table, write the report; non-zero when a check fails."""
+    from dda import SceneError
+    from verify.expect import ExpectationError
     from verify.report import format_console
     from verify.suite import run_suite
 
@@ -80,8 +82,11 @@ def run_verify(args: argparse.Namespace) -> int:
             refinement=0 if args.no_refinement else largest,
             progress=lambda line: print(f"dda verify: {line}", file=sys.stderr, flush=True),
         )
-    except KeyError as exc:
+    except KeyError as exc:  # an unknown case name
         print(f"dda verify: {exc.args[0]}", file=sys.stderr)
+        return EXIT_INPUT
+    except (ExpectationError, SceneError) as exc:  # they name the file and the key
+        print(f"dda verify: {exc}", file=sys.stderr)
         return EXIT_INPUT
     print(format_console(output.results))
     if output.refinement:

@@ -53,6 +53,10 @@ KNOWN_CHECKS = (
 KINDS = ("static", "dynamic", "fracture")
 
 
+class ExpectationError(ValueError):
+    """An expectation file that cannot be used; the message names the file and the key."""
+
+
 @dataclass(frozen=True)
 class Check:
     """A tolerance on one quantity and the reason for it."""
@@ -97,9 +101,11 @@ class Expectation:
 
 def _check(path: Path, name: str, table: dict) -> Check:
     if name not in KNOWN_CHECKS:
-        raise ValueError(f"{path}: checks.{name}: unknown quantity (known: {KNOWN_CHECKS})")
+        raise ExpectationError(f"{path}: checks.{name}: unknown quantity (known: {KNOWN_CHECKS})")
     if not str(table.get("why", "")).strip():
-        raise ValueError(f"{path}: checks.{name}: 'why' is required")
+        raise ExpectationError(f"{path}: checks.{name}: 'why' is required")
+    if "tolerance" not in table:
+        raise ExpectationError(f"{path}: checks.{name}: 'tolerance' is required")
     return Check(
         name,
         float(table["tolerance"]),
@@ -111,10 +117,13 @@ def _check(path: Path, name: str, table: dict) -> Check:
 
 def load_expectation(path: Path) -> Expectation:
     """Read and check an expectation file."""
-    raw = tomllib.loads(Path(path).read_text())
+    try:
+        raw = tomllib.loads(Path(path).read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ExpectationError(f"{path}: <toml>: {exc}") from exc
     kind = str(raw.get("kind", "static"))
     if kind not in KINDS:
-        raise ValueError(f"{path}: kind: {kind!r} is not one of {KINDS}")
+        raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")
     fem = raw.get("fem", {})
     return Expectation(
         summary=str(raw.get("summary", "")),

@@ -29,7 +29,7 @@ from dda import Result, Scene
 from verify.compare import STRESS, VECTOR, Row, compare, tensor_in_frame, vector_in_frame
 from verify.dda_side import DdaSide
 from verify.dynamics import FemHistory, integrate
-from verify.expect import Expectation
+from verify.expect import Expectation, ExpectationError
 from verify.fem import FemOptions, FemSolution, load_factor_at, solve_fem
 from verify.fracture import Onset, onset_factors
 
@@ -152,7 +152,9 @@ def common_factor(scene: Scene, time: float) -> float:
     """The one load factor of all loads at ``time`` (the case's loads share a history)."""
     factors = load_factor_at(scene, time)
     if not len(factors) or np.ptp(factors) > 1e-12 * max(1.0, abs(factors).max()):
-        raise ValueError(f"{scene.source}: a fracture case needs loads with one common history")
+        raise ExpectationError(
+            f"{scene.source}: loads: a fracture case needs loads with one common history"
+        )
     return float(factors[0])
 
 
