@@ -224,6 +224,29 @@ def test_uniaxial_compression_below_c0_does_not_break():
     assert result.final.stresses[rock, 1] == pytest.approx(-0.98 * C0, rel=3e-3)
 
 
+def test_a_loaded_block_that_breaks_in_shear_gives_its_load_to_one_of_its_pieces():
+    """The load point moves to the piece that holds it, though the pieces differ in shape."""
+    force = 1.05 * C0 * 1.6
+    scene = {
+        "analysis": {"mode": "static", "time_step": 0.01, "steps": 3, "save_every": 1},
+        "materials": {"rock": STRONG},
+        "joints": {"crack": {"friction_angle": 30.0}},
+        "fracture": {"joint": "crack"},
+        "blocks": [
+            {"name": "base", "material": "rock", "fixed": True, "vertices": rect(-1, -1, 2.6, 0)},
+            {"name": "rock", "material": "rock", "vertices": rect(0, 0, 1.6, 4.0)},
+        ],
+        "loads": [{"block": "rock", "point": [0.8, 4.0], "force": [0.0, -force]}],
+    }
+    result = dda.simulate(scene)
+    first = result.fracture_events[0]
+    assert (first.parent, first.mode, len(first.children)) == ("rock", "shear", 4)
+    frame = next(f for f in result.frames if f.step == first.step)
+    assert len({len(frame.vertices[frame.block(name)]) for name in first.children}) > 1
+    for f in result.frames:
+        assert_valid_blocks(f)
+
+
 def bar_scene(ratio: float) -> dict:
     """A free 4 x 1 bar pulled at both ends by ratio x T0 (static)."""
     force = ratio * T0 * 1.0

@@ -2,13 +2,18 @@
 
 Pipeline per case (``cases/verify/NAME.toml`` + ``NAME.expect.toml``)::
 
-    scene --dda.simulate--> DdaSide (final frame by scene block)
-    scene --mesh_blocks--> BlockMesh --solve_fem (penalty contact on the
-          interfaces the DDA closed)--> FemSolution
-    compare(DdaSide, FemSolution) -> rows -> verdicts against the expectations
+    scene --dda.simulate--> DdaSide (a frame by scene block, strains from vertices)
+    scene --mesh_blocks--> BlockMesh --solve_fem (penalty contact on every
+          interface of the scene, its own open/closed and stick/slip states)
+          --> FemSolution   (dynamic cases: verify.dynamics.integrate;
+                             fracture cases: verify.fracture.onset_factors)
+    rows (signed: DDA - FEM - predicted offset) -> verdicts against the expectations
+    block-refinement study (verify.refinement), FEM convergence study
     images, report.md, report.json
 
-``dda`` never imports ``verify``.
+The FEM side reads the scene only; ``verify`` uses the engine's public API
+(``dda.load_scene``, ``dda.simulate``, the scene and result types). ``dda``
+never imports ``verify``.
 """
 
 import importlib

@@ -8,7 +8,6 @@ as package data (:mod:`dda.cases`), so an installed suite finds them too.
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from pathlib import Path
@@ -17,12 +16,12 @@ import numpy as np
 
 import dda
 import dda.cases
-from dda.scene import Scene
-from verify.compare import Row, compare, max_errors
+from dda import Scene
+from verify.compare import Row, max_errors
 from verify.dda_side import DdaSide
-from verify.expect import Expectation, load_expectation
-from verify.fem import FemOptions, FemSolution, solve_fem
-from verify.interfaces import find_interfaces, joint_between, sticks, with_dda_contacts
+from verify.expect import Expectation, ExpectationError, load_expectation
+from verify.fem import FemOptions, FemSolution
+from verify.runners import RUNNERS
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +56,14 @@ class Verdict:
 
 @dataclass
 class CaseResult:
-    """Everything one case produced."""
+    """Everything one case produced.
+
+    ``dda`` and ``fem`` are the frame and the FEM solution the pictures show
+    (static: the final state; dynamic: the last step; fracture: the frame
+    before the break). ``reference`` is the FEM side of the case as
+    :func:`run_case` can take it back (it depends on the scene alone);
+    ``series`` holds what a case has beyond one state (histories, onsets).
+    """
 
     case: Case
     scene: Scene
@@ -67,6 +73,8 @@ class CaseResult:
     rows: list[Row]
     verdicts: list[Verdict]
     seconds: dict[str, float] = field(default_factory=dict)
+    reference: object = None
+    series: dict = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -104,56 +112,46 @@ def judge(rows: list[Row], expectation: Expectation) -> list[Verdict]:
     """A verdict for every check the expectation declares."""
     verdicts = []
     for name, check in expectation.checks.items():
-        worst = max_errors([r for r in rows if check.applies_to(r.item)])
+        chosen = [r for r in rows if r.quantity == name and check.applies_to(r.item, r.component)]
+        worst = max_errors(chosen)
         verdicts.append(Verdict(name, worst.get(name, float("nan")), check.tolerance, check.why))
     return verdicts
 
 
-def run_dda(scene: Scene) -> DdaSide:
-    """Run the engine on the scene and collect its final state."""
-    return DdaSide.from_result(dda.simulate(scene), scene)
+def fem_options(expectation: Expectation) -> FemOptions:
+    """The case's element order and size."""
+    return FemOptions(order=expectation.fem_order, size=expectation.fem_size)
 
 
-def run_fem(scene: Scene, side: DdaSide, options: FemOptions) -> FemSolution:
-    """Solve the FEM model with the interfaces the DDA closed."""
-    geometric = find_interfaces(scene)
-    interfaces = with_dda_contacts(geometric, side.closed_pairs())
-    unmatched = set(side.closed_pairs()) - {i.pair for i in geometric}
-    if unmatched:
-        log.warning("DDA contacts between blocks that do not share a boundary: %s", unmatched)
-    for interface in interfaces:
-        a, b = scene.blocks[interface.a].name, scene.blocks[interface.b].name
-        if not interface.locked and sticks(joint_between(scene, a, b)):
-            log.warning(
-                "%s|%s slides with friction in the DDA: the FEM treats it as "
-                "frictionless (Coulomb sliding is not modelled)",
-                a,
-                b,
-            )
-    return solve_fem(scene, interfaces, options)
-
-
-def run_case(case: Case, size_factor: float = 1.0) -> CaseResult:
+def run_case(case: Case, reference=None) -> CaseResult:
     """Run one case: DDA, FEM, comparison and verdicts.
 
-    ``size_factor`` scales the case's element size (2 halves the number of
-    elements per length, for quick looks).
+    ``reference``: the FEM side of an earlier run of this case
+    (``CaseResult.reference``) to reuse: it depends on the scene alone, so it
+    can be kept while the engine changes.
     """
     scene, expectation = case.load()
-    seconds = {}
-    start = time.perf_counter()
-    side = run_dda(scene)
-    seconds["dda"] = time.perf_counter() - start
-    size = expectation.fem_size * size_factor if expectation.fem_size else None
-    options = FemOptions(order=expectation.fem_order, size=size)
-    start = time.perf_counter()
-    fem = run_fem(scene, side, options)
-    seconds["fem"] = time.perf_counter() - start
-    rows = compare(side, fem, expectation.closed_form)
-    verdicts = judge(rows, expectation)
+    result = RUNNERS[expectation.kind](scene, expectation, fem_options(expectation), reference)
+    unknown = set(expectation.offsets) - {r.key for r in result.rows}
+    if unknown:
+        raise ExpectationError(
+            f"{case.expect_path}: offsets: no such rows: {', '.join(sorted(unknown))}"
+        )
+    verdicts = judge(result.rows, expectation)
     log.info(
         "%s: %s",
         case.name,
         ", ".join(f"{v.quantity} {v.error:.2e}/{v.tolerance:.0e}" for v in verdicts),
     )
-    return CaseResult(case, scene, expectation, side, fem, rows, verdicts, seconds)
+    return CaseResult(
+        case,
+        scene,
+        expectation,
+        result.dda,
+        result.fem,
+        result.rows,
+        verdicts,
+        result.seconds,
+        result.reference,
+        result.series,
+    )

@@ -32,6 +32,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-convergence", action="store_true", help="skip the FEM convergence study"
     )
     parser.add_argument(
+        "--no-refinement", action="store_true", help="skip the block-refinement study"
+    )
+    parser.add_argument(
+        "--refinement-max",
+        type=int,
+        default=None,
+        metavar="K",
+        help="largest k of the block-refinement study, a power of 2 (default 16; --quick: 4)",
+    )
+    parser.add_argument(
         "--cases-dir",
         type=Path,
         default=None,
@@ -52,9 +62,15 @@ def register(subparsers) -> None:
 
 def run_verify(args: argparse.Namespace) -> int:
     """Run the suite, print the table, write the report; non-zero when a check fails."""
+    from dda import SceneError
+    from verify.expect import ExpectationError
     from verify.report import format_console
     from verify.suite import run_suite
 
+    largest = args.refinement_max or (4 if args.quick else 16)
+    if largest < 1 or largest & (largest - 1):
+        print(f"dda verify: --refinement-max: {largest} is not a power of 2", file=sys.stderr)
+        return EXIT_INPUT
     try:
         output = run_suite(
             names=args.cases or None,
@@ -63,13 +79,29 @@ def run_verify(args: argparse.Namespace) -> int:
             images=not args.no_images,
             convergence=not args.no_convergence,
             cases_dir=args.cases_dir,
+            refinement=0 if args.no_refinement else largest,
+            progress=lambda line: print(f"dda verify: {line}", file=sys.stderr, flush=True),
         )
-    except KeyError as exc:
+    except KeyError as exc:  # an unknown case name
         print(f"dda verify: {exc.args[0]}", file=sys.stderr)
         return EXIT_INPUT
+    except (ExpectationError, SceneError) as exc:  # they name the file and the key
+        print(f"dda verify: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     print(format_console(output.results))
+    if output.refinement:
+        print(format_findings(output.refinement.findings))
     print(f"report: {Path(args.output) / 'report.md'}")
     return EXIT_OK if output.passed else EXIT_FAILED
+
+
+def format_findings(findings) -> str:
+    """The block-refinement study's findings, one line each."""
+    lines = ["block refinement:"]
+    for f in findings:
+        verdict = "PASS" if f.passed else "FAIL"
+        lines.append(f"  {f.body:10s} {f.claim}: {f.value:.3g} (limit {f.limit:.3g}) {verdict}")
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

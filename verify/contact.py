@@ -16,7 +16,8 @@ facet with unit outward normal n and tangent t = (-n_y, n_x)::
 with φ_k the facet's 1-D Lagrange functions (P1: 1−ξ, ξ; P2: (1−ξ)(1−2ξ),
 ξ(2ξ−1), 4ξ(1−ξ)). The rows form sparse operators ``G_n``, ``G_t`` so that
 the springs add ``G_nᵀ diag(k_n) G_n + G_tᵀ diag(k_t) G_t`` to the stiffness
-and ``−G_nᵀ diag(k_n) g0`` to the load.
+and ``−G_nᵀ diag(k_n) g0`` to the load. Which springs act (open or
+closed, sticking or slipping) is decided by :mod:`verify.contact_law`.
 
 Matching the DDA's stiffness. A DDA contact is one spring of stiffness p
 (force per length, per unit thickness) at a block vertex; an interface
@@ -27,9 +28,15 @@ integral of their shape functions along the slave facets (P1: h/2, h/2;
 P2: Simpson's h/6, 2h/3, h/6), so that ``Σ w κ = n_c p``. A uniform
 pressure q then penetrates ``q L / (n_c p)`` in both models: the same
 penetration as the DDA's ``N / p`` per contact with ``N = q L / n_c``. The shear
-springs use ``shear_ratio κ``, as the DDA uses ``shear_ratio p``. The
-rotational stiffness of the interface differs (DDA springs sit at the ends),
-which only matters when the contact pressure is not uniform.
+springs use ``shear_ratio κ``, as the DDA uses ``shear_ratio p``; the joint's
+cohesion c and tensile strength T become forces ``c w`` and ``T w`` per point
+(the DDA: ``c l`` and ``T l`` per contact, with l half the contact vertex's edge;
+both sum to c L and T L over an interface). The rotational stiffness of the
+interface differs (DDA springs sit at the ends), which only matters when the
+contact pressure is not uniform.
+
+p is the scene's ``[contact] penalty`` or its documented default, and ``n_c``
+the number of block vertices on the interface: nothing is read from a DDA run.
 """
 
 from __future__ import annotations
@@ -52,12 +59,16 @@ class ContactPoints:
     """All slave points of all interfaces (struct of arrays, one row per point)."""
 
     interface: np.ndarray  # (m,) row in the interface list
+    slave: np.ndarray  # (m,) scene index of the block the point belongs to
     points: np.ndarray  # (m, 2) slave point position
     weight: np.ndarray  # (m,) tributary length
-    normal: np.ndarray  # (m, 2) master outward normal
+    normal: np.ndarray  # (m, 2) master outward normal (from the master towards the slave)
     gap0: np.ndarray  # (m,) initial gap
     k_normal: np.ndarray  # (m,) normal spring of the point (κ w)
-    k_shear: np.ndarray  # (m,) shear spring of the point (0 when not locked)
+    k_shear: np.ndarray  # (m,) shear spring of the point (shear_ratio κ w)
+    friction: np.ndarray  # (m,) tan φ of the joint
+    cohesion: np.ndarray  # (m,) cohesion force c w of the point
+    tensile: np.ndarray  # (m,) tensile force T w of the point
     g_normal: sp.csr_matrix  # (m, N) gap operator
     g_shear: sp.csr_matrix  # (m, N) slip operator
 
@@ -72,44 +83,27 @@ class ContactPoints:
         """Tangential displacement of every point relative to its master point."""
         return self.g_shear @ u
 
-    def stiffness(self, active: np.ndarray) -> sp.csr_matrix:
-        """Spring stiffness of the active points."""
-        kn = sp.diags(self.k_normal * active)
-        kt = sp.diags(self.k_shear * active)
+    def stiffness(self, closed: np.ndarray, stick: np.ndarray) -> sp.csr_matrix:
+        """Springs of the closed points (normal) and of the sticking ones (shear)."""
+        kn = sp.diags(self.k_normal * closed)
+        kt = sp.diags(self.k_shear * stick)
         return (self.g_normal.T @ kn @ self.g_normal + self.g_shear.T @ kt @ self.g_shear).tocsr()
 
-    def load(self, active: np.ndarray, multipliers: np.ndarray | None = None) -> np.ndarray:
-        """Load vector of the initial gaps (and multipliers λ) of the active points."""
-        force = self.k_normal * self.gap0
-        if multipliers is not None:
-            force = force + multipliers
-        return -(self.g_normal.T @ (active * force))
+    def load(self, normal_force0: np.ndarray, shear_force0: np.ndarray) -> np.ndarray:
+        """Load vector of point forces that do not depend on u (normal, shear).
 
-    def normal_forces(
-        self, u: np.ndarray, active: np.ndarray, multipliers: np.ndarray | None = None
-    ) -> np.ndarray:
-        """Compressive normal force −(λ + k g) of every active point (0 elsewhere)."""
-        force = -self.k_normal * self.gaps(u)
-        if multipliers is not None:
-            force = force - multipliers
-        return np.where(active, force, 0.0)
+        A point force f along the normal (tangent) does the work f g (f s):
+        its load is −G_nᵀ f (−G_tᵀ f).
+        """
+        return -(self.g_normal.T @ normal_force0) - self.g_shear.T @ shear_force0
 
 
-def default_penalty(scene: Scene) -> float:
-    """The DDA's initial normal penalty for this scene.
+def penalty_of(scene: Scene) -> float:
+    """The normal contact penalty as the scene defines it.
 
-    Read from the engine's model (``dda.model.build``) so that the two stay
-    the same; if that is not available, the documented rule: the scene's
-    ``[contact] penalty``, else 10 x the largest Young's modulus.
+    ``[contact] penalty``, else the documented default: 10 x the largest
+    Young's modulus (docs/scene.md).
     """
-    try:
-        from dda.model import build
-
-        contact = build(scene).contact
-        if contact is not None:
-            return float(contact.initial_penalty)
-    except (ImportError, AttributeError):
-        pass
     if scene.contact.penalty is not None:
         return float(scene.contact.penalty)
     return 10.0 * max(m.young for m in scene.materials.values())
@@ -205,10 +199,15 @@ def contact_tolerance(scene: Scene) -> float:
 
 
 def build_contact_points(
-    scene: Scene, bm: BlockMesh, basis: CellBasis, interfaces: list[Interface], penalty: float
+    scene: Scene, bm: BlockMesh, basis: CellBasis, interfaces: list[Interface]
 ) -> ContactPoints:
-    """Slave points, springs and gap/slip operators of every interface."""
+    """Slave points, springs, joint strengths and gap/slip operators of every interface.
+
+    Everything comes from the scene: the penalty (:func:`penalty_of`), the
+    shear ratio, the joint of each interface and its contact count.
+    """
     tol = contact_tolerance(scene)
+    penalty = penalty_of(scene)
     parts = []
     for row, interface in enumerate(interfaces):
         slave, master = choose_slave(interface, bm, scene)
@@ -220,14 +219,22 @@ def build_contact_points(
                 bm, basis, master, facets_on_line(bm, master, interface.line, tol)
             )
         kappa = interface.contacts * penalty / interface.length
-        shear = scene.contact.shear_ratio * kappa if interface.locked else 0.0
-        parts.append(_pair_rows(row, points, segments, basis.N, kappa, shear))
+        part = _pair_rows(row, points, segments, basis.N)
+        w = part["weight"]
+        joint = interface.joint
+        part.update(
+            slave=np.full(len(w), slave),
+            k_normal=kappa * w,
+            k_shear=scene.contact.shear_ratio * kappa * w,
+            friction=np.full(len(w), np.tan(np.radians(joint.friction_angle))),
+            cohesion=joint.cohesion * w,
+            tensile=joint.tensile_strength * w,
+        )
+        parts.append(part)
     return _stack(parts, basis.N)
 
 
-def _pair_rows(
-    row: int, points: dict, segments: dict, ndofs: int, kappa: float, shear: float
-) -> dict:
+def _pair_rows(row: int, points: dict, segments: dict, ndofs: int) -> dict:
     """Gap and slip operator rows of one interface."""
     xy = points["xy"]
     distance, xi = point_segment_distance(xy, segments["a"], segments["b"])
@@ -253,19 +260,25 @@ def _pair_rows(
         "weight": points["weight"],
         "normal": n,
         "gap0": gap0,
-        "k_normal": kappa * points["weight"],
-        "k_shear": shear * points["weight"],
         "g_normal": sp.csr_matrix((np.hstack(coef_n).ravel(), (rows, cols.ravel())), shape),
         "g_shear": sp.csr_matrix((np.hstack(coef_t).ravel(), (rows, cols.ravel())), shape),
     }
 
 
+PER_POINT = ("weight", "gap0", "k_normal", "k_shear", "friction", "cohesion", "tensile")
+
+
 def _stack(parts: list[dict], ndofs: int) -> ContactPoints:
     if not parts:
         empty = sp.csr_matrix((0, ndofs))
-        z = np.zeros(0)
         return ContactPoints(
-            np.zeros(0, int), np.zeros((0, 2)), z, np.zeros((0, 2)), z, z, z, empty, empty
+            interface=np.zeros(0, int),
+            slave=np.zeros(0, int),
+            points=np.zeros((0, 2)),
+            normal=np.zeros((0, 2)),
+            g_normal=empty,
+            g_shear=empty,
+            **{k: np.zeros(0) for k in PER_POINT},
         )
     cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if not k.startswith("g_")}
     return ContactPoints(

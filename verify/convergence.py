@@ -28,10 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse.linalg as spla
-from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, FacetBasis, LinearForm, condense
+from skfem import FacetBasis, LinearForm, condense
 
 from dda.scene import Scene, load_scene
-from verify.fem import elasticity, lame_parameters, per_quadrature_point
+from verify.fem import per_quadrature_point, uniform_elasticity, vector_basis
 from verify.mesh import mesh_blocks
 
 DENSITY, GRAVITY, YOUNG, POISSON = 2700.0, 9.81, 5.0e9, 0.25
@@ -90,18 +90,15 @@ def solve_closed_form_problem(order: int, size: float):
     """FEM solution of the closed-form problem; returns (basis, u, λ, μ)."""
     scene = block_scene()
     bm = mesh_blocks(scene, size)
-    element = ElementVector(ElementTriP2() if order == 2 else ElementTriP1())
-    basis = Basis(bm.mesh, element)
-    lam, mu = lame_parameters(YOUNG, POISSON, "stress")
-    ones = np.ones((basis.nelems, basis.X.shape[1]))
-    stiffness = elasticity.assemble(basis, lam=lam * ones, mu=mu * ones)
+    basis = vector_basis(bm.mesh, order)
+    stiffness, lam, mu = uniform_elasticity(basis, YOUNG, POISSON)
 
     @LinearForm
     def gravity(v, w):
         """Body force ρg, downwards."""
         return -DENSITY * GRAVITY * v[1]
 
-    base = FacetBasis(bm.mesh, element, facets=bm.mesh.facets_satisfying(lambda x: x[1] < 1e-12))
+    base = FacetBasis(bm.mesh, basis.elem, facets=bm.mesh.facets_satisfying(lambda x: x[1] < 1e-12))
 
     @LinearForm
     def base_pressure(v, w):

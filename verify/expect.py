@@ -5,16 +5,24 @@ its expectations live beside it::
 
     summary = "One block under self-weight on a fixed base"
     quick = true                # part of the quick suite (default test run)
+    kind = "static"             # "static" | "dynamic" | "fracture"
     component = "syy"           # stress component shown in the picture
+    frame = 0.0                 # degrees: components along a rotated frame
+    catches = ["young_x0.97"]   # engine faults this case must catch (tests)
     [fem]
     size = 0.125                # element size (default: mesh.default_size)
     order = 2
     [checks.stress]             # one table per checked quantity
-    tolerance = 1e-4            # largest error allowed (see verify.compare)
+    tolerance = 1e-4            # largest |error| allowed (see verify.compare)
     why = "..."                 # why this agreement is expected
-    blocks = ["block"]          # optional: only these blocks (or interfaces touching them)
-    [closed_form]               # optional exact values, "block.component"
-    "block.syy" = -13243.5
+    blocks = ["block"]          # optional: only these blocks (or interfaces touching
+                                # them) or vertices ("block[2]")
+    components = ["syy"]        # optional: only these components
+    [offsets]                   # predicted DDA − FEM, "quantity.item.component"
+    "centroid.block.uy" = 1.7658e-6
+    [closed_form]               # exact block stresses or strains for both sides,
+    "block.syy" = -26487.0      # "block.component"
+    [dda_closed_form]           # exact block stresses or strains of the DDA alone
     [notes]                     # optional: why a reported quantity is not checked
     vertex = "..."
 
@@ -29,9 +37,24 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from verify.compare import CHECKED
+KNOWN_CHECKS = (
+    "stress",
+    "strain",
+    "centroid",
+    "vertex",
+    "contact_force",
+    "penetration",
+    "contact_state",
+    "closed_form",
+    "history",
+    "stress_history",
+    "onset",
+)
+KINDS = ("static", "dynamic", "fracture")
 
-KNOWN_CHECKS = (*CHECKED, "closed_form")
+
+class ExpectationError(ValueError):
+    """An expectation file that cannot be used; the message names the file and the key."""
 
 
 @dataclass(frozen=True)
@@ -42,10 +65,17 @@ class Check:
     tolerance: float
     why: str
     blocks: tuple[str, ...] = ()  # only rows of these blocks (default: all)
+    components: tuple[str, ...] = ()  # only these components (default: all)
 
-    def applies_to(self, item: str) -> bool:
-        """Whether a row's item ("block", "block[k]" or "a|b") is checked."""
-        if not self.blocks:
+    def applies_to(self, item: str, component: str = "") -> bool:
+        """Whether a row (item "block", "block[k]" or "a|b", component) is checked.
+
+        ``blocks`` may name blocks (all their rows and their interfaces' rows)
+        or single vertices ("block[2]").
+        """
+        if self.components and component not in self.components:
+            return False
+        if not self.blocks or item in self.blocks:
             return True
         return any(name in self.blocks for name in item.split("[")[0].split("|"))
 
@@ -56,38 +86,57 @@ class Expectation:
 
     summary: str
     quick: bool = False
+    kind: str = "static"
     component: str = "syy"
+    frame: float = 0.0
+    catches: tuple[str, ...] = ()
     fem_size: float | None = None
     fem_order: int = 2
     checks: dict[str, Check] = field(default_factory=dict)
+    offsets: dict[str, float] = field(default_factory=dict)
     closed_form: dict[str, float] = field(default_factory=dict)
+    dda_closed_form: dict[str, float] = field(default_factory=dict)
     notes: dict[str, str] = field(default_factory=dict)  # why a quantity is not checked
+
+
+def _check(path: Path, name: str, table: dict) -> Check:
+    if name not in KNOWN_CHECKS:
+        raise ExpectationError(f"{path}: checks.{name}: unknown quantity (known: {KNOWN_CHECKS})")
+    if not str(table.get("why", "")).strip():
+        raise ExpectationError(f"{path}: checks.{name}: 'why' is required")
+    if "tolerance" not in table:
+        raise ExpectationError(f"{path}: checks.{name}: 'tolerance' is required")
+    return Check(
+        name,
+        float(table["tolerance"]),
+        str(table["why"]).strip(),
+        tuple(table.get("blocks", ())),
+        tuple(table.get("components", ())),
+    )
 
 
 def load_expectation(path: Path) -> Expectation:
     """Read and check an expectation file."""
-    path = Path(path) if isinstance(path, str) else path
-    raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    checks = {}
-    for name, table in raw.get("checks", {}).items():
-        if name not in KNOWN_CHECKS:
-            raise ValueError(f"{path}: checks.{name}: unknown quantity (known: {KNOWN_CHECKS})")
-        if not str(table.get("why", "")).strip():
-            raise ValueError(f"{path}: checks.{name}: 'why' is required")
-        checks[name] = Check(
-            name,
-            float(table["tolerance"]),
-            str(table["why"]).strip(),
-            tuple(table.get("blocks", ())),
-        )
+    try:
+        raw = tomllib.loads((Path(path) if isinstance(path, str) else path).read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ExpectationError(f"{path}: <toml>: {exc}") from exc
+    kind = str(raw.get("kind", "static"))
+    if kind not in KINDS:
+        raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")
     fem = raw.get("fem", {})
     return Expectation(
         summary=str(raw.get("summary", "")),
         quick=bool(raw.get("quick", False)),
+        kind=kind,
         component=str(raw.get("component", "syy")),
+        frame=float(raw.get("frame", 0.0)),
+        catches=tuple(raw.get("catches", ())),
         fem_size=fem.get("size"),
         fem_order=int(fem.get("order", 2)),
-        checks=checks,
+        checks={name: _check(path, name, t) for name, t in raw.get("checks", {}).items()},
+        offsets={k: float(v) for k, v in raw.get("offsets", {}).items()},
         closed_form={k: float(v) for k, v in raw.get("closed_form", {}).items()},
+        dda_closed_form={k: float(v) for k, v in raw.get("dda_closed_form", {}).items()},
         notes={k: str(v).strip() for k, v in raw.get("notes", {}).items()},
     )

@@ -13,12 +13,15 @@ The FEM model of a scene, term by term as the DDA sees it:
   node at the point;
 - fixed blocks are rigid and not meshed: the contact with them is against a
   rigid segment, as the DDA removes fixed blocks from its unknowns;
-- contact between touching blocks: :mod:`verify.contact`, with an
-  active-set loop (a slave point whose force would be tensile is dropped, a
-  penetrating one added, and the system solved again, until the set no
-  longer changes); for a scene with the augmented-Lagrangian method, the
+- contact between the blocks that touch in the scene: :mod:`verify.contact`
+  (springs from the scene's penalty, joints from the scene's joints), with
+  the FEM's own contact law (:mod:`verify.contact_law`): it finds which
+  points are open or closed, sticking or slipping with Coulomb friction,
+  cohesion and tensile strength; with the augmented-Lagrangian method the
   springs also carry multipliers, augmented until no closed point
-  penetrates more than the scene's contact tolerance.
+  penetrates (and no sticking point slips) more than the scene's tolerance.
+
+Nothing is read from a DDA run: the FEM model is the scene's.
 
 A block held by frictionless contact only can still translate along the
 contact; a mass-proportional stabiliser ``α ∫ u·v`` with
@@ -35,7 +38,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from skfem import (
     Basis,
     BilinearForm,
@@ -48,7 +50,8 @@ from skfem import (
 from skfem.helpers import ddot, dot, sym_grad, trace
 
 from dda.scene import Scene
-from verify.contact import ContactPoints, build_contact_points, default_penalty
+from verify.contact import ContactPoints, build_contact_points, contact_tolerance, penalty_of
+from verify.contact_law import ContactState, solve_with_contact
 from verify.geometry import geometric_tolerance, scene_size
 from verify.interfaces import Interface, find_interfaces
 from verify.mesh import BlockMesh, mesh_blocks
@@ -78,10 +81,14 @@ class FemSolution:
     mu: np.ndarray  # (M,) shear modulus per element
     interfaces: list[Interface]
     contact: ContactPoints
-    active: np.ndarray  # (m,) bool, closed contact points
-    multipliers: np.ndarray  # (m,) augmented-Lagrangian multipliers (0: pure penalty)
+    state: ContactState  # open/closed, stick/slip of every contact point
     iterations: int  # linear solves (active-set iterations and augmentations)
     penalty: float
+
+    @property
+    def active(self) -> np.ndarray:
+        """(m,) closed contact points."""
+        return self.state.closed
 
 
 def lame_parameters(young: float, poisson: float, plane: str) -> tuple[float, float]:
@@ -145,20 +152,28 @@ def nearest_node_dofs(
     return int(pairs[0, k]), int(pairs[1, k])
 
 
-def point_load_vector(scene: Scene, bm: BlockMesh, basis: CellBasis) -> np.ndarray:
-    """Point loads on the nodes at the load points (full value: static analysis)."""
-    f = np.zeros(basis.N)
+def point_load_vectors(scene: Scene, bm: BlockMesh, basis: CellBasis) -> list[np.ndarray]:
+    """One load vector per ``[[loads]]`` entry, at full value, on the node at its point."""
+    vectors = []
     index = {b.name: i for i, b in enumerate(scene.blocks)}
     for load in scene.loads:
+        f = np.zeros(basis.N)
         block = index[load.block]
-        if scene.blocks[block].fixed:
-            continue
-        if load.history is not None:
-            log.warning("load on %s: history ignored, full value applied", load.block)
-        dx, dy = nearest_node_dofs(basis, bm, block, load.point, geometric_tolerance(scene))
-        f[dx] += load.force[0]
-        f[dy] += load.force[1]
-    return f
+        if not scene.blocks[block].fixed:
+            dx, dy = nearest_node_dofs(basis, bm, block, load.point, geometric_tolerance(scene))
+            f[dx], f[dy] = load.force
+        vectors.append(f)
+    return vectors
+
+
+def load_factor_at(scene: Scene, time: float) -> np.ndarray:
+    """Factor of every load at ``time``: its history interpolated linearly (docs/scene.md)."""
+    return np.array(
+        [
+            1.0 if ld.history is None else float(np.interp(time, *np.array(ld.history).T))
+            for ld in scene.loads
+        ]
+    )
 
 
 def fixed_point_springs(scene: Scene, bm: BlockMesh, basis: CellBasis) -> sp.csr_matrix:
@@ -174,8 +189,20 @@ def fixed_point_springs(scene: Scene, bm: BlockMesh, basis: CellBasis) -> sp.csr
     return sp.diags(diagonal).tocsr()
 
 
-def base_system(scene: Scene, bm: BlockMesh, basis: CellBasis, options: FemOptions):
-    """Stiffness (elastic + fixed points + stabiliser) and load without contact."""
+def gravity_load(scene: Scene, basis: CellBasis, materials: dict) -> np.ndarray:
+    """Load vector of the body force ρ g."""
+    gx, gy = scene.analysis.gravity
+    rho = per_quadrature_point(materials["rho"], basis)
+    return body_force.assemble(basis, fx=rho * gx, fy=rho * gy)
+
+
+def base_system(
+    scene: Scene, bm: BlockMesh, basis: CellBasis, options: FemOptions, load_factor: float = 1.0
+):
+    """Stiffness (elastic + fixed points + stabiliser) and load without contact.
+
+    The point loads are taken at ``load_factor`` times their full value.
+    """
     materials = element_materials(scene, bm)
     lam = per_quadrature_point(materials["lam"], basis)
     mu = per_quadrature_point(materials["mu"], basis)
@@ -184,66 +211,35 @@ def base_system(scene: Scene, bm: BlockMesh, basis: CellBasis, options: FemOptio
     alpha = options.stabiliser * young / scene_size(scene) ** 2
     stiffness = stiffness + alpha * vector_mass.assemble(basis)
     stiffness = stiffness + fixed_point_springs(scene, bm, basis)
-    gx, gy = scene.analysis.gravity
-    rho = per_quadrature_point(materials["rho"], basis)
-    load = body_force.assemble(basis, fx=rho * gx, fy=rho * gy)
-    load = load + point_load_vector(scene, bm, basis)
+    load = gravity_load(scene, basis, materials)
+    load = load + load_factor * sum(point_load_vectors(scene, bm, basis), np.zeros(basis.N))
     return stiffness.tocsr(), load, materials
 
 
 def make_basis(bm: BlockMesh, order: int) -> CellBasis:
     """Vector Lagrange basis of the given order on the block mesh."""
-    element = ElementTriP2() if order == 2 else ElementTriP1()
-    return Basis(bm.mesh, ElementVector(element))
+    return vector_basis(bm.mesh, order)
 
 
-def solve_with_contact(
-    stiffness: sp.csr_matrix,
-    load: np.ndarray,
-    contact: ContactPoints,
-    max_iterations: int,
-    tolerance: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Active-set loop, with augmented-Lagrangian updates when ``tolerance`` is given.
+def vector_basis(mesh, order: int) -> CellBasis:
+    """Vector Lagrange basis, P1 or P2, on a triangle mesh."""
+    return Basis(mesh, ElementVector(ElementTriP2() if order == 2 else ElementTriP1()))
 
-    Solve with the closed points; open those whose force would be tensile,
-    close those that penetrate; repeat until the set no longer changes. With
-    a tolerance (augmented Lagrangian, as in docs/theory.md §5), each
-    closed point also carries a multiplier λ, updated λ ← λ + k g with the
-    same factorisation until no closed point penetrates more than the
-    tolerance.
 
-    Returns the displacement, the active set, the multipliers and the number
-    of solves.
-    """
-    active = np.ones(len(contact), dtype=bool)
-    multipliers = np.zeros(len(contact))
-    solves = 0
-    for _ in range(max_iterations):
-        solve = spla.factorized((stiffness + contact.stiffness(active)).tocsc())
-        u = solve(load + contact.load(active, multipliers))
-        solves += 1
-        for _ in range(100 if tolerance is not None else 0):
-            gaps = contact.gaps(u)
-            if -gaps[active].min(initial=0.0) <= tolerance:
-                break
-            multipliers = np.where(active, multipliers + contact.k_normal * gaps, 0.0)
-            u = solve(load + contact.load(active, multipliers))
-            solves += 1
-        new_active = contact.normal_forces(u, np.ones_like(active), multipliers) > 0.0
-        if np.array_equal(new_active, active):
-            return u, active, multipliers, solves
-        log.debug("active set: %d -> %d closed points", active.sum(), new_active.sum())
-        active = new_active
-        multipliers[~active] = 0.0
-    log.warning("active set did not settle in %d iterations", max_iterations)
-    return u, active, multipliers, solves
+def uniform_elasticity(
+    basis: CellBasis, young: float, poisson: float, plane: str = "stress"
+) -> tuple[sp.csr_matrix, float, float]:
+    """Stiffness of one homogeneous material on the whole basis, and its (λ, μ)."""
+    lam, mu = lame_parameters(young, poisson, plane)
+    ones = np.ones((basis.nelems, basis.X.shape[1]))
+    return elasticity.assemble(basis, lam=lam * ones, mu=mu * ones).tocsr(), lam, mu
 
 
 def contact_tolerance_of(scene: Scene) -> float | None:
-    """The DDA's augmented-Lagrangian tolerance (None for the pure penalty method).
+    """The scene's augmented-Lagrangian tolerance (None for the pure penalty method).
 
-    As the engine: ``[contact] tolerance``, else 1e-4 of the model's larger extent.
+    ``[contact] tolerance``, else its documented default: 1e-4 of the model's
+    larger extent (docs/scene.md).
     """
     if scene.contact.method != "augmented-lagrangian":
         return None
@@ -255,39 +251,36 @@ def contact_tolerance_of(scene: Scene) -> float | None:
 
 def solve_fem(
     scene: Scene,
-    interfaces: list[Interface] | None = None,
     options: FemOptions | None = None,
+    load_factor: float = 1.0,
 ) -> FemSolution:
     """Mesh and solve the free blocks of a scene (static, small displacements).
 
     Parameters
     ----------
     scene : the scene (its analysis is treated as static)
-    interfaces : the contacts to model; default every touching pair
-        (:func:`verify.interfaces.find_interfaces`); pass the DDA's closed
-        ones (:func:`verify.interfaces.with_dda_contacts`) to match a run
     options : element order, size, stabiliser
+    load_factor : factor on the point loads (their history is not used)
     """
     options = options or FemOptions()
-    if scene.analysis.mode != "static":
-        log.info("%s: dynamic scene solved as a static FEM problem", scene.title)
     if any(any(b.stress) for b in scene.blocks):
         log.warning("initial block stresses are ignored by the FEM model")
-    interfaces = find_interfaces(scene) if interfaces is None else interfaces
+    interfaces = find_interfaces(scene)
     bm = mesh_blocks(scene, options.size)
     basis = make_basis(bm, options.order)
-    stiffness, load, materials = base_system(scene, bm, basis, options)
-    penalty = default_penalty(scene)
-    contact = build_contact_points(scene, bm, basis, interfaces, penalty)
-    u, active, multipliers, iterations = solve_with_contact(
-        stiffness, load, contact, options.max_active_set, contact_tolerance_of(scene)
+    stiffness, load, materials = base_system(scene, bm, basis, options, load_factor)
+    contact = build_contact_points(scene, bm, basis, interfaces)
+    state = ContactState.initial(contact, contact_tolerance(scene))
+    u, state, iterations = solve_with_contact(
+        stiffness, load, contact, state, options.max_active_set, contact_tolerance_of(scene)
     )
     log.info(
-        "FEM %s: %d DOFs, %d contact points (%d closed), %d solves",
+        "FEM %s: %d DOFs, %d contact points (%d closed, %d slipping), %d solves",
         scene.title,
         basis.N,
         len(contact),
-        active.sum(),
+        state.closed.sum(),
+        state.slip.sum(),
         iterations,
     )
     return FemSolution(
@@ -299,8 +292,7 @@ def solve_fem(
         mu=materials["mu"],
         interfaces=interfaces,
         contact=contact,
-        active=active,
-        multipliers=multipliers,
+        state=state,
         iterations=iterations,
-        penalty=penalty,
+        penalty=penalty_of(scene),
     )

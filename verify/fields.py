@@ -17,6 +17,7 @@ import shapely
 from skfem import ElementDG, ElementTriP1
 from skfem.helpers import sym_grad
 
+from verify.contact_law import forces
 from verify.fem import FemSolution, nearest_node_dofs, per_quadrature_point
 from verify.geometry import geometric_tolerance
 
@@ -60,6 +61,29 @@ def block_average_stress(solution: FemSolution) -> np.ndarray:
     totals = block_sums(solution, element_integrals(solution, stress_at_quadrature(solution)))
     with np.errstate(invalid="ignore", divide="ignore"):
         return (totals / block_areas(solution)).T
+
+
+def block_average_strain(solution: FemSolution) -> np.ndarray:
+    """(n, 3) area-averaged exx, eyy, gxy per scene block (NaN for fixed blocks).
+
+    For a homogeneous block this is the compliance times the average stress,
+    whatever the field: the like-for-like counterpart of a DDA block's one
+    strain.
+    """
+    eps = np.asarray(sym_grad(solution.basis.interpolate(solution.u)))
+    strain = np.stack([eps[0, 0], eps[1, 1], 2.0 * eps[0, 1]])
+    totals = block_sums(solution, element_integrals(solution, strain))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (totals / block_areas(solution)).T
+
+
+def block_mean_rotation(solution: FemSolution) -> np.ndarray:
+    """(n,) area-averaged rotation ½ (∂v/∂x − ∂u/∂y) per scene block (NaN for fixed ones)."""
+    grad = np.asarray(solution.basis.interpolate(solution.u).grad)  # (2, 2, M, q)
+    spin = 0.5 * (grad[1, 0] - grad[0, 1])
+    totals = block_sums(solution, element_integrals(solution, spin))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return totals / block_areas(solution)
 
 
 def block_mean_displacement(solution: FemSolution) -> np.ndarray:
@@ -120,34 +144,36 @@ def vertex_displacements(solution: FemSolution, block: int, vertices: np.ndarray
 
 
 def interface_forces(solution: FemSolution) -> list[dict]:
-    """Per interface: normal and shear resultants, mean and largest penetration.
+    """Per interface: resultant force, mean overlap and the points' states.
 
-    ``normal_force`` is the sum of the compressive spring forces (positive in
-    compression, as the DDA's ``normal_force``), ``penetration`` the mean
-    overlap over the closed part weighted by tributary length.
+    ``force`` is the resultant (x, y) on the interface's higher-index block
+    ``b``: a slave point feels N n − f_t t (:mod:`verify.contact_law`), its
+    master the opposite. ``penetration`` is the overlap of the closed points
+    integrated along the interface over its length (the DDA's counterpart:
+    the sum of its contacts' penetrations over their number); both are
+    N / (n_c p) for a resultant N, however the pressure is distributed.
     """
-    contact, u, active = solution.contact, solution.u, solution.active
-    gaps, slips = contact.gaps(u), contact.slips(u)
-    normal = contact.normal_forces(u, active, solution.multipliers)
-    shear = contact.k_shear * np.where(active, slips, 0.0)
+    contact, u, state = solution.contact, solution.u, solution.state
+    f = forces(contact, state, u)
+    t = np.column_stack([-contact.normal[:, 1], contact.normal[:, 0]])
+    on_slave = f.normal[:, None] * contact.normal - f.shear[:, None] * t
+    overlap = np.where(state.closed, -contact.gaps(u), 0.0)
     out = []
     for row, interface in enumerate(solution.interfaces):
         on = contact.interface == row
-        closed = on & active
-        weight = contact.weight[closed]
-        overlap = -gaps[closed]
+        sign = np.where(contact.slave[on] == interface.b, 1.0, -1.0)[:, None]
+        weight = contact.weight[on]
         out.append(
             {
                 "blocks": (interface.a, interface.b),
-                "normal_force": float(normal[on].sum()),
-                "shear_force": float(np.abs(shear[on].sum())),
-                "penetration": float((weight * overlap).sum() / weight.sum())
-                if weight.sum() > 0
-                else 0.0,
-                "max_penetration": float(overlap.max()) if closed.any() else 0.0,
-                "closed_fraction": float(weight.sum() / contact.weight[on].sum())
-                if on.any()
-                else 0.0,
+                "force": (sign * on_slave[on]).sum(axis=0),
+                "normal_force": float(f.normal[on].sum()),
+                "penetration": float((weight * overlap[on]).sum() / weight.sum()),
+                "max_penetration": float(overlap[on].max(initial=0.0)),
+                "closed_fraction": float(weight[state.closed[on]].sum() / weight.sum()),
+                "slip_fraction": float(
+                    weight[state.slip[on]].sum() / max(weight[state.closed[on]].sum(), 1e-300)
+                ),
             }
         )
     return out

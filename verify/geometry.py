@@ -11,13 +11,20 @@ that each of them becomes a mesh node.
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
-from dda.scene import Scene
+from dda import Scene
 
 
 def block_polygons(scene: Scene) -> list[np.ndarray]:
     """Vertices of every scene block as ``(k, 2)`` arrays (counter-clockwise)."""
     return [np.asarray(b.vertices, dtype=float) for b in scene.blocks]
+
+
+def polygon_centroid(vertices: np.ndarray) -> np.ndarray:
+    """Area centroid of one simple polygon."""
+    centroid = shapely.Polygon(vertices).centroid
+    return np.array([centroid.x, centroid.y])
 
 
 def scene_size(scene: Scene) -> float:

@@ -1,22 +1,23 @@
 """Interfaces: the pairs of blocks that touch, the joint between them and their contacts.
 
 An interface is the part of two block boundaries that coincide (within a
-tolerance). Its contact behaviour for the FEM model is either *locked*
-(normal and shear springs: a DDA contact in the LOCKED state) or
-*frictionless* (normal springs only: a DDA contact that slides with no
-friction). Without a DDA result the state is guessed from the joint:
-a joint with friction or cohesion is assumed to stick.
+tolerance) in the scene. Everything the FEM needs to know about it comes
+from the scene: the shared line, its length, the joint that applies (an
+``[[interfaces]]`` entry, else the joint of the edges it lies on, else the
+default joint) and the number of DDA contact points on it.
 
 The DDA puts one spring at each contact vertex, so the stiffness of an
 interface is ``n_contacts * penalty``. :attr:`Interface.contacts` counts the
-vertices of either block that lie on the interface (coincident vertices once),
-which is what the DDA's vertex-edge detection finds for touching blocks;
-:func:`with_dda_contacts` replaces it by the count the DDA really reports.
+vertices of either block that lie on the interface (coincident vertices
+once), which is what the engine's vertex-edge detection finds for blocks
+that touch face to face (docs/verification.md). Whether the interface is
+open, sticking or slipping is not known here: the FEM's contact law finds
+that itself (:mod:`verify.contact_law`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -27,13 +28,13 @@ from verify.geometry import block_polygons, geometric_tolerance
 
 @dataclass(frozen=True)
 class Interface:
-    """Two touching blocks (scene indices ``a < b``) and how they interact."""
+    """Two touching blocks (scene indices ``a < b``) and the joint between them."""
 
     a: int
     b: int
     line: shapely.Geometry  # the shared boundary (LineString or MultiLineString)
     length: float
-    locked: bool  # shear springs as well as normal springs
+    joint: Joint
     contacts: int  # DDA contact points on this interface
 
     @property
@@ -42,32 +43,53 @@ class Interface:
         return (self.a, self.b)
 
 
-def joint_between(scene: Scene, a: str, b: str) -> Joint:
-    """Joint that applies between blocks ``a`` and ``b``.
-
-    An ``[[interfaces]]`` entry for the pair wins, then ``[joints.default]``,
-    then a joint with no friction, cohesion or tensile strength.
-    """
-    for interface in scene.interfaces:
-        if set(interface.blocks) == {a, b}:
-            return scene.joints[interface.joint]
+def default_joint(scene: Scene) -> Joint:
+    """``[joints.default]``, or the frictionless joint the engine adds without one."""
     return scene.joints.get("default", Joint(name="default"))
 
 
-def sticks(joint: Joint) -> bool:
-    """Whether a joint is expected to hold (any friction or cohesion)."""
-    return joint.friction_angle > 0.0 or joint.cohesion > 0.0
+def interface_joint(scene: Scene, a: int, b: int, line: shapely.Geometry, tol: float) -> Joint:
+    """Joint that applies between blocks ``a`` and ``b`` along ``line``.
+
+    An ``[[interfaces]]`` entry for the pair wins; then the ``edge_joints``
+    of an edge of either block that carries the line; then the default
+    joint (docs/scene.md).
+    """
+    names = {scene.blocks[a].name, scene.blocks[b].name}
+    for interface in scene.interfaces:
+        if set(interface.blocks) == names:
+            return scene.joints[interface.joint]
+    for k in (b, a):
+        joint = _edge_joint(scene, k, line, tol)
+        if joint is not None:
+            return joint
+    return default_joint(scene)
+
+
+def _edge_joint(scene: Scene, block: int, line: shapely.Geometry, tol: float) -> Joint | None:
+    """Joint named by the edge of ``block`` that carries ``line`` (None without one)."""
+    edge_joints = scene.blocks[block].edge_joints
+    if not edge_joints:
+        return None
+    vertices = np.asarray(scene.blocks[block].vertices, dtype=float)
+    ends = np.roll(vertices, -1, axis=0)
+    midpoint = shapely.line_interpolate_point(line, 0.5, normalized=True)
+    for k, name in enumerate(edge_joints):
+        edge = shapely.LineString([vertices[k], ends[k]])
+        if name and shapely.distance(edge, midpoint) <= tol:
+            return scene.joints[name]
+    return None
 
 
 def count_contact_vertices(polygons: list[np.ndarray], line: shapely.Geometry, tol: float) -> int:
     """Vertices of the given polygons that lie on ``line``, coincident ones counted once."""
     points = np.concatenate(polygons)
-    on_line = shapely.distance(shapely.points(points), line) <= tol
-    unique: list[np.ndarray] = []
-    for p in points[on_line]:
-        if all(np.linalg.norm(p - q) > tol for q in unique):
-            unique.append(p)
-    return len(unique)
+    on_line = points[shapely.distance(shapely.points(points), line) <= tol]
+    if not len(on_line):
+        return 0
+    distance = np.linalg.norm(on_line[:, None] - on_line[None], axis=2)
+    first = np.argmax(distance <= tol, axis=1)  # the first point each one coincides with
+    return int(np.count_nonzero(first == np.arange(len(on_line))))
 
 
 def shared_segments(a: np.ndarray, b: np.ndarray, tol: float) -> list[np.ndarray]:
@@ -111,34 +133,14 @@ def find_interfaces(scene: Scene, tol: float | None = None) -> list[Interface]:
         line = shapely.line_merge(shapely.MultiLineString(segments))
         if line.length <= 100 * tol:
             continue
-        joint = joint_between(scene, scene.blocks[a].name, scene.blocks[b].name)
         found.append(
             Interface(
                 a=int(a),
                 b=int(b),
                 line=line,
                 length=float(line.length),
-                locked=sticks(joint),
+                joint=interface_joint(scene, int(a), int(b), line, tol),
                 contacts=count_contact_vertices([raw[a], raw[b]], line, tol),
             )
         )
     return found
-
-
-def with_dda_contacts(
-    interfaces: list[Interface], closed: dict[tuple[int, int], tuple[int, bool]]
-) -> list[Interface]:
-    """Keep the interfaces the DDA closed, with its contact count and state.
-
-    Parameters
-    ----------
-    interfaces : geometric interfaces (:func:`find_interfaces`)
-    closed : ``(a, b) -> (number of closed contacts, any locked)`` from the DDA's
-        final frame, with scene block indices ``a < b``
-    """
-    kept = []
-    for interface in interfaces:
-        if interface.pair in closed:
-            count, locked = closed[interface.pair]
-            kept.append(replace(interface, contacts=count, locked=locked))
-    return kept

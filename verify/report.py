@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import asdict
 from pathlib import Path
 
 from verify.cases import CaseResult
@@ -46,15 +47,18 @@ def _markdown_table(header: list[str], rows: list[list[str]]) -> list[str]:
 
 
 def case_section(result: CaseResult, image: str | None) -> list[str]:
-    """Markdown for one case: what it is, verdicts with reasons, block numbers, picture."""
+    """Markdown for one case: what it is, verdicts with reasons, numbers, picture."""
     e = result.expectation
     lines = [f"## {result.case.name}", "", e.summary, ""]
+    state = result.fem.state
     lines += [
-        f"DDA: {result.dda.summary.get('steps', '?')} steps, "
-        f"settled to {result.dda.settled:.1e} (stress change over the last saved frames), "
-        f"{result.seconds.get('dda', 0):.2f} s. FEM: P{e.fem_order}, "
-        f"{result.fem.basis.N} DOFs, {len(result.fem.contact)} contact points, "
-        f"{result.fem.iterations} active-set solve(s), {result.seconds.get('fem', 0):.2f} s.",
+        f"Kind: {e.kind}. DDA: {result.dda.summary.get('steps', '?')} steps, "
+        f"{result.seconds.get('dda', 0):.2f} s"
+        + (f", settled to {result.dda.settled:.1e}" if e.kind == "static" else "")
+        + f". FEM: P{e.fem_order}, {result.fem.basis.N} DOFs, {len(result.fem.contact)} contact "
+        f"points ({int(state.closed.sum())} closed, {int(state.slip.sum())} slipping), "
+        f"{result.fem.iterations} linear solve(s), {result.seconds.get('fem', 0):.2f} s."
+        + (f" Catches: {', '.join(e.catches)}." if e.catches else ""),
         "",
     ]
     verdicts = [
@@ -70,20 +74,86 @@ def case_section(result: CaseResult, image: str | None) -> list[str]:
     lines += _markdown_table(["quantity", "error", "tolerance", "result", "why"], verdicts)
     for quantity, note in e.notes.items():
         lines += ["", f"*{quantity}*: " + note.replace("\n", " ")]
-    stress = [r for r in result.rows if r.quantity in ("stress", "contact_force", "penetration")]
+    shown = [r for r in result.rows if _shown(r, e)]
     lines += [
         "",
         *_markdown_table(
-            ["quantity", "item", "component", "DDA", "FEM", "error"],
+            ["quantity", "item", "component", "DDA", "FEM", "predicted offset", "signed error"],
             [
-                [r.quantity, r.item, r.component, f"{r.dda:.6g}", f"{r.fem:.6g}", f"{r.error:.1e}"]
-                for r in stress
+                [
+                    r.quantity,
+                    r.item,
+                    r.component,
+                    f"{r.dda:.6g}",
+                    f"{r.fem:.6g}",
+                    f"{r.offset:.4g}",
+                    f"{r.signed_error:+.1e}",
+                ]
+                for r in shown
             ],
         ),
     ]
     if image:
         lines += ["", f"![{result.case.name}]({image})"]
     return lines + [""]
+
+
+def _shown(row, expectation) -> bool:
+    """Rows listed in the report: checked ones, but only the worst of a history."""
+    check = expectation.checks.get(row.quantity)
+    if check is None or not check.applies_to(row.item, row.component):
+        return False
+    return row.quantity not in ("history", "stress_history")
+
+
+def refinement_section(refinement) -> list[str]:
+    """Markdown for the block-refinement study: findings, errors and observed orders."""
+    from verify.refinement import observed_orders
+
+    lines = ["## Block refinement (DDA blocks with locked joints against the continuum)", ""]
+    lines += _markdown_table(
+        ["body", "expectation", "value", "limit", "result"],
+        [
+            [f.body, f.claim, f"{f.value:.3g}", f"{f.limit:.3g}", "PASS" if f.passed else "FAIL"]
+            for f in refinement.findings
+        ],
+    )
+    for body, estimate in refinement.references.items():
+        lines += [
+            "",
+            f"Reference ({body}): P2, {estimate['elements']} elements, {estimate['dofs']} DOFs; "
+            f"one more refinement changes its displacement norm by {estimate['displacement']:.1e}, "
+            f"its stress norm by {estimate['stress']:.1e}, its tip displacement by "
+            f"{estimate['tip']:.1e}.",
+        ]
+    orders = {q: observed_orders(refinement.points, q) for q in ("displacement", "stress", "tip")}
+    rows = []
+    for p in sorted(refinement.points, key=lambda p: (p.body, p.series, p.k)):
+        rows.append(
+            [
+                p.body,
+                p.series,
+                str(p.k),
+                str(p.blocks),
+                f"{p.displacement:.3e}",
+                f"{p.stress:.3e}",
+                f"{p.tip:.3e}",
+            ]
+        )
+    lines += [""] + _markdown_table(
+        ["body", "series", "k", "blocks", "displacement", "stress", "tip"], rows
+    )
+    lines += ["", "Observed orders log2(e_k / e_2k), k = 1→2, 2→4, ...:", ""]
+    lines += _markdown_table(
+        ["body", "series", "displacement", "stress", "tip"],
+        [
+            [body, series]
+            + [", ".join(f"{o:.2f}" for o in orders[q][(body, series)]) for q in orders]
+            for body, series in orders["displacement"]
+        ],
+    )
+    picture = "verify_refinement.png"  # in the report's images/ folder
+    return lines + ["", f"![refinement](images/{picture})", ""]
 
 
 def convergence_section(points: list[ConvergencePoint]) -> list[str]:
@@ -120,6 +190,7 @@ def write_markdown(
     images: dict[str, str] | None = None,
     convergence: list[ConvergencePoint] | None = None,
     summary_image: str | None = None,
+    refinement=None,
 ) -> Path:
     """Write ``report.md``."""
     images = images or {}
@@ -132,6 +203,8 @@ def write_markdown(
     lines.append("")
     for r in results:
         lines += case_section(r, images.get(r.case.name))
+    if refinement:
+        lines += refinement_section(refinement)
     if convergence:
         lines += convergence_section(convergence)
     path = Path(path)
@@ -150,7 +223,10 @@ def _clean(value):
 
 
 def write_json(
-    results: list[CaseResult], path: Path, convergence: list[ConvergencePoint] | None = None
+    results: list[CaseResult],
+    path: Path,
+    convergence: list[ConvergencePoint] | None = None,
+    refinement=None,
 ) -> Path:
     """Write ``report.json``: verdicts and every compared row of every case."""
     data = {
@@ -161,6 +237,8 @@ def write_json(
                 "summary": r.expectation.summary,
                 "passed": r.passed,
                 "seconds": r.seconds,
+                "kind": r.expectation.kind,
+                "catches": list(r.expectation.catches),
                 "dda_settled": r.dda.settled,
                 "fem_dofs": int(r.fem.basis.N),
                 "verdicts": [
@@ -191,6 +269,12 @@ def write_json(
                 for p in convergence
             ],
             "p1_rates": observed_rates(convergence),
+        }
+    if refinement:
+        data["refinement"] = {
+            "points": [asdict(p) for p in refinement.points],
+            "references": refinement.references,
+            "findings": [asdict(f) for f in refinement.findings],
         }
     path = Path(path)
     path.write_text(json.dumps(_clean(data), indent=2))

@@ -37,7 +37,8 @@ class MaterialPoints:
         new_rows = np.empty_like(self.rows)
         for k, (old_row, p) in enumerate(zip(self.rows, self.positions, strict=True)):
             children = np.flatnonzero(parent_of == old_row)
-            polys = shapely.polygons([new.polygon(c) for c in children])
-            dist = shapely.distance(polys, shapely.points(p))
+            # one Polygon each: the children's rings have different lengths
+            polys = [shapely.Polygon(new.polygon(c)) for c in children]
+            dist = shapely.distance(polys, shapely.Point(p))
             new_rows[k] = children[int(np.argmin(dist))]
         self.rows = new_rows
