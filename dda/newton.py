@@ -35,7 +35,7 @@ from dda.contact.rows import ContactRows, gaps_after
 
 log = logging.getLogger(__name__)
 
-RELATIVE_TOLERANCE = 1e-6  # ‖∇Π‖ against ‖K₀D‖ + ‖F₀‖ + ‖contact forces‖
+RELATIVE_TOLERANCE = 1e-4  # ‖∇Π‖ against ‖K₀D‖ + ‖F₀‖ + ‖contact forces‖
 
 
 @dataclass(frozen=True)
