@@ -45,6 +45,7 @@ from dda.jit import compiled, kernel
 
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
 ANGLE_TIE = 0.05  # vertex-vertex: edge scores this close are a tie, decided by position
+SHARED_LINE_COSINE = np.cos(ANGLE_TIE)  # two edges this parallel, facing the same way, share a line
 VERTEX_RADIUS_FRACTION = 0.25  # vertex radius ≤ this x the shortest edge at either vertex
 OUTSIDE_FRACTION = 0.01  # of the search distance: a vertex farther out than this penetrates nothing
 # of the edge length: a vertex projecting this close to an edge's end is no V-E candidate.
@@ -379,7 +380,8 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     )
     depth = np.column_stack([_depth(blocks, fans, vert, ed) for vert, ed in candidates])
     along = np.column_stack([_along(blocks, fans, vert, ed) for vert, ed in candidates])
-    fake = _fake_pairings(depth, along, slack, fans.reflex[p2], fans.reflex[p1])
+    shared = _shared_lines(fans, candidates)
+    fake = _fake_pairings(depth, along, slack, fans.reflex[p2], fans.reflex[p1], shared)
     fake |= _hidden_penetration(depth, inside_depth)
     scores = np.where(fake & ~fake.all(axis=1, keepdims=True), -np.inf, scores)
     # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
@@ -424,6 +426,21 @@ def _resolve_compiled(blocks, fans, p1, p2, slack, inside_depth, previous_keys):
     return vertex, edge
 
 
+def _shares_line(outward, prv, vertex, other_edge):
+    """True when one of ``vertex``'s two edges lies along ``other_edge`` with the same
+    outward normal (within ``ANGLE_TIE``): the two blocks share that boundary line on the
+    same side, so a vertex on it that is behind the corner's other edge is inside."""
+    nx, ny = outward[other_edge, 0], outward[other_edge, 1]
+    own = max(
+        outward[vertex, 0] * nx + outward[vertex, 1] * ny,
+        outward[prv[vertex], 0] * nx + outward[prv[vertex], 1] * ny,
+    )
+    return own >= SHARED_LINE_COSINE
+
+
+_shares_line = kernel(_shares_line) or _shares_line  # the compiled resolver calls the twin
+
+
 def _resolve(
     p1, p2, v, nxt, prv, to_next, to_prev, outward, reflex, parts, known, slack, inside, tie, scale
 ):
@@ -461,8 +478,12 @@ def _resolve(
         for first, corner in ((0, b), (2, a)):
             gap = depth[first] - depth[first + 1]
             if not reflex[corner]:
-                fake[first] |= gap > slack
-                fake[first + 1] |= -gap > slack
+                fake[first] |= gap > slack and not _shares_line(
+                    outward, prv, verts[first], edges[first + 1]
+                )
+                fake[first + 1] |= -gap > slack and not _shares_line(
+                    outward, prv, verts[first + 1], edges[first]
+                )
         a_inside = min(depth[0], depth[1]) > inside
         b_inside = min(depth[2], depth[3]) > inside
         fake[2] |= a_inside and not b_inside
@@ -531,7 +552,23 @@ def _depth(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndar
     return np.einsum("ij,ij->i", v[edge] - v[vertex], _outward_normal(blocks, fans, edge))
 
 
-def _fake_pairings(depth, along, slack: float, reflex_p2, reflex_p1) -> np.ndarray:
+def _shared_lines(fans: VertexFans, candidates) -> np.ndarray:
+    """(k, 4): whether the entering vertex of each candidate has an edge along the corner's
+    other edge, facing the same way (:func:`_shares_line`): the blocks then lie on the
+    same side of that shared boundary line."""
+    out = []
+    for c, (vert, _) in enumerate(candidates):
+        other = candidates[c + 1 if c % 2 == 0 else c - 1][1]
+        normal = fans.outward[other]
+        own = np.maximum(
+            np.einsum("ij,ij->i", fans.outward[vert], normal),
+            np.einsum("ij,ij->i", fans.outward[fans.prev[vert]], normal),
+        )
+        out.append(own >= SHARED_LINE_COSINE)
+    return np.column_stack(out)
+
+
+def _fake_pairings(depth, along, slack: float, reflex_p2, reflex_p1, shared=None) -> np.ndarray:
     """Vertex-vertex candidates whose penetration only an edge's line makes up.
 
     Columns as in :func:`_resolve_vertex_vertex` (0, 1: the edges at p2; 2, 3: at p1).
@@ -542,12 +579,20 @@ def _fake_pairings(depth, along, slack: float, reflex_p2, reflex_p1) -> np.ndarr
     fragments meeting along a crack line are the case: each corner lies on the
     other's edge, and behind the line of the edge across the corner by about the
     length they share; choosing that pairing left them with no contact at all.
+
+    Not so when the vertex's own block has an edge along that other edge, facing
+    the same way (``shared``): then the two blocks lie on the same side of a
+    common boundary line (two fragments' outer faces, split from one face of the
+    parent), the vertex slid along it into the other block, and its depth behind
+    the corner's edge is a real overlap (the fragments' crack faces cross).
     """
     fake = (depth > slack) & ((along < 0.0) | (along > 1.0))
+    if shared is None:
+        shared = np.zeros_like(fake)
     for first, reflex in ((0, reflex_p2), (2, reflex_p1)):
         a, b = depth[:, first], depth[:, first + 1]
-        fake[:, first] |= ~reflex & (a - b > slack)
-        fake[:, first + 1] |= ~reflex & (b - a > slack)
+        fake[:, first] |= ~reflex & (a - b > slack) & ~shared[:, first]
+        fake[:, first + 1] |= ~reflex & (b - a > slack) & ~shared[:, first + 1]
     return fake
 
 

@@ -23,7 +23,11 @@ def refresh_contacts(
     vertex paired with the far side of a block. Persisting contacts may be
     deeper (a soft penalty lets blocks sink). Pairings that only an edge's
     extended line makes look like contacts are dropped (see
-    ``_geometrically_sound`` and ``_blocks_touch``). Every contact's shear
+    ``_geometrically_sound`` and ``_blocks_touch``), and so are new pairings
+    deeper behind their edge's line than the vertex is from the block's boundary
+    (by more than the contact tolerance): the vertex is nearer another edge, and
+    the depth would push it out by far more than its overlap (fresh fracture
+    fragments: 4.8e-4 m against 2.5e-8 m). Every contact's shear
     reference point is moved under its vertex: shear motion is measured from
     the step start, and the shear force carried from the last step is the
     contact's ``shear_multiplier`` (:mod:`dda.contact.law`). ``kept_pairs``: the
@@ -57,6 +61,7 @@ def refresh_contacts(
         far, penetration, boundary, to_block, tolerance, slack
     )
     plausible &= _blocks_touch(blocks, found.vertex, found.edge, to_block, new_and_deep, tolerance)
+    plausible &= ~new_and_deep | (penetration <= boundary + settings.law.tolerance)
     vertex, edge = found.vertex[plausible], found.edge[plausible]
     penetration, parameter = penetration[plausible], parameter[plausible]
     contacts = merge(
