@@ -527,22 +527,109 @@ def read_image(path) -> np.ndarray:
     return image if image.dtype == np.uint8 else (image * 255).astype(np.uint8)
 
 
-@pytest.mark.parametrize("name", ["self_weight", "released"])
-def test_case_image_shows_data_in_every_panel(quick_results, tmp_path, name):
-    from verify.images import case_image
-
-    image = read_image(case_image(quick_results[name], tmp_path / f"verify_{name}.png"))
-    height, width = image.shape[:2]
-    rows, columns = (2, 2) if name == "released" else (2, 3)
+def panels(image: np.ndarray, rows: int, columns: int, top: int = 0):
+    """The picture below ``top`` cut into equal panels, (row, column, pixels) each."""
+    height, width = image.shape[0] - top, image.shape[1]
     for r in range(rows):
         for c in range(columns):
-            part = image[
-                r * height // rows : (r + 1) * height // rows,
-                c * width // columns : (c + 1) * width // columns,
-            ]
-            assert non_background_fraction(part) > 0.05, (r, c)
-            rgb = part[..., :3].astype(int)
-            assert (rgb.max(axis=-1) - rgb.min(axis=-1) > 40).mean() > 0.005, (r, c)
+            yield (
+                r,
+                c,
+                image[
+                    top + r * height // rows : top + (r + 1) * height // rows,
+                    c * width // columns : (c + 1) * width // columns,
+                ],
+            )
+
+
+def assert_data_in_every_panel(image: np.ndarray, rows: int, columns: int, top: int = 0):
+    for r, c, part in panels(image, rows, columns, top):
+        assert non_background_fraction(part) > 0.05, (r, c)
+        rgb = part[..., :3].astype(int)
+        assert (rgb.max(axis=-1) - rgb.min(axis=-1) > 40).mean() > 0.005, (r, c)
+
+
+def colour_at(image: np.ndarray, result, row: int, column: int, point, half: int = 6):
+    """Median colour of a small square around a scene point in a field picture's panel."""
+    from verify.field_layout import HEADER, layout
+
+    frame = layout(result)
+    width, height = frame.panel
+    offset = (np.asarray(point, dtype=float) - frame.focus) / frame.pixel
+    x = int(round(column * width + width / 2 + offset[0]))
+    y = int(round(HEADER + row * height + height / 2 - offset[1]))
+    window = image[y - half : y + half + 1, x - half : x + half + 1, :3].reshape(-1, 3)
+    return np.median(window, axis=0)
+
+
+@pytest.fixture(scope="module")
+def self_weight_picture(quick_results, tmp_path_factory):
+    """The field picture of self_weight, rendered once (pyvista, off screen)."""
+    from verify.images import case_image
+
+    folder = tmp_path_factory.mktemp("pictures")
+    return case_image(quick_results["self_weight"], folder / "verify_self_weight.png")
+
+
+def test_field_picture_is_a_png_of_sensible_size_with_data_in_every_panel(self_weight_picture):
+    from verify.field_layout import HEADER
+
+    assert self_weight_picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    image = read_image(self_weight_picture)
+    height, width = image.shape[:2]
+    assert 1200 <= width <= 2400 and 900 <= height <= 2400, (width, height)
+    assert_data_in_every_panel(image, 2, 3, top=HEADER)
+
+
+def test_field_picture_tells_fixed_blocks_from_a_difference_near_zero(
+    quick_results, self_weight_picture
+):
+    """The block's differences (5e-6 and -5e-5 of a 1e-3 tolerance) are drawn near white;
+    the fixed base dark grey (#4d4d4d, hatched: the median of a patch is its fill)."""
+    result = quick_results["self_weight"]
+    image = read_image(self_weight_picture)
+    for row in (0, 1):
+        assert (colour_at(image, result, row, 2, (0.5, 0.4)) > 225).all(), row
+        for column in (0, 1, 2):
+            fill = colour_at(image, result, row, column, (1.5, -0.5))
+            assert np.abs(fill - 0x4D).max() < 20, (row, column, fill)
+
+
+def test_difference_panels_have_a_fixed_tolerance_scale_and_mark_unchecked_blocks(
+    quick_results, tmp_path
+):
+    """A stress difference of +tol/2 takes the colour at 3/4 of the ±tol colour map
+    (RdBu_r(0.75) = (228, 128, 102); a scale of ±2 tol would give (251, 204, 180)); a
+    block the centroid check leaves out is light grey (#d9d9d9), not white."""
+    from verify.images import case_image
+
+    result = quick_results["self_weight"]
+    tolerance = result.expectation.checks["stress"].tolerance
+
+    def moved(row):
+        if row.quantity != "stress" or row.component != "syy":
+            return row
+        return dataclasses.replace(row, dda=row.fem + row.offset + 0.5 * tolerance * row.scale)
+
+    checks = dict(result.expectation.checks)
+    checks["centroid"] = dataclasses.replace(checks["centroid"], blocks=("nobody",))
+    changed = dataclasses.replace(
+        result,
+        rows=[moved(row) for row in result.rows],
+        expectation=dataclasses.replace(result.expectation, checks=checks),
+    )
+    image = read_image(case_image(changed, tmp_path / "changed.png"))
+    red = colour_at(image, changed, 0, 2, (0.5, 0.4))
+    assert np.abs(red - (228, 128, 102)).max() < 20, red
+    grey = colour_at(image, changed, 1, 2, (0.5, 0.4))
+    assert np.abs(grey - 0xD9).max() < 15, grey
+
+
+def test_history_picture_shows_data_in_every_panel(quick_results, tmp_path):
+    from verify.images import case_image
+
+    path = case_image(quick_results["released"], tmp_path / "verify_released.png")
+    assert_data_in_every_panel(read_image(path), 2, 2)
 
 
 def test_summary_and_refinement_charts(quick_results, refinement, tmp_path):

@@ -1,0 +1,126 @@
+"""Curves of the verification, drawn with matplotlib (off screen, Agg).
+
+The histories of a dynamic case (centroid displacement and rotation of both
+models, their signed differences against the tolerance band), the summary bar
+chart (every case's largest error over its tolerance, per checked quantity)
+and the block-refinement convergence plot (errors against k, log-log, with
+slopes 1 and 2). The field pictures of static cases are pyvista's
+(:mod:`verify.field_pictures`).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from verify.cases import CaseResult  # noqa: E402
+
+log = logging.getLogger(__name__)
+
+
+def history_picture(result: CaseResult, title: str, path: Path) -> Path:
+    """Write the histories of a dynamic case and their signed differences; returns the path."""
+    s = result.series
+    t = s["times"]
+    fig, axes = plt.subplots(2, 2, figsize=(13, 8.5))
+    ax = axes[0, 0]
+    for m, c in enumerate(("ux", "uy")):
+        ax.plot(t, 1e3 * s["fem_u"][:, 0, m], "-", label=f"FEM {c}")
+        ax.plot(t, 1e3 * s["dda_u"][:, 0, m], "o", markersize=3, label=f"DDA {c}")
+    ax.set_ylabel("centroid displacement (mm)")
+    ax.set_title(f"{s['blocks'][0]}: centroid displacement", fontsize=10)
+    ax = axes[0, 1]
+    ax.plot(t, 1e3 * s["fem_r"][:, 0], "-", label="FEM")
+    ax.plot(t, 1e3 * s["dda_r"][:, 0], "o", markersize=3, label="DDA")
+    ax.set_ylabel("rotation (mrad)")
+    ax.set_title("rotation", fontsize=10)
+    for ax, quantity in ((axes[1, 0], "history"), (axes[1, 1], "stress_history")):
+        check = result.expectation.checks.get(quantity)
+        for component in sorted({r.component for r in result.rows if r.quantity == quantity}):
+            rows = [r for r in result.rows if r.quantity == quantity and r.component == component]
+            style = "-" if check and check.applies_to(rows[0].item, component) else ":"
+            ax.plot(t, [r.signed_error for r in rows], style, label=component)
+        if check:
+            ax.axhspan(-check.tolerance, check.tolerance, color="#bbddbb", alpha=0.5, label="±tol")
+        ax.set_ylabel("(DDA − FEM) / scale")
+        ax.set_title(f"{quantity}: signed difference (dotted: not checked)", fontsize=10)
+    for ax in axes.ravel():
+        ax.set_xlabel("time (s)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=12)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    return save(fig, path, dpi=90)
+
+
+def summary_chart(results: list[CaseResult], path: Path) -> Path:
+    """Largest error over its tolerance, per case and checked quantity (1: the limit)."""
+    quantities = sorted({v.quantity for r in results for v in r.verdicts})
+    width = 0.8 / max(len(quantities), 1)
+    fig, ax = plt.subplots(figsize=(max(7, 1.1 * len(results)), 5))
+    x = np.arange(len(results))
+    for j, quantity in enumerate(quantities):
+        ratios = []
+        for r in results:
+            verdict = {v.quantity: v for v in r.verdicts}.get(quantity)
+            ratios.append(max(verdict.error / verdict.tolerance, 1e-8) if verdict else np.nan)
+        ax.bar(x - 0.4 + width * (j + 0.5), ratios, width, label=quantity)
+    ax.axhline(1.0, color="black", linewidth=1)
+    ax.set_yscale("log")
+    ax.set_xticks(x, [r.case.name for r in results], rotation=30, ha="right")
+    ax.set_ylabel("largest error / tolerance (1: the limit)")
+    ax.set_title("DDA against FEM: every check, every case")
+    ax.legend(fontsize=7, ncol=3)
+    fig.tight_layout()
+    return save(fig, path, dpi=100)
+
+
+def save(fig, path: Path, dpi: int) -> Path:
+    """Write a figure (folders made as needed) and close it; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    log.info("wrote %s", path)
+    return path
+
+
+def refinement_chart(points, path: Path) -> Path:
+    """Errors against k for every body and series, log-log, with slopes 1 and 2."""
+    bodies = sorted({p.body for p in points})
+    fig, axes = plt.subplots(len(bodies), 2, figsize=(12, 4.8 * len(bodies)), squeeze=False)
+    for row, body in enumerate(bodies):
+        for col, quantity in enumerate(("displacement", "stress")):
+            ax = axes[row, col]
+            names = sorted({p.series for p in points if p.body == body})
+            for series in sorted(names, key=lambda n: n.startswith("P1")):  # P1 drawn on top
+                run = sorted(
+                    (p for p in points if (p.body, p.series) == (body, series)), key=lambda p: p.k
+                )
+                style = {"linestyle": "--", "color": "black", "linewidth": 1}
+                style = style if series.startswith("P1") else {"marker": "o"}
+                ax.loglog(
+                    [p.k for p in run], [getattr(p, quantity) for p in run], **style, label=series
+                )
+            ks = np.array(sorted({p.k for p in points}), dtype=float)
+            for order in (1, 2):
+                ax.loglog(ks, 0.5 * (ks / ks[0]) ** -order, ":", color="grey", linewidth=1)
+                ax.annotate(
+                    f"order {order}", (ks[-1], 0.5 * (ks[-1] / ks[0]) ** -order), fontsize=8
+                )
+            ax.set_xticks(ks, [f"{k:g}" for k in ks])
+            ax.minorticks_off()
+            ax.set_xlabel("k (blocks per metre each way)")
+            ax.set_ylabel(f"relative L² {quantity} error")
+            ax.set_title(f"{body}: {quantity} against the continuum", fontsize=10)
+            ax.grid(alpha=0.3, which="both")
+            ax.legend(fontsize=8)
+    fig.suptitle("Block refinement: DDA blocks with locked joints against the FEM continuum")
+    fig.tight_layout()
+    return save(fig, path, dpi=100)
