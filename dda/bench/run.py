@@ -36,7 +36,7 @@ class Measurement:
     steps: int
     blocks: int
     seconds: float  # wall time of the run (model build and time loop)
-    iterations: int  # linear solves (open-close / augmentation iterations)
+    iterations: int  # linear solves (Newton iterations, augmentations, friction updates)
     factorisations: int
     stage_seconds: dict[str, float] = field(default_factory=dict)
     peak_memory_mib: float = float("nan")

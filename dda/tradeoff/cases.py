@@ -10,7 +10,7 @@
 * ``wall`` (the benchmark's 10 x 10 wall of dda.bench.scenes, 0.1 s): the
   displacements of every block, against a converged fine run (error: the
   largest difference over the largest displacement). The many-contact case,
-  where the state band matters.
+  where the AL tolerance sets how many solves a step takes.
 * any other scene file: the final centroids, against a converged fine run
   (error: the largest centroid distance over the model size).
 """
