@@ -34,9 +34,10 @@ def make_frame(
     time: float,
     step: int,
     measured: dict[str, np.ndarray] | None = None,
+    bolts: np.ndarray | None = None,
 ) -> Frame:
     """Copy the current state into an immutable Frame (``measured``: the
-    ``[[measure]]`` rows since the previous frame)."""
+    ``[[measure]]`` rows since the previous frame; ``bolts``: the bolts' end points)."""
     return Frame(
         time=float(time),
         step=int(step),
@@ -52,4 +53,5 @@ def make_frame(
         fixed=blocks.fixed.copy(),
         contacts=frame_contacts(blocks, contacts),
         measured=measured,
+        bolts=bolts,
     )

@@ -61,6 +61,8 @@ class Frame:
     # the [[measure]] rows of the steps since the previous frame (columns as in
     # Result.measurements), for writers that stream them; None without [[measure]]
     measured: dict[str, np.ndarray] | None = None
+    # (b, 2, 2) start and end points of the rock bolts in place; None without [[bolts]]
+    bolts: np.ndarray | None = None
 
     def block(self, name: str) -> int:
         """Row of the block called ``name``."""

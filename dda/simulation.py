@@ -256,7 +256,7 @@ def run(
         restore(state, resume)
         start -= resume.wall_seconds
     first = state.probes.take() if state.probes is not None and resume is None else None
-    frames = [make_frame(state.blocks, state.contacts, state.time, state.step, first)]
+    frames = [_frame(state, first)]
     if on_frame and resume is None:
         on_frame(frames[0])
     report = _progress_reporter(progress, model)
@@ -273,10 +273,7 @@ def run(
                 last = state.finished()
                 if state.step % model.save_every == 0 or last:
                     with state.timer("output"):
-                        measured = None if state.probes is None else state.probes.take()
-                        frame = make_frame(
-                            state.blocks, state.contacts, state.time, state.step, measured
-                        )
+                        frame = _frame(state, None if state.probes is None else state.probes.take())
                         _keep(frames, frame, keep_frames)
                         if on_frame:
                             on_frame(frame)
@@ -295,6 +292,12 @@ def run(
         if report and hasattr(report, "close"):
             report.close()
     return _result(state, frames, start, status)
+
+
+def _frame(state: _Run, measured: dict | None) -> Frame:
+    """The frame of the run's state (with the measurement rows ``measured``)."""
+    bolts = None if state.model.bolts is None else state.model.bolts.segments()
+    return make_frame(state.blocks, state.contacts, state.time, state.step, measured, bolts)
 
 
 def _keep(frames: list[Frame], frame: Frame, keep_all: bool) -> None:

@@ -53,8 +53,18 @@ def test_a_bolt_weaker_than_that_breaks_and_the_block_slides():
     assert result.measurements["anchor.force"][-1] == 0.0
     slid = np.linalg.norm(result.final.displacements[1])
     assert slid > 0.85  # 0.906 m unbolted (cases/sliding_block.toml), less the first steps
+    assert result.frames[0].bolts.shape == (1, 2, 2) and result.final.bolts.shape == (0, 2, 2)
     strong = dda.simulate(held_by_a_bolt(20.0, 30.0, capacity=1.05 * limit_force(20.0, 30.0)))
     assert strong.bolt_events == []
+
+
+def test_pictures_draw_the_bolts(tmp_path):
+    from dda.io import render_frame
+
+    result = dda.simulate(held_by_a_bolt(20.0, 30.0))
+    np.testing.assert_allclose(result.final.bolts[0, 1], rotated([[6.0, 0.0]], 30.0)[0])
+    path = render_frame(result.final, tmp_path / "bolted.png", scene_title="bolted")
+    assert path.stat().st_size > 10_000
 
 
 def hanging_pair(mode: str = "static", pretension: float = 0.0, steps: int = 60) -> dict:

@@ -85,6 +85,12 @@ class RockBolts(Effect):
         t = self.pretension + self.axial_stiffness * (self.lengths() - self.rest_length)
         return np.where(self.active, t, 0.0)
 
+    def segments(self) -> np.ndarray:
+        """(b, 2, 2): start and end point of every bolt in place (for pictures)."""
+        m = len(self)
+        ends = self.ends.positions
+        return np.stack([ends[:m], ends[m:]], axis=1)[self.active].copy()
+
     def energy(self) -> float:
         """Σ f0 e + ½ k e² of the bolts in place: the potential of their forces."""
         e = (self.lengths() - self.rest_length)[self.active]
