@@ -37,7 +37,7 @@ from dda.pair_springs import PairSprings
 
 log = logging.getLogger(__name__)
 
-RELATIVE_TOLERANCE = 1e-6  # ‖∇Π‖ against ‖K₀D‖ + ‖F₀‖ + ‖contact forces‖
+RELATIVE_TOLERANCE = 1e-4  # ‖∇Π‖ against ‖K₀D‖ + ‖F₀‖ + ‖contact forces‖
 
 
 @dataclass(frozen=True)

@@ -121,10 +121,10 @@ class BoundIteration:
     iteration converges slowly where contacts' friction bears on each other's
     normal forces (in a jointed rock mass, by a few per cent a solve, swinging).
     Anderson acceleration mixes the last ``DEPTH`` iterates: with the residuals
-    r_k = G(b_k) − b_k,
+    r_k = G(b_k) − b_k and Δ the differences of successive iterates,
 
-        b ← G(b_k) − Σ_j γ_j (G(b_{k−j+1}) − G(b_{k−j})),
-        γ = argmin ‖r_k − Σ_j γ_j (r_{k−j+1} − r_{k−j})‖,
+        γ = argmin ‖r_k − Σ_j γ_j Δr_j‖,
+        b ← (b_k − Σ_j γ_j Δb_j) + β (r_k − Σ_j γ_j Δr_j),   β = ``MIXING``,
 
     which converges in a few steps where G is close to linear, clipped at
     b ≥ 0. Any b ≥ 0 gives a convex potential, so this changes how fast the
@@ -132,25 +132,26 @@ class BoundIteration:
     """
 
     DEPTH = 4
+    MIXING = 1.0  # 0.5 measured no better (tunnel, 0.2 s: 24.3 solves a step against 23.7)
 
     def __init__(self, bound: np.ndarray) -> None:
         self.bound = bound
-        self._history: list[tuple[np.ndarray, np.ndarray]] = []  # (G(b), r) per solve
+        self._history: list[tuple[np.ndarray, np.ndarray]] = []  # (b, r) per solve
 
     def advance(self, target: np.ndarray) -> None:
         """Move the bounds on, given ``target`` = G(current bounds)."""
         if np.any(self.bound >= 0.5 * UNBOUNDED):  # a first guess, not an iterate
             self._history, self.bound = [], target
             return
-        self._history = [*self._history[-self.DEPTH :], (target, target - self.bound)]
-        if len(self._history) < 2:
-            self.bound = target
-            return
-        values = np.array([v for v, _ in self._history])
+        self._history = [*self._history[-self.DEPTH :], (self.bound, target - self.bound)]
+        points = np.array([b for b, _ in self._history])
         residuals = np.array([r for _, r in self._history])
-        d_values, d_residuals = np.diff(values, axis=0), np.diff(residuals, axis=0)
-        gamma = np.linalg.lstsq(d_residuals.T, residuals[-1], rcond=None)[0]
-        self.bound = np.maximum(target - gamma @ d_values, 0.0)
+        gamma = np.zeros(len(points) - 1)
+        if len(points) > 1:
+            gamma = np.linalg.lstsq(np.diff(residuals, axis=0).T, residuals[-1], rcond=None)[0]
+        mean_point = points[-1] - gamma @ np.diff(points, axis=0)
+        mean_residual = residuals[-1] - gamma @ np.diff(residuals, axis=0)
+        self.bound = np.maximum(mean_point + self.MIXING * mean_residual, 0.0)
 
 
 def update(
