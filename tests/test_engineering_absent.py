@@ -28,8 +28,9 @@ def nothing_new(monkeypatch):
 
 
 def test_an_old_scene_builds_and_runs_none_of_the_new_code(nothing_new):
-    """The numbers are those of the engine before these sections (commit 30fa935, the same
-    to the bit; the dense LAPACK solve of two blocks: rel 1e-12 across machines)."""
+    """The numbers are those of the engine without these sections (commits 30fa935 and
+    6cee15a, the same to the bit; the dense LAPACK solve of two blocks: rel 1e-12 across
+    machines)."""
     result = dda.simulate(CASES / "sliding_block.toml")
     assert not set(result.summary["active_effects"]) & set(NEW)
     assert not {"bolt_events", "stages_done", "excavated_energy"} & set(result.summary)
