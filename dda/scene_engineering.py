@@ -123,7 +123,10 @@ class _Geometry:
         self.names = [b.name for b in blocks]
         self.row = {name: k for k, name in enumerate(self.names)}
         self.fixed = np.array([b.fixed for b in blocks], dtype=bool)
-        self.polygons = np.array([shapely.Polygon(b.vertices) for b in blocks], dtype=object)
+        counts = [len(b.vertices) for b in blocks]
+        coords = np.concatenate([np.asarray(b.vertices, float) for b in blocks])
+        rings = shapely.linearrings(coords, indices=np.repeat(np.arange(len(counts)), counts))
+        self.polygons = shapely.polygons(rings)
         bounds = shapely.bounds(self.polygons)
         self.sizes = np.hypot(bounds[:, 2] - bounds[:, 0], bounds[:, 3] - bounds[:, 1])
         self.extent = float(np.hypot(*(bounds[:, 2:].max(0) - bounds[:, :2].min(0))))
