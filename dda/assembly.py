@@ -23,6 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dda.jit import compiled, kernel
+from dda.pair_springs import PairSprings
 
 BLOCK = 6  # unknowns per block
 
@@ -168,32 +169,45 @@ class BlockPattern:
         A contact between two free blocks that K has no block for gets no ij,
         ji slots and is not ``landed``: it must stay open (add nothing).
         """
+        self.slot_ii, self.slot_jj, self.slot_ij, self.slot_ji = self.pair_slots(block_a, block_b)
+        both = (self.block_of_row[block_a] >= 0) & (self.block_of_row[block_b] >= 0)
+        self.landed = ~both | (self.slot_ij >= 0)
+
+    def pair_slots(self, block_a: np.ndarray, block_b: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(ii, jj, ij, ji) slots of the four 6x6 parts of terms between ``block_a`` and
+        ``block_b`` (contacts, or springs coupling two blocks); -1: nowhere (a fixed
+        block, or a pair of free blocks that K has no block for)."""
         ra, rb = self.block_of_row[block_a], self.block_of_row[block_b]
         none = np.full(len(block_a), -1, dtype=np.int64)
         fa, fb = ra >= 0, rb >= 0
-        self.slot_ii = none.copy()
-        self.slot_ii[fa] = self.diagonal_slot[ra[fa]]
-        self.slot_jj = none.copy()
-        self.slot_jj[fb] = self.diagonal_slot[rb[fb]]
+        slot_ii = none.copy()
+        slot_ii[fa] = self.diagonal_slot[ra[fa]]
+        slot_jj = none.copy()
+        slot_jj[fb] = self.diagonal_slot[rb[fb]]
         both = fa & fb
-        self.slot_ij, self.slot_ji = none.copy(), none.copy()
-        self.slot_ij[both] = self._slot_of(ra[both], rb[both])
-        self.slot_ji[both] = self._slot_of(rb[both], ra[both])
-        self.landed = ~both | (self.slot_ij >= 0)
+        slot_ij, slot_ji = none.copy(), none.copy()
+        slot_ij[both] = self._slot_of(ra[both], rb[both])
+        slot_ji[both] = self._slot_of(rb[both], ra[both])
+        return slot_ii, slot_jj, slot_ij, slot_ji
 
     def flat_targets(self) -> np.ndarray:
         """(4, m, 36) flat data index of every element of every contact part (-1: none)."""
         if self._flat_targets is None:
-            r = np.repeat(np.arange(BLOCK), BLOCK)
-            c = np.tile(np.arange(BLOCK), BLOCK)
-            out = []
-            for slot in (self.slot_ii, self.slot_jj, self.slot_ij, self.slot_ji):
-                s = np.maximum(slot, 0)
-                idx = self.slot_base[s][:, None] + r[None, :] * self.slot_stride[s][:, None]
-                idx = idx + c[None, :]
-                out.append(np.where(slot[:, None] >= 0, idx, -1))
-            self._flat_targets = np.stack(out)
+            slots = (self.slot_ii, self.slot_jj, self.slot_ij, self.slot_ji)
+            self._flat_targets = self.targets_of(slots)
         return self._flat_targets
+
+    def targets_of(self, slots: Sequence[np.ndarray]) -> np.ndarray:
+        """(4, m, 36) flat data index of every element of the parts in ``slots`` (-1: none)."""
+        r = np.repeat(np.arange(BLOCK), BLOCK)
+        c = np.tile(np.arange(BLOCK), BLOCK)
+        out = []
+        for slot in slots:
+            s = np.maximum(slot, 0)
+            idx = self.slot_base[s][:, None] + r[None, :] * self.slot_stride[s][:, None]
+            idx = idx + c[None, :]
+            out.append(np.where(slot[:, None] >= 0, idx, -1))
+        return np.stack(out)
 
     def diagonal_targets(self) -> np.ndarray:
         """(nfree, 36) flat data index of the diagonal block of every matrix block row."""
@@ -300,6 +314,7 @@ def assemble(
     diagonal: np.ndarray,
     fixed: np.ndarray,
     terms: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]] = (),
+    couplings: PairSprings | None = None,
 ) -> sp.csc_matrix:
     """K over the free blocks in the pattern's order, as CSC.
 
@@ -313,10 +328,14 @@ def assemble(
     fixed : (n,) bool
     terms : contact terms ``(row_i, row_j, k)``, each (m, 6), (m, 6), (m,) in
         the contact order the pattern was built with
+    couplings : springs between two blocks (rock bolts, :mod:`dda.pair_springs`);
+        the pattern must hold the pairs of free blocks they join
     """
     data = np.zeros(pattern.nnz)
     data[pattern.diagonal_targets()] = pattern.to_matrix_order(diagonal, fixed).reshape(-1, 36)
     _add_terms(pattern, data, terms, None)
+    if couplings is not None:
+        _add_couplings(pattern, data, couplings)
     n = pattern.size
     return sp.csc_matrix((data, pattern.indices, pattern.indptr), shape=(n, n))
 
@@ -346,11 +365,29 @@ def reassemble(
     return sp.csc_matrix((data, matrix.indices, matrix.indptr), shape=matrix.shape)
 
 
-def _add_terms(pattern, data, terms, contacts) -> None:
-    """Scatter contact terms into the CSR data; ``contacts``: their positions (None: all)."""
+def _add_couplings(pattern: BlockPattern, data: np.ndarray, couplings: PairSprings) -> None:
+    """Scatter springs between two blocks into the CSR data, as contact terms are."""
+    slots = pattern.pair_slots(couplings.block_i, couplings.block_j)
+    both = (pattern.block_of_row[couplings.block_i] >= 0) & (
+        pattern.block_of_row[couplings.block_j] >= 0
+    )
+    if np.any(both & (slots[2] < 0)):
+        raise ValueError("the block pattern does not hold every pair of blocks a spring joins")
+    terms = [(couplings.row_i, couplings.row_j, couplings.stiffness)]
+    _add_terms(pattern, data, terms, None, slots)
+
+
+def _add_terms(pattern, data, terms, contacts, slots=None) -> None:
+    """Scatter contact terms into the CSR data; ``contacts``: their positions (None: all).
+
+    ``slots``: the (ii, jj, ij, ji) slots of the terms when they are not the
+    pattern's contacts (:meth:`BlockPattern.pair_slots`).
+    """
     if not terms:
         return
-    slots = [pattern.slot_ii, pattern.slot_jj, pattern.slot_ij, pattern.slot_ji]
+    own = slots is None
+    if own:
+        slots = [pattern.slot_ii, pattern.slot_jj, pattern.slot_ij, pattern.slot_ji]
     if contacts is not None:
         slots = [slot[contacts] for slot in slots]
     if compiled(_scatter_kernel):
@@ -362,8 +399,8 @@ def _add_terms(pattern, data, terms, contacts) -> None:
             *(np.ascontiguousarray(stacked([t[q] for t in terms]), np.float64) for q in range(3)),
         )
         return
-    targets = pattern.flat_targets()
-    if contacts is not None:
+    targets = pattern.flat_targets() if own else pattern.targets_of(slots)
+    if own and contacts is not None:
         targets = targets[:, contacts]
     for row_i, row_j, k in terms:
         _add_contact_terms(targets, data, row_i, row_j, k)

@@ -53,7 +53,7 @@ import numpy as np
 
 from dda.io.atomic import atomic_path
 from dda.io.tables import to_jsonable
-from dda.result import FractureEvent
+from dda.result import BoltEvent, FractureEvent
 
 log = logging.getLogger(__name__)
 
@@ -62,7 +62,7 @@ META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
 NOT_SAVED = ("model",)  # run attributes rebuilt from the scene
 RUN_CONTROL = ("save_every", "checkpoint_every", "max_steps")  # not part of the fingerprint
-NAMED_TUPLES = {"FractureEvent": FractureEvent}  # result types a run's lists hold
+NAMED_TUPLES = {"FractureEvent": FractureEvent, "BoltEvent": BoltEvent}  # result types in lists
 _SCALARS = (np.generic, bool, int, float, str, type(None))
 _CODE = (type, types.FunctionType, types.MethodType, types.BuiltinFunctionType, types.ModuleType,
          functools.partial)  # fmt: skip

@@ -388,6 +388,10 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     count = events if isinstance(events, int) else len(events)
     if count:
         text += f" {count} fracture events."
+    if summary.get("stages_done"):
+        text += f" {summary['stages_done']} stages applied."
+    if summary.get("bolts") is not None:
+        text += f" {len(summary.get('bolt_events') or ())} of {summary['bolts']} bolts broke."
     return text + f"\nOutput ({summary.get('frames_written', 0)} frames): {outdir}"
 
 

@@ -10,7 +10,11 @@ Per step the engine records (``Result.history``)::
     contact   C = Σ N²/2p + Σ F²/2p_s          (closed contacts: the contact springs
                                                at their forces after the step)
     springs   ½ Σ p_f |x − x₀|²                (fixed points)
+              + Σ f0 e + ½ k e²                (rock bolts: pretension f0, stretch e)
     work      W = Σ_steps Σ_loads F(t)·T(x) D  (point loads)
+              + Σ_steps F_w·D                   (water pressure, at the step start)
+              + Σ_steps Σ (N ∇g_j + F ∇s_j)·D_j (the ground moving fixed blocks by D_j:
+                                                contacts, and T r_j·D_j of bolts)
 
 Fixed blocks never move and are left out. Shi's time integration (Newmark
 β = ½, γ = 1) dissipates, friction dissipates, so for a sound run
@@ -26,11 +30,15 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
+from dda.contact.rows import contact_rows, gaps_after
+from dda.effects.bolts import RockBolts
 from dda.effects.fixed_points import FixedPoints
 from dda.effects.gravity import Gravity
 from dda.effects.inertia import mass_matrices
 from dda.effects.loads import PointLoads
+from dda.effects.water import WaterPressure
 from dda.kinematics import displacement_matrices
+from dda.pair_springs import PairSprings
 from dda.result import OPEN
 
 TERMS = ("kinetic", "potential", "elastic", "contact", "springs")
@@ -142,6 +150,35 @@ def load_work(loads: PointLoads | None, blocks: BlockSet, d: np.ndarray, time: f
     return float(np.sum(loads.current_forces(time) * moved))
 
 
+def ground_work(
+    blocks: BlockSet,
+    contacts: ContactSet,
+    bolts: RockBolts | None,
+    d: np.ndarray,
+    prescribed: np.ndarray,
+) -> float:
+    """Work of the ground on the blocks over one step, its fixed blocks moved by ``prescribed``.
+
+    Each contact's force at the end of the step, N (normal) and F (shear), acts
+    on the moving block through the gradients of the gap and of the shear motion,
+    so the ground does N ∇g_j·D_j + F ∇s_j·D_j; a bolt of tension T (at the end
+    of the step, its stretch linear in ``d``) does T r_j·D_j. ``blocks``: at the
+    step start; ``d``: the step, with ``prescribed`` on the moving blocks.
+    """
+    work = 0.0
+    if len(contacts):
+        rows = contact_rows(blocks, contacts)
+        g, s = gaps_after(rows, contacts.block_a, contacts.block_b, prescribed)
+        work += float(np.dot(contacts.normal_force, g - rows.penetration))
+        work += float(np.dot(contacts.shear_force, s - rows.slip))
+    if bolts is not None and bolts.active.any():
+        i, j, r_i, r_j, e0 = bolts.linearised(blocks)
+        springs = PairSprings(i, j, r_i, r_j, bolts.axial_stiffness[bolts.active])
+        tension = bolts.pretension[bolts.active] + springs.stiffness * (e0 + springs.stretch(d))
+        work += float(np.dot(tension, springs.stretch(prescribed)))
+    return work
+
+
 def _effect(effects, kind):
     return next((e for e in effects if isinstance(e, kind)), None)
 
@@ -160,6 +197,8 @@ class EnergyAccount:
         self.gravity = None if gravity is None else np.asarray(gravity.gravity, float)
         self.loads = _effect(model.effects, PointLoads)
         self.springs = _effect(model.effects, FixedPoints)
+        self.bolts = _effect(model.effects, RockBolts)
+        self.water = _effect(model.effects, WaterPressure)
         law = None if model.contact is None else model.contact.law
         self.shear_ratio = 0.0 if law is None else law.shear_ratio
         self.friction = False if law is None else law.friction
@@ -183,11 +222,24 @@ class EnergyAccount:
             potential=potential,
             elastic=elastic_energy(self.elastic.block_elasticity(blocks), blocks),
             contact=contact_energy(contacts, self.shear_ratio, self.friction),
-            springs=spring_energy(self.springs),
+            springs=spring_energy(self.springs) + (self.bolts.energy() if self.bolts else 0.0),
         )
 
-    def add_step_work(self, blocks: BlockSet, d: np.ndarray, time: float) -> float:
-        """Add the loads' work over the accepted step ``d`` (before the blocks move)."""
+    def add_step_work(
+        self,
+        blocks: BlockSet,
+        d: np.ndarray,
+        time: float,
+        contacts: ContactSet | None = None,
+        prescribed: np.ndarray | None = None,
+    ) -> float:
+        """Add the external work over the accepted step ``d`` (before the blocks move):
+        the loads', the water's and, when fixed blocks moved by ``prescribed`` (part of
+        ``d``), the ground's through ``contacts`` (their forces at the step's end)."""
         w = load_work(self.loads, blocks, d, time)
+        if self.water is not None:
+            w += float(np.sum(self.water.forces(blocks)[~blocks.fixed] * d[~blocks.fixed]))
+        if prescribed is not None:
+            w += ground_work(blocks, contacts, self.bolts, d, prescribed)
         self.work += w
         return w

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import contact_rows
@@ -26,8 +28,16 @@ def frame_contacts(blocks: BlockSet, contacts: ContactSet) -> Contacts:
     )
 
 
-def make_frame(blocks: BlockSet, contacts: ContactSet, time: float, step: int) -> Frame:
-    """Copy the current state into an immutable Frame."""
+def make_frame(
+    blocks: BlockSet,
+    contacts: ContactSet,
+    time: float,
+    step: int,
+    measured: dict[str, np.ndarray] | None = None,
+    bolts: np.ndarray | None = None,
+) -> Frame:
+    """Copy the current state into an immutable Frame (``measured``: the
+    ``[[measure]]`` rows since the previous frame; ``bolts``: the bolts' end points)."""
     return Frame(
         time=float(time),
         step=int(step),
@@ -42,4 +52,6 @@ def make_frame(blocks: BlockSet, contacts: ContactSet, time: float, step: int) -
         areas=blocks.area.copy(),
         fixed=blocks.fixed.copy(),
         contacts=frame_contacts(blocks, contacts),
+        measured=measured,
+        bolts=bolts,
     )

@@ -11,15 +11,19 @@ from dda.blocks import BlockSet
 from dda.contact.joints import JointTable
 from dda.contact.law import ContactLaw
 from dda.effects.base import Effect
+from dda.effects.bolts import RockBolts
 from dda.effects.elastic import Elastic, elasticity_matrices
 from dda.effects.fixed_points import FixedPoints
 from dda.effects.gravity import Gravity
 from dda.effects.inertia import Inertia
 from dda.effects.loads import PointLoads
 from dda.effects.points import MaterialPoints
+from dda.effects.seismic import GroundMotion
+from dda.effects.water import WaterPressure
 from dda.geometry import pack_polygons
 from dda.presets import apply_preset
 from dda.scene import Scene
+from dda.stages import StagePlan, stage_plan
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +64,9 @@ class Model:
     save_every: int
     fracture: Effect | None = None
     active_effects: list[str] = field(default_factory=list)
+    bolts: RockBolts | None = None  # also in ``effects``
+    ground: GroundMotion | None = None  # also in ``effects``
+    stages: StagePlan | None = None
 
 
 def initial_blocks(scene: Scene, material_rows: dict[str, int], joint_rows: dict[str, int]):
@@ -132,6 +139,8 @@ def build(scene: Scene) -> Model:
     if any(b.fixed_points for b in scene.blocks):
         stiffness = a.fixed_point_penalty or 100.0 * float(young.max())
         effects.append(_fixed_points(scene, blocks, stiffness, exact))
+    engineering = engineering_effects(scene, blocks, exact)
+    effects += [e for e in engineering.values() if e is not None]
 
     contact = _contact_model(scene, blocks, joints, joint_rows, float(young.max()), allowed)
     fracture = _fracture_effect(scene, blocks) if any(m.breakable for m in materials) else None
@@ -142,6 +151,10 @@ def build(scene: Scene) -> Model:
             active.append("friction")
     if fracture is not None:
         active.append("fracture")
+    if scene.stages:
+        active.append("stages")
+    if scene.measure:
+        active.append("measure")
     log.info("active effects: %s", ", ".join(active))
     return Model(
         scene=scene,
@@ -161,7 +174,41 @@ def build(scene: Scene) -> Model:
         save_every=a.save_every,
         fracture=fracture,
         active_effects=active,
+        bolts=engineering["bolts"],
+        ground=engineering["seismic"],
+        stages=stage_plan(scene),
     )
+
+
+def engineering_effects(scene: Scene, blocks: BlockSet, exact: bool) -> dict[str, Effect | None]:
+    """The effects of ``[water]``, ``[[bolts]]`` (with the bolts of ``[[stages]]``) and
+    ``[seismic]``, in that order; None for a section the scene does not have."""
+    row = {name: k for k, name in enumerate(blocks.names)}
+    water = scene.water
+    bolts = list(scene.bolts) + [b for stage in scene.stages for b in stage.bolts]
+    seismic = scene.seismic
+    out: dict[str, Effect | None] = {"water": None, "bolts": None, "seismic": None}
+    if water is not None:
+        out["water"] = WaterPressure(np.array(water.table), water.unit_weight)
+    if bolts:
+        hosts = np.array([[row[b.blocks[0]] for b in bolts], [row[b.blocks[1]] for b in bolts]])
+        ends = MaterialPoints(
+            hosts.ravel(), np.array([b.start for b in bolts] + [b.end for b in bolts])
+        )
+        out["bolts"] = RockBolts(
+            [b.name for b in bolts],
+            ends,
+            np.array([b.stiffness for b in bolts]),
+            np.array([b.pretension for b in bolts]),
+            np.array([np.inf if b.capacity is None else b.capacity for b in bolts]),
+            np.arange(len(bolts)) < len(scene.bolts),
+            exact,
+        )
+    if seismic is not None:
+        record = np.array(seismic.record)
+        ids = np.array([row[name] for name in seismic.blocks], np.int64)
+        out["seismic"] = GroundMotion(record[:, 0], seismic.scale * record[:, 1:], ids)
+    return out
 
 
 def _point_loads(scene: Scene, blocks: BlockSet, exact: bool) -> PointLoads:

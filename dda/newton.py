@@ -5,7 +5,8 @@ The step D (n, 6) of Shi's scheme minimises
     Π(D) = ½ Dᵀ K₀ D − F₀ᵀ D + Σ_c φn(g_c(D)) + Σ_c φt(s_c(D))
 
 K₀, F₀: inertia (2M/Δt², 2M v0/Δt), elasticity, initial stress, loads,
-gravity and fixed-point springs, block-diagonal; φn, φt: the contact terms of
+gravity and fixed-point springs, block-diagonal, and rock bolts, linear
+springs that couple two blocks (:mod:`dda.pair_springs`); φn, φt: the contact terms of
 :mod:`dda.contact.potential`, with the contact data frozen; g, s linear in D
 (paper eqs. 9-13). Π is strictly convex (K₀ is positive definite through the
 mass), C¹ and piecewise quadratic.
@@ -32,6 +33,7 @@ import numpy as np
 from dda.contact.line_search import line_minimum
 from dda.contact.potential import ContactTerms
 from dda.contact.rows import ContactRows, gaps_after
+from dda.pair_springs import PairSprings
 
 log = logging.getLogger(__name__)
 
@@ -40,15 +42,21 @@ RELATIVE_TOLERANCE = 1e-4  # ‖∇Π‖ against ‖K₀D‖ + ‖F₀‖ + ‖c
 
 @dataclass(frozen=True)
 class BlockQuadratic:
-    """½ Dᵀ K₀ D − F₀ᵀ D with one 6x6 block of K₀ per block (fixed blocks: D = 0)."""
+    """½ Dᵀ K₀ D − F₀ᵀ D with one 6x6 block of K₀ per block (fixed blocks: D = 0),
+    plus the springs that couple two blocks (rock bolts, :mod:`dda.pair_springs`):
+    K₀ = blockdiag + Σ k [r_i r_j]ᵀ[r_i r_j]."""
 
     stiffness: np.ndarray  # (n, 6, 6)
     forces: np.ndarray  # (n, 6)
     free: np.ndarray  # (n,) bool: the blocks that move
+    couplings: PairSprings | None = None
 
     def product(self, d: np.ndarray) -> np.ndarray:
         """K₀ D, (n, 6)."""
-        return np.einsum("nij,nj->ni", self.stiffness, d)
+        out = np.einsum("nij,nj->ni", self.stiffness, d)
+        if self.couplings is not None:
+            out += self.couplings.product(d)
+        return out
 
     def value(self, d: np.ndarray) -> float:
         """½ Dᵀ K₀ D − F₀ᵀ D."""

@@ -58,6 +58,11 @@ class Frame:
     areas: np.ndarray  # (n,)
     fixed: np.ndarray  # (n,) bool
     contacts: Contacts = field(default_factory=Contacts.empty)
+    # the [[measure]] rows of the steps since the previous frame (columns as in
+    # Result.measurements), for writers that stream them; None without [[measure]]
+    measured: dict[str, np.ndarray] | None = None
+    # (b, 2, 2) start and end points of the rock bolts in place; None without [[bolts]]
+    bolts: np.ndarray | None = None
 
     def block(self, name: str) -> int:
         """Row of the block called ``name``."""
@@ -74,6 +79,15 @@ class FractureEvent(NamedTuple):
     mode: str
 
 
+class BoltEvent(NamedTuple):
+    """A rock bolt breaking: its tension ``force`` exceeded its capacity after ``step``."""
+
+    step: int
+    time: float
+    bolt: str
+    force: float
+
+
 @dataclass
 class Result:
     """Frames kept during the run, fracture events and a summary dict.
@@ -81,6 +95,9 @@ class Result:
     ``frames``: every kept frame, or with ``simulate(..., keep_frames=False)``
     the first and the latest only; a run resumed from a checkpoint starts with
     the checkpoint's state. ``history``: one value per step (13 columns).
+    ``bolt_events``: the rock bolts that broke. ``measurements``: the
+    ``[[measure]]`` quantities, one value per step from step 0 (columns
+    ``step``, ``time`` and ``name.component``; empty without ``[[measure]]``).
 
     ``summary`` keys: steps, time, wall_seconds, iterations (total solves),
     iterations_per_step, max_penetration, active_effects, stage_seconds,
@@ -93,6 +110,8 @@ class Result:
     fracture_events: list[FractureEvent] = field(default_factory=list)
     summary: dict[str, Any] = field(default_factory=dict)
     history: dict[str, np.ndarray] = field(default_factory=dict)
+    bolt_events: list[BoltEvent] = field(default_factory=list)
+    measurements: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def final(self) -> Frame:

@@ -56,6 +56,15 @@ from dda.checks import (
 from dda.errors import SceneError
 from dda.geometry import next_vertex_index
 from dda.limits import DEFAULT_MAX_STEPS
+from dda.scene_engineering import (
+    ENGINEERING_KEYS,
+    Bolt,
+    Measure,
+    Seismic,
+    Stage,
+    Water,
+    parse_engineering,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -206,6 +215,12 @@ class Scene:
     # named sets of blocks (rock-mass scenes): group name -> block names
     groups: Mapping[str, tuple[str, ...]] = field(default_factory=_empty_mapping)
     units: Units = field(default_factory=Units)
+    # rock engineering (dda.scene_engineering): absent sections build nothing
+    bolts: tuple[Bolt, ...] = ()
+    seismic: Seismic | None = None
+    water: Water | None = None
+    measure: tuple[Measure, ...] = ()
+    stages: tuple[Stage, ...] = ()
 
     @property
     def block_names(self) -> tuple[str, ...]:
@@ -295,6 +310,7 @@ _TOP_KEYS = (
     *_ROCK_MASS_KEYS,
     "groups",
     "units",
+    *ENGINEERING_KEYS,
 )
 
 _UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time": Checker.text}
@@ -773,6 +789,11 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
     blocks = _blocks(chk, raw, materials, joints)
     names = frozenset(b.name for b in blocks)
     by_name = {b.name: b for b in blocks}
+    loads = _loads(chk, raw, by_name)
+    interfaces = _interfaces(chk, raw, names, joints)
+    fracture = _fracture(chk, raw, joints)
+    groups = _groups(chk, raw, names)
+    units = _units(chk, raw)
     scene = Scene(
         title=title,
         analysis=analysis,
@@ -780,12 +801,13 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
         materials=materials,
         joints=joints,
         blocks=blocks,
-        loads=_loads(chk, raw, by_name),
-        interfaces=_interfaces(chk, raw, names, joints),
-        fracture=_fracture(chk, raw, joints),
+        loads=loads,
+        interfaces=interfaces,
+        fracture=fracture,
         source=source,
-        groups=_groups(chk, raw, names),
-        units=_units(chk, raw),
+        groups=groups,
+        units=units,
+        **parse_engineering(chk, raw, blocks, groups, analysis, loads),
     )
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene

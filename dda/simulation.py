@@ -22,9 +22,11 @@ from dda.frames import make_frame
 from dda.jit import run_work
 from dda.limits import check_run_size
 from dda.linsolve import single_threaded_blas, solver_threads
+from dda.measure import Probes
 from dda.model import Model, build
 from dda.result import FractureEvent, Frame, Result
 from dda.scene import Scene
+from dda.stages import apply_due_stages
 from dda.step import StepSolution, solve_step
 from dda.timing import StageTimer
 from dda.update import apply_step, vertex_displacements
@@ -58,6 +60,9 @@ class _Run:
         self.max_penetration = 0.0
         self.events: list[FractureEvent] = []
         self.energy = EnergyAccount(model, self.blocks)
+        self.stages_done = 0  # [[stages]] applied so far
+        self.excavated_energy = 0.0  # energy of the blocks the stages removed
+        self.probes = _probes(model, self.blocks)  # [[measure]], None without
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -73,12 +78,33 @@ class _Run:
         m = self.model
         return np.inf if m.steps is not None else m.duration - self.time
 
+    def until_event(self) -> float:
+        """Time to the end of the run or to the next stage, whichever comes first."""
+        stages = self.model.stages
+        if stages is None:
+            return self.remaining()
+        return min(self.remaining(), stages.next_time(self.stages_done) - self.time)
+
+
+def _probes(model: Model, blocks: BlockSet) -> Probes | None:
+    """The run's measurements with the row of step 0, or None without ``[[measure]]``."""
+    if not model.scene.measure:
+        return None
+    names = [] if model.bolts is None else model.bolts.names
+    probes = Probes(model.scene.measure, blocks, names, model.exact_rotation)
+    probes.record(0, 0.0, blocks, ContactSet.empty(), model.bolts)
+    return probes
+
 
 def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | None, float, str]:
     """Solve one step of length dt; return (solution or None, factor to cut dt, reason)."""
     m = run.model
     ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
+    if m.ground is not None:  # fixed blocks that follow the ground: their step is known
+        ctx.prescribed = m.ground.prescribed(run.blocks, ctx)
     solution = solve_step(m, run.blocks, start.copy(), ctx, run.timer)
+    if ctx.prescribed is not None:
+        solution.d = solution.d + ctx.prescribed
     run.iterations += solution.iterations
     run.factorisations += solution.factorisations
     if not np.all(np.isfinite(solution.d)):
@@ -111,7 +137,7 @@ def _advance(run: _Run) -> None:
     if m.contact is not None:
         with run.timer("contact_search"):
             run.contacts = refresh_contacts(run.blocks, run.contacts, m.contact, run.kept_pairs)
-    dt = _step_length(run.dt, run.remaining())
+    dt = _step_length(run.dt, run.until_event())
     for cut in range(MAX_CUTS + 1):
         solution, factor, reason = _attempt(run, run.contacts, dt)
         if solution is not None:
@@ -126,12 +152,17 @@ def _advance(run: _Run) -> None:
         run.cut_steps += 1
     with run.timer("update"):
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
-        run.energy.add_step_work(run.blocks, solution.d, ctx.time)
+        ground = None if m.ground is None else m.ground.prescribed(run.blocks, ctx)
+        run.energy.add_step_work(run.blocks, solution.d, ctx.time, solution.contacts, ground)
         for effect in m.effects:
             effect.after_step(run.blocks, solution.d, ctx)
+        if run.probes is not None:
+            run.probes.move(run.blocks, solution.d)
         apply_step(
             run.blocks, solution.d, dt, m.elastic, m.static, m.exact_rotation, solution.pushed
         )
+        if m.ground is not None:  # the blocks that follow the ground move at its velocity
+            m.ground.set_velocity(run.blocks, ctx.time)
         if not np.all(np.isfinite(run.blocks.vertices)):
             raise SimulationError(f"step {run.step + 1}: non-finite block positions")
     run.contacts = solution.contacts
@@ -145,6 +176,10 @@ def _advance(run: _Run) -> None:
     if m.fracture is not None:
         with run.timer("fracture"):
             _fracture(run, ctx)
+    if m.stages is not None:
+        apply_due_stages(run)
+    if run.probes is not None:
+        run.probes.record(run.step, run.time, run.blocks, run.contacts, m.bolts)
 
 
 def _record(run: _Run, dt: float, solution: StepSolution) -> None:
@@ -173,6 +208,8 @@ def _fracture(run: _Run, ctx: StepContext) -> None:
     )
     for effect in run.model.effects:
         effect.on_blocks_replaced(old, new, parent_of)
+    if run.probes is not None:
+        run.probes.on_blocks_replaced(old, new, parent_of)
     run.blocks = new
     run.contacts = ContactSet.empty()  # rebuilt from the new geometry next step
     run.events.extend(events)
@@ -218,7 +255,8 @@ def run(
         check_scene(resume, scene)
         restore(state, resume)
         start -= resume.wall_seconds
-    frames = [make_frame(state.blocks, state.contacts, state.time, state.step)]
+    first = state.probes.take() if state.probes is not None and resume is None else None
+    frames = [_frame(state, first)]
     if on_frame and resume is None:
         on_frame(frames[0])
     report = _progress_reporter(progress, model)
@@ -235,7 +273,7 @@ def run(
                 last = state.finished()
                 if state.step % model.save_every == 0 or last:
                     with state.timer("output"):
-                        frame = make_frame(state.blocks, state.contacts, state.time, state.step)
+                        frame = _frame(state, None if state.probes is None else state.probes.take())
                         _keep(frames, frame, keep_frames)
                         if on_frame:
                             on_frame(frame)
@@ -256,6 +294,12 @@ def run(
     return _result(state, frames, start, status)
 
 
+def _frame(state: _Run, measured: dict | None) -> Frame:
+    """The frame of the run's state (with the measurement rows ``measured``)."""
+    bolts = None if state.model.bolts is None else state.model.bolts.segments()
+    return make_frame(state.blocks, state.contacts, state.time, state.step, measured, bolts)
+
+
 def _keep(frames: list[Frame], frame: Frame, keep_all: bool) -> None:
     """Add ``frame``; unless ``keep_all``, only the first and the latest frame stay."""
     if keep_all or len(frames) < 2:
@@ -274,11 +318,14 @@ def _check_step_limit(state: _Run) -> None:
 
 
 def _result(state: _Run, frames: list[Frame], start: float, status: str) -> Result:
+    bolts = state.model.bolts
     return Result(
         frames=frames,
         fracture_events=state.events,
         summary=_summary(state, wallclock.perf_counter() - start, status),
         history={k: np.array(v) for k, v in state.history.items()},
+        bolt_events=[] if bolts is None else list(bolts.events),
+        measurements={} if state.probes is None else state.probes.as_arrays(),
     )
 
 
@@ -339,4 +386,17 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "initial_energy": state.energy.initial.total,
         "external_work": state.energy.work,
         "environment": environment(),
+        **_engineering_summary(state),
     }
+
+
+def _engineering_summary(state: _Run) -> dict:
+    """Summary entries of bolts and stages (none for a scene without them)."""
+    m, out = state.model, {}
+    if m.bolts is not None:
+        out["bolts"] = len(m.bolts)
+        out["bolt_events"] = list(m.bolts.events)
+    if m.stages is not None:
+        out["stages_done"] = state.stages_done
+        out["excavated_energy"] = state.excavated_energy
+    return out

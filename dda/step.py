@@ -33,12 +33,13 @@ from dda.contact.law import UNBOUNDED, BoundIteration
 from dda.contact.narrow import separated_blocks
 from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.contact.push_out import push_out_displacement, pushed_overlap
-from dda.contact.rows import contact_rows
+from dda.contact.rows import contact_rows, gaps_after
 from dda.effects.base import StepContext
 from dda.linsolve import ReusingSolver, block_ordering
 from dda.low_rank import StepUpdates
 from dda.model import Model
 from dda.newton import BlockQuadratic, ContactGeometry, better_start, minimise
+from dda.pair_springs import PairSprings
 from dda.result import LOCKED, OPEN, SLIDING
 from dda.timing import StageTimer
 
@@ -88,6 +89,7 @@ class LinearCache:
         block_b: np.ndarray,
         neighbours: Callable[[], np.ndarray] | None = None,
         active: np.ndarray | None = None,
+        coupled: tuple[np.ndarray, np.ndarray] | None = None,
     ):
         """The pattern of this contact list (of its ``active``, closed, contacts).
 
@@ -98,8 +100,12 @@ class LinearCache:
         close enough to come into contact soon) and the old pattern's pairs
         (up to ``SPARE_PAIRS`` per needed pair): contacts come and go at the
         search distance, and each new pattern costs an ordering and an analysis.
+        ``coupled``: pairs of blocks (block_i, block_j) that springs join (rock
+        bolts): the pattern holds them always.
         """
         kept = self.pattern
+        if coupled is not None and kept is not None and not kept.covers(fixed, *coupled):
+            kept = None  # a spring between blocks that K has no block for: a new pattern
         if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b):
             if kept.lands(active):
                 return kept
@@ -111,6 +117,8 @@ class LinearCache:
         if neighbours is not None:
             near = neighbours()
             extra.append(free_pairs(rows, near[:, 0], near[:, 1]))
+        if coupled is not None:
+            extra.append(free_pairs(rows, *coupled))
         if kept is not None and np.array_equal(kept._fixed, fixed):
             needed = len(free_pairs(rows, block_a, block_b))
             if len(kept.pairs) <= SPARE_PAIRS * max(needed, 1):
@@ -152,6 +160,11 @@ def linear_cache(model: Model) -> LinearCache:
     return cache
 
 
+def _couplings(model: Model, blocks: BlockSet, ctx: StepContext) -> PairSprings | None:
+    """The springs between blocks that the effects add this step (rock bolts), or None."""
+    return PairSprings.join([effect.couplings(blocks, ctx) for effect in model.effects])
+
+
 def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
     diagonal = np.zeros((blocks.count, 6, 6))
     forces = np.zeros((blocks.count, 6))
@@ -165,13 +178,16 @@ def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
     return diagonal, forces
 
 
-def _stiffness(pattern, blocks, base_diagonal, coefficients, rows, law, earlier=None):
+def _stiffness(
+    pattern, blocks, base_diagonal, coefficients, rows, law, earlier=None, couplings=None
+):
     """K (in the pattern's order) and the contact springs (2, m) it holds.
 
     ``coefficients``: the contacts' :func:`dda.contact.law.contact_coefficients`.
     ``earlier``: (pattern, K, springs) assembled before in this step (the same
     rows and effects); on the same pattern, only the contacts whose springs
-    changed are added to it (:func:`dda.assembly.reassemble`).
+    changed are added to it (:func:`dda.assembly.reassemble`). ``couplings``:
+    the springs between blocks (rock bolts, :mod:`dda.pair_springs`).
     """
     p, ps, _, _ = coefficients
     springs = np.stack([p, ps if law.friction else np.zeros_like(ps)])  # the ones K holds
@@ -187,7 +203,7 @@ def _stiffness(pattern, blocks, base_diagonal, coefficients, rows, law, earlier=
     terms = [(rows.normal_i, rows.normal_j, springs[0])]  # rows of one array: no copy
     if law.friction:
         terms.append((rows.shear_i, rows.shear_j, springs[1]))
-    return assemble(pattern, base_diagonal, blocks.fixed, terms), springs
+    return assemble(pattern, base_diagonal, blocks.fixed, terms, couplings), springs
 
 
 def _keyed_springs(contacts: ContactSet, springs: np.ndarray):
@@ -260,10 +276,14 @@ class _PieceSystem:
     when few springs changed since it was made.
     """
 
-    def __init__(self, cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer):
+    def __init__(
+        self, cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings=None
+    ):
         self.cache, self.blocks, self.contacts, self.rows = cache, blocks, contacts, rows
         self.base_k, self.base_f, self.law = base_k, base_f, law
         self.neighbours, self.timer = neighbours, timer
+        self.couplings = couplings  # springs between blocks (rock bolts), constant in the step
+        self.coupled = None if couplings is None else (couplings.block_i, couplings.block_j)
         self.pattern = self.k = self.keyed = self.assembled = self.updates = None
 
     def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
@@ -273,7 +293,12 @@ class _PieceSystem:
             if self.assembled is None or not np.array_equal(np.stack([kn, ks]), self.assembled[2]):
                 active = (kn > 0.0) | (ks > 0.0)  # contacts that add to K
                 self.pattern = cache.pattern_for(
-                    blocks.fixed, contacts.block_a, contacts.block_b, self.neighbours, active
+                    blocks.fixed,
+                    contacts.block_a,
+                    contacts.block_b,
+                    self.neighbours,
+                    active,
+                    self.coupled,
                 )
                 self.k, springs = _stiffness(
                     self.pattern,
@@ -283,6 +308,7 @@ class _PieceSystem:
                     self.rows,
                     self.law,
                     self.assembled,
+                    self.couplings,
                 )
                 self.assembled = (self.pattern, self.k, springs)
                 self.keyed = _keyed_springs(contacts, springs)
@@ -369,12 +395,14 @@ def solve_step(
     factorisations_before = cache.solver.factorisations
     with timer("assembly"):
         base_k, base_f = _effect_terms(model, blocks, ctx)
+        couplings = _couplings(model, blocks, ctx)
+        coupled = None if couplings is None else (couplings.block_i, couplings.block_j)
     cm = model.contact
     if cm is None or len(contacts) == 0:
         with timer("assembly"):
             none = np.zeros(0, np.int64)
-            pattern = cache.pattern_for(blocks.fixed, none, none)
-            k = assemble(pattern, base_k, blocks.fixed)
+            pattern = cache.pattern_for(blocks.fixed, none, none, coupled=coupled)
+            k = assemble(pattern, base_k, blocks.fixed, couplings=couplings)
         d = _solve(cache, pattern, k, base_f, blocks, timer)
         made = cache.solver.factorisations - factorisations_before
         return StepSolution(d, contacts, 1, made, bool(np.all(np.isfinite(d))), 0.0)
@@ -382,14 +410,20 @@ def solve_step(
     law = cm.law
     with timer("contact_law"):
         rows = contact_rows(blocks, contacts)
+        if ctx.prescribed is not None:  # fixed blocks moved by the ground: known part of g, s
+            rows.penetration, rows.slip = gaps_after(
+                rows, contacts.block_a, contacts.block_b, ctx.prescribed
+            )
         joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
         bounds = BoundIteration(_first_bounds(contacts, rows, joints, law))
 
     def neighbours():
         return pattern_neighbours(blocks, contacts, cm)
 
-    system = _PieceSystem(cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer)
-    quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed)
+    system = _PieceSystem(
+        cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
+    )
+    quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
     d = np.zeros((blocks.count, 6))

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.pair_springs import PairSprings
 
 
 @dataclass
@@ -18,14 +19,17 @@ class StepContext:
     step: int  # index of the step being computed (1-based)
     static: bool
     extras: dict = field(default_factory=dict)
+    # (n, 6) step of the fixed blocks that follow the ground (dda.effects.seismic), else None
+    prescribed: np.ndarray | None = None
 
 
 class Effect:
     """One physical term. Subclasses override what they contribute.
 
     ``stiffness`` returns (n, 6, 6) diagonal blocks of K (or None);
-    ``forces`` returns (n, 6) additions to F (or None); both are evaluated
-    once per step attempt. ``after_step`` lets an effect move its own state
+    ``forces`` returns (n, 6) additions to F (or None); ``couplings`` the
+    springs it puts between two blocks (:mod:`dda.pair_springs`, or None); all
+    are evaluated once per step attempt. ``after_step`` lets an effect move its own state
     (tracked material points, ...) once a step is accepted.
     """
 
@@ -35,6 +39,10 @@ class Effect:
         return None
 
     def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray | None:
+        return None
+
+    def couplings(self, blocks: BlockSet, ctx: StepContext) -> PairSprings | None:
+        """Springs between two blocks (off-diagonal blocks of K), or None."""
         return None
 
     def after_step(self, blocks: BlockSet, d: np.ndarray, ctx: StepContext) -> None:

@@ -81,13 +81,16 @@ class Fragments:
         )
 
 
-def replace_blocks(blocks: BlockSet, broken: list[Fragments]) -> BlockSet:
+def replace_blocks(
+    blocks: BlockSet, broken: list[Fragments], removed: np.ndarray | None = None
+) -> BlockSet:
     """A new BlockSet: the unbroken blocks in their order, then every fragment.
 
     Vectorised over the kept blocks (one mask over the packed vertices);
-    only the fragments are handled one by one.
+    only the fragments are handled one by one. ``removed``: (n,) bool, blocks
+    left out without fragments (excavated by a stage, :mod:`dda.stages`).
     """
-    gone = np.zeros(blocks.count, dtype=bool)
+    gone = np.zeros(blocks.count, dtype=bool) if removed is None else removed.copy()
     gone[[f.parent for f in broken]] = True
     keep = np.flatnonzero(~gone)
     keep_vertex = ~gone[owner_of_vertex(blocks.offsets)]

@@ -58,6 +58,8 @@ def unit_name(dimension: str, units: Mapping[str, str] | None = None) -> str:
         "stress": scene_units.stress,
         "length": scene_units.length,
         "velocity": scene_units.velocity,
+        "force": scene_units.force,
+        "time": scene_units.time,
         "angle": "rad",
     }[dimension]
 

@@ -4,7 +4,8 @@ Blocks are filled by one per-block scalar (a stress measure, displacement,
 ...; see :data:`dda.io.fields.SCALARS`) and outlined in black; fixed blocks
 carry no computed field and are grey. Compressive contact normal forces are
 magenta segments along the contact normal, centred on the contact point,
-their length proportional to the force. The picture has the scene's title,
+their length proportional to the force; rock bolts are orange segments
+between their end points. The picture has the scene's title,
 axes in the scene's length unit, a colour bar naming the quantity and its
 unit with ticks that read differently from one another, and a legend for
 the grey and the magenta.
@@ -31,6 +32,7 @@ logger = logging.getLogger(__name__)
 
 FIXED_COLOUR = "#a9a9a9"
 CONTACT_COLOUR = "magenta"
+BOLT_COLOUR = "darkorange"
 _CONTACT_LENGTH = 0.06  # longest contact segment, as a fraction of the model size
 _DPI = 100
 
@@ -237,6 +239,10 @@ def _draw_frame(ax, frame: Frame, values: np.ndarray, clim, cmap, show_contacts:
     segments = contact_segments(frame, _CONTACT_LENGTH * _model_size(frame))
     if show_contacts and segments is not None:
         ax.add_collection(LineCollection(segments, colors=CONTACT_COLOUR, linewidths=2.0))
+    if frame.bolts is not None and len(frame.bolts):
+        ax.add_collection(LineCollection(frame.bolts, colors=BOLT_COLOUR, linewidths=2.5))
+        ends = frame.bolts.reshape(-1, 2)
+        ax.plot(ends[:, 0], ends[:, 1], "o", color=BOLT_COLOUR, markersize=3)
     ax.set_aspect("equal", adjustable="datalim")  # the axes fill their box
     return coloured
 
@@ -275,8 +281,10 @@ def _legend(figure, frames: Sequence[Frame], show_contacts: bool) -> None:
                 [], [], color=CONTACT_COLOUR, lw=2, label="contact normal force (length ∝ force)"
             )
         )
+    if any(f.bolts is not None and len(f.bolts) for f in frames):
+        handles.append(Line2D([], [], color=BOLT_COLOUR, lw=2.5, marker="o", label="rock bolt"))
     if handles:
-        figure.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=9)
+        figure.legend(handles=handles, loc="outside lower center", ncols=3, fontsize=9)
 
 
 def _model_size(frame: Frame) -> float:

@@ -41,7 +41,8 @@ logger = logging.getLogger(__name__)
 LOCK_NAME = "run.lock"
 CHECKPOINT_NAME = "checkpoint.npz"
 SUMMARY_NAME = "summary.json"
-OUTPUTS = ("blocks.pvd", "contacts.pvd", "history.csv", SUMMARY_NAME, "final.png", CHECKPOINT_NAME)
+OUTPUTS = ("blocks.pvd", "contacts.pvd", "history.csv", "history_points.csv", SUMMARY_NAME,
+           "final.png", CHECKPOINT_NAME)  # fmt: skip
 FRAME_PATTERNS = ("blocks_*.vtu", "contacts_*.vtu", f"*{TEMP_MARK}*")
 MODES = ("new", "overwrite", "resume")
 

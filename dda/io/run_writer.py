@@ -8,6 +8,7 @@ Layout of ``outdir``::
     frames/blocks_NNNNNN.vtu    one per kept frame (NNNNNN = step)
     frames/contacts_NNNNNN.vtu
     history.csv             one row per block per kept frame
+    history_points.csv      one row per step of the [[measure]] quantities (with [[measure]])
     summary.json            the run summary (status "running", "finished", "failed", ...)
     checkpoint.npz          the last checkpoint, while the run is not finished (dda.checkpoint)
     final.png               the last frame, coloured by a stress component
@@ -33,7 +34,14 @@ from dda.io.atomic import TEMP_MARK, write_text
 from dda.io.images import render_frame
 from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
 from dda.io.run_folder import SUMMARY_NAME, RunFolder
-from dda.io.tables import history_header, history_rows, write_summary
+from dda.io.tables import (
+    POINTS_NAME,
+    history_header,
+    history_rows,
+    points_header,
+    points_rows,
+    write_summary,
+)
 from dda.io.vtu import write_blocks_vtu, write_contacts_vtu
 from dda.result import Frame, Result
 
@@ -97,6 +105,8 @@ class RunWriter:
         self.last_step = step_of_file(blocks[-1][0]) if blocks else -1
         self.last_frame: Frame | None = None
         self._history_fd: int | None = os.open(self.history_path, os.O_WRONLY | os.O_APPEND)
+        self.points_path = self.outdir / POINTS_NAME
+        self._points_fd: int | None = None
         self._start = time.perf_counter()
 
     @property
@@ -126,6 +136,8 @@ class RunWriter:
         if step > self.last_step:
             os.write(self._history_fd, history_rows(frame).encode("utf-8"))
             self.frame_count += 1
+        if frame.measured is not None and len(frame.measured.get("step", ())):
+            self._write_points(frame.measured)
         self.last_step = step
         self.last_frame = frame
         write_summary(self.outdir / SUMMARY_NAME, self._summary(None, "running", None, frame))
@@ -180,11 +192,20 @@ class RunWriter:
         self.folder.release()
         return summary
 
+    def _write_points(self, measured: dict) -> None:
+        """Append the ``[[measure]]`` rows a frame brings (the header first, in a new file)."""
+        if self._points_fd is None:
+            if not self.points_path.is_file():
+                write_text(self.points_path, points_header(measured))
+            self._points_fd = os.open(self.points_path, os.O_WRONLY | os.O_APPEND)
+        os.write(self._points_fd, points_rows(measured).encode("utf-8"))
+
     def close(self) -> None:
-        """Close ``history.csv`` (all rows are written already)."""
-        if self._history_fd is not None:
-            os.close(self._history_fd)
-            self._history_fd = None
+        """Close ``history.csv`` and ``history_points.csv`` (all rows are written already)."""
+        for name in ("_history_fd", "_points_fd"):
+            if getattr(self, name) is not None:
+                os.close(getattr(self, name))
+                setattr(self, name, None)
 
     def _summary(self, result, status, error, final) -> dict[str, Any]:
         summary: dict[str, Any] = {"run_id": self.run_id}
@@ -262,14 +283,23 @@ def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:
             if TEMP_MARK in path.name or step_of_file(path) > step:
                 path.unlink(missing_ok=True)
     _truncate_history(outdir / "history.csv", step)
+    # the measurements were written up to the last frame kept (dda.measure)
+    last = max((step_of_file(file) for file, _ in kept[0]), default=-1)
+    _truncate_history(outdir / POINTS_NAME, last, header=None)
     logger.info("resuming %s at step %d: %d frames kept", outdir, step, len(kept[0]))
     return kept[0], kept[1]
 
 
-def _truncate_history(path: Path, step: int) -> None:
-    """Keep the header and the whole rows of steps up to ``step`` (rows are in step order)."""
+def _truncate_history(path: Path, step: int, header: str | None = "") -> None:
+    """Keep the header and the whole rows of steps up to ``step`` (rows are in step order).
+
+    ``header``: what a missing or empty file starts again with (``""``: the header of
+    ``history.csv``; None: no file, the writer makes it with the first rows).
+    """
+    header = history_header() if header == "" else header
     if not path.is_file():
-        write_text(path, history_header())
+        if header is not None:
+            write_text(path, header)
         return
     end = 0
     with open(path, "rb") as stream:
@@ -280,6 +310,9 @@ def _truncate_history(path: Path, step: int) -> None:
                 break
             end += len(line)
     if end == 0:
-        write_text(path, history_header())
+        if header is None:
+            path.unlink()
+        else:
+            write_text(path, header)
         return
     os.truncate(path, end)

@@ -7,6 +7,12 @@
 ``x, y`` is the centroid, ``ux, uy`` its displacement since the start,
 ``rotation`` the accumulated rotation (rad), ``vx, vy, omega`` the centroid
 velocity and ``sxx, syy, sxy`` the block stress.
+
+``history_points.csv`` (with ``[[measure]]``) has one row per step::
+
+    step,time,NAME.COMPONENT,...
+
+(docs/scene.md lists the components).
 """
 
 from __future__ import annotations
@@ -62,6 +68,37 @@ def history_rows(frame: Frame) -> str:
     writer.writerows(
         [step, time, name, ident, *values]
         for name, ident, values in zip(frame.names, ids, numbers, strict=True)
+    )
+    return buffer.getvalue()
+
+
+POINTS_NAME = "history_points.csv"
+
+
+def points_header(measured: dict[str, np.ndarray]) -> str:
+    """The header line of ``history_points.csv``: ``step,time,name.component,...``."""
+    return ",".join(measured) + "\n"
+
+
+def points_rows(measured: dict[str, np.ndarray]) -> str:
+    """CSV rows (no header) of the ``[[measure]]`` rows a frame brings, one per step.
+
+    Parameters
+    ----------
+    measured
+        Columns ``step``, ``time``, ``name.component``, ... (:attr:`dda.result.Frame.measured`).
+
+    Returns
+    -------
+    str
+        Lines ending in ``"\n"``; the step as an integer, numbers with ``repr`` (exact).
+    """
+    columns = list(measured.values())
+    steps = np.asarray(columns[0]).astype(np.int64).tolist()
+    values = np.column_stack([np.asarray(c, float) for c in columns[1:]]).tolist()
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerows(
+        [step, *row] for step, row in zip(steps, values, strict=True)
     )
     return buffer.getvalue()
 

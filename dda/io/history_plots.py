@@ -1,0 +1,100 @@
+"""Pictures of the measurement histories: one PNG per quantity of ``history_points.csv``.
+
+``dda plot OUTDIR`` reads ``OUTDIR/history_points.csv`` (written by ``dda
+run`` for a scene with ``[[measure]]``) and the units of ``summary.json``, and
+draws, for each quantity measured (displacement, velocity, stress, contact
+force, bolt force), every component of every measurement against time: a
+title, axes with their units, a legend naming each curve ``name.component``.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from dda.io.atomic import atomic_path
+from dda.io.fields import unit_name
+from dda.io.tables import POINTS_NAME
+from dda.scene_engineering import BOLT_QUANTITIES, CONTACT_QUANTITIES, POINT_QUANTITIES
+
+logger = logging.getLogger(__name__)
+
+# quantity -> (axis label, dimension of its unit, title)
+QUANTITIES = {
+    "displacement": ("displacement", "length", "displacement of the measurement points"),
+    "velocity": ("velocity", "velocity", "velocity of the measurement points"),
+    "stress": ("stress (tension positive)", "stress", "stress of the measured points' blocks"),
+    "contact_force": ("contact force (N normal; fx, fy on the first block)", "force",
+                      "contact forces between the measured pairs of blocks"),
+    "bolt_force": ("bolt tension", "force", "tension of the measured bolts"),
+}  # fmt: skip
+_COMPONENTS = {**POINT_QUANTITIES, **CONTACT_QUANTITIES, **BOLT_QUANTITIES}
+_DPI = 100
+
+
+def read_points(path: Path) -> dict[str, np.ndarray]:
+    """The columns of a ``history_points.csv``.
+
+    Raises
+    ------
+    ValueError
+        The file is not such a table (one line naming the file and the reason).
+    """
+    with open(path, newline="", encoding="utf-8") as stream:
+        rows = list(csv.reader(stream))
+    if not rows or rows[0][:2] != ["step", "time"]:
+        raise ValueError(f"{path}: not a history_points.csv (no step,time header)")
+    header, body = rows[0], [r for r in rows[1:] if len(r) == len(rows[0])]
+    try:
+        table = np.array(body, dtype=float).reshape(-1, len(header))
+    except ValueError as exc:
+        raise ValueError(f"{path}: a row that is not numbers ({exc})") from None
+    return {name: table[:, k] for k, name in enumerate(header)}
+
+
+def group_columns(columns: list[str]) -> dict[str, list[str]]:
+    """Measurement columns (``name.component``) by quantity, in the file's order."""
+    groups: dict[str, list[str]] = {}
+    for column in columns[2:]:
+        component = column.rsplit(".", 1)[-1]
+        quantity = next((q for q, parts in _COMPONENTS.items() if component in parts), None)
+        if quantity is not None:
+            groups.setdefault(quantity, []).append(column)
+    return groups
+
+
+def plot_histories(
+    outdir: Path, folder: Path | None = None, title: str = "", units: Mapping | None = None
+) -> list[Path]:
+    """Draw one PNG per quantity into ``folder`` (default ``outdir/plots``); return them."""
+    table = read_points(outdir / POINTS_NAME)
+    folder = folder or outdir / "plots"
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for quantity, columns in group_columns(list(table)).items():
+        path = folder / f"{quantity}.png"
+        _draw(path, table["time"], {c: table[c] for c in columns}, quantity, title, units)
+        written.append(path)
+        logger.info("wrote %s", path)
+    return written
+
+
+def _draw(path, time, curves, quantity, title, units) -> None:
+    from matplotlib.figure import Figure
+
+    label, dimension, heading = QUANTITIES[quantity]
+    figure = Figure(figsize=(9, 5.5), dpi=_DPI, layout="constrained")
+    ax = figure.subplots()
+    for name, values in curves.items():
+        ax.plot(time, values, label=name, linewidth=1.2)
+    ax.set_xlabel(f"time ({unit_name('time', units)})")
+    ax.set_ylabel(f"{label} ({unit_name(dimension, units)})")
+    ax.set_title(f"{title}: {heading}" if title else heading, fontsize=11)
+    ax.grid(True, linewidth=0.4, alpha=0.6)
+    ax.legend(fontsize=8, loc="best")
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=_DPI)

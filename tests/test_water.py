@@ -1,0 +1,107 @@
+"""Water pressure in the joints (dda/effects/water.py): Archimedes, the effective-stress
+limit of a block on a slope, and nothing at all above the water table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from scipy.optimize import brentq
+
+import dda
+from dda.effects.water import WaterPressure
+from dda.model import build
+from tests.helpers import ROCK, G, rectangle, rotated, slope_scene
+
+GAMMA = 9810.0
+
+
+def water_forces(vertices, table) -> tuple[np.ndarray, dda.Scene]:
+    scene = dda.load_scene(
+        {
+            "materials": {"rock": ROCK},
+            "blocks": [{"name": "b", "material": "rock", "vertices": vertices}],
+            "water": {"table": table, "unit_weight": GAMMA},
+        }
+    )
+    model = build(scene)
+    (water,) = [e for e in model.effects if isinstance(e, WaterPressure)]
+    return water.forces(model.blocks), model
+
+
+def test_a_submerged_block_is_buoyed_by_the_weight_of_the_water_it_displaces():
+    forces, model = water_forces(rotated(rectangle(0, 0, 2, 1), 17.0), [[-5.0, 3.0], [5.0, 3.0]])
+    np.testing.assert_allclose(forces[0, :3], [0.0, GAMMA * 2.0, 0.0], atol=1e-9 * GAMMA)
+
+
+def test_a_floating_block_is_buoyed_by_its_submerged_area_at_its_centroid():
+    """Level water at y = 0.4 through a tilted block: F = γ A_sub upward, acting through
+    the centroid of the submerged part (its moment about the block's centroid)."""
+    vertices = rotated(rectangle(-1, -0.3, 1, 0.7), 25.0)
+    forces, model = water_forces(vertices, [[-5.0, 0.4], [5.0, 0.4]])
+    wet = shapely.Polygon(vertices).intersection(shapely.box(-9, -9, 9, 0.4))
+    lift = GAMMA * wet.area
+    arm = wet.centroid.x - model.blocks.centroid[0, 0]
+    np.testing.assert_allclose(forces[0, :3], [0.0, lift, lift * arm], rtol=1e-12, atol=1e-9)
+
+
+def test_a_block_above_the_table_feels_nothing_and_runs_as_without_water():
+    forces, _ = water_forces(rectangle(0, 0, 1, 1), [[-5.0, -0.5], [0.0, 0.0], [5.0, -0.1]])
+    assert np.all(forces == 0.0)
+    dry = slope_scene(20.0, duration=0.2)
+    wet = {**dry, "water": {"table": [[-20.0, -5.0], [20.0, -5.0]], "unit_weight": GAMMA}}
+    a, b = dda.simulate(dry), dda.simulate(wet)
+    assert "water" in b.summary["active_effects"] and "water" not in a.summary["active_effects"]
+    np.testing.assert_array_equal(a.final.centroids, b.final.centroids)
+    np.testing.assert_array_equal(a.history["total_energy"], b.history["total_energy"])
+
+
+PHI, DEPTH = 30.0, 0.3  # joint friction; water table 0.3 m above the joint, parallel to it
+WEIGHT = ROCK["density"] * G * 0.5  # the 1 m x 0.5 m slider of slope_scene
+
+
+def uplift(theta: float) -> float:
+    """U = γ (h / cos θ) L: the head on the joint is the vertical depth below the table."""
+    return GAMMA * DEPTH / np.cos(np.radians(theta)) * 1.0
+
+
+def critical_angle() -> float:
+    """The θ where tan φ (W cos θ − U) = W sin θ."""
+
+    def margin(theta):
+        t = np.radians(theta)
+        return np.tan(np.radians(PHI)) * (WEIGHT * np.cos(t) - uplift(theta)) - WEIGHT * np.sin(t)
+
+    return brentq(margin, 1.0, PHI)
+
+
+def wet_slope(theta: float, mode: str = "dynamic", duration: float = 0.5) -> dict:
+    """slope_scene with the water table parallel to the joint, DEPTH above it (below the
+    block's top): the up- and down-slope faces' pressures cancel and the water's whole
+    force on the block is the uplift U on its base."""
+    scene = slope_scene(PHI, angle=theta, duration=duration)
+    scene["analysis"]["mode"] = mode
+    table = rotated([[-20.0, DEPTH], [40.0, DEPTH]], theta)
+    scene["water"] = {"table": table, "unit_weight": GAMMA}
+    return scene
+
+
+def test_the_joint_carries_the_weight_less_the_uplift():
+    """Quasi-static, below the limit: N = W cos θ − U and F = W sin θ (measured 2e-6)."""
+    theta = 20.0
+    contacts = dda.simulate(wet_slope(theta, "static")).final.contacts
+    t = np.radians(theta)
+    effective = WEIGHT * np.cos(t) - uplift(theta)
+    assert contacts.normal_force.sum() == pytest.approx(effective, rel=1e-4)
+    assert contacts.shear_force.sum() == pytest.approx(WEIGHT * np.sin(t), rel=1e-4)
+
+
+def test_the_block_slides_at_the_effective_stress_limit_angle():
+    """tan φ (W cos θ − U) = W sin θ gives θc = 23.06° (the dry block would stand to 30°):
+    at 0.99 θc it stands, at 1.01 θc it slides."""
+    theta = critical_angle()
+    assert 22.0 < theta < 24.0
+    below = dda.simulate(wet_slope(0.99 * theta)).final.displacements[1]
+    above = dda.simulate(wet_slope(1.01 * theta)).final.displacements[1]
+    assert np.linalg.norm(below) < 1e-5
+    assert np.linalg.norm(above) > 1e-3
