@@ -45,7 +45,8 @@ from dda.jit import compiled, kernel
 
 ANGLE_TOLERANCE = 0.2  # sin of the largest angle an edge of P1 may dip into the edge
 ANGLE_TIE = 0.05  # vertex-vertex: edge scores this close are a tie, decided by position
-SHARED_LINE_COSINE = np.cos(ANGLE_TIE)  # two edges this parallel, facing the same way, share a line
+SHARED_LINE_ANGLE = 0.01  # rad: two edges this parallel, facing the same way, share a line
+SHARED_LINE_COSINE = np.cos(SHARED_LINE_ANGLE)
 VERTEX_RADIUS_FRACTION = 0.25  # vertex radius ≤ this x the shortest edge at either vertex
 OUTSIDE_FRACTION = 0.01  # of the search distance: a vertex farther out than this penetrates nothing
 # of the edge length: a vertex projecting this close to an edge's end is no V-E candidate.
@@ -427,9 +428,11 @@ def _resolve_compiled(blocks, fans, p1, p2, slack, inside_depth, previous_keys):
 
 
 def _shares_line(outward, prv, vertex, other_edge):
-    """True when one of ``vertex``'s two edges lies along ``other_edge`` with the same
-    outward normal (within ``ANGLE_TIE``): the two blocks share that boundary line on the
-    same side, so a vertex on it that is behind the corner's other edge is inside."""
+    """True when one of ``vertex``'s two edges is parallel to ``other_edge`` with the same
+    outward normal (within 0.01 rad; 0.05 let toppling stacks' corners, turned a few
+    degrees, pair with the wrong edge and gain 4 % of their energy): the two blocks share
+    that boundary line on the same side, so a vertex behind the corner's other edge is
+    inside."""
     nx, ny = outward[other_edge, 0], outward[other_edge, 1]
     own = max(
         outward[vertex, 0] * nx + outward[vertex, 1] * ny,
@@ -580,11 +583,12 @@ def _fake_pairings(depth, along, slack: float, reflex_p2, reflex_p1, shared=None
     other's edge, and behind the line of the edge across the corner by about the
     length they share; choosing that pairing left them with no contact at all.
 
-    Not so when the vertex's own block has an edge along that other edge, facing
-    the same way (``shared``): then the two blocks lie on the same side of a
-    common boundary line (two fragments' outer faces, split from one face of the
-    parent), the vertex slid along it into the other block, and its depth behind
-    the corner's edge is a real overlap (the fragments' crack faces cross).
+    Not so when the vertex's own block has an edge along the corner's other edge,
+    facing the same way (``shared``, parallel within 0.01 rad): then the two blocks
+    lie on the same side of a common boundary line (two fragments' outer faces,
+    split from one face of the parent), the vertex slid along it into the other
+    block, and its depth behind the corner's edge is a real overlap (the
+    fragments' crack faces cross).
     """
     fake = (depth > slack) & ((along < 0.0) | (along > 1.0))
     if shared is None:
