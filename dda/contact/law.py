@@ -14,8 +14,8 @@ frozen (:mod:`dda.contact.potential`). Between solves (the outer loop of
   penalty; never above ``max_penalty``).
 * **Coulomb friction**: the bound of the next solve is b = tan φ ⟨N⟩₊ + c l
   from this solve's normal force N (Tresca within a solve, Coulomb across
-  solves); another solve is needed while that changes some contact's shear
-  force by more than ``friction_tolerance`` of the largest bound.
+  solves); another solve is needed while that changes the shear forces by
+  more than ``friction_tolerance`` of the bounds (2-norms over the contacts).
 * **bonds**: an intact contact (cohesion and tensile strength still there)
   that reached its tensile strength or slipped loses both for good.
 
@@ -49,8 +49,11 @@ class ContactLaw:
         did not shrink below ``shrink_target`` of its previous value
     max_penalty : the penalty is never raised above this
     friction_tolerance : the friction bounds are consistent with the normal forces
-        when no shear force would change by more than this fraction of the largest
-        bound (a relative residual of the friction forces)
+        when ‖ΔF‖ ≤ this × ‖b‖: ΔF the change the new bounds make to the shear
+        forces, b the new bounds, 2-norms over the contacts (a relative residual
+        of the friction forces, measured like Newton's force residual; a
+        max-norm against the largest bound let one flickering contact of a
+        thousand, carrying 1 % of a block's weight, ask for ten more solves)
     """
 
     augmented: bool
@@ -174,7 +177,7 @@ def update(
     bound = friction_bound(contacts, joint, normal) if law.friction else terms.bound
     if law.friction:
         changed = np.abs(np.clip(terms.shear_trial(s), -bound, bound) - terms.shear_force(s))
-        settled = not np.any(changed > law.friction_tolerance * bound.max(initial=0.0))
+        settled = bool(np.linalg.norm(changed) <= law.friction_tolerance * np.linalg.norm(bound))
     augmented, violation = 0, 0.0
     if law.augmented:
         augmented, violation = _augment(contacts, terms, g, s, previous_g, law)
