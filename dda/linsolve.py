@@ -428,6 +428,12 @@ class ReusingSolver:
         """X (n, r) with K_f X = B, K_f the factorised matrix."""
         return self._factor.solve_many(columns)
 
+    def solve_kept(self, rhs: np.ndarray, key: object) -> np.ndarray | None:
+        """K_f⁻¹ F with the kept factorisation K_f when it is of pattern ``key``, else None."""
+        if self._factor is None or key is None or key != self._key:
+            return None
+        return self._factor.solve(rhs)
+
     @property
     def factored(self) -> sp.spmatrix | None:
         """The matrix of the kept factorisation."""

@@ -50,7 +50,7 @@ class StepSolution:
 
     d: np.ndarray  # (n, 6) unknowns of every block (zeros for fixed blocks)
     contacts: ContactSet
-    iterations: int  # linear solves
+    iterations: int  # linear solves (Newton iterations and chord steps)
     factorisations: int
     converged: bool
     max_penetration: float
@@ -61,9 +61,10 @@ class StepSolution:
 MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
 
 
-# Newton iterations on one set of friction bounds before the bounds follow the normal
-# forces (tunnel case, 0.2 s: 23 solves a step against 29 when each set is solved to the end)
-INNER_SOLVES = 2
+# Newton iterations and chord steps on one set of friction bounds before the bounds
+# follow the normal forces (measured, tunnel 0.3 s / 50x50 wall: 3 gives 24 solves a
+# step and no cut step / 152 ms a step; 2 gives 30 and one cut step / 147 ms)
+INNER_SOLVES = 3
 SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
 NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
 
@@ -337,6 +338,16 @@ class _PieceSystem:
             )
         return d
 
+    def chord(self, residual: np.ndarray) -> np.ndarray | None:
+        """K_f⁻¹ r (n, 6) with the solver's kept factorisation K_f, when it is one of
+        this pattern (:func:`dda.newton.minimise`'s chord steps), else None."""
+        if self.pattern is None:
+            return None
+        rhs = self.pattern.to_matrix_order(residual, self.blocks.fixed).ravel()
+        with self.timer("solve"):
+            x = self.cache.solver.solve_kept(rhs, self.pattern.key)
+        return None if x is None else self.pattern.from_matrix_order(x, self.blocks.count)
+
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
         none = np.zeros(len(normal))
@@ -387,7 +398,8 @@ def solve_step(
     Outer loop: Newton on the potential with the contact data frozen, then the
     law's update (:func:`dda.contact.law.update`: AL multipliers and variable
     penalty, friction bounds from the new normal forces, broken bonds), until
-    that changes nothing beyond its tolerances. Every linear solve counts
+    that changes nothing beyond its tolerances. Every Newton iteration (an
+    assembled and solved quadratic; not the chord steps between them) counts
     against ``[contact] max_iterations``; a step that does not settle within
     them is not converged (the caller cuts Δt).
     """
@@ -427,7 +439,7 @@ def solve_step(
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
     d = np.zeros((blocks.count, 6))
-    solves, converged, previous_g = 0, False, None
+    solves, chords, converged, previous_g = 0, 0, False, None
     while solves < budget:
         terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
         guess = None
@@ -437,9 +449,18 @@ def solve_step(
             guess = _remembered_pieces(contacts, terms, *geometry.at(d))
         inner = min(budget - solves, INNER_SOLVES) if law.friction else budget - solves
         newton = minimise(
-            quadratic, geometry, terms, system, system.contact_vector, d, inner, guess
+            quadratic,
+            geometry,
+            terms,
+            system,
+            system.contact_vector,
+            d,
+            inner,
+            guess,
+            chord=system.chord,
         )
         solves += newton.solves
+        chords += newton.chords
         d = newton.d
         if not np.all(np.isfinite(d)):
             cache.solver.reset()
@@ -472,4 +493,4 @@ def solve_step(
         if overlap.any():
             masses = model.inertia.masses(blocks)
             pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
-    return StepSolution(d, contacts, solves, made, converged, max_pen, pushed, dissipated)
+    return StepSolution(d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated)
