@@ -119,9 +119,10 @@ def minimise(
     first_pieces: tuple[np.ndarray, np.ndarray] | None = None,
     iterates: list | None = None,
     chord: ChordSolver | None = None,
+    max_steps: int | None = None,
 ) -> NewtonResult:
-    """Minimise Π from ``start`` with at most ``max_solves`` linear solves (Newton
-    iterations and chord steps; :attr:`NewtonResult.solves` counts the former).
+    """Minimise Π from ``start`` with at most ``max_solves`` Newton iterations and
+    at most ``max_steps`` iterations in all (Newton iterations and chord steps).
 
     ``first_pieces``: (normal, shear) pieces for the first iteration's quadratic
     instead of those at ``start`` (e.g. the contact states at the end of the
@@ -140,7 +141,7 @@ def minimise(
     pieces = first_pieces
     gradient = None  # ∇Π at d when the next direction is a chord direction
     solves = chords = 0
-    while solves + chords < max_solves:
+    while solves < max_solves and (max_steps is None or solves + chords < max_steps):
         g, s = geometry.at(d)
         direction = None if gradient is None else chord(gradient)
         if direction is not None:

@@ -447,7 +447,7 @@ def solve_step(
             if not ctx.static:
                 d = better_start(quadratic, geometry, terms, [d, _constant_velocity(blocks, ctx)])
             guess = _remembered_pieces(contacts, terms, *geometry.at(d))
-        inner = min(budget - solves, INNER_SOLVES) if law.friction else budget - solves
+        inner = INNER_SOLVES if law.friction else None
         newton = minimise(
             quadratic,
             geometry,
@@ -455,9 +455,10 @@ def solve_step(
             system,
             system.contact_vector,
             d,
-            inner,
+            budget - solves,
             guess,
             chord=system.chord,
+            max_steps=inner,
         )
         solves += newton.solves
         chords += newton.chords

@@ -87,8 +87,9 @@ def line_minimum(
     # slopes of π' on [0, α1], [α1, α2], ... and π' at each breakpoint
     slopes = slope + np.concatenate([[0.0], np.cumsum(jumps)])
     starts = np.concatenate([[0.0], alphas])
-    rises = slopes[:-1] * np.diff(starts)
-    values = slope0 + np.concatenate([[0.0], np.cumsum(rises)])  # π'(starts)
+    with np.errstate(over="ignore", invalid="ignore"):  # breakpoints of UNBOUNDED bounds,
+        rises = slopes[:-1] * np.diff(starts)  # ~1e300 away: π' there is +inf, past the root
+        values = slope0 + np.concatenate([[0.0], np.cumsum(rises)])  # π'(starts)
     crossing = np.flatnonzero(values[1:] >= 0.0)
     k = int(crossing[0]) if len(crossing) else len(alphas)  # root on [starts[k], starts[k+1]]
     if slopes[k] <= 0.0:  # flat piece with π' < 0: cannot happen with c > 0
