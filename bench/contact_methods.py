@@ -6,7 +6,7 @@ Run::
         --picture docs/images/paper_two_blocks.png
 
 For each case and method it reports the largest penetration over the run, the
-solves (open-close iterations plus augmentations) per step, the
+linear solves (Newton iterations and chord steps) per step, the
 factorisations per step and the wall milliseconds per step.
 """
 
