@@ -180,9 +180,9 @@ def new_pardiso_handle():
     """
     global _PARDISO_PROTOTYPE
     if _PARDISO_PROTOTYPE is None:
+        _point_pypardiso_at_mkl()  # before the import: pypardiso looks for MKL as it loads
         import pypardiso
 
-        _point_pypardiso_at_mkl()
         _PARDISO_PROTOTYPE = pypardiso.PyPardisoSolver(mtype=2)  # real SPD
     _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
     handle = copy.copy(_PARDISO_PROTOTYPE)  # shares the library, not the solver state
@@ -231,14 +231,25 @@ def single_threaded_blas() -> Iterator[None]:
 def _point_pypardiso_at_mkl() -> None:
     """Name the MKL library pip installs beside Python in ``PYPARDISO_MKL_RT``.
 
-    Without it pypardiso searches the whole of ``sys.prefix/lib`` (~0.3 s per
-    process here); an existing ``PYPARDISO_MKL_RT`` is kept.
+    pip puts ``libmkl_rt.so`` in ``<prefix>/lib`` of the environment whose
+    ``site-packages`` holds the ``mkl`` package: this one's, or another one's that
+    this environment sees through a ``.pth`` file or ``PYTHONPATH``. Without it
+    pypardiso searches only the whole of ``sys.prefix/lib`` (~0.3 s per process
+    here) and misses the second case; an existing ``PYPARDISO_MKL_RT`` is kept.
     """
     if os.environ.get("PYPARDISO_MKL_RT"):
         return
-    found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.so*")), key=len)
-    if found:
-        os.environ["PYPARDISO_MKL_RT"] = found[0]
+    prefixes = [sys.prefix, sys.base_prefix]
+    prefixes += [
+        os.path.dirname(os.path.dirname(os.path.dirname(entry)))  # <prefix>/lib/pythonX.Y/...
+        for entry in sys.path
+        if os.path.basename(entry) == "site-packages"
+    ]
+    for prefix in dict.fromkeys(prefixes):
+        found = sorted(glob.glob(os.path.join(prefix, "lib", "libmkl_rt.so*")), key=len)
+        if found:
+            os.environ["PYPARDISO_MKL_RT"] = found[0]
+            return
 
 
 def _set_mkl_threads(library, threads: int) -> None:
