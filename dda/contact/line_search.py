@@ -11,7 +11,8 @@ continuous, non-decreasing and piecewise linear: its slope changes by
 ± p δg² (± ps δs²) where a contact's force reaches or leaves the tension it
 holds (the friction bound). The minimiser is the root of π': sort those
 breakpoints, follow π' from one to the next, and solve the linear piece where
-it changes sign. O(m log m) for m contacts, with no solve of K.
+it changes sign. O(m log m) for m contacts, with no solve of K. Since
+π'' ≥ c, the root is at most −π'(0)/c: breakpoints beyond that are not sorted.
 """
 
 from __future__ import annotations
@@ -81,6 +82,9 @@ def line_minimum(
     alpha_t, jump_t = _shear_breaks(terms, s, ds)
     alphas = np.concatenate([alpha_n, alpha_t])
     jumps = np.concatenate([jump_n, jump_t])
+    if curvature > 0.0:  # π' ≥ π'(0) + c α: the root is at most −π'(0)/c, later breaks
+        reach = alphas <= -slope0 / curvature  # do not matter (and need no sorting)
+        alphas, jumps = alphas[reach], jumps[reach]
     order = np.argsort(alphas, kind="stable")
     alphas, jumps = alphas[order], jumps[order]
     slope = curvature + _slope_at_start(terms, g, dg, s, ds)
