@@ -138,11 +138,11 @@ def minimise(
     """
     d = start
     g0, s0 = geometry.rows.penetration, geometry.rows.slip
+    g, s = geometry.at(d)
     pieces = first_pieces
     gradient = None  # ∇Π at d when the next direction is a chord direction
     solves = chords = 0
     while solves < max_solves and (max_steps is None or solves + chords < max_steps):
-        g, s = geometry.at(d)
         direction = None if gradient is None else chord(gradient)
         if direction is not None:
             direction, chords = -direction, chords + 1
@@ -166,13 +166,13 @@ def minimise(
         d = d + alpha * direction
         if iterates is not None:
             iterates.append(d)
-        residual, scale = _residual(quadratic, geometry, terms, contact_vector, d)
-        if np.linalg.norm(residual) <= RELATIVE_TOLERANCE * scale:
+        g, s = geometry.at(d)
+        residual, scale = _residual(quadratic, terms, contact_vector, d, g, s)
+        size = np.linalg.norm(residual)
+        if size <= RELATIVE_TOLERANCE * scale:
             return NewtonResult(d, solves, True, chords)
         log.debug("Newton %d, chord %d: α = %.3g", solves, chords, alpha)
-        shrunk = gradient is None or np.linalg.norm(residual) <= CHORD_RATE * np.linalg.norm(
-            gradient
-        )
+        shrunk = gradient is None or size <= CHORD_RATE * np.linalg.norm(gradient)
         gradient = residual if chord is not None and shrunk else None
     return NewtonResult(d, solves, False, chords)
 
@@ -195,10 +195,10 @@ def better_start(
     return candidates[int(np.argmin(values))]
 
 
-def _residual(quadratic, geometry, terms, contact_vector, d) -> tuple[np.ndarray, float]:
+def _residual(quadratic, terms, contact_vector, d, g, s) -> tuple[np.ndarray, float]:
     """∇Π(D) = K₀D − F₀ + Σ N∇g + Σ F∇s (n, 6; zero on fixed blocks), and the scale
-    ‖K₀D‖ + ‖F₀‖ + ‖Σ N∇g + Σ F∇s‖ (over the free blocks) it is measured against."""
-    g, s = geometry.at(d)
+    ‖K₀D‖ + ‖F₀‖ + ‖Σ N∇g + Σ F∇s‖ (over the free blocks) it is measured against;
+    ``g``, ``s``: the contacts' penetration and shear motion at D."""
     contact = contact_vector(terms.normal_force(g), terms.shear_force(s))
     blocks = quadratic.product(d)
     free = quadratic.free
