@@ -360,13 +360,16 @@ def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
     normal force at the end of the last step and at this step's start geometry
     (a contact of blocks that turn together may open by the second-order rotation
     of one step and close again in the next: its last force is the better guess);
-    a contact found this step (no force known yet) starts stuck (``UNBOUNDED``)."""
+    a contact found this step touching (no force known yet) starts stuck
+    (``UNBOUNDED``); one found open starts with the bound of its start geometry (0
+    unless cohesive): a stuck shear spring on an open contact would join two blocks a
+    search distance apart in K and its block pattern."""
     if not law.friction:
         return np.zeros(len(contacts))
     start = contact_law.contact_terms(contacts, joints, law, np.zeros(len(contacts)))
     normal = np.maximum(start.normal_force(rows.penetration), contacts.normal_force)
     bound = contact_law.friction_bound(contacts, joints, normal)
-    return np.where(contacts.fresh, UNBOUNDED, bound)
+    return np.where(contacts.fresh & (contacts.state != OPEN), UNBOUNDED, bound)
 
 
 def _remembered_pieces(contacts: ContactSet, terms, g: np.ndarray, s: np.ndarray):
