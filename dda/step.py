@@ -450,7 +450,9 @@ def solve_step(
             if not ctx.static:
                 d = better_start(quadratic, geometry, terms, [d, _constant_velocity(blocks, ctx)])
             guess = _remembered_pieces(contacts, terms, *geometry.at(d))
-        inner = INNER_SOLVES if law.friction else None
+        # the first pass of a step with contacts found touching (bounds a guess) runs
+        # to convergence, so that the bounds start from consistent normal forces
+        inner = INNER_SOLVES if law.friction and not bounds.guessing else None
         newton = minimise(
             quadratic,
             geometry,

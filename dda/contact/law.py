@@ -141,9 +141,14 @@ class BoundIteration:
         self.bound = bound
         self._history: list[tuple[np.ndarray, np.ndarray]] = []  # (b, r) per solve
 
+    @property
+    def guessing(self) -> bool:
+        """True while some bound is a first guess (``UNBOUNDED``), not an iterate."""
+        return bool(np.any(self.bound >= 0.5 * UNBOUNDED))
+
     def advance(self, target: np.ndarray) -> None:
         """Move the bounds on, given ``target`` = G(current bounds)."""
-        if np.any(self.bound >= 0.5 * UNBOUNDED):  # a first guess, not an iterate
+        if self.guessing:
             self._history, self.bound = [], target
             return
         self._history = [*self._history[-self.DEPTH :], (self.bound, target - self.bound)]
