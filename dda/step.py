@@ -65,6 +65,12 @@ MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG 
 # follow the normal forces (measured, tunnel 0.3 s / 50x50 wall: 3 gives 24 solves a
 # step and no cut step / 152 ms a step; 2 gives 30 and one cut step / 147 ms)
 INNER_SOLVES = 3
+# ... and on a step's first bounds while some are a guess (contacts found touching, no
+# force known): measured on the tunnel, the staged tunnel and the slope (solves a step,
+# cut steps): 3 gives 21.0, 10.3, 4.37 and 3 cuts (one of them the tunnel's step 1);
+# 6 gives 17.7, 13.6, 4.46 and 1 (the tunnel's step 71, bounds that stall); to
+# convergence 18.9, 14.5, 4.42 and 1 (the staged tunnel's step 1, out of iterations)
+GUESSED_BOUND_SOLVES = 6
 SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
 NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
 
@@ -450,9 +456,9 @@ def solve_step(
             if not ctx.static:
                 d = better_start(quadratic, geometry, terms, [d, _constant_velocity(blocks, ctx)])
             guess = _remembered_pieces(contacts, terms, *geometry.at(d))
-        # the first pass of a step with contacts found touching (bounds a guess) runs
-        # to convergence, so that the bounds start from consistent normal forces
-        inner = INNER_SOLVES if law.friction and not bounds.guessing else None
+        inner = None
+        if law.friction:
+            inner = GUESSED_BOUND_SOLVES if bounds.guessing else INNER_SOLVES
         newton = minimise(
             quadratic,
             geometry,
