@@ -10,8 +10,9 @@ import pytest
 import dda
 from dda.bench import cli
 from dda.bench.report import growth_exponent, table
-from dda.bench.run import Measurement, measure
+from dda.bench.run import WARM_UP_STEPS, Measurement, measure
 from dda.bench.scenes import wall_scene
+from dda.jit import MIN_WORK
 
 
 def test_wall_scene_loads_with_shared_edges():
@@ -69,3 +70,9 @@ def test_machine_line_names_the_solver_threads_and_mkl_reproducibility(monkeypat
     assert machine_line().endswith("2 solver threads (DDA_THREADS)")
     monkeypatch.setenv("MKL_CBWR", "AUTO")
     assert machine_line().endswith("2 solver threads (DDA_THREADS), MKL_CBWR=AUTO")
+
+
+def test_warm_up_loads_the_compiled_kernels():
+    """The benchmark's warm-up does enough work (blocks x steps) for the kernels to load,
+    so that a size's ms/step does not carry their one-off loading."""
+    assert (20 * 20 + 1) * WARM_UP_STEPS >= MIN_WORK

@@ -23,6 +23,9 @@ from dda.linsolve import new_pardiso_handle, pardiso_available
 
 log = logging.getLogger(__name__)
 
+# a 20 x 20 wall (401 blocks) for this many steps reaches dda.jit.MIN_WORK: the
+# kernels load (from numba's cache) in the warm-up, not in the measured run
+WARM_UP_STEPS = 25
 STAGES = ("contact_search", "assembly", "factorisation", "solve", "contact_law", "update", "output")
 
 
@@ -76,8 +79,9 @@ def measure(
     columns, rows : wall size (``rows`` defaults to ``columns``)
     method : "penalty" or "augmented-lagrangian"
     steps : time steps
-    warm_up : run a 2 x 2 wall for 3 steps first (imports, compiled kernels) and
-        load the PARDISO library when it is used
+    warm_up : run a 20 x 20 wall for 25 steps first (imports, and enough work,
+        blocks x steps, for the compiled kernels to load) and load the PARDISO
+        library when it is used
     """
     rows = columns if rows is None else rows
     return _measure(columns, rows, method, steps, warm_up)
@@ -85,7 +89,7 @@ def measure(
 
 def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) -> Measurement:
     if warm_up:
-        dda.simulate(dda.load_scene(wall_scene(2, method=method, steps=3)))
+        dda.simulate(dda.load_scene(wall_scene(20, method=method, steps=WARM_UP_STEPS)))
         if pardiso_available():
             new_pardiso_handle()  # finding the MKL library is a one-off cost too
     scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps))
