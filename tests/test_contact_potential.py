@@ -7,9 +7,13 @@ the line search finds the minimiser a fine brute-force scan finds.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from dda import jit
+from dda.contact.law import UNBOUNDED
 from dda.contact.line_search import line_minimum
 from dda.contact.potential import (
     NORMAL_ELASTIC,
@@ -155,3 +159,26 @@ def test_no_descent_no_move():
     g, s = points(terms, 10)
     zero = np.zeros_like(g)
     assert line_minimum(terms, 1.0, 1.0, g, zero, s, zero) == (0.0, False)
+
+
+@pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
+@pytest.mark.parametrize("seed", range(8))
+def test_the_compiled_line_search_is_the_numpy_one(seed):
+    """The kernel large runs use against the numpy walk (the oracle): the same α and the
+    same answer to "did a contact change piece", also with bounds not known yet."""
+    terms = random_terms(seed, m=200)
+    if seed % 2:  # some bounds not known yet (contacts found this step)
+        bound = np.where(np.arange(200) % 7 == 0, UNBOUNDED, terms.bound)
+        terms = dataclasses.replace(terms, bound=bound)
+    g, s = points(terms, seed + 20)
+    rng = np.random.default_rng(seed + 30)
+    dg = rng.normal(0, 100, g.shape) / terms.penalty
+    ds = np.where(rng.random(s.shape) < 0.2, 0.0, rng.normal(0, 100, s.shape) / terms.penalty)
+    slope0 = float(np.dot(terms.normal_force(g), dg) + np.dot(terms.shear_force(s), ds))
+    for c in (float(rng.uniform(1, 1e3)), 0.0):
+        a = -slope0 - float(rng.uniform(1e2, 1e4))
+        compiled_alpha, compiled_changed = line_minimum(terms, a, c, g, dg, s, ds)
+        with jit.run_work(1, 1):  # a small run: the numpy path
+            alpha, changed = line_minimum(terms, a, c, g, dg, s, ds)
+        assert compiled_alpha == pytest.approx(alpha, rel=1e-12)
+        assert compiled_changed == changed

@@ -13,6 +13,8 @@ holds (the friction bound). The minimiser is the root of π': sort those
 breakpoints, follow π' from one to the next, and solve the linear piece where
 it changes sign. O(m log m) for m contacts, with no solve of K. Since
 π'' ≥ c, the root is at most −π'(0)/c: breakpoints beyond that are not sorted.
+Large runs use a compiled twin of the same steps (one pass over the contacts,
+a stable sort of the breakpoints that matter, one walk).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from dda.contact.potential import ContactTerms
+from dda.jit import compiled, kernel
 
 
 def _normal_breaks(terms: ContactTerms, g, dg):
@@ -75,6 +78,16 @@ def line_minimum(
     gradient, curvature : a and c of the blocks' quadratic part (module docstring)
     g, dg, s, ds : (m,) penetration and shear motion at α = 0, and their rates along ΔD
     """
+    if compiled(_line_minimum_kernel):
+        t = terms
+        return _line_minimum_kernel(
+            *(np.ascontiguousarray(x, dtype=np.float64) for x in (t.normal_base, t.penalty)),
+            *(np.ascontiguousarray(x, dtype=np.float64) for x in (t.tension, t.shear_base)),
+            *(np.ascontiguousarray(x, dtype=np.float64) for x in (t.shear_penalty, t.bound)),
+            *(np.ascontiguousarray(x, dtype=np.float64) for x in (g, dg, s, ds)),
+            float(gradient),
+            float(curvature),
+        )
     slope0 = gradient + float(np.dot(terms.normal_force(g), dg) + np.dot(terms.shear_force(s), ds))
     if not slope0 < 0.0:
         return 0.0, False  # no descent along ΔD (already at the minimum)
@@ -100,3 +113,59 @@ def line_minimum(
         return float(starts[min(k + 1, len(alphas))]), k > 0
     alpha = float(starts[k] - values[k] / slopes[k])
     return alpha, k > 0
+
+
+def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, curvature):
+    """Compiled :func:`line_minimum`: the same breakpoints, order and walk."""
+    m = g.shape[0]
+    slope0 = gradient
+    for c in range(m):
+        normal = max(lam_n[c] + p[c] * g[c], -tension[c])
+        shear = min(max(lam_t[c] + ps[c] * s[c], -bound[c]), bound[c])
+        slope0 += normal * dg[c] + shear * ds[c]
+    if not slope0 < 0.0:
+        return 0.0, False
+    reach = -slope0 / curvature if curvature > 0.0 else np.inf
+    alphas, jumps = np.empty(3 * m), np.empty(3 * m)
+    count = 0
+    slope = curvature
+    for c in range(m):
+        trial_n = lam_n[c] + p[c] * g[c]
+        if trial_n > -tension[c] or (trial_n == -tension[c] and dg[c] > 0.0):
+            slope += p[c] * dg[c] * dg[c]  # elastic just after α = 0
+        if dg[c] != 0.0:
+            alpha = (-tension[c] - trial_n) / (p[c] * dg[c])
+            if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
+                alphas[count], jumps[count] = alpha, np.sign(dg[c]) * p[c] * dg[c] * dg[c]
+                count += 1
+        b = bound[c]
+        if not (ps[c] > 0.0 and b > 0.0):
+            continue
+        trial_t = lam_t[c] + ps[c] * s[c]
+        if abs(trial_t) < b or (trial_t == b and ds[c] < 0.0) or (trial_t == -b and ds[c] > 0.0):
+            slope += ps[c] * ds[c] * ds[c]  # stuck just after α = 0
+        if ds[c] == 0.0:
+            continue
+        k = ps[c] * ds[c] * ds[c]
+        for edge, jump in ((b, -np.sign(ds[c]) * k), (-b, np.sign(ds[c]) * k)):
+            alpha = (edge - trial_t) / (ps[c] * ds[c])
+            if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
+                alphas[count], jumps[count] = alpha, jump
+                count += 1
+    order = np.argsort(alphas[:count], kind="mergesort")
+    value, start = slope0, 0.0
+    for i in range(count):
+        at = alphas[order[i]]
+        reached = value + slope * (at - start)
+        if reached >= 0.0:  # the root lies on [start, at]
+            if slope <= 0.0:
+                return at, i > 0
+            return start - value / slope, i > 0
+        value, start = reached, at
+        slope += jumps[order[i]]
+    if slope <= 0.0:
+        return start, count > 0
+    return start - value / slope, count > 0
+
+
+_line_minimum_kernel = kernel(_line_minimum)
