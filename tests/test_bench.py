@@ -76,3 +76,25 @@ def test_warm_up_loads_the_compiled_kernels():
     """The benchmark's warm-up does enough work (blocks x steps) for the kernels to load,
     so that a size's ms/step does not carry their one-off loading."""
     assert (20 * 20 + 1) * WARM_UP_STEPS >= MIN_WORK
+
+
+def test_repeat_keeps_the_fastest_run(monkeypatch, capsys):
+    """``--repeat 3``: three runs of each size, the table shows the fastest."""
+    import dda.bench.run as run
+
+    seconds = iter([0.3, 0.1, 0.2])
+    made = []
+
+    def fake(columns, method, steps):
+        made.append(columns)
+        return Measurement(columns, columns, method, steps, columns**2 + 1, next(seconds), 4, 2)
+
+    monkeypatch.setattr(run, "measure_in_subprocess", fake)
+    parser = argparse.ArgumentParser()
+    cli.register(parser.add_subparsers())
+    args = parser.parse_args(["bench", "--sizes", "2", "--method", "penalty", "--repeat", "3"])
+    assert args.func(args) == 0
+    assert made == [2, 2, 2]
+    out = capsys.readouterr().out
+    assert "| 1.00 |" in out  # 0.1 s over 100 steps
+    assert "--repeat 3 (fastest of 3 runs)" in out

@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass, field
 
 import dda
 from dda.bench.scenes import wall_scene
+from dda.jit import MIN_WORK
 from dda.linsolve import new_pardiso_handle, pardiso_available
 
 log = logging.getLogger(__name__)
@@ -79,9 +80,9 @@ def measure(
     columns, rows : wall size (``rows`` defaults to ``columns``)
     method : "penalty" or "augmented-lagrangian"
     steps : time steps
-    warm_up : run a 20 x 20 wall for 25 steps first (imports, and enough work,
-        blocks x steps, for the compiled kernels to load) and load the PARDISO
-        library when it is used
+    warm_up : run a small wall first (imports; a 20 x 20 wall for 25 steps, enough
+        work for the compiled kernels to load, when the measured run uses them)
+        and load the PARDISO library when it is used
     """
     rows = columns if rows is None else rows
     return _measure(columns, rows, method, steps, warm_up)
@@ -89,7 +90,9 @@ def measure(
 
 def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) -> Measurement:
     if warm_up:
-        dda.simulate(dda.load_scene(wall_scene(20, method=method, steps=WARM_UP_STEPS)))
+        kernels = (columns * rows + 1) * steps >= MIN_WORK  # the measured run uses them
+        size, warm_steps = (20, WARM_UP_STEPS) if kernels else (2, 3)
+        dda.simulate(dda.load_scene(wall_scene(size, method=method, steps=warm_steps)))
         if pardiso_available():
             new_pardiso_handle()  # finding the MKL library is a one-off cost too
     scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps))
