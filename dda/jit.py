@@ -5,7 +5,7 @@ site. numba is a dependency of the default install, but it is imported only
 when a kernel is first called: compiling a kernel (once per installation;
 numba caches the machine code on disk, ``cache=True``) or loading it from
 that cache costs time and memory that a small run never earns back (about
-0.6 s and 120 MiB for the 18 kernels; the numpy twins are 1-4 ms per step
+0.6 s and 120 MiB for the 19 kernels; the numpy twins are 1-4 ms per step
 slower on walls of 10-100 blocks). Call sites therefore ask
 :func:`compiled`, which says yes outside a run and, inside one, when the
 run's expected work (blocks x steps, :func:`run_work`) reaches

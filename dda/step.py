@@ -367,9 +367,9 @@ def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
     (a contact of blocks that turn together may open by the second-order rotation
     of one step and close again in the next: its last force is the better guess);
     a contact found this step touching (no force known yet) starts stuck
-    (``UNBOUNDED``); one found open starts with the bound of its start geometry (0
-    unless cohesive): a stuck shear spring on an open contact would join two blocks a
-    search distance apart in K and its block pattern."""
+    (``UNBOUNDED``); one found open starts with the bound of its start geometry (0: no
+    normal force, and no bond across a gap): a stuck shear spring on an open contact
+    would join two blocks a search distance apart in K and its block pattern."""
     if not law.friction:
         return np.zeros(len(contacts))
     start = contact_law.contact_terms(contacts, joints, law, np.zeros(len(contacts)))

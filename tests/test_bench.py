@@ -10,7 +10,7 @@ import pytest
 import dda
 from dda.bench import cli
 from dda.bench.report import growth_exponent, table
-from dda.bench.run import WARM_UP_STEPS, Measurement, measure
+from dda.bench.run import WARM_UP_SIZE, WARM_UP_STEPS, Measurement, measure
 from dda.bench.scenes import wall_scene
 from dda.jit import MIN_WORK
 
@@ -75,7 +75,7 @@ def test_machine_line_names_the_solver_threads_and_mkl_reproducibility(monkeypat
 def test_warm_up_loads_the_compiled_kernels():
     """The benchmark's warm-up does enough work (blocks x steps) for the kernels to load,
     so that a size's ms/step does not carry their one-off loading."""
-    assert (20 * 20 + 1) * WARM_UP_STEPS >= MIN_WORK
+    assert (WARM_UP_SIZE**2 + 1) * WARM_UP_STEPS >= MIN_WORK
 
 
 def test_repeat_keeps_the_fastest_run(monkeypatch, capsys):

@@ -14,7 +14,7 @@ import pytest
 
 from dda import jit
 from dda.contact.law import UNBOUNDED
-from dda.contact.line_search import line_minimum
+from dda.contact.line_search import _normal_breaks, _shear_breaks, line_minimum
 from dda.contact.potential import (
     NORMAL_ELASTIC,
     NORMAL_LIMIT,
@@ -161,24 +161,52 @@ def test_no_descent_no_move():
     assert line_minimum(terms, 1.0, 1.0, g, zero, s, zero) == (0.0, False)
 
 
+def both_line_searches(terms, a, c, g, dg, s, ds):
+    """(α, changed) of the kernel large runs use and of the numpy walk (the oracle)."""
+    compiled = line_minimum(terms, a, c, g, dg, s, ds)
+    with jit.run_work(1, 1):  # a small run: the numpy path
+        oracle = line_minimum(terms, a, c, g, dg, s, ds)
+    return compiled, oracle
+
+
 @pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
-@pytest.mark.parametrize("seed", range(8))
-def test_the_compiled_line_search_is_the_numpy_one(seed):
-    """The kernel large runs use against the numpy walk (the oracle): the same α and the
-    same answer to "did a contact change piece", also with bounds not known yet."""
-    terms = random_terms(seed, m=200)
-    if seed % 2:  # some bounds not known yet (contacts found this step)
-        bound = np.where(np.arange(200) % 7 == 0, UNBOUNDED, terms.bound)
-        terms = dataclasses.replace(terms, bound=bound)
-    g, s = points(terms, seed + 20)
-    rng = np.random.default_rng(seed + 30)
-    dg = rng.normal(0, 100, g.shape) / terms.penalty
-    ds = np.where(rng.random(s.shape) < 0.2, 0.0, rng.normal(0, 100, s.shape) / terms.penalty)
-    slope0 = float(np.dot(terms.normal_force(g), dg) + np.dot(terms.shear_force(s), ds))
-    for c in (float(rng.uniform(1, 1e3)), 0.0):
-        a = -slope0 - float(rng.uniform(1e2, 1e4))
-        compiled_alpha, compiled_changed = line_minimum(terms, a, c, g, dg, s, ds)
-        with jit.run_work(1, 1):  # a small run: the numpy path
-            alpha, changed = line_minimum(terms, a, c, g, dg, s, ds)
-        assert compiled_alpha == pytest.approx(alpha, rel=1e-12)
-        assert compiled_changed == changed
+def test_the_compiled_line_search_is_the_numpy_one():
+    """The same α (to rounding: sums and ties go in another order) and the same answer
+    to "did a contact change piece", on lines whose root falls before, among and beyond
+    the contacts' breakpoints, with bounds not known yet, zero curvature and zero rates."""
+    outcomes = set()
+    for seed in range(12):
+        terms = random_terms(seed, m=200)
+        if seed % 2:  # some bounds not known yet (contacts found this step)
+            bound = np.where(np.arange(200) % 7 == 0, UNBOUNDED, terms.bound)
+            terms = dataclasses.replace(terms, bound=bound)
+        g, s = points(terms, seed + 20)
+        rng = np.random.default_rng(seed + 30)
+        # rates that move each contact by about its own force scale: p δg² ~ 1e2
+        dg = rng.normal(0, 10, g.shape) / np.sqrt(terms.penalty)
+        ds = np.where(rng.random(s.shape) < 0.2, 0.0, rng.normal(0, 10, s.shape))
+        ds = ds / np.sqrt(terms.penalty)
+        slope0 = float(np.dot(terms.normal_force(g), dg) + np.dot(terms.shear_force(s), ds))
+        for c, push in ((1e9, 1e2), (1e2, 1e3), (1e-3, 1e3), (1e-3, 1e8), (0.0, 1e2)):
+            a = -slope0 - push
+            (alpha, changed), (oracle_alpha, oracle_changed) = both_line_searches(
+                terms, a, c, g, dg, s, ds
+            )
+            assert alpha == pytest.approx(oracle_alpha, rel=1e-12)
+            assert changed == oracle_changed
+            breaks = np.concatenate(
+                [_normal_breaks(terms, g, dg)[0], _shear_breaks(terms, s, ds)[0]]
+            )
+            outcomes.add((changed, bool(alpha < breaks[breaks < 1e200].max())))
+    # roots before the first breakpoint, among them, and beyond the last finite one
+    assert outcomes == {(False, True), (True, True), (True, False)}
+
+
+@pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
+def test_the_compiled_line_search_skips_zero_rates():
+    """p δg = 0 (no penalty) or ps δs = 0: no breakpoint, as in the numpy walk."""
+    terms = dataclasses.replace(random_terms(3, m=50), penalty=np.zeros(50))
+    g, s = points(random_terms(3, m=50), 4)
+    dg, ds = np.ones(50), np.zeros(50)
+    compiled, oracle = both_line_searches(terms, -1e3, 1.0, g, dg, s, ds)
+    assert compiled == pytest.approx(oracle, rel=1e-12)

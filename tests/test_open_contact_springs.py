@@ -3,23 +3,28 @@
 With a search distance of several block sizes (a large wall's default, or a large
 ``max_displacement_ratio``), the contact list holds vertex-edge pairings of blocks
 two or three blocks apart. Such a contact starts open and stays open: its normal
-force and its friction bound are zero, so neither its normal nor its shear spring
-may enter K (a shear spring there would join the two blocks in K and in its block
-pattern: a 100 x 100 wall rebuilt its pattern every step, 19,800 -> 34,000 pairs).
+force and its friction bound are zero (a gap has no bond, so no cohesion either),
+so neither its normal nor its shear spring may enter K (a shear spring there would
+join the two blocks in K and in its block pattern: a 100 x 100 wall rebuilt its
+pattern every step, 19,800 -> 34,000 pairs).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import dda
 import dda.step as step
 from dda.bench.scenes import wall_scene
 
 
-def test_contacts_a_block_apart_get_no_spring(monkeypatch):
+@pytest.mark.parametrize("cohesion", [0.0, 10.0])
+def test_contacts_a_block_apart_get_no_spring(monkeypatch, cohesion):
+    """Also on cohesive joints: a contact found open has no bond (no cohesion)."""
     scene = wall_scene(6, steps=3)
     scene["analysis"]["max_displacement_ratio"] = 0.25  # search distance ≈ 3 blocks
+    scene["joints"]["default"]["cohesion"] = cohesion
     seen = {"far": 0, "sprung": 0}
     original = step._PieceSystem.__call__
 

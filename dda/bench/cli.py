@@ -65,7 +65,8 @@ def run_command(args: argparse.Namespace) -> int:
             except RuntimeError as exc:
                 log.error("%dx%d %s: %s", size, size, method, exc)
                 return 1
-            m = min(runs, key=lambda run: run.seconds)
+            finished = [run for run in runs if run.status == "finished"] or runs
+            m = min(finished, key=lambda run: run.ms_per_step)
             results.append(m)
             print(table([m]).splitlines()[-1] if len(results) > 1 else table([m]), flush=True)
     print(f"\nmachine: {machine_line()}")

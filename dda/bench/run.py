@@ -19,14 +19,15 @@ from dataclasses import asdict, dataclass, field
 
 import dda
 from dda.bench.scenes import wall_scene
-from dda.jit import MIN_WORK
+from dda.jit import MIN_WORK, numba_enabled
 from dda.linsolve import new_pardiso_handle, pardiso_available
 
 log = logging.getLogger(__name__)
 
-# a 20 x 20 wall (401 blocks) for this many steps reaches dda.jit.MIN_WORK: the
-# kernels load (from numba's cache) in the warm-up, not in the measured run
-WARM_UP_STEPS = 25
+# a 10 x 10 wall (101 blocks) for this many steps reaches dda.jit.MIN_WORK: the
+# kernels load (from numba's cache) in the warm-up, not in the measured run, and the
+# warm-up's peak memory stays below that of the runs that use them
+WARM_UP_SIZE, WARM_UP_STEPS = 10, 100
 STAGES = ("contact_search", "assembly", "factorisation", "solve", "contact_law", "update", "output")
 
 
@@ -80,7 +81,7 @@ def measure(
     columns, rows : wall size (``rows`` defaults to ``columns``)
     method : "penalty" or "augmented-lagrangian"
     steps : time steps
-    warm_up : run a small wall first (imports; a 20 x 20 wall for 25 steps, enough
+    warm_up : run a small wall first (imports; a 10 x 10 wall for 100 steps, enough
         work for the compiled kernels to load, when the measured run uses them)
         and load the PARDISO library when it is used
     """
@@ -90,8 +91,8 @@ def measure(
 
 def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) -> Measurement:
     if warm_up:
-        kernels = (columns * rows + 1) * steps >= MIN_WORK  # the measured run uses them
-        size, warm_steps = (20, WARM_UP_STEPS) if kernels else (2, 3)
+        kernels = numba_enabled() and (columns * rows + 1) * steps >= MIN_WORK  # used
+        size, warm_steps = (WARM_UP_SIZE, WARM_UP_STEPS) if kernels else (2, 3)
         dda.simulate(dda.load_scene(wall_scene(size, method=method, steps=warm_steps)))
         if pardiso_available():
             new_pardiso_handle()  # finding the MKL library is a one-off cost too

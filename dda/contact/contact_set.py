@@ -121,28 +121,30 @@ def merge(
 ) -> ContactSet:
     """Build this step's set, carrying over what persists from ``previous``.
 
-    New contacts start LOCKED when touching (penetration ≥ -``touch_tolerance``), else
-    OPEN; multipliers 0; penalty ``initial_penalty``; shear reference at the
-    vertex's current projection ``initial_parameter``. ``keys``: the pairs'
+    New contacts start LOCKED and intact (bonded: the joint's cohesion and tensile
+    strength hold) when touching (penetration ≥ -``touch_tolerance``), else OPEN and
+    not bonded (a gap has no bond); multipliers 0; penalty ``initial_penalty``; shear
+    reference at the vertex's current projection ``initial_parameter``. ``keys``: the pairs'
     :func:`contact_keys`, and ``previous_rows`` their :func:`rows_in` ``previous``,
     when the caller has them already.
     """
     owner = blocks.vertex_owner
     m = len(vertex)
     keys = contact_keys(blocks, vertex, edge) if keys is None else keys
+    touching = initial_penetration >= -touch_tolerance
     new = ContactSet(
         vertex=vertex,
         edge=edge,
         block_a=owner[vertex],
         block_b=owner[edge],
         key=keys,
-        state=np.where(initial_penetration >= -touch_tolerance, LOCKED, OPEN).astype(np.int8),
+        state=np.where(touching, LOCKED, OPEN).astype(np.int8),
         normal_multiplier=np.zeros(m),
         shear_multiplier=np.zeros(m),
         penalty=np.full(m, float(initial_penalty)),
         reference=np.asarray(initial_parameter, float).copy(),
         slide_direction=np.zeros(m),
-        intact=np.ones(m, bool),
+        intact=np.asarray(touching, bool).copy(),
         fresh=np.ones(m, bool),
         normal_force=np.zeros(m),
         shear_force=np.zeros(m),

@@ -14,7 +14,8 @@ breakpoints, follow π' from one to the next, and solve the linear piece where
 it changes sign. O(m log m) for m contacts, with no solve of K. Since
 π'' ≥ c, the root is at most −π'(0)/c: breakpoints beyond that are not sorted.
 Large runs use a compiled twin of the same steps (one pass over the contacts,
-a stable sort of the breakpoints that matter, one walk).
+a stable sort of the breakpoints that matter, one walk); it sums and orders ties
+in another order, so the two agree to rounding.
 """
 
 from __future__ import annotations
@@ -116,7 +117,7 @@ def line_minimum(
 
 
 def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, curvature):
-    """Compiled :func:`line_minimum`: the same breakpoints, order and walk."""
+    """Compiled :func:`line_minimum`: the same breakpoints and walk."""
     m = g.shape[0]
     slope0 = gradient
     for c in range(m):
@@ -133,8 +134,9 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
         trial_n = lam_n[c] + p[c] * g[c]
         if trial_n > -tension[c] or (trial_n == -tension[c] and dg[c] > 0.0):
             slope += p[c] * dg[c] * dg[c]  # elastic just after α = 0
-        if dg[c] != 0.0:
-            alpha = (-tension[c] - trial_n) / (p[c] * dg[c])
+        rate_n = p[c] * dg[c]
+        if rate_n != 0.0:  # (numpy: α not finite where p δg = 0)
+            alpha = (-tension[c] - trial_n) / rate_n
             if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
                 alphas[count], jumps[count] = alpha, np.sign(dg[c]) * p[c] * dg[c] * dg[c]
                 count += 1
@@ -144,11 +146,12 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
         trial_t = lam_t[c] + ps[c] * s[c]
         if abs(trial_t) < b or (trial_t == b and ds[c] < 0.0) or (trial_t == -b and ds[c] > 0.0):
             slope += ps[c] * ds[c] * ds[c]  # stuck just after α = 0
-        if ds[c] == 0.0:
+        rate_t = ps[c] * ds[c]
+        if rate_t == 0.0:
             continue
         k = ps[c] * ds[c] * ds[c]
         for edge, jump in ((b, -np.sign(ds[c]) * k), (-b, np.sign(ds[c]) * k)):
-            alpha = (edge - trial_t) / (ps[c] * ds[c])
+            alpha = (edge - trial_t) / rate_t
             if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
                 alphas[count], jumps[count] = alpha, jump
                 count += 1
