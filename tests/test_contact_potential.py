@@ -170,15 +170,16 @@ def both_line_searches(terms, a, c, g, dg, s, ds):
 
 
 @pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
-def test_the_compiled_line_search_is_the_numpy_one():
+@pytest.mark.parametrize("m", [60, 3000])  # 3000: breakpoints halved around the root first
+def test_the_compiled_line_search_is_the_numpy_one(m):
     """The same α (to rounding: sums and ties go in another order) and the same answer
     to "did a contact change piece", on lines whose root falls before, among and beyond
     the contacts' breakpoints, with bounds not known yet, zero curvature and zero rates."""
     outcomes = set()
     for seed in range(12):
-        terms = random_terms(seed, m=200)
+        terms = random_terms(seed, m=m)
         if seed % 2:  # some bounds not known yet (contacts found this step)
-            bound = np.where(np.arange(200) % 7 == 0, UNBOUNDED, terms.bound)
+            bound = np.where(np.arange(m) % 7 == 0, UNBOUNDED, terms.bound)
             terms = dataclasses.replace(terms, bound=bound)
         g, s = points(terms, seed + 20)
         rng = np.random.default_rng(seed + 30)

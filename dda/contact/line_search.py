@@ -116,8 +116,15 @@ def line_minimum(
     return alpha, k > 0
 
 
+# breakpoints the compiled line search sorts and walks: more are first halved around the
+# root by π' at their median (sorting 100,000 breakpoints costs ~10 ms, a pass ~0.1 ms)
+NARROWED = 256
+
+
 def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, curvature):
-    """Compiled :func:`line_minimum`: the same breakpoints and walk."""
+    """Compiled :func:`line_minimum`: the same breakpoints; more than ``NARROWED`` of them
+    are first halved around the root (π' at their median, one pass over the contacts
+    each), then the rest are sorted and walked as in the numpy path."""
     m = g.shape[0]
     slope0 = gradient
     for c in range(m):
@@ -149,26 +156,63 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
         rate_t = ps[c] * ds[c]
         if rate_t == 0.0:
             continue
-        k = ps[c] * ds[c] * ds[c]
-        for edge, jump in ((b, -np.sign(ds[c]) * k), (-b, np.sign(ds[c]) * k)):
-            alpha = (edge - trial_t) / rate_t
-            if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
-                alphas[count], jumps[count] = alpha, jump
-                count += 1
-    order = np.argsort(alphas[:count], kind="mergesort")
-    value, start = slope0, 0.0
-    for i in range(count):
+        jump = np.sign(ds[c]) * ps[c] * ds[c] * ds[c]
+        alpha = (b - trial_t) / rate_t  # reaches +b: leaves the stuck piece when δs > 0
+        if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
+            alphas[count], jumps[count] = alpha, -jump
+            count += 1
+        alpha = (-b - trial_t) / rate_t  # reaches -b: leaves it when δs < 0
+        if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
+            alphas[count], jumps[count] = alpha, jump
+            count += 1
+    first = alphas[:count].min() if count else np.inf  # a contact changes piece before the
+    # root when the root lies beyond the first breakpoint (π' < 0 there)
+    start, value, kept = 0.0, slope0, count
+    while kept > NARROWED:  # halve the breakpoints around the root: O(m) a halving, no sort
+        pivot = np.median(alphas[: kept : kept // 63 + 1])  # of a sample: about halves
+        at_pivot = _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, pivot)
+        at_pivot += gradient + curvature * pivot
+        if not np.isfinite(at_pivot):
+            break  # far breakpoints (bounds not known yet): the plain walk below
+        below = at_pivot >= 0.0  # root on (start, pivot]: keep the breakpoints before it
+        left = 0
+        for i in range(kept):  # compact the kept ones in place
+            if (alphas[i] < pivot) if below else (alphas[i] > pivot):
+                alphas[left], jumps[left] = alphas[i], jumps[i]
+                left += 1
+            elif not below:  # passed on the way to the root: it changes the slope
+                slope += jumps[i]
+        if not below:
+            start, value = pivot, at_pivot
+        if left == kept:
+            break
+        kept = left
+    order = np.argsort(alphas[:kept], kind="mergesort")
+    for i in range(kept):
         at = alphas[order[i]]
         reached = value + slope * (at - start)
         if reached >= 0.0:  # the root lies on [start, at]
             if slope <= 0.0:
-                return at, i > 0
-            return start - value / slope, i > 0
+                return at, at > first
+            root = start - value / slope
+            return root, root > first
         value, start = reached, at
         slope += jumps[order[i]]
     if slope <= 0.0:
-        return start, count > 0
-    return start - value / slope, count > 0
+        return start, start > first
+    root = start - value / slope
+    return root, root > first
 
 
+def _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, alpha):
+    """Σ N(g + α δg) δg + Σ F(s + α δs) δs: the contacts' part of π'(α)."""
+    total = 0.0
+    for c in range(g.shape[0]):
+        normal = max(lam_n[c] + p[c] * (g[c] + alpha * dg[c]), -tension[c])
+        trial = lam_t[c] + ps[c] * (s[c] + alpha * ds[c])
+        total += normal * dg[c] + min(max(trial, -bound[c]), bound[c]) * ds[c]
+    return total
+
+
+_derivative = kernel(_derivative) or _derivative  # the compiled kernel calls compiled twins
 _line_minimum_kernel = kernel(_line_minimum)
