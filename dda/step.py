@@ -38,7 +38,7 @@ from dda.effects.base import StepContext
 from dda.linsolve import ReusingSolver, block_ordering
 from dda.low_rank import StepUpdates
 from dda.model import Model
-from dda.newton import BlockQuadratic, ContactGeometry, better_start, minimise
+from dda.newton import BlockQuadratic, ContactGeometry, better_start, chord_rate, minimise
 from dda.pair_springs import PairSprings
 from dda.result import LOCKED, OPEN, SLIDING
 from dda.timing import StageTimer
@@ -470,6 +470,7 @@ def solve_step(
             guess,
             chord=system.chord,
             max_steps=inner,
+            rate=chord_rate(6 * int(np.count_nonzero(~blocks.fixed))),
         )
         solves += newton.solves
         chords += newton.chords

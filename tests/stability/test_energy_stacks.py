@@ -123,3 +123,14 @@ def test_the_ringing_wall_gains_no_energy_through_chord_steps(monkeypatch):
     assert sum(chords) > 100  # measured: 433 chord steps in 100 steps; largest gain −1.3e-7 E₀
     assert result.summary["cut_steps"] == 0
     assert largest_gain(result) <= SLACK
+
+
+def test_the_ringing_wall_gains_no_energy_with_the_large_systems_chord_rate(monkeypatch):
+    """The same wall with the chord rate of large systems (chord steps go on while each
+    leaves at most 0.85 of ‖∇Π‖): more chord steps, still descent, no energy created."""
+    from dda.bench.scenes import wall_scene
+
+    monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)  # every system counts as large
+    result = dda.simulate(dda.load_scene(wall_scene(10, steps=100)))
+    assert result.summary["cut_steps"] == 0
+    assert largest_gain(result) <= SLACK
