@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dda.assembly import (
+    BLOCK,
     BlockPattern,
     add_force_terms,
     assemble,
@@ -447,6 +448,7 @@ def solve_step(
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
+    rate = chord_rate(BLOCK * int(np.count_nonzero(~blocks.fixed)))  # chord steps' rate
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None
     while solves < budget:
@@ -470,7 +472,7 @@ def solve_step(
             guess,
             chord=system.chord,
             max_steps=inner,
-            rate=chord_rate(6 * int(np.count_nonzero(~blocks.fixed))),
+            rate=rate,
         )
         solves += newton.solves
         chords += newton.chords

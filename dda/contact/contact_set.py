@@ -131,7 +131,7 @@ def merge(
     owner = blocks.vertex_owner
     m = len(vertex)
     keys = contact_keys(blocks, vertex, edge) if keys is None else keys
-    touching = initial_penetration >= -touch_tolerance
+    touching = np.asarray(initial_penetration) >= -touch_tolerance  # a new bool array
     new = ContactSet(
         vertex=vertex,
         edge=edge,
@@ -144,7 +144,7 @@ def merge(
         penalty=np.full(m, float(initial_penalty)),
         reference=np.asarray(initial_parameter, float).copy(),
         slide_direction=np.zeros(m),
-        intact=np.asarray(touching, bool).copy(),
+        intact=touching,
         fresh=np.ones(m, bool),
         normal_force=np.zeros(m),
         shear_force=np.zeros(m),

@@ -81,14 +81,10 @@ def line_minimum(
     """
     if compiled(_line_minimum_kernel):
         t = terms
-        return _line_minimum_kernel(
-            *(np.ascontiguousarray(x, dtype=np.float64) for x in (t.normal_base, t.penalty)),
-            *(np.ascontiguousarray(x, dtype=np.float64) for x in (t.tension, t.shear_base)),
-            *(np.ascontiguousarray(x, dtype=np.float64) for x in (t.shear_penalty, t.bound)),
-            *(np.ascontiguousarray(x, dtype=np.float64) for x in (g, dg, s, ds)),
-            float(gradient),
-            float(curvature),
-        )
+        arrays = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
+        arrays += (g, dg, s, ds)
+        contiguous = (np.ascontiguousarray(x, dtype=np.float64) for x in arrays)
+        return _line_minimum_kernel(*contiguous, float(gradient), float(curvature))
     slope0 = gradient + float(np.dot(terms.normal_force(g), dg) + np.dot(terms.shear_force(s), ds))
     if not slope0 < 0.0:
         return 0.0, False  # no descent along ΔD (already at the minimum)
@@ -126,11 +122,7 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
     are first halved around the root (π' at their median, one pass over the contacts
     each), then the rest are sorted and walked as in the numpy path."""
     m = g.shape[0]
-    slope0 = gradient
-    for c in range(m):
-        normal = max(lam_n[c] + p[c] * g[c], -tension[c])
-        shear = min(max(lam_t[c] + ps[c] * s[c], -bound[c]), bound[c])
-        slope0 += normal * dg[c] + shear * ds[c]
+    slope0 = _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, 0.0, gradient)
     if not slope0 < 0.0:
         return 0.0, False
     reach = -slope0 / curvature if curvature > 0.0 else np.inf
@@ -170,7 +162,7 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
     start, value, kept = 0.0, slope0, count
     while kept > NARROWED:  # halve the breakpoints around the root: O(m) a halving, no sort
         pivot = np.median(alphas[: kept : kept // 63 + 1])  # of a sample: about halves
-        at_pivot = _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, pivot)
+        at_pivot = _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, pivot, 0.0)
         at_pivot += gradient + curvature * pivot
         if not np.isfinite(at_pivot):
             break  # far breakpoints (bounds not known yet): the plain walk below
@@ -204,9 +196,8 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
     return root, root > first
 
 
-def _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, alpha):
-    """Σ N(g + α δg) δg + Σ F(s + α δs) δs: the contacts' part of π'(α)."""
-    total = 0.0
+def _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, alpha, total):
+    """``total`` + Σ N(g + α δg) δg + Σ F(s + α δs) δs: the contacts' part of π'(α)."""
     for c in range(g.shape[0]):
         normal = max(lam_n[c] + p[c] * (g[c] + alpha * dg[c]), -tension[c])
         trial = lam_t[c] + ps[c] * (s[c] + alpha * ds[c])
