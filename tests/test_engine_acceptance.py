@@ -45,6 +45,23 @@ def test_the_sliding_block_error_does_not_grow_as_the_time_step_shrinks(time_ste
     assert abs(moved - expected) <= 5e-5
 
 
+@pytest.mark.parametrize("time_step", [0.01, 0.0025, 0.000625])
+def test_the_sliding_block_error_stays_small_with_the_large_systems_chord_rate(
+    time_step, monkeypatch
+):
+    """The same bound at every Δt when chord steps go on to 0.85 of the residual (the
+    rule of systems of 5,000 unknowns and more, here forced on a two-block scene)."""
+    import dda.newton
+
+    monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)
+    theta = np.radians(30.0)
+    result = dda.simulate(slope_scene(20.0, time_step=time_step))
+    moved = np.linalg.norm(result.final.displacements[1])
+    t = result.final.time
+    expected = 0.5 * G * (np.sin(theta) - np.cos(theta) * np.tan(np.radians(20.0))) * t**2
+    assert abs(moved - expected) <= 5e-5
+
+
 @pytest.mark.parametrize("method", ["augmented-lagrangian", "penalty"])
 def test_block_holds_on_slope_when_friction_exceeds_slope(method):
     """φ = 35° on a 30° slope: the block stays (displacement < 1 mm)."""
