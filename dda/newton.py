@@ -53,7 +53,14 @@ LARGE_CHORD_RATE, LARGE_ROWS = 0.85, 5_000
 
 def chord_rate(rows: int) -> float:
     """The ``CHORD_RATE`` of a system of ``rows`` unknowns."""
-    return LARGE_CHORD_RATE if rows >= LARGE_ROWS else CHORD_RATE
+    return LARGE_CHORD_RATE if large_system(rows) else CHORD_RATE
+
+
+def large_system(rows: int) -> bool:
+    """True for systems of ``LARGE_ROWS`` unknowns or more: there a factorisation costs
+    many back-substitutions, so chord steps go on longer (:func:`chord_rate`) and a
+    pass on new friction bounds starts with a chord step (``minimise(chord_first=True)``)."""
+    return rows >= LARGE_ROWS
 
 
 @dataclass(frozen=True)
@@ -132,6 +139,7 @@ def minimise(
     chord: ChordSolver | None = None,
     max_steps: int | None = None,
     rate: float = CHORD_RATE,
+    chord_first: bool = False,
 ) -> NewtonResult:
     """Minimise Π from ``start`` with at most ``max_solves`` Newton iterations and
     at most ``max_steps`` iterations in all (Newton iterations and chord steps).
@@ -145,7 +153,10 @@ def minimise(
     is the chord direction −K_f⁻¹ ∇Π(D): one back-substitution, no assembly and
     no factorisation, and a descent direction for any positive definite K_f.
     Chord steps go on while each shrinks ‖∇Π‖ to at most ``rate`` of what it was
-    (:func:`chord_rate`); then a Newton iteration again.
+    (:func:`chord_rate`); then a Newton iteration again. ``chord_first``: the first
+    direction is the chord direction at ``start`` too (a pass that goes on from where
+    the last one stopped, on slightly other contact data: the kept factorisation
+    still fits it).
     ``iterates``: a list to which every iterate D is appended (diagnostics).
     """
     d = start
@@ -153,6 +164,8 @@ def minimise(
     g, s = geometry.at(d)
     pieces = first_pieces
     gradient = None  # ∇Π at d when the next direction is a chord direction
+    if chord_first and chord is not None:
+        gradient = _residual(quadratic, terms, contact_vector, d, g, s)[0]
     solves = chords = 0
     while solves < max_solves and (max_steps is None or solves + chords < max_steps):
         direction = None if gradient is None else chord(gradient)

@@ -39,7 +39,14 @@ from dda.effects.base import StepContext
 from dda.linsolve import ReusingSolver, block_ordering
 from dda.low_rank import StepUpdates
 from dda.model import Model
-from dda.newton import BlockQuadratic, ContactGeometry, better_start, chord_rate, minimise
+from dda.newton import (
+    BlockQuadratic,
+    ContactGeometry,
+    better_start,
+    chord_rate,
+    large_system,
+    minimise,
+)
 from dda.pair_springs import PairSprings
 from dda.result import LOCKED, OPEN, SLIDING
 from dda.timing import StageTimer
@@ -448,9 +455,11 @@ def solve_step(
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
-    rate = chord_rate(BLOCK * int(np.count_nonzero(~blocks.fixed)))  # chord steps' rate
+    unknowns = BLOCK * int(np.count_nonzero(~blocks.fixed))
+    rate, large = chord_rate(unknowns), large_system(unknowns)
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None
+    goes_on = False  # this pass goes on from an unfinished one, on new friction bounds
     while solves < budget:
         terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
         guess = None
@@ -473,7 +482,9 @@ def solve_step(
             chord=system.chord,
             max_steps=inner,
             rate=rate,
+            chord_first=large and goes_on,
         )
+        goes_on = not newton.converged
         solves += newton.solves
         chords += newton.chords
         d = newton.d

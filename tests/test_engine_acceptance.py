@@ -49,8 +49,9 @@ def test_the_sliding_block_error_does_not_grow_as_the_time_step_shrinks(time_ste
 def test_the_sliding_block_error_stays_small_with_the_large_systems_chord_rate(
     time_step, monkeypatch
 ):
-    """The same bound at every Δt when chord steps go on to 0.85 of the residual (the
-    rule of systems of 5,000 unknowns and more, here forced on a two-block scene)."""
+    """The same bound at every Δt with the chord rules of systems of 5,000 unknowns and
+    more (chord steps go on to 0.85 of the residual; a pass on new friction bounds starts
+    with a chord step), here forced on a two-block scene."""
     import dda.newton
 
     monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)
