@@ -459,7 +459,10 @@ def solve_step(
     rate, large = chord_rate(unknowns), large_system(unknowns)
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None
-    goes_on = False  # this pass goes on from an unfinished one, on new friction bounds
+    # this pass goes on from an unfinished one, on new friction bounds (passes start with
+    # a chord step only while the chord steps are fewer than the Newton iterations' budget:
+    # a Newton iteration in every pass bounds the step's work)
+    goes_on = False
     while solves < budget:
         terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
         guess = None
@@ -482,7 +485,7 @@ def solve_step(
             chord=system.chord,
             max_steps=inner,
             rate=rate,
-            chord_first=large and goes_on,
+            chord_first=large and goes_on and chords < budget,
         )
         goes_on = not newton.converged
         solves += newton.solves

@@ -25,3 +25,28 @@ def test_chord_steps_save_factorisations_and_change_no_answer(monkeypatch):
     np.testing.assert_allclose(
         chords.final.displacements, newton.final.displacements, rtol=0, atol=1e-6
     )
+
+
+def test_passes_that_start_with_a_chord_step_still_end(monkeypatch):
+    """In large systems a pass on new friction bounds starts with a chord step; chord steps
+    do not count against ``max_iterations``, so once a step's chord steps reach that
+    budget every pass starts with a Newton iteration again, and a step that never
+    settles still ends (and is cut). A stand-in for the minimiser that never converges:
+    a chord step when asked to start with one, else one Newton iteration."""
+    import dda.newton
+
+    monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)  # every system counts as large
+    passes = []
+
+    def never_settles(*args, **kwargs):
+        passes.append(kwargs["chord_first"])
+        assert len(passes) < 10_000, "the step does not end"
+        first = kwargs["chord_first"]
+        return dda.newton.NewtonResult(args[5], int(not first), False, int(first) + 2)
+
+    monkeypatch.setattr(dda.step, "minimise", never_settles)
+    raw = wall_scene(2, steps=1)
+    raw["contact"]["max_iterations"] = 5
+    with np.testing.assert_raises(dda.SimulationError):
+        dda.simulate(dda.load_scene(raw))
+    assert any(passes) and not all(passes)
