@@ -49,11 +49,25 @@ CHORD_RATE = 0.5
 # factorisations a step instead of 4.5 and 4.8; the 265-block tunnel, 1,590 rows, took
 # 18.9 -> 23.7 solves a step at 0.85 and ran slower)
 LARGE_CHORD_RATE, LARGE_ROWS = 0.85, 5_000
+# ... and from this many rows, where a factorisation costs tens of chord steps, chord
+# steps go on while they make any headway (interleaved runs, with the friction bounds
+# following every solve there, dda.step.HUGE_INNER_SOLVES: 50x50 wall 104.8/94.4 ->
+# 93.8/88.2 ms/step with 1.7-1.8 factorisations a step instead of 3.4; 100x100 573/549
+# -> 500/509 with 1.3 instead of 2.4; at 0.97 the 30x30 wall, 5,400 rows, was 10 % slower)
+HUGE_CHORD_RATE, HUGE_ROWS = 0.99, 10_000
 
 
 def chord_rate(rows: int) -> float:
-    """The ``CHORD_RATE`` of a system of ``rows`` unknowns."""
+    """The chord rate of a system of ``rows`` unknowns: ``CHORD_RATE``, or
+    ``LARGE_CHORD_RATE`` (:func:`large_system`), or ``HUGE_CHORD_RATE`` (:func:`huge_system`)."""
+    if huge_system(rows):
+        return HUGE_CHORD_RATE
     return LARGE_CHORD_RATE if large_system(rows) else CHORD_RATE
+
+
+def huge_system(rows: int) -> bool:
+    """True for systems of ``HUGE_ROWS`` unknowns or more (about 1,700 blocks)."""
+    return rows >= HUGE_ROWS
 
 
 def large_system(rows: int) -> bool:
@@ -115,6 +129,9 @@ class NewtonResult:
     solves: int  # Newton iterations (assembled and solved quadratics)
     converged: bool
     chords: int = 0  # chord steps (back-substitutions with the kept factorisation)
+    # the next direction would be a chord direction: the last step was a Newton
+    # iteration, or a chord step that left at most the chord rate of ‖∇Π‖
+    chord_next: bool = False
 
 
 # solve(normal springs, shear springs, normal offsets, shear offsets) -> D: the minimiser
@@ -199,7 +216,7 @@ def minimise(
         log.debug("Newton %d, chord %d: α = %.3g", solves, chords, alpha)
         shrunk = gradient is None or size <= rate * np.linalg.norm(gradient)
         gradient = residual if chord is not None and shrunk else None
-    return NewtonResult(d, solves, False, chords)
+    return NewtonResult(d, solves, False, chords, gradient is not None)
 
 
 def potential(

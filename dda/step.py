@@ -44,6 +44,7 @@ from dda.newton import (
     ContactGeometry,
     better_start,
     chord_rate,
+    huge_system,
     large_system,
     minimise,
 )
@@ -79,6 +80,10 @@ INNER_SOLVES = 3
 # 6 gives 17.7, 13.6, 4.46 and 1 (the tunnel's step 71, bounds that stall); to
 # convergence 18.9, 14.5, 4.42 and 1 (the staged tunnel's step 1, out of iterations)
 GUESSED_BOUND_SOLVES = 6
+# ... and in systems of dda.newton.HUGE_ROWS unknowns or more, where chord steps go on
+# while they make any headway: the bounds follow the normal forces after every solve
+# (measured with dda.newton.HUGE_CHORD_RATE, see there)
+HUGE_INNER_SOLVES = 1
 SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
 NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
 
@@ -457,11 +462,13 @@ def solve_step(
     budget = model.scene.contact.max_iterations
     unknowns = BLOCK * int(np.count_nonzero(~blocks.fixed))
     rate, large = chord_rate(unknowns), large_system(unknowns)
+    between_bounds = HUGE_INNER_SOLVES if huge_system(unknowns) else INNER_SOLVES
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None
-    # this pass goes on from an unfinished one, on new friction bounds (passes start with
-    # a chord step only while the chord steps are fewer than the Newton iterations' budget:
-    # a Newton iteration in every pass bounds the step's work)
+    # this pass goes on, on new friction bounds, from an unfinished one whose next
+    # direction was a chord direction (passes start with a chord step only while the
+    # chord steps are fewer than the Newton iterations' budget: a Newton iteration in
+    # every pass bounds the step's work)
     goes_on = False
     while solves < budget:
         terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
@@ -472,7 +479,7 @@ def solve_step(
             guess = _remembered_pieces(contacts, terms, *geometry.at(d))
         inner = None
         if law.friction:
-            inner = GUESSED_BOUND_SOLVES if bounds.guessing else INNER_SOLVES
+            inner = GUESSED_BOUND_SOLVES if bounds.guessing else between_bounds
         newton = minimise(
             quadratic,
             geometry,
@@ -487,7 +494,7 @@ def solve_step(
             rate=rate,
             chord_first=large and goes_on and chords < budget,
         )
-        goes_on = not newton.converged
+        goes_on = not newton.converged and newton.chord_next
         solves += newton.solves
         chords += newton.chords
         d = newton.d

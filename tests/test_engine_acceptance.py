@@ -45,16 +45,20 @@ def test_the_sliding_block_error_does_not_grow_as_the_time_step_shrinks(time_ste
     assert abs(moved - expected) <= 5e-5
 
 
+@pytest.mark.parametrize("size", ["large", "huge"])
 @pytest.mark.parametrize("time_step", [0.01, 0.0025, 0.000625])
 def test_the_sliding_block_error_stays_small_with_the_large_systems_chord_rate(
-    time_step, monkeypatch
+    time_step, size, monkeypatch
 ):
     """The same bound at every Δt with the chord rules of systems of 5,000 unknowns and
     more (chord steps go on to 0.85 of the residual; a pass on new friction bounds starts
-    with a chord step), here forced on a two-block scene."""
+    with a chord step) and of 10,000 and more (to 0.99; the friction bounds follow every
+    solve), here forced on a two-block scene."""
     import dda.newton
 
     monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)
+    if size == "huge":
+        monkeypatch.setattr(dda.newton, "HUGE_ROWS", 0)
     theta = np.radians(30.0)
     result = dda.simulate(slope_scene(20.0, time_step=time_step))
     moved = np.linalg.norm(result.final.displacements[1])
