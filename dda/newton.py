@@ -51,30 +51,36 @@ CHORD_RATE = 0.5
 LARGE_CHORD_RATE, LARGE_ROWS = 0.85, 5_000
 # ... and from this many rows, where a factorisation costs tens of chord steps, chord
 # steps go on while they make any headway (interleaved runs, with the friction bounds
-# following every solve there, dda.step.HUGE_INNER_SOLVES: 50x50 wall 104.8/94.4 ->
+# following every solve there: 50x50 wall 104.8/94.4 ->
 # 93.8/88.2 ms/step with 1.7-1.8 factorisations a step instead of 3.4; 100x100 573/549
 # -> 500/509 with 1.3 instead of 2.4; at 0.97 the 30x30 wall, 5,400 rows, was 10 % slower)
 HUGE_CHORD_RATE, HUGE_ROWS = 0.99, 10_000
 
 
-def chord_rate(rows: int) -> float:
-    """The chord rate of a system of ``rows`` unknowns: ``CHORD_RATE``, or
-    ``LARGE_CHORD_RATE`` (:func:`large_system`), or ``HUGE_CHORD_RATE`` (:func:`huge_system`)."""
-    if huge_system(rows):
-        return HUGE_CHORD_RATE
-    return LARGE_CHORD_RATE if large_system(rows) else CHORD_RATE
+@dataclass(frozen=True)
+class SizeRules:
+    """How a step of a system of a given size spends its linear solves.
+
+    rate : chord steps go on while each leaves at most this fraction of ‖∇Π‖
+    chord_first : a pass on new friction bounds that goes on from an unfinished one
+        starts with a chord step (``minimise(chord_first=True)``), not a Newton iteration
+    bounds_every_solve : the friction bounds follow the normal forces after every
+        linear solve (else after a few, :data:`dda.step.INNER_SOLVES`)
+    """
+
+    rate: float
+    chord_first: bool
+    bounds_every_solve: bool
 
 
-def huge_system(rows: int) -> bool:
-    """True for systems of ``HUGE_ROWS`` unknowns or more (about 1,700 blocks)."""
-    return rows >= HUGE_ROWS
-
-
-def large_system(rows: int) -> bool:
-    """True for systems of ``LARGE_ROWS`` unknowns or more: there a factorisation costs
-    many back-substitutions, so chord steps go on longer (:func:`chord_rate`) and a
-    pass on new friction bounds starts with a chord step (``minimise(chord_first=True)``)."""
-    return rows >= LARGE_ROWS
+def size_rules(rows: int) -> SizeRules:
+    """The :class:`SizeRules` of a system of ``rows`` unknowns: the larger the system,
+    the more back-substitutions a factorisation costs, and the longer chord steps pay."""
+    if rows >= HUGE_ROWS:
+        return SizeRules(HUGE_CHORD_RATE, chord_first=True, bounds_every_solve=True)
+    if rows >= LARGE_ROWS:
+        return SizeRules(LARGE_CHORD_RATE, chord_first=True, bounds_every_solve=False)
+    return SizeRules(CHORD_RATE, chord_first=False, bounds_every_solve=False)
 
 
 @dataclass(frozen=True)
@@ -170,7 +176,7 @@ def minimise(
     is the chord direction −K_f⁻¹ ∇Π(D): one back-substitution, no assembly and
     no factorisation, and a descent direction for any positive definite K_f.
     Chord steps go on while each shrinks ‖∇Π‖ to at most ``rate`` of what it was
-    (:func:`chord_rate`); then a Newton iteration again. ``chord_first``: the first
+    (:func:`size_rules`); then a Newton iteration again. ``chord_first``: the first
     direction is the chord direction at ``start`` too (a pass that goes on from where
     the last one stopped, on slightly other contact data: the kept factorisation
     still fits it).

@@ -43,10 +43,8 @@ from dda.newton import (
     BlockQuadratic,
     ContactGeometry,
     better_start,
-    chord_rate,
-    huge_system,
-    large_system,
     minimise,
+    size_rules,
 )
 from dda.pair_springs import PairSprings
 from dda.result import LOCKED, OPEN, SLIDING
@@ -80,10 +78,6 @@ INNER_SOLVES = 3
 # 6 gives 17.7, 13.6, 4.46 and 1 (the tunnel's step 71, bounds that stall); to
 # convergence 18.9, 14.5, 4.42 and 1 (the staged tunnel's step 1, out of iterations)
 GUESSED_BOUND_SOLVES = 6
-# ... and in systems of dda.newton.HUGE_ROWS unknowns or more, where chord steps go on
-# while they make any headway: the bounds follow the normal forces after every solve
-# (measured with dda.newton.HUGE_CHORD_RATE, see there)
-HUGE_INNER_SOLVES = 1
 SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
 NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
 
@@ -460,9 +454,8 @@ def solve_step(
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
-    unknowns = BLOCK * int(np.count_nonzero(~blocks.fixed))
-    rate, large = chord_rate(unknowns), large_system(unknowns)
-    between_bounds = HUGE_INNER_SOLVES if huge_system(unknowns) else INNER_SOLVES
+    rules = size_rules(BLOCK * int(np.count_nonzero(~blocks.fixed)))
+    between_bounds = 1 if rules.bounds_every_solve else INNER_SOLVES
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None
     # this pass goes on, on new friction bounds, from an unfinished one whose next
@@ -491,8 +484,8 @@ def solve_step(
             guess,
             chord=system.chord,
             max_steps=inner,
-            rate=rate,
-            chord_first=large and goes_on and chords < budget,
+            rate=rules.rate,
+            chord_first=rules.chord_first and goes_on and chords < budget,
         )
         goes_on = not newton.converged and newton.chord_next
         solves += newton.solves

@@ -29,34 +29,23 @@ def test_block_slides_down_slope_as_closed_form(friction, method):
     assert moved == pytest.approx(expected, rel=0.01)
 
 
+@pytest.mark.parametrize("size", ["small", "large", "huge"])
 @pytest.mark.parametrize("time_step", [0.01, 0.0025, 0.000625])
-def test_the_sliding_block_error_does_not_grow_as_the_time_step_shrinks(time_step):
+def test_the_sliding_block_error_does_not_grow_as_the_time_step_shrinks(
+    time_step, size, monkeypatch
+):
     """φ = 20°, E = 5e9: |s(1 s) − ½ g (sin θ − cos θ tan φ)| ≤ 5e-5 m at every Δt.
     Measured: 2.6e-7, 1.3e-5, 2.0e-6 m. With the open–close iteration it grew as Δt
     shrank (3.1e-5, 1.2e-4, 3.9e-4): every step a sliding contact restarted from its
     stale shear reference and slipped b/ps more; the shear force is now carried from
-    step to step (dda.contact.law)."""
-    theta = np.radians(30.0)
-    result = dda.simulate(slope_scene(20.0, time_step=time_step))
-    moved = np.linalg.norm(result.final.displacements[1])
-    t = result.final.time
-    expected = 0.5 * G * (np.sin(theta) - np.cos(theta) * np.tan(np.radians(20.0))) * t**2
-    assert t == pytest.approx(1.0, rel=1e-12)
-    assert abs(moved - expected) <= 5e-5
-
-
-@pytest.mark.parametrize("size", ["large", "huge"])
-@pytest.mark.parametrize("time_step", [0.01, 0.0025, 0.000625])
-def test_the_sliding_block_error_stays_small_with_the_large_systems_chord_rate(
-    time_step, size, monkeypatch
-):
-    """The same bound at every Δt with the chord rules of systems of 5,000 unknowns and
-    more (chord steps go on to 0.85 of the residual; a pass on new friction bounds starts
-    with a chord step) and of 10,000 and more (to 0.99; the friction bounds follow every
-    solve), here forced on a two-block scene."""
+    step to step (dda.contact.law). The same bound with the solve rules of systems of
+    5,000 unknowns and more ("large": chord steps go on to 0.85 of the residual, a pass
+    on new friction bounds starts with a chord step) and of 10,000 and more ("huge": to
+    0.99, the friction bounds follow every solve), here forced on the two-block scene."""
     import dda.newton
 
-    monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)
+    if size != "small":
+        monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)
     if size == "huge":
         monkeypatch.setattr(dda.newton, "HUGE_ROWS", 0)
     theta = np.radians(30.0)
@@ -64,6 +53,7 @@ def test_the_sliding_block_error_stays_small_with_the_large_systems_chord_rate(
     moved = np.linalg.norm(result.final.displacements[1])
     t = result.final.time
     expected = 0.5 * G * (np.sin(theta) - np.cos(theta) * np.tan(np.radians(20.0))) * t**2
+    assert t == pytest.approx(1.0, rel=1e-12)
     assert abs(moved - expected) <= 5e-5
 
 
