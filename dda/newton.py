@@ -138,6 +138,7 @@ class NewtonResult:
     # the next direction would be a chord direction: the last step was a Newton
     # iteration, or a chord step that left at most the chord rate of ‖∇Π‖
     chord_next: bool = False
+    gaps: tuple[np.ndarray, np.ndarray] | None = None  # (g, s) at d (None: d not finite)
 
 
 # solve(normal springs, shear springs, normal offsets, shear offsets) -> D: the minimiser
@@ -163,6 +164,7 @@ def minimise(
     max_steps: int | None = None,
     rate: float = CHORD_RATE,
     chord_first: bool = False,
+    start_gaps: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> NewtonResult:
     """Minimise Π from ``start`` with at most ``max_solves`` Newton iterations and
     at most ``max_steps`` iterations in all (Newton iterations and chord steps).
@@ -179,12 +181,12 @@ def minimise(
     (:func:`size_rules`); then a Newton iteration again. ``chord_first``: the first
     direction is the chord direction at ``start`` too (a pass that goes on from where
     the last one stopped, on slightly other contact data: the kept factorisation
-    still fits it).
+    still fits it). ``start_gaps``: (g, s) at ``start`` when the caller has them.
     ``iterates``: a list to which every iterate D is appended (diagnostics).
     """
     d = start
     g0, s0 = geometry.rows.penetration, geometry.rows.slip
-    g, s = geometry.at(d)
+    g, s = geometry.at(d) if start_gaps is None else start_gaps
     pieces = first_pieces
     gradient = None  # ∇Π at d when the next direction is a chord direction
     if chord_first and chord is not None:
@@ -203,10 +205,12 @@ def minimise(
             target = solve(kn, ks, offset_n, offset_t)
             if not np.all(np.isfinite(target)):
                 return NewtonResult(target, solves, False, chords)
-            if terms.same_pieces(pieces, terms.pieces(*geometry.at(target))):
+            at_target = geometry.at(target)
+            if terms.same_pieces(pieces, terms.pieces(*at_target)):
                 if iterates is not None:
                     iterates.append(target)
-                return NewtonResult(target, solves, True, chords)  # the quadratic was Π's there
+                # the quadratic was Π's there
+                return NewtonResult(target, solves, True, chords, gaps=at_target)
             direction, pieces = target - d, None
         dg, ds = geometry.rates(direction)
         a, c = quadratic.along(d, direction)
@@ -218,11 +222,11 @@ def minimise(
         residual, scale = _residual(quadratic, terms, contact_vector, d, g, s)
         size = np.linalg.norm(residual)
         if size <= RELATIVE_TOLERANCE * scale:
-            return NewtonResult(d, solves, True, chords)
+            return NewtonResult(d, solves, True, chords, gaps=(g, s))
         log.debug("Newton %d, chord %d: α = %.3g", solves, chords, alpha)
         shrunk = gradient is None or size <= rate * np.linalg.norm(gradient)
         gradient = residual if chord is not None and shrunk else None
-    return NewtonResult(d, solves, False, chords, gradient is not None)
+    return NewtonResult(d, solves, False, chords, gradient is not None, (g, s))
 
 
 def potential(

@@ -463,13 +463,15 @@ def solve_step(
     # chord steps are fewer than the Newton iterations' budget: a Newton iteration in
     # every pass bounds the step's work)
     goes_on = False
+    gaps = None  # (g, s) at d, when known
     while solves < budget:
         terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
         guess = None
         if solves == 0:
             if not ctx.static:
                 d = better_start(quadratic, geometry, terms, [d, _constant_velocity(blocks, ctx)])
-            guess = _remembered_pieces(contacts, terms, *geometry.at(d))
+            gaps = geometry.at(d)
+            guess = _remembered_pieces(contacts, terms, *gaps)
         inner = None
         if law.friction:
             inner = GUESSED_BOUND_SOLVES if bounds.guessing else between_bounds
@@ -486,7 +488,9 @@ def solve_step(
             max_steps=inner,
             rate=rules.rate,
             chord_first=rules.chord_first and goes_on and chords < budget,
+            start_gaps=gaps,
         )
+        gaps = newton.gaps
         goes_on = not newton.converged and newton.chord_next
         solves += newton.solves
         chords += newton.chords
@@ -498,11 +502,11 @@ def solve_step(
             if solves >= budget:
                 break
             with timer("contact_law"):  # the bounds follow the normal forces as they come
-                normal = terms.normal_force(geometry.at(d)[0])
+                normal = terms.normal_force(gaps[0])
                 bounds.advance(contact_law.friction_bound(contacts, joints, normal))
             continue
         with timer("contact_law"):
-            g, s = geometry.at(d)
+            g, s = gaps
             outcome = contact_law.update(contacts, terms, g, s, previous_g, joints, law)
         if outcome.settled:
             converged = True
@@ -510,7 +514,7 @@ def solve_step(
         bounds.advance(outcome.bound)
         previous_g = g
     with timer("contact_law"):
-        g, s = geometry.at(d)
+        g, s = geometry.at(d) if gaps is None else gaps
         dissipated = contact_law.friction_dissipation(terms, s)
         contact_law.record(contacts, terms, g, s)
     closed = contacts.state != OPEN

@@ -42,7 +42,9 @@ def test_passes_that_start_with_a_chord_step_still_end(monkeypatch):
         passes.append(kwargs["chord_first"])
         assert len(passes) < 10_000, "the step does not end"
         first = kwargs["chord_first"]
-        return dda.newton.NewtonResult(args[5], int(not first), False, int(first) + 2, True)
+        geometry, start = args[1], args[5]
+        gaps = geometry.at(start)
+        return dda.newton.NewtonResult(start, int(not first), False, int(first) + 2, True, gaps)
 
     monkeypatch.setattr(dda.step, "minimise", never_settles)
     raw = wall_scene(2, steps=1)
