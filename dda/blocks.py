@@ -28,6 +28,8 @@ class BlockSet:
     edge_joint : (NV,) int, joint row of the edge starting at each vertex (-1: default)
     centroid, area, ixx, iyy, ixy : current polygon integrals (about the centroid)
     velocity : (n, 6) time derivative of Shi's six unknowns (u0, v0, r0, ex, ey, gxy)
+    acceleration : (n, 6) their acceleration over the last step (NaN: not known yet;
+        :mod:`dda.integrator`)
     stress : (n, 3) sxx, syy, sxy (tension positive)
     rotation : (n,) accumulated rotation
     displacement : (n, 2) centroid displacement since the start
@@ -53,8 +55,11 @@ class BlockSet:
     iyy: np.ndarray = None  # type: ignore[assignment]
     ixy: np.ndarray = None  # type: ignore[assignment]
     origin: np.ndarray = None  # type: ignore[assignment]
+    acceleration: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
+        if self.acceleration is None:
+            self.acceleration = np.full((len(self.names), 6), np.nan)
         if self.origin is None:
             self.origin = np.asarray(self.ids, np.int64).copy()
         if self.centroid is None:

@@ -42,6 +42,7 @@ from dda.checks import (
     POISSON,
     POSITIVE,
     Checker,
+    Interval,
     Point,
     Spec,
     checked_fields,
@@ -55,6 +56,7 @@ from dda.checks import (
 )
 from dda.errors import SceneError
 from dda.geometry import next_vertex_index
+from dda.integrator import SHI_GAMMA
 from dda.limits import DEFAULT_MAX_STEPS
 from dda.scene_engineering import (
     ENGINEERING_KEYS,
@@ -90,6 +92,7 @@ class Analysis:
     accuracy: str | None = None  # "fast" | "balanced" | "precise"; None: engine default
     max_steps: int = DEFAULT_MAX_STEPS  # refuse (and stop) runs longer than this (dda.limits)
     checkpoint_every: int | None = None  # steps between checkpoints (dda run writes them)
+    newmark_gamma: float = SHI_GAMMA  # velocity update (dda.integrator); 1: Shi's
 
 
 @dataclass(frozen=True)
@@ -315,6 +318,9 @@ _TOP_KEYS = (
 
 _UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time": Checker.text}
 
+# γ of the velocity update: unconditionally stable with β = ½ for ½ ≤ γ ≤ 2β = 1
+NEWMARK_GAMMA = Interval(0.5, 1.0, low_closed=True, high_closed=True)
+
 _ANALYSIS: dict[str, Spec] = {
     "mode": choice("dynamic", "static"),
     "time_step": real(POSITIVE),
@@ -329,6 +335,7 @@ _ANALYSIS: dict[str, Spec] = {
     "accuracy": choice("fast", "balanced", "precise"),
     "max_steps": Checker.count,
     "checkpoint_every": Checker.count,
+    "newmark_gamma": real(NEWMARK_GAMMA),
 }
 
 _CONTACT: dict[str, Spec] = {

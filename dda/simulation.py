@@ -159,7 +159,14 @@ def _advance(run: _Run) -> None:
         if run.probes is not None:
             run.probes.move(run.blocks, solution.d)
         apply_step(
-            run.blocks, solution.d, dt, m.elastic, m.static, m.exact_rotation, solution.pushed
+            run.blocks,
+            solution.d,
+            dt,
+            m.elastic,
+            m.static,
+            m.exact_rotation,
+            solution.pushed,
+            m.newmark_gamma,
         )
         if m.ground is not None:  # the blocks that follow the ground move at its velocity
             m.ground.set_velocity(run.blocks, ctx.time)

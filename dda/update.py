@@ -6,6 +6,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.effects.elastic import Elastic
+from dda.integrator import new_velocity
 from dda.kinematics import move_points
 
 
@@ -37,10 +38,12 @@ def apply_step(
     static: bool,
     exact_rotation: bool,
     pushed: np.ndarray | None = None,
+    gamma: float = 1.0,
 ) -> None:
     """Move the blocks by ``d`` (n, 6) in place.
 
-    Velocity (Shi, constant acceleration): v1 = (2/Δt) D - v0; static: v1 = 0.
+    Velocity: Newmark with β = ½ and ``gamma`` (:mod:`dda.integrator`; γ = 1 is
+    Shi's v1 = (2/Δt) D − v0); static: v1 = 0.
     ``pushed``: the part of D that removed overlap found this step
     (dda.contact.push_out), moved but left out of the velocity.
     Stress: σ += E ε, then rotated with the block when the rotation is exact.
@@ -54,7 +57,11 @@ def apply_step(
     blocks.displacement = blocks.displacement + (blocks.centroid - old_centroid)
     blocks.rotation = blocks.rotation + d[:, 2]
     moved = d if pushed is None else d - pushed
-    blocks.velocity = (
-        np.zeros_like(blocks.velocity) if static else 2.0 * moved / dt - blocks.velocity
-    )
+    if static:
+        blocks.velocity = np.zeros_like(blocks.velocity)
+    else:
+        blocks.velocity, blocks.acceleration = new_velocity(
+            moved, blocks.velocity, blocks.acceleration, dt, gamma
+        )
+        blocks.acceleration[blocks.fixed] = 0.0
     blocks.velocity[blocks.fixed] = 0.0

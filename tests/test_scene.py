@@ -259,6 +259,8 @@ BAD = [
     (("analysis", "gravity"), [False, -9.81], "analysis.gravity[0]"),
     (("analysis", "max_displacement_ratio"), 0.0, "analysis.max_displacement_ratio"),
     (("analysis", "max_displacement_ratio"), 1.0, "analysis.max_displacement_ratio"),
+    (("analysis", "newmark_gamma"), 0.4, "analysis.newmark_gamma"),
+    (("analysis", "newmark_gamma"), 1.1, "analysis.newmark_gamma"),
     (("analysis", "save_every"), 0, "analysis.save_every"),
     (("analysis", "max_steps"), 0, "analysis.max_steps"),
     (("analysis", "max_steps"), 1e7, "analysis.max_steps"),

@@ -1,9 +1,16 @@
 """The FEM model in time, with the engine's time integrator: displacement histories.
 
-The DDA integrates with Shi's constant-acceleration scheme (Newmark β = 1/2,
-γ = 1; docs/theory.md §3): over a step Δt the displacement D solves
+The DDA integrates with Shi's constant-acceleration scheme (Newmark β = 1/2;
+docs/theory.md §3): over a step Δt the displacement D solves
 
-    (K + 2M/Δt²) D = F(t + Δt) − f_int + (2/Δt) M v,     v ← 2D/Δt − v
+    (K + 2M/Δt²) D = F(t + Δt) − f_int + (2/Δt) M v,
+
+and the velocity follows Newmark's update with the scene's
+``[analysis] newmark_gamma`` γ (1: Shi's v ← 2D/Δt − v)::
+
+    a₊ = 2 (D − v Δt) / Δt²,     v ← v + Δt ((1 − γ) a + γ a₊)
+
+(a: the last step's a₊; on the first step a = a₊).
 
 with M the mass matrix, K the stiffness and f_int the internal force at the
 step start. The FEM side here does the same with its own matrices: the
@@ -14,9 +21,10 @@ displacements (linear elasticity, f_int = K u)::
 
     (K + 2M/Δt²) u₊ = F(t + Δt) + (2M/Δt²) u + (2/Δt) M v
 
-The scheme is exact for a constant acceleration (free fall) and damps an
-oscillation of frequency ω by (1 + (ωΔt)²/2)^(−1/2) per step; both models
-share that, so their histories can be compared step for step.
+The scheme is exact for a constant acceleration (free fall) for every γ; at
+γ = 1 it damps an oscillation of frequency ω by (1 + (ωΔt)²/2)^(−1/2) per
+step. Both models share the scheme, so their histories can be compared step
+for step.
 
 Time steps: the scene's ``time_step``, ``steps`` of them (or ``duration``
 divided into steps of at most ``time_step``). Initial velocities: the
@@ -126,6 +134,8 @@ def integrate(scene: Scene, options: FemOptions | None = None) -> FemHistory:
     tolerance = contact_tolerance_of(scene)
     u = np.zeros(basis.N)
     v = initial_velocity(scene, basis, bm.element_block)
+    gamma = scene.analysis.newmark_gamma
+    a = None  # the last step's acceleration
 
     def solution(u_now: np.ndarray, state_now: ContactState, solves: int) -> FemSolution:
         return FemSolution(
@@ -160,7 +170,9 @@ def integrate(scene: Scene, options: FemOptions | None = None) -> FemHistory:
         )
         solves += count
         state = after_step(contact, state, new_u)
-        v = 2.0 * (new_u - u) / dt - v
+        a_new = 2.0 * (new_u - u - v * dt) / dt**2
+        v = v + dt * ((1.0 - gamma) * (a_new if a is None else a) + gamma * a_new)
+        a = a_new
         u, t0 = new_u, t
         records.append(block_record(solution(u, state, solves)))
     log.info("FEM %s: %d steps, %d DOFs, %d solves", scene.title, len(ends), basis.N, solves)

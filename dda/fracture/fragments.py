@@ -118,6 +118,9 @@ def replace_blocks(
             [blocks.edge_joint[keep_vertex], *[f.edge_joint for f in broken]]
         ),
         velocity=stack(blocks.velocity, "velocity"),
+        acceleration=np.concatenate(  # a fragment's is not known: Shi's update once
+            [blocks.acceleration[keep], np.full((len(pieces), 6), np.nan)]
+        ),
         stress=stack(blocks.stress, "stress"),
         rotation=stack(blocks.rotation, "rotation"),
         displacement=stack(blocks.displacement, "displacement"),
