@@ -20,7 +20,16 @@ along the direction to the minimum of Π on that line
 iteration, so no set of contact states can recur: the iteration cannot cycle.
 After a Newton iteration, chord steps along −K_f⁻¹∇Π (K_f the factorisation
 just made: a back-substitution, no factorisation) take over while they make
-progress. It has also converged when the gradient of Π is within ``RELATIVE_TOLERANCE``
+progress. In large systems they are conjugated (preconditioned nonlinear
+conjugate gradients, Polak–Ribière+): with z = K_f⁻¹∇Π,
+
+    p = −z + β p_prev,   β = max(0, zᵀ(∇Π − ∇Π_prev) / (z_prevᵀ ∇Π_prev)),
+
+which on a quadratic is conjugate gradients preconditioned by K_f: it
+converges in about as many steps as K_f has contact springs of other pieces
+than Π's, where steepest descent in the K_f metric creeps. The line search is
+exact, so ∇Π·p_prev = 0 and p is a descent direction (checked; else β = 0).
+It has also converged when the gradient of Π is within ``RELATIVE_TOLERANCE``
 of the forces that make it up.
 """
 
@@ -44,11 +53,13 @@ RELATIVE_TOLERANCE = 1e-4  # ‖∇Π‖ against ‖K₀D‖ + ‖F₀‖ + ‖c
 # iteration (the 30x30 wall: 0.25 measured no better)
 CHORD_RATE = 0.5
 # ... and in systems of this many rows or more, where a factorisation costs many
-# back-substitutions and a Newton iteration's other work (fastest of three runs each,
-# interleaved: 30x30 wall 35.8 -> 34.3 ms/step, 50x50 134.8 -> 119.8, with 3.6 and 3.8
-# factorisations a step instead of 4.5 and 4.8; the 265-block tunnel, 1,590 rows, took
-# 18.9 -> 23.7 solves a step at 0.85 and ran slower)
-LARGE_CHORD_RATE, LARGE_ROWS = 0.85, 5_000
+# back-substitutions and a Newton iteration's other work, conjugated chord steps go on
+# while each leaves at most this fraction (interleaved dda bench runs, two each: 30x30
+# wall 29.7 / 28.8 -> 26.6 / 25.2 ms/step with 1.95 factorisations a step instead of
+# 3.4; at 0.95 27.7-28.2 with 2.3; unconjugated at 0.97 it was 10 % slower than at
+# 0.85. The 265-block tunnel, 1,590 rows, is slower with either: four runs each, 8.1 s
+# -> 8.2-8.9 s, so small systems keep plain chords at CHORD_RATE)
+LARGE_CHORD_RATE, LARGE_ROWS = 0.99, 5_000
 # ... and from this many rows, where a factorisation costs tens of chord steps, chord
 # steps go on while they make any headway (interleaved runs, with the friction bounds
 # following every solve there: 50x50 wall 104.8/94.4 ->
@@ -66,11 +77,13 @@ class SizeRules:
         starts with a chord step (``minimise(chord_first=True)``), not a Newton iteration
     bounds_every_solve : the friction bounds follow the normal forces after every
         linear solve (else after a few, :data:`dda.step.INNER_SOLVES`)
+    conjugate : successive chord steps are conjugated (``minimise(conjugate=True)``)
     """
 
     rate: float
     chord_first: bool
     bounds_every_solve: bool
+    conjugate: bool = False
 
 
 def size_rules(rows: int) -> SizeRules:
@@ -79,7 +92,9 @@ def size_rules(rows: int) -> SizeRules:
     if rows >= HUGE_ROWS:
         return SizeRules(HUGE_CHORD_RATE, chord_first=True, bounds_every_solve=True)
     if rows >= LARGE_ROWS:
-        return SizeRules(LARGE_CHORD_RATE, chord_first=True, bounds_every_solve=False)
+        return SizeRules(
+            LARGE_CHORD_RATE, chord_first=True, bounds_every_solve=False, conjugate=True
+        )
     return SizeRules(CHORD_RATE, chord_first=False, bounds_every_solve=False)
 
 
@@ -165,6 +180,7 @@ def minimise(
     rate: float = CHORD_RATE,
     chord_first: bool = False,
     start_gaps: tuple[np.ndarray, np.ndarray] | None = None,
+    conjugate: bool = False,
 ) -> NewtonResult:
     """Minimise Π from ``start`` with at most ``max_solves`` Newton iterations and
     at most ``max_steps`` iterations in all (Newton iterations and chord steps).
@@ -182,6 +198,7 @@ def minimise(
     direction is the chord direction at ``start`` too (a pass that goes on from where
     the last one stopped, on slightly other contact data: the kept factorisation
     still fits it). ``start_gaps``: (g, s) at ``start`` when the caller has them.
+    ``conjugate``: successive chord steps are conjugated (:func:`_conjugated`).
     ``iterates``: a list to which every iterate D is appended (diagnostics).
     """
     d = start
@@ -192,11 +209,17 @@ def minimise(
     if chord_first and chord is not None:
         gradient = _residual(quadratic, terms, contact_vector, d, g, s)[0]
     solves = chords = 0
+    last_chord = None  # (direction, ∇Π, K_f⁻¹∇Π) of the last chord step
     while solves < max_solves and (max_steps is None or solves + chords < max_steps):
-        direction = None if gradient is None else chord(gradient)
-        if direction is not None:
-            direction, chords = -direction, chords + 1
+        preconditioned = None if gradient is None else chord(gradient)
+        direction = None
+        if preconditioned is not None:
+            direction, chords = -preconditioned, chords + 1
+            if conjugate and last_chord is not None:
+                direction = _conjugated(direction, gradient, preconditioned, last_chord)
+            last_chord = (direction, gradient, preconditioned)
         else:
+            last_chord = None
             solves += 1
             if pieces is None:
                 pieces = terms.pieces(g, s)
@@ -227,6 +250,24 @@ def minimise(
         shrunk = gradient is None or size <= rate * np.linalg.norm(gradient)
         gradient = residual if chord is not None and shrunk else None
     return NewtonResult(d, solves, False, chords, gradient is not None, (g, s))
+
+
+def _conjugated(
+    steepest: np.ndarray,
+    gradient: np.ndarray,
+    preconditioned: np.ndarray,
+    last: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> np.ndarray:
+    """p = −z + β p_prev, β = max(0, zᵀ(∇Π − ∇Π_prev) / (z_prevᵀ ∇Π_prev)) (Polak–Ribière+,
+    preconditioned: z = K_f⁻¹∇Π); ``steepest`` = −z. Falls back to −z when p would not
+    descend (∇Π·p ≥ 0: the last line minimum was at an end of its range)."""
+    last_direction, last_gradient, last_preconditioned = last
+    scale = float(np.vdot(last_preconditioned, last_gradient))
+    if scale <= 0.0:
+        return steepest
+    beta = max(0.0, float(np.vdot(preconditioned, gradient - last_gradient)) / scale)
+    direction = steepest + beta * last_direction
+    return direction if float(np.vdot(gradient, direction)) < 0.0 else steepest
 
 
 def potential(

@@ -489,6 +489,7 @@ def solve_step(
             rate=rules.rate,
             chord_first=rules.chord_first and goes_on and chords < budget,
             start_gaps=gaps,
+            conjugate=rules.conjugate,
         )
         gaps = newton.gaps
         goes_on = not newton.converged and newton.chord_next

@@ -9,7 +9,7 @@ import pytest
 
 from dda.contact.potential import ContactTerms
 from dda.contact.rows import _empty_rows
-from dda.newton import BlockQuadratic, ContactGeometry, minimise, potential
+from dda.newton import BlockQuadratic, ContactGeometry, _conjugated, minimise, potential
 
 
 def problem(seed: int, blocks: int = 6, contacts: int = 40):
@@ -117,18 +117,31 @@ def test_any_first_pieces_lead_to_the_same_minimum():
     np.testing.assert_allclose(answers[0].d, answers[1].d, rtol=1e-6, atol=1e-12)
 
 
+@pytest.mark.parametrize("conjugate", [False, True])
 @pytest.mark.parametrize("seed", range(6))
-def test_chord_steps_keep_the_descent_and_reach_the_same_minimum(seed):
-    """Chord steps (−K_f⁻¹∇Π with the last Newton matrix) after Newton iterations:
-    Π still falls at every iterate and the result is the minimiser Newton finds
-    alone, to the stopping tolerance (‖∇Π‖ ≤ 1e-4 of the forces: Π within ~1e-8)."""
+def test_chord_steps_keep_the_descent_and_reach_the_same_minimum(seed, conjugate):
+    """Chord steps (−K_f⁻¹∇Π with the last Newton matrix, plain or conjugated) after
+    Newton iterations: Π still falls at every iterate and the result is the minimiser
+    Newton finds alone, to the stopping tolerance (‖∇Π‖ ≤ 1e-4 of the forces: Π within
+    ~1e-8)."""
     quadratic, geometry, terms = problem(seed)
     solve, contact_vector = dense(quadratic, geometry)
     start = np.zeros_like(quadratic.forces)
     plain = minimise(quadratic, geometry, terms, solve, contact_vector, start, 50)
     iterates = [start]
     result = minimise(
-        quadratic, geometry, terms, solve, contact_vector, start, 50, None, iterates, solve.chord
+        quadratic,
+        geometry,
+        terms,
+        solve,
+        contact_vector,
+        start,
+        50,
+        None,
+        iterates,
+        solve.chord,
+        rate=0.99 if conjugate else 0.5,
+        conjugate=conjugate,
     )
     assert result.converged and plain.converged
     values = [potential(quadratic, geometry, terms, d) for d in iterates]
@@ -140,3 +153,35 @@ def test_chord_steps_keep_the_descent_and_reach_the_same_minimum(seed):
     gradient = quadratic.product(result.d) - quadratic.forces + forces
     scale = sum(np.linalg.norm(x) for x in (quadratic.product(result.d), quadratic.forces, forces))
     assert np.linalg.norm(gradient) <= 1e-4 * scale
+
+
+def chord_iterations(conjugate: bool, steps: int, rank: int = 3, size: int = 40) -> float:
+    """‖∇Π‖ / ‖∇Π₀‖ after ``steps`` chord steps with exact line searches on a quadratic
+    ½ xᵀAx − bᵀx, with K_f = A plus a positive rank-``rank`` change (a factorisation made
+    before ``rank`` contact springs changed)."""
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(size, size))
+    matrix = a @ a.T + size * np.eye(size)
+    change = rng.normal(size=(size, rank))
+    kept = matrix + 50.0 * change @ change.T
+    b = rng.normal(size=size)
+    x, last = np.zeros(size), None
+    gradient = matrix @ x - b
+    first = np.linalg.norm(gradient)
+    for _ in range(steps):
+        z = np.linalg.solve(kept, gradient)
+        direction = -z
+        if conjugate and last is not None:
+            direction = _conjugated(direction, gradient, z, last)
+        last = (direction, gradient, z)
+        x = x - (gradient @ direction) / (direction @ matrix @ direction) * direction
+        gradient = matrix @ x - b
+    return float(np.linalg.norm(gradient) / first)
+
+
+def test_conjugated_chord_steps_are_preconditioned_conjugate_gradients():
+    """On a quadratic, conjugated chord steps are conjugate gradients preconditioned by
+    K_f: with K_f off by a rank-3 change they end in rank + 1 = 4 steps (to round-off),
+    (measured 1.8e-11), where plain chord steps have left 7e-3 of the gradient."""
+    assert chord_iterations(conjugate=True, steps=4) < 1e-10
+    assert chord_iterations(conjugate=False, steps=4) > 1e-3
