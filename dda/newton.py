@@ -60,12 +60,13 @@ CHORD_RATE = 0.5
 # 0.85. The 265-block tunnel, 1,590 rows, is slower with either: four runs each, 8.1 s
 # -> 8.2-8.9 s, so small systems keep plain chords at CHORD_RATE)
 LARGE_CHORD_RATE, LARGE_ROWS = 0.99, 5_000
-# ... and from this many rows, where a factorisation costs tens of chord steps, chord
-# steps go on while they make any headway (interleaved runs, with the friction bounds
-# following every solve there: 50x50 wall 104.8/94.4 ->
-# 93.8/88.2 ms/step with 1.7-1.8 factorisations a step instead of 3.4; 100x100 573/549
-# -> 500/509 with 1.3 instead of 2.4; at 0.97 the 30x30 wall, 5,400 rows, was 10 % slower)
-HUGE_CHORD_RATE, HUGE_ROWS = 0.99, 10_000
+# ... and from this many rows, where a factorisation costs tens of chord steps, the
+# friction bounds follow the normal forces after every solve and chord steps go on
+# while they make any headway (interleaved dda bench runs against the conjugated rules
+# above, two each: 50x50 wall, 15,000 rows, 99.0/105.3 against 93.5/87.8 ms/step;
+# 60x60, 21,600 rows, 153.7/176.7 against 145.0/159.1; 70x70, 29,400 rows, 176.0/191.7
+# against 184.1/203.0; 100x100 503.5/545.7 against 527.0/567.7)
+HUGE_CHORD_RATE, HUGE_ROWS = 0.99, 25_000
 
 
 @dataclass(frozen=True)
