@@ -57,9 +57,12 @@ CHORD_RATE = 0.5
 # while each leaves at most this fraction (interleaved dda bench runs, two each: 30x30
 # wall 29.7 / 28.8 -> 26.6 / 25.2 ms/step with 1.95 factorisations a step instead of
 # 3.4; at 0.95 27.7-28.2 with 2.3; unconjugated at 0.97 it was 10 % slower than at
-# 0.85. The 265-block tunnel, 1,590 rows, is slower with either: four runs each, 8.1 s
-# -> 8.2-8.9 s, so small systems keep plain chords at CHORD_RATE)
-LARGE_CHORD_RATE, LARGE_ROWS = 0.99, 5_000
+# 0.85; 20x20, 2,400 rows, 16.2 / 15.1 -> 14.4 / 12.9 with 1.9 instead of 4.0; 10x10,
+# 600 rows, 7.15 / 7.07 -> 7.34 / 7.48 with 3.0 instead of 5.0. The 265-block tunnel,
+# 1,590 rows, is no faster with conjugated chord steps at 0.99 (four runs each: 8.1 s
+# -> 8.2 s) and slower with a pass starting with a chord step, so smaller systems keep
+# plain chord steps at CHORD_RATE)
+LARGE_CHORD_RATE, LARGE_ROWS = 0.99, 2_000
 # ... and from this many rows, where a factorisation costs tens of chord steps, the
 # friction bounds follow the normal forces after every solve and chord steps go on
 # while they make any headway (interleaved dda bench runs against the conjugated rules

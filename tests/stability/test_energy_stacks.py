@@ -127,12 +127,12 @@ def test_the_ringing_wall_gains_no_energy_through_chord_steps(monkeypatch):
 
 @pytest.mark.parametrize("size", ["large", "huge"])
 def test_the_ringing_wall_gains_no_energy_with_the_large_systems_chord_rules(size, monkeypatch):
-    """The same wall with the chord rules of large systems (chord steps go on while each
-    leaves at most 0.85 of ‖∇Π‖, and a pass on new friction bounds starts with a chord
-    step from where the last pass stopped) and of huge ones (chord steps go on to 0.99
-    of ‖∇Π‖, the friction bounds follow every solve): more chord steps, still descent
-    on each pass's potential, no energy created. Measured: 196 / 1,824 passes started
-    with a chord step; largest gain −1.3e-7 E₀ both."""
+    """The same wall with the chord rules of large systems (conjugated chord steps go on
+    while each leaves at most 0.99 of ‖∇Π‖, and a pass on new friction bounds starts
+    with a chord step from where the last pass stopped) and of huge ones (plain chord
+    steps to 0.99 of ‖∇Π‖, the friction bounds follow every solve): more chord steps,
+    still descent on each pass's potential, no energy created. Measured: 318 of 557 /
+    1,768 of 2,099 passes started with a chord step; largest gain −1.3e-7 E₀ both."""
     from dda.bench.scenes import wall_scene
 
     monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)  # every system counts as large
