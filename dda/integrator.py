@@ -28,8 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-SHI_GAMMA = 1.0
-DEFAULT_GAMMA = 0.9
+SHI_GAMMA = 1.0  # the default: Shi's update
 
 
 def step_acceleration(d: np.ndarray, velocity: np.ndarray, dt: float) -> np.ndarray:
