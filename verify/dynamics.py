@@ -23,8 +23,9 @@ displacements (linear elasticity, f_int = K u)::
 
 The scheme is exact for a constant acceleration (free fall) for every γ; at
 γ = 1 it damps an oscillation of frequency ω by (1 + (ωΔt)²/2)^(−1/2) per
-step. Both models share the scheme, so their histories can be compared step
-for step.
+step while ωΔt < 4, less beyond, and a mode much stiffer than 1/Δt² not at
+all (docs/theory.md §3). Both models share the scheme, so their histories
+can be compared step for step.
 
 Time steps: the scene's ``time_step``, ``steps`` of them (or ``duration``
 divided into steps of at most ``time_step``). Initial velocities: the
