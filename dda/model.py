@@ -67,7 +67,6 @@ class Model:
     bolts: RockBolts | None = None  # also in ``effects``
     ground: GroundMotion | None = None  # also in ``effects``
     stages: StagePlan | None = None
-    newmark_gamma: float = 1.0  # the velocity update's γ (dda.integrator)
 
 
 def initial_blocks(scene: Scene, material_rows: dict[str, int], joint_rows: dict[str, int]):
@@ -173,7 +172,6 @@ def build(scene: Scene) -> Model:
         allowed_displacement=allowed,
         model_size=model_size,
         save_every=a.save_every,
-        newmark_gamma=a.newmark_gamma,
         fracture=fracture,
         active_effects=active,
         bolts=engineering["bolts"],

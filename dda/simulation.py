@@ -166,7 +166,7 @@ def _advance(run: _Run) -> None:
             m.static,
             m.exact_rotation,
             solution.pushed,
-            m.newmark_gamma,
+            m.scene.analysis.newmark_gamma,
         )
         if m.ground is not None:  # the blocks that follow the ground move at its velocity
             m.ground.set_velocity(run.blocks, ctx.time)

@@ -14,7 +14,7 @@ import pytest
 
 import dda
 from dda.integrator import new_velocity
-from tests.helpers import ROCK, G, rectangle, slope_scene
+from tests.helpers import ROCK, G, projectile_scene, slope_scene
 
 
 def test_gamma_one_is_shis_update_and_an_unknown_acceleration_is_taken_as_the_steps():
@@ -60,26 +60,17 @@ def spring_oscillator_error(gamma: float, dt: float, period: float = 0.2) -> flo
     centroid (no strain is loaded: the spring acts at the centroid) under gravity."""
     omega = 2.0 * np.pi / period
     stiffness = ROCK["density"] * omega**2  # m ω², m = ρ · 1 m²
-    scene = {
-        "analysis": {
-            "time_step": dt,
-            "duration": 1.05,
-            "gravity": [0.0, -G],
-            "newmark_gamma": gamma,
-            "fixed_point_penalty": stiffness,
-            "save_every": 1,
-            "max_displacement_ratio": 0.9,
-        },
-        "materials": {"rock": ROCK},
-        "blocks": [
-            {
-                "name": "b",
-                "material": "rock",
-                "vertices": rectangle(0, 0, 1, 1),
-                "fixed_points": [[0.5, 0.5]],
-            }
-        ],
-    }
+    scene = projectile_scene()  # the unit square under gravity, here at rest on a spring
+    scene["analysis"].update(
+        time_step=dt,
+        duration=1.05,
+        newmark_gamma=gamma,
+        fixed_point_penalty=stiffness,
+        save_every=1,
+    )
+    block = scene["blocks"][0]
+    del block["velocity"]
+    block["fixed_points"] = [[0.5, 0.5]]
     frames = dda.simulate(dda.load_scene(scene)).frames
     t = np.array([f.time for f in frames])
     y = np.array([f.displacements[0, 1] for f in frames])

@@ -102,9 +102,7 @@ def check_areas(scene: dda.Scene, result: dda.Result) -> None:
     elasticity = build(scene).elastic
     first, last = result.frames[0], result.final
     # the blocks still there at the end (a stage may have excavated some), by id
-    kept = np.flatnonzero(np.isin(first.ids, last.ids))
-    at_end = np.searchsorted(last.ids, first.ids[kept], sorter=np.argsort(last.ids))
-    at_end = np.argsort(last.ids)[at_end]
+    _, kept, at_end = np.intersect1d(first.ids, last.ids, return_indices=True)
     compliance = np.linalg.inv(elasticity.material_elasticity[_materials(scene)[kept]])
     stress_change = last.stresses[at_end] - first.stresses[kept]
     strain = np.einsum("nij,nj->ni", compliance, stress_change)
