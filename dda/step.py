@@ -517,7 +517,7 @@ def solve_step(
     with timer("contact_law"):
         g, s = geometry.at(d) if gaps is None else gaps
         dissipated = contact_law.friction_dissipation(terms, s)
-        contact_law.record(contacts, terms, g, s)
+        contact_law.record(contacts, terms, g, s, law.friction_tolerance)
     closed = contacts.state != OPEN
     max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
     made = cache.solver.factorisations - factorisations_before

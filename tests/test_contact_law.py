@@ -122,3 +122,18 @@ def test_record_states_forces_and_the_carried_shear_force():
     np.testing.assert_allclose(contacts.shear_force, [40.0, 500.0, 0.0])
     np.testing.assert_allclose(contacts.shear_multiplier, contacts.shear_force)
     assert contacts.slide_direction.tolist() == [0.0, 1.0, 0.0]
+
+
+def test_a_shear_force_within_the_bound_tolerance_is_at_the_friction_limit():
+    """The bounds settle to friction_tolerance: a contact stuck at 1 - 1e-6 of its bound
+    (a block in limiting equilibrium) is reported sliding in the band, locked without;
+    one at 0.99 of it stays locked."""
+    contacts = contact_set(2)
+    joint = joints(2)
+    law = ContactLaw(augmented=False, tolerance=1e-6, shear_ratio=0.4, friction=True)
+    terms = contact_terms(contacts, joint, law, friction_bound(contacts, joint, np.full(2, 1e3)))
+    s = np.array([1 - 1e-6, 0.99]) * 500.0 / (0.4 * 1e8)  # ps s = 0.999999 b, 0.99 b
+    record(contacts, terms, np.full(2, 1e-5), s, 1e-3)
+    assert contacts.state.tolist() == [SLIDING, LOCKED]
+    record(contacts, terms, np.full(2, 1e-5), s)
+    assert contacts.state.tolist() == [LOCKED, LOCKED]

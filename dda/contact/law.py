@@ -232,18 +232,29 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
     return int(np.count_nonzero(far | slid)), violation
 
 
-def record(contacts: ContactSet, terms: ContactTerms, g: np.ndarray, s: np.ndarray) -> None:
+def record(
+    contacts: ContactSet,
+    terms: ContactTerms,
+    g: np.ndarray,
+    s: np.ndarray,
+    limit_band: float = 0.0,
+) -> None:
     """Write the step's solution into the contact set (in place).
 
     States: open where the normal force is at its limit 0, else sliding where
     the shear force is at the friction bound (or there is no shear term), else
-    locked. λt becomes the shear force carried into the next step.
+    locked. The solve settles the bounds only to ``limit_band`` (the law's
+    ``friction_tolerance``): a shear force within that fraction of its bound,
+    |λt + ps s| ≥ (1 − band) b, is at the bound (a block in limiting
+    equilibrium would otherwise be called locked or sliding by the solver's
+    last digits). λt becomes the shear force carried into the next step.
     """
-    normal_piece, shear_piece = terms.pieces(g, s)
+    normal_piece, _ = terms.pieces(g, s)
     closed = (normal_piece == NORMAL_ELASTIC) | (terms.tension > 0.0)
     normal = np.where(closed, terms.normal_force(g), 0.0)
     shear = np.where(closed, terms.shear_force(s), 0.0)
-    stuck = (shear_piece == STICK) & (terms.shear_penalty > 0.0)
+    at_bound = np.abs(terms.shear_trial(s)) >= (1.0 - limit_band) * terms.bound
+    stuck = ~at_bound & (terms.shear_penalty > 0.0)
     contacts.state = np.where(closed, np.where(stuck, LOCKED, SLIDING), OPEN).astype(np.int8)
     sliding = contacts.state == SLIDING
     contacts.slide_direction = np.where(sliding, np.sign(terms.shear_trial(s)), 0.0)
