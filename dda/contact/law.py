@@ -156,10 +156,26 @@ class BoundIteration:
         residuals = np.array([r for _, r in self._history])
         gamma = np.zeros(len(points) - 1)
         if len(points) > 1:
-            gamma = np.linalg.lstsq(np.diff(residuals, axis=0).T, residuals[-1], rcond=None)[0]
+            gamma = _least_squares(np.diff(residuals, axis=0), residuals[-1])
         mean_point = points[-1] - gamma @ np.diff(points, axis=0)
         mean_residual = residuals[-1] - gamma @ np.diff(residuals, axis=0)
         self.bound = np.maximum(mean_point + self.MIXING * mean_residual, 0.0)
+
+
+# singular values of the Anderson differences below this fraction of the largest are
+# dropped: the Gram matrix resolves them to about √ε of the largest
+GRAM_CUTOFF = 1e-7
+
+
+def _least_squares(differences: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """γ = argmin ‖target − differencesᵀ γ‖ for the few rows of ``differences`` (k, m),
+    from the k × k Gram matrix A Aᵀ = V Λ Vᵀ: γ = V Λ⁺ Vᵀ A target, directions whose
+    singular value √λ is below ``GRAM_CUTOFF`` of the largest dropped (the truncated
+    SVD solution; one pass over the m contacts instead of an m × k SVD)."""
+    values, vectors = np.linalg.eigh(differences @ differences.T)
+    kept = values > (GRAM_CUTOFF**2) * max(float(values[-1]), 0.0)
+    projected = vectors.T @ (differences @ target)
+    return vectors[:, kept] @ (projected[kept] / values[kept])
 
 
 def update(
