@@ -38,6 +38,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -124,10 +125,18 @@ class BlockQuadratic:
         """½ Dᵀ K₀ D − F₀ᵀ D."""
         return float(np.sum(d * (0.5 * self.product(d) - self.forces)))
 
-    def along(self, d: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
-        """(a, c) of the line D + α ΔD: a = ΔDᵀ(K₀ D − F₀), c = ΔDᵀ K₀ ΔD."""
-        a = float(np.sum(direction * (self.product(d) - self.forces)))
-        return a, float(np.sum(direction * self.product(direction)))
+    def along(
+        self, product: np.ndarray, direction: np.ndarray, direction_product: np.ndarray
+    ) -> tuple[float, float]:
+        """(a, c) of the line D + α ΔD: a = ΔDᵀ(K₀ D − F₀), c = ΔDᵀ K₀ ΔD, from
+        ``product`` = K₀ D and ``direction_product`` = K₀ ΔD."""
+        a = float(np.vdot(direction, product) - np.vdot(direction, self.forces))
+        return a, float(np.vdot(direction, direction_product))
+
+    @cached_property
+    def load_norm(self) -> float:
+        """‖F₀‖ over the free blocks."""
+        return float(np.linalg.norm(self.forces[self.free]))
 
 
 @dataclass(frozen=True)
@@ -208,15 +217,16 @@ def minimise(
     d = start
     g0, s0 = geometry.rows.penetration, geometry.rows.slip
     g, s = geometry.at(d) if start_gaps is None else start_gaps
+    kd = quadratic.product(d)  # K₀ D, carried along the lines like g and s
     pieces = first_pieces
     gradient = None  # ∇Π at d when the next direction is a chord direction
     if chord_first and chord is not None:
-        gradient = _residual(quadratic, terms, contact_vector, d, g, s)[0]
+        gradient = _residual(quadratic, terms, contact_vector, kd, g, s)[0]
     solves = chords = 0
     last_chord = None  # (direction, ∇Π, K_f⁻¹∇Π) of the last chord step
     while solves < max_solves and (max_steps is None or solves + chords < max_steps):
         preconditioned = None if gradient is None else chord(gradient)
-        direction = None
+        rates = None  # (∇g·ΔD, ∇s·ΔD) when known
         if preconditioned is not None:
             direction, chords = -preconditioned, chords + 1
             if conjugate and last_chord is not None:
@@ -239,14 +249,16 @@ def minimise(
                 # the quadratic was Π's there
                 return NewtonResult(target, solves, True, chords, gaps=at_target)
             direction, pieces = target - d, None
-        dg, ds = geometry.rates(direction)
-        a, c = quadratic.along(d, direction)
+            rates = (at_target[0] - g, at_target[1] - s)
+        dg, ds = geometry.rates(direction) if rates is None else rates
+        kp = quadratic.product(direction)
+        a, c = quadratic.along(kd, direction, kp)
         alpha, _ = line_minimum(terms, a, c, g, dg, s, ds)
-        d = d + alpha * direction
+        # g, s and K₀D are linear in D: step them along the line with D
+        d, g, s, kd = d + alpha * direction, g + alpha * dg, s + alpha * ds, kd + alpha * kp
         if iterates is not None:
             iterates.append(d)
-        g, s = geometry.at(d)
-        residual, scale = _residual(quadratic, terms, contact_vector, d, g, s)
+        residual, scale = _residual(quadratic, terms, contact_vector, kd, g, s)
         size = np.linalg.norm(residual)
         if size <= RELATIVE_TOLERANCE * scale:
             return NewtonResult(d, solves, True, chords, gaps=(g, s))
@@ -292,13 +304,12 @@ def better_start(
     return candidates[int(np.argmin(values))]
 
 
-def _residual(quadratic, terms, contact_vector, d, g, s) -> tuple[np.ndarray, float]:
+def _residual(quadratic, terms, contact_vector, kd, g, s) -> tuple[np.ndarray, float]:
     """∇Π(D) = K₀D − F₀ + Σ N∇g + Σ F∇s (n, 6; zero on fixed blocks), and the scale
     ‖K₀D‖ + ‖F₀‖ + ‖Σ N∇g + Σ F∇s‖ (over the free blocks) it is measured against;
-    ``g``, ``s``: the contacts' penetration and shear motion at D."""
+    ``kd`` = K₀D; ``g``, ``s``: the contacts' penetration and shear motion at D."""
     contact = contact_vector(terms.normal_force(g), terms.shear_force(s))
-    blocks = quadratic.product(d)
-    free = quadratic.free
-    residual = np.where(free[:, None], blocks - quadratic.forces + contact, 0.0)
-    norms = [np.linalg.norm(x[free]) for x in (blocks, quadratic.forces, contact)]
-    return residual, float(sum(norms))
+    free = quadratic.free[:, None]
+    residual = np.where(free, kd - quadratic.forces + contact, 0.0)
+    norms = [np.linalg.norm(np.where(free, x, 0.0)) for x in (kd, contact)]
+    return residual, float(sum(norms)) + quadratic.load_norm
