@@ -479,50 +479,43 @@ def _scatter(data, base, stride, slot_ii, slot_jj, slot_ij, slot_ji, rows_i, row
 _scatter_kernel = kernel(_scatter)
 
 
-def add_forces(forces: np.ndarray, block: np.ndarray, row: np.ndarray, coef: np.ndarray) -> None:
-    """F_block -= coef·row for each term (in place).
-
-    ``block`` (m,), ``row`` (m, 6), ``coef`` (m,); several kinds of terms are
-    best passed concatenated in one call (compiled: one pass; numpy: one
-    ``bincount`` per column).
-    """
-    if compiled(_subtract_kernel) and forces.flags.c_contiguous:
-        _subtract_kernel(
-            forces,
-            np.asarray(block, dtype=np.int64),
-            np.ascontiguousarray(row, dtype=np.float64),
-            np.ascontiguousarray(coef, dtype=np.float64),
-        )
-        return
-    n = len(forces)
-    contrib = coef[:, None] * row
-    for k in range(forces.shape[1]):
-        forces[:, k] -= np.bincount(block, weights=contrib[:, k], minlength=n)
-
-
-def add_force_terms(
-    forces: np.ndarray, terms: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]
+def subtract_contact_forces(
+    forces: np.ndarray,
+    block_a: np.ndarray,
+    block_b: np.ndarray,
+    gradients: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    normal: np.ndarray,
+    shear: np.ndarray,
 ) -> None:
-    """F_block -= coef·row for the terms of several kinds ``(block, row, coef)`` (in place).
+    """F_a −= N E + F Es and F_b −= N G + F Gs for every contact (in place).
 
-    Compiled: one pass per kind, no copies; numpy: the kinds concatenated, one
-    ``bincount`` per column.
+    ``gradients`` = (E, G, Es, Gs), (m, 6) each: the rows of ∇g and ∇s on the
+    contact's two blocks (eqs. 9-13); ``normal``, ``shear`` (m,): N and F.
+    Compiled: one pass over the contacts; numpy: one ``bincount`` per column.
     """
-    if compiled(_subtract_kernel) and forces.flags.c_contiguous:
-        for block, row, coef in terms:
-            add_forces(forces, block, row, coef)
+    if compiled(_subtract_pairs_kernel) and forces.flags.c_contiguous:
+        ready = (np.ascontiguousarray(x, dtype=np.float64) for x in (*gradients, normal, shear))
+        index = (np.asarray(x, dtype=np.int64) for x in (block_a, block_b))
+        _subtract_pairs_kernel(forces, *index, *ready)
         return
-    blocks, rows, coefs = (np.concatenate(parts) for parts in zip(*terms, strict=True))
-    add_forces(forces, blocks, rows, coefs)
+    e, g, es, gs = gradients
+    on_a, on_b = (
+        normal[:, None] * e + shear[:, None] * es,
+        normal[:, None] * g + shear[:, None] * gs,
+    )
+    n = len(forces)
+    for k in range(forces.shape[1]):
+        forces[:, k] -= np.bincount(block_a, weights=on_a[:, k], minlength=n)
+        forces[:, k] -= np.bincount(block_b, weights=on_b[:, k], minlength=n)
 
 
-def _subtract(forces, block, row, coef):
-    """Compiled :func:`add_forces`."""
-    for i in range(block.shape[0]):
-        b = block[i]
-        c = coef[i]
-        for k in range(row.shape[1]):
-            forces[b, k] -= c * row[i, k]
+def _subtract_pairs(forces, block_a, block_b, e, g, es, gs, normal, shear):
+    """Compiled :func:`subtract_contact_forces`."""
+    for i in range(block_a.shape[0]):
+        a, b, n, f = block_a[i], block_b[i], normal[i], shear[i]
+        for k in range(6):
+            forces[a, k] -= n * e[i, k] + f * es[i, k]
+            forces[b, k] -= n * g[i, k] + f * gs[i, k]
 
 
-_subtract_kernel = kernel(_subtract)
+_subtract_pairs_kernel = kernel(_subtract_pairs)

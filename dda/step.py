@@ -19,12 +19,12 @@ import numpy as np
 from dda.assembly import (
     BLOCK,
     BlockPattern,
-    add_force_terms,
     assemble,
     contacts_key,
     free_pairs,
     free_rows,
     reassemble,
+    subtract_contact_forces,
 )
 from dda.blocks import BlockSet
 from dda.contact import law as contact_law
@@ -251,10 +251,8 @@ def _forces(base_forces, contacts, rows, coefficients):
     """F: the effects' forces and the contact forces (``coefficients`` as for K)."""
     forces = base_forces.copy()
     _, _, normal, shear = coefficients
-    a, b = contacts.block_a, contacts.block_b
-    terms = [(a, rows.normal_i, normal), (b, rows.normal_j, normal)]
-    terms += [(a, rows.shear_i, shear), (b, rows.shear_j, shear)]
-    add_force_terms(forces, terms)
+    gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
+    subtract_contact_forces(forces, contacts.block_a, contacts.block_b, gradients, normal, shear)
     return forces
 
 

@@ -8,11 +8,10 @@ import pytest
 import dda.assembly as assembly
 from dda.assembly import (
     BlockPattern,
-    add_force_terms,
-    add_forces,
     assemble,
     free_rows,
     reassemble,
+    subtract_contact_forces,
 )
 from dda.step import LinearCache
 
@@ -120,22 +119,22 @@ def test_patterns_of_the_same_graph_have_the_same_key():
 
 
 @pytest.mark.parametrize("compiled", [True, False])
-def test_forces_are_summed_per_block(monkeypatch, compiled):
+def test_contact_forces_go_to_both_blocks(monkeypatch, compiled):
     if not compiled:
-        monkeypatch.setattr(assembly, "_subtract_kernel", None)
-    forces = np.zeros((3, 6))
-    add_forces(forces, np.array([0, 2, 0]), np.ones((3, 6)), np.array([1.0, 2.0, 3.0]))
-    np.testing.assert_array_equal(forces[:, 0], [-4.0, 0.0, -2.0])
-    rng = np.random.default_rng(5)
-    block, row, coef = rng.integers(0, 50, 400), rng.normal(size=(400, 6)), rng.normal(size=400)
-    many = np.zeros((50, 6))
-    add_forces(many, block, row, coef)
-    expected = -np.array([(coef[block == b, None] * row[block == b]).sum(0) for b in range(50)])
-    np.testing.assert_allclose(many, expected, rtol=1e-12, atol=1e-12)
-    in_kinds = np.zeros((50, 6))  # the same terms in three kinds
-    kinds = [(block[k::3], row[k::3], coef[k::3]) for k in range(3)]
-    add_force_terms(in_kinds, kinds)
-    np.testing.assert_allclose(in_kinds, expected, rtol=1e-12, atol=1e-12)
+        monkeypatch.setattr(assembly, "_subtract_pairs_kernel", None)
+    rng = np.random.default_rng(6)
+    m, n = 300, 40
+    block_a, block_b = rng.integers(0, n, m), rng.integers(0, n, m)
+    gradients = tuple(rng.normal(size=(m, 6)) for _ in range(4))
+    normal, shear = rng.normal(size=m), rng.normal(size=m)
+    forces = np.ones((n, 6))
+    subtract_contact_forces(forces, block_a, block_b, gradients, normal, shear)
+    e, g, es, gs = gradients
+    expected = np.ones((n, 6))
+    for c in range(m):  # F_a -= N E + F Es, F_b -= N G + F Gs
+        expected[block_a[c]] -= normal[c] * e[c] + shear[c] * es[c]
+        expected[block_b[c]] -= normal[c] * g[c] + shear[c] * gs[c]
+    np.testing.assert_allclose(forces, expected, rtol=1e-12, atol=1e-12)
 
 
 def test_free_rows_skip_fixed_blocks():
