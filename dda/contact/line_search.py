@@ -160,10 +160,14 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
     first = alphas[:count].min() if count else np.inf  # a contact changes piece before the
     # root when the root lies beyond the first breakpoint (π' < 0 there)
     start, value, kept = 0.0, slope0, count
-    while kept > NARROWED:  # halve the breakpoints around the root: O(m) a halving, no sort
+    while kept > NARROWED:  # halve the breakpoints around the root: O(kept), no sort
         pivot = np.median(alphas[: kept : kept // 63 + 1])  # of a sample: about halves
-        at_pivot = _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, pivot, 0.0)
-        at_pivot += gradient + curvature * pivot
+        # π'(pivot) from the breakpoints: π' is linear between them, its slope growing
+        # by each jump passed
+        at_pivot = value + slope * (pivot - start)
+        for i in range(kept):
+            if alphas[i] < pivot:
+                at_pivot += jumps[i] * (pivot - alphas[i])
         if not np.isfinite(at_pivot):
             break  # far breakpoints (bounds not known yet): the plain walk below
         below = at_pivot >= 0.0  # root on (start, pivot]: keep the breakpoints before it
