@@ -130,7 +130,7 @@ class BlockQuadratic:
     ) -> tuple[float, float]:
         """(a, c) of the line D + α ΔD: a = ΔDᵀ(K₀ D − F₀), c = ΔDᵀ K₀ ΔD, from
         ``product`` = K₀ D and ``direction_product`` = K₀ ΔD."""
-        a = float(np.vdot(direction, product) - np.vdot(direction, self.forces))
+        a = float(np.vdot(direction, product - self.forces))
         return a, float(np.vdot(direction, direction_product))
 
     @cached_property
