@@ -58,8 +58,9 @@ from dda.result import BoltEvent, FractureEvent
 log = logging.getLogger(__name__)
 
 # the layout of a checkpoint; raised when the run's state gains an entry that an older
-# checkpoint cannot have (2: the blocks' last acceleration, for [analysis] newmark_gamma)
-FORMAT = 2
+# checkpoint cannot have (2: the blocks' last acceleration, for [analysis] newmark_gamma;
+# 3: the contact search's reach, dda.contact.reach)
+FORMAT = 3
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
 NOT_SAVED = ("model",)  # run attributes rebuilt from the scene

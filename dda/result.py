@@ -101,7 +101,8 @@ class Result:
 
     ``summary`` keys: steps, time, wall_seconds, iterations (total solves),
     iterations_per_step, max_penetration, active_effects, stage_seconds,
-    contact_method, cut_steps, friction_dissipation (work of the friction
+    contact_method, cut_steps, search_redos (steps redone after a contact
+    search with the full distance, dda.contact.reach), friction_dissipation (work of the friction
     forces against the slips, dda.contact.law.friction_dissipation), status
     ("finished", "interrupted" by ``stop``, "failed"), environment (dda.environment).
     """

@@ -11,6 +11,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
+from dda.contact import reach
 from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
@@ -23,7 +24,7 @@ from dda.jit import run_work
 from dda.limits import check_run_size
 from dda.linsolve import single_threaded_blas, solver_threads
 from dda.measure import Probes
-from dda.model import Model, build
+from dda.model import SEARCH_FACTOR, Model, build
 from dda.result import FractureEvent, Frame, Result
 from dda.scene import Scene
 from dda.stages import apply_due_stages
@@ -36,6 +37,7 @@ log = logging.getLogger(__name__)
 MAX_CUTS = 40  # halvings of one step before the run gives up
 GROWTH = 1.5  # time-step growth per accepted step, back up to the maximum after a cut
 MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
+BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
 # energy columns of Result.history (dda.energy): stored terms, their total, work of the loads
 HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_work")
 
@@ -48,6 +50,8 @@ class _Run:
         self.blocks: BlockSet = model.blocks.copy()
         self.contacts = ContactSet.empty()
         self.kept_pairs = KeptPairs()
+        self.reach = model.allowed_displacement  # the next step's search reach (m)
+        self.search_redos = 0  # steps redone after a search with the full distance
         self.time = 0.0
         self.step = 0
         self.dt = model.max_time_step
@@ -114,7 +118,21 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
     moved = np.abs(vertex_displacements(run.blocks, solution.d, m.exact_rotation)).max(initial=0.0)
     if moved > m.allowed_displacement * (1 + 1e-9):
         return None, max(0.1, 0.9 * m.allowed_displacement / moved), "displacement above g2"
+    if m.contact is not None and reach.beyond(moved, run.reach, m.allowed_displacement):
+        return None, 1.0, BEYOND_REACH
+    solution.moved = float(moved)
     return solution, 1.0, ""
+
+
+def _search(run: _Run, previous: ContactSet) -> None:
+    """The step's contacts, from ``previous`` (the last step's), searched as far as
+    the run's reach (:mod:`dda.contact.reach`)."""
+    m = run.model
+    if m.contact is None:
+        return
+    with run.timer("contact_search"):
+        gap = SEARCH_FACTOR * run.reach
+        run.contacts = refresh_contacts(run.blocks, previous, m.contact, run.kept_pairs, gap)
 
 
 def _step_length(dt: float, remaining: float) -> float:
@@ -134,14 +152,20 @@ def _step_length(dt: float, remaining: float) -> float:
 def _advance(run: _Run) -> None:
     """Compute and apply one step, cutting Δt until it is acceptable."""
     m = run.model
-    if m.contact is not None:
-        with run.timer("contact_search"):
-            run.contacts = refresh_contacts(run.blocks, run.contacts, m.contact, run.kept_pairs)
+    previous = run.contacts
+    _search(run, previous)
     dt = _step_length(run.dt, run.until_event())
-    for cut in range(MAX_CUTS + 1):
+    cut = 0
+    while True:
         solution, factor, reason = _attempt(run, run.contacts, dt)
         if solution is not None:
             break
+        if reason == BEYOND_REACH:  # a vertex moved further than the search looked
+            log.debug("step %d: beyond the search reach, searching in full", run.step + 1)
+            run.reach = m.allowed_displacement
+            run.search_redos += 1
+            _search(run, previous)
+            continue
         if cut == MAX_CUTS or dt * factor < MIN_STEP_FRACTION * m.max_time_step:
             raise SimulationError(
                 f"step {run.step + 1} at t = {run.time:.6g}: {reason} after {cut + 1} "
@@ -150,6 +174,7 @@ def _advance(run: _Run) -> None:
         log.debug("step %d: %s, Δt %.3g -> %.3g", run.step + 1, reason, dt, dt * factor)
         dt *= factor
         run.cut_steps += 1
+        cut += 1
     with run.timer("update"):
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
         ground = None if m.ground is None else m.ground.prescribed(run.blocks, ctx)
@@ -173,6 +198,7 @@ def _advance(run: _Run) -> None:
         if not np.all(np.isfinite(run.blocks.vertices)):
             raise SimulationError(f"step {run.step + 1}: non-finite block positions")
     run.contacts = solution.contacts
+    run.reach = reach.next_reach(solution.moved, m.allowed_displacement)
     run.time += dt
     run.step += 1
     run.dt = min(m.max_time_step, dt * GROWTH)
@@ -385,6 +411,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "max_iterations_step": state.max_iterations_step,
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
+        "search_redos": state.search_redos,
         "friction_dissipation": state.friction_dissipation,
         "contact_method": None if m.contact is None else m.scene.contact.method,
         "active_effects": list(m.active_effects),

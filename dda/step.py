@@ -63,6 +63,7 @@ class StepSolution:
     max_penetration: float
     pushed: np.ndarray | None = None  # (n, 6) part of d that removed overlap found this step
     friction_dissipation: float = 0.0  # work of the friction forces against the slips
+    moved: float = 0.0  # largest vertex displacement (m), once the step is accepted
 
 
 MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import dda
+import dda.contact.reach
 import dda.step as step
 from dda.bench.scenes import wall_scene
 
@@ -24,6 +25,9 @@ def test_contacts_a_block_apart_get_no_spring(monkeypatch, cohesion):
     """Also on cohesive joints: a contact found open has no bond (no cohesion)."""
     scene = wall_scene(6, steps=3)
     scene["analysis"]["max_displacement_ratio"] = 0.25  # search distance ≈ 3 blocks
+    # every step searches as far as Shi's distance (a run narrows it to the blocks'
+    # motion after its first step, dda.contact.reach)
+    monkeypatch.setattr(dda.contact.reach, "FLOOR", 1.0)
     scene["joints"]["default"]["cohesion"] = cohesion
     seen = {"far": 0, "sprung": 0}
     original = step._PieceSystem.__call__

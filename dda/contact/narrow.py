@@ -150,8 +150,17 @@ def detect(
     vertex_radius: float,
     inside_depth: float = np.inf,
     previous_keys: np.ndarray | None = None,
+    gap: float | None = None,
 ) -> Detected:
     """Vertex-edge and vertex-vertex contacts for candidate block pairs.
+
+    ``gap``: the widest gap (m) a vertex may have from an edge's line to be a
+    vertex-edge candidate (default ``search``): the run narrows it to what
+    the blocks' motion can close in the step (:mod:`dda.contact.reach`).
+    ``search`` still sets the boxes the vertices are screened in (so the
+    vertex-vertex candidates, whose resolution keeps a contact's pairing
+    from step to step, do not depend on ``gap``), the deepest penetration a
+    candidate may have and the vertex-vertex slack.
 
     ``inside_depth``: a vertex deeper than this inside the other block (the
     contact tolerance) is the one a vertex-vertex pair is resolved with; corners
@@ -164,7 +173,9 @@ def detect(
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
         return Detected(empty, empty, np.zeros(0, bool))
-    fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(blocks, pairs, search, vertex_radius)
+    fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(
+        blocks, pairs, search, vertex_radius, search if gap is None else gap
+    )
     apart = _at_filled_nodes(blocks, fans, vv_vertex, vv_edge, inside_depth)
     vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
     slack = OUTSIDE_FRACTION * search
@@ -179,12 +190,13 @@ def detect(
     return Detected(vertex_all[keep], edge_all[keep], kind[keep])
 
 
-def _screened(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float):
-    """(fans, (V-E vertex, edge, V-V vertex, edge)): the candidates that pass the tests."""
+def _screened(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float, gap: float):
+    """(fans, (V-E vertex, edge, V-V vertex, edge)): the candidates that pass the tests
+    (V-E: a vertex at most ``gap`` outside the edge's line)."""
     fans = VertexFans(blocks)
     radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
     screen = _screen_compiled if compiled(_screen_kernel) else _screen_numpy
-    return fans, screen(blocks, fans, pairs, search, radius)
+    return fans, screen(blocks, fans, pairs, search, radius, gap)
 
 
 def _at_filled_nodes(blocks: BlockSet, fans: VertexFans, p1, p2, tight: float) -> np.ndarray:
@@ -200,7 +212,7 @@ def separated_blocks(
     node other blocks fill: no contact between them while the node stays so."""
     if len(pairs) == 0:
         return np.zeros((0, 2), dtype=np.int64)
-    fans, (_, _, p1, p2) = _screened(blocks, pairs, search, vertex_radius)
+    fans, (_, _, p1, p2) = _screened(blocks, pairs, search, vertex_radius, search)
     apart = _at_filled_nodes(blocks, fans, p1, p2, tight)
     owner = blocks.vertex_owner
     found = np.column_stack([owner[p1[apart]], owner[p2[apart]]]).astype(np.int64)
@@ -213,7 +225,7 @@ def _grown_boxes(blocks: BlockSet, search: float) -> tuple[np.ndarray, np.ndarra
     return lo, hi
 
 
-def _screen_numpy(blocks, fans, pairs, search, radius):
+def _screen_numpy(blocks, fans, pairs, search, radius, gap):
     """(V-E vertex, edge, V-V vertex, edge) candidates that pass the tests (numpy)."""
     a, b, vertex, edge = _vertex_edge_candidates(blocks, pairs, search)
     v = blocks.vertices
@@ -236,7 +248,7 @@ def _screen_numpy(blocks, fans, pairs, search, radius):
         & (t < 1.0 - EDGE_END)
         & (r2 > radius2)
         & (r3 > radius3)
-        & (d >= -search)
+        & (d >= -gap)
         & (d <= max_depth)
         & (fans.separation(vertex, -inward) >= -ANGLE_TOLERANCE)
     )
@@ -244,7 +256,7 @@ def _screen_numpy(blocks, fans, pairs, search, radius):
     return vertex[ve], edge[ve], vertex[vv], edge[vv]
 
 
-def _screen_compiled(blocks, fans, pairs, search, radius):
+def _screen_compiled(blocks, fans, pairs, search, radius, gap):
     """The same candidates as :func:`_screen_numpy`, in the same order (numba)."""
     lo, hi = _grown_boxes(blocks, search)
     directed = np.concatenate([pairs, pairs[:, ::-1]]).astype(np.int64)
@@ -261,6 +273,7 @@ def _screen_compiled(blocks, fans, pairs, search, radius):
         np.ascontiguousarray(lo),
         np.ascontiguousarray(hi),
         float(search),
+        float(gap),
         ANGLE_TOLERANCE,
         EDGE_END,
     )
@@ -280,6 +293,7 @@ def _screen(
     lo,
     hi,
     search,
+    gap,
     angle_tolerance,
     edge_end,
 ):
@@ -322,7 +336,7 @@ def _screen(
                 if not np.sqrt(ux * ux + uy * uy) > min(radius[vertex], radius[end]):
                     continue
                 d = (ex * wy - ey * wx) / length
-                if not (-search <= d <= max_depth):
+                if not (-gap <= d <= max_depth):
                     continue
                 nx, ny = ey / length, -ex / length  # outward = -inward
                 sep = min(

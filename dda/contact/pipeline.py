@@ -14,7 +14,11 @@ from dda.contact.rows import edge_geometry
 
 
 def refresh_contacts(
-    blocks: BlockSet, previous: ContactSet, settings, kept_pairs: KeptPairs | None = None
+    blocks: BlockSet,
+    previous: ContactSet,
+    settings,
+    kept_pairs: KeptPairs | None = None,
+    gap: float | None = None,
 ) -> ContactSet:
     """Contacts at the start of a step, keeping what persists from ``previous``.
 
@@ -32,7 +36,8 @@ def refresh_contacts(
     the step start, and the shear force carried from the last step is the
     contact's ``shear_multiplier`` (:mod:`dda.contact.law`). ``kept_pairs``: the
     run's broad-phase list, kept between steps (the same pairs as a new search,
-    found faster).
+    found faster). ``gap``: the widest gap a new or open contact may have
+    (default the search distance; :mod:`dda.contact.reach`).
     """
     if kept_pairs is None:
         pairs = candidate_pairs(blocks, settings.search_distance)
@@ -45,6 +50,7 @@ def refresh_contacts(
         settings.vertex_radius,
         settings.law.tolerance,
         previous.key,
+        gap,
     )
     penetration, parameter, far = edge_geometry(blocks, found.vertex, found.edge)
     keys = contact_keys(blocks, found.vertex, found.edge)
