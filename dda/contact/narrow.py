@@ -219,6 +219,14 @@ def separated_blocks(
     return np.unique(np.sort(found, axis=1), axis=0)
 
 
+def _box_margin(radius: np.ndarray, gap: float) -> float:
+    """How far outside another block's box a vertex can be a candidate: a V-E
+    candidate projects inside its edge within ``gap`` of it, a V-V one lies within
+    its vertex radius of the edge's first vertex; boxes grown by this much lose
+    neither."""
+    return max(float(gap), float(radius.max(initial=0.0)))
+
+
 def _grown_boxes(blocks: BlockSet, search: float) -> tuple[np.ndarray, np.ndarray]:
     lo = np.minimum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) - search
     hi = np.maximum.reduceat(blocks.vertices, blocks.offsets[:-1], axis=0) + search
@@ -227,7 +235,7 @@ def _grown_boxes(blocks: BlockSet, search: float) -> tuple[np.ndarray, np.ndarra
 
 def _screen_numpy(blocks, fans, pairs, search, radius, gap):
     """(V-E vertex, edge, V-V vertex, edge) candidates that pass the tests (numpy)."""
-    a, b, vertex, edge = _vertex_edge_candidates(blocks, pairs, search)
+    a, b, vertex, edge = _vertex_edge_candidates(blocks, pairs, _box_margin(radius, gap))
     v = blocks.vertices
     p1, p2, p3 = v[vertex], v[edge], v[fans.next[edge]]
     e = p3 - p2
@@ -258,7 +266,7 @@ def _screen_numpy(blocks, fans, pairs, search, radius, gap):
 
 def _screen_compiled(blocks, fans, pairs, search, radius, gap):
     """The same candidates as :func:`_screen_numpy`, in the same order (numba)."""
-    lo, hi = _grown_boxes(blocks, search)
+    lo, hi = _grown_boxes(blocks, _box_margin(radius, gap))
     directed = np.concatenate([pairs, pairs[:, ::-1]]).astype(np.int64)
     out = _screen_kernel(
         np.ascontiguousarray(directed),
