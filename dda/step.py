@@ -362,9 +362,11 @@ class _PieceSystem:
 
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
-        none = np.zeros(len(normal))
-        zero = np.zeros_like(self.base_f)
-        return -_forces(zero, self.contacts, self.rows, (none, none, normal, shear))
+        rows, contacts = self.rows, self.contacts
+        gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
+        out = np.zeros_like(self.base_f)
+        subtract_contact_forces(out, contacts.block_a, contacts.block_b, gradients, -normal, -shear)
+        return out
 
 
 def _first_bounds(contacts, rows, joints, law) -> np.ndarray:

@@ -269,11 +269,11 @@ def record(
     closed = (normal_piece == NORMAL_ELASTIC) | (terms.tension > 0.0)
     normal = np.where(closed, terms.normal_force(g), 0.0)
     shear = np.where(closed, terms.shear_force(s), 0.0)
-    at_bound = np.abs(terms.shear_trial(s)) >= (1.0 - limit_band) * terms.bound
-    stuck = ~at_bound & (terms.shear_penalty > 0.0)
+    trial = terms.shear_trial(s)
+    stuck = (np.abs(trial) < (1.0 - limit_band) * terms.bound) & (terms.shear_penalty > 0.0)
     contacts.state = np.where(closed, np.where(stuck, LOCKED, SLIDING), OPEN).astype(np.int8)
     sliding = contacts.state == SLIDING
-    contacts.slide_direction = np.where(sliding, np.sign(terms.shear_trial(s)), 0.0)
+    contacts.slide_direction = np.where(sliding, np.sign(trial), 0.0)
     contacts.normal_force = normal
     contacts.shear_force = shear
     contacts.shear_multiplier = shear

@@ -119,8 +119,8 @@ NARROWED = 256
 
 def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, curvature):
     """Compiled :func:`line_minimum`: the same breakpoints; more than ``NARROWED`` of them
-    are first halved around the root (π' at their median, one pass over the contacts
-    each), then the rest are sorted and walked as in the numpy path."""
+    are first halved around the root (π' at a sample median, summed over the breakpoints
+    still kept), then the rest are sorted and walked as in the numpy path."""
     m = g.shape[0]
     slope0 = _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, 0.0, gradient)
     if not slope0 < 0.0:
