@@ -381,7 +381,9 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     if summary.get("max_penetration") is not None:
         text += f" Largest penetration {_number(summary['max_penetration'])}."
     if summary.get("iterations") is not None:
-        text += f" {summary['iterations']} solves."
+        text += f" {summary['iterations']} solves"
+        newton = summary.get("newton_iterations")
+        text += "." if newton is None else f" ({newton} Newton iterations)."
     if summary.get("friction_dissipation"):
         text += f" Friction dissipated {_number(summary['friction_dissipation'], '.3g')}."
     events = summary.get("fracture_events") or 0

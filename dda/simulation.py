@@ -56,7 +56,8 @@ class _Run:
         self.step = 0
         self.dt = model.max_time_step
         self.timer = StageTimer()
-        self.iterations = 0
+        self.iterations = 0  # linear solves: Newton iterations and chord steps
+        self.newton_iterations = 0  # assembled systems solved
         self.factorisations = 0
         self.cut_steps = 0
         self.max_iterations_step = 0
@@ -110,6 +111,7 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
     if ctx.prescribed is not None:
         solution.d = solution.d + ctx.prescribed
     run.iterations += solution.iterations
+    run.newton_iterations += solution.newton_iterations
     run.factorisations += solution.factorisations
     if not np.all(np.isfinite(solution.d)):
         return None, 0.25, "non-finite solution"
@@ -408,6 +410,8 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "iterations": state.iterations,
         "factorisations": state.factorisations,
         "iterations_per_step": state.iterations / steps,
+        "newton_iterations": state.newton_iterations,
+        "newton_iterations_per_step": state.newton_iterations / steps,
         "max_iterations_step": state.max_iterations_step,
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,

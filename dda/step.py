@@ -64,6 +64,9 @@ class StepSolution:
     pushed: np.ndarray | None = None  # (n, 6) part of d that removed overlap found this step
     friction_dissipation: float = 0.0  # work of the friction forces against the slips
     moved: float = 0.0  # largest vertex displacement (m), once the step is accepted
+    # Newton iterations: assembled systems solved (the rest of ``iterations`` are chord
+    # steps, back-substitutions with a kept factorisation)
+    newton_iterations: int = 0
 
 
 MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
@@ -434,7 +437,8 @@ def solve_step(
             k = assemble(pattern, base_k, blocks.fixed, couplings=couplings)
         d = _solve(cache, pattern, k, base_f, blocks, timer)
         made = cache.solver.factorisations - factorisations_before
-        return StepSolution(d, contacts, 1, made, bool(np.all(np.isfinite(d))), 0.0)
+        finite = bool(np.all(np.isfinite(d)))
+        return StepSolution(d, contacts, 1, made, finite, 0.0, newton_iterations=1)
 
     law = cm.law
     with timer("contact_law"):
@@ -528,4 +532,6 @@ def solve_step(
         if overlap.any():
             masses = model.inertia.masses(blocks)
             pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
-    return StepSolution(d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated)
+    return StepSolution(
+        d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated, 0.0, solves
+    )

@@ -34,11 +34,12 @@ def test_measure_a_small_wall(method):
     m = measure(3, method, steps=3, warm_up=False)
     assert m.status == "finished" and m.steps == 3 and m.blocks == 10
     assert m.iterations >= 3 and m.factorisations >= 1
+    assert 3 <= m.newton_iterations <= m.iterations  # at least one a step; chord steps beside
     assert {"contact_search", "assembly", "solve"} <= set(m.stage_seconds)
     assert m.peak_memory_mib > 0
     assert 0 < m.first_step_seconds < m.seconds  # the first step, timed apart
     assert m.ms_per_later_step == pytest.approx(1000 * (m.seconds - m.first_step_seconds) / 2)
-    assert "3x3" in table([m]) and "after step 1" in table([m])
+    assert "3x3" in table([m]) and "after step 1" in table([m]) and "Newton/step" in table([m])
 
 
 def test_growth_exponent():

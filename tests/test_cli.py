@@ -174,6 +174,14 @@ def test_the_run_paragraph_tells_the_friction_dissipation_only_when_there_is_som
     assert "Friction dissipated 7.61e+06." in cli.summary_paragraph(sliding, Path("out"))
 
 
+def test_the_run_paragraph_tells_the_newton_iterations_beside_the_solves():
+    base = {"title": "t", "steps": 2, "time": 0.2, "wall_seconds": 1.0, "iterations": 9}
+    assert "9 solves (4 Newton iterations)." in cli.summary_paragraph(
+        {**base, "newton_iterations": 4}, Path("out")
+    )
+    assert "9 solves." in cli.summary_paragraph(base, Path("out"))  # an older summary.json
+
+
 # ------------------------------------------------------------------ dda render
 
 

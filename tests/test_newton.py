@@ -204,3 +204,27 @@ def test_the_line_slope_is_taken_from_the_force_difference_not_two_large_product
     a, _ = quadratic.along(product, direction, np.zeros_like(direction))
     assert abs(a - exact) <= 1e-9 * abs(exact)
     assert abs(exact - float(np.sum(direction * imbalance))) <= 1e-2 * abs(exact)
+
+
+def test_a_run_counts_newton_iterations_and_chord_steps_apart(monkeypatch):
+    """summary["iterations"] = Newton iterations + chord steps; summary["newton_iterations"]
+    the Newton iterations alone (assembled systems), counted here from minimise() itself."""
+    import dda
+    import dda.step as step_module
+    from dda.bench.scenes import wall_scene
+
+    counted = {"newton": 0, "chords": 0}
+    original = step_module.minimise
+
+    def counting(*args, **kwargs):
+        result = original(*args, **kwargs)
+        counted["newton"] += result.solves
+        counted["chords"] += result.chords
+        return result
+
+    monkeypatch.setattr(step_module, "minimise", counting)
+    summary = dda.simulate(dda.load_scene(wall_scene(6, steps=20))).summary
+    assert counted["chords"] > 0  # the run has both kinds
+    assert summary["newton_iterations"] == counted["newton"]
+    assert summary["iterations"] == counted["newton"] + counted["chords"]
+    assert summary["newton_iterations_per_step"] == counted["newton"] / 20

@@ -76,7 +76,8 @@ def assert_same_run(a: dda.Result, b: dda.Result) -> None:
         np.testing.assert_array_equal(a.history[name], b.history[name], err_msg=name)
     for name in ("centroids", "velocities", "stresses", "displacements", "rotations"):
         np.testing.assert_array_equal(getattr(a.final, name), getattr(b.final, name))
-    for key in ("steps", "time", "iterations", "factorisations", "cut_steps", "max_penetration"):
+    keys = ("steps", "time", "iterations", "newton_iterations", "factorisations", "cut_steps")
+    for key in (*keys, "max_penetration"):
         assert a.summary[key] == b.summary[key], key
 
 
@@ -262,8 +263,9 @@ def test_sigterm_stops_after_the_step_and_resume_finishes_the_same_run(
     assert Path("out/history.csv").read_bytes() == Path("whole/history.csv").read_bytes()
     resumed, whole = (json.loads(Path(d, "summary.json").read_text()) for d in ("out", "whole"))
     assert resumed["resumed_from_step"] == 20 and resumed["frames_written"] == 7
-    for key in ("steps", "time", "iterations", "factorisations", "max_penetration"):
+    for key in ("steps", "time", "iterations", "newton_iterations", "factorisations"):
         assert resumed[key] == whole[key], key
+    assert resumed["max_penetration"] == whole["max_penetration"]
     assert not Path("out/checkpoint.npz").exists()
 
 

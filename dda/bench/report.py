@@ -46,7 +46,8 @@ def machine_line() -> str:
 def table(measurements: Iterable[Measurement]) -> str:
     """Markdown table: one row per (size, method); stage seconds per step in ms."""
     head = (
-        "| wall | blocks | method | ms/step | after step 1 | block-steps/s | iter/step | factor. |"
+        "| wall | blocks | method | ms/step | after step 1 | block-steps/s | iter/step "
+        "| Newton/step | factor. |"
         + "".join(f" {SHORT[s]} |" for s in STAGES)
         + " peak MiB | status |"
     )
@@ -57,7 +58,8 @@ def table(measurements: Iterable[Measurement]) -> str:
         lines.append(
             f"| {m.columns}x{m.rows} | {m.blocks} | {m.method} | {m.ms_per_step:.2f} | "
             f"{m.ms_per_later_step:.2f} | "
-            f"{m.block_steps_per_second:,.0f} | {m.iterations_per_step:.2f} | {m.factorisations} |"
+            f"{m.block_steps_per_second:,.0f} | {m.iterations_per_step:.2f} | "
+            f"{m.newton_iterations_per_step:.2f} | {m.factorisations} |"
             + "".join(f" {per_step[s]:.2f} |" for s in STAGES)
             + f" {m.peak_memory_mib:.0f} | {m.status[:40]} |"
         )

@@ -41,8 +41,9 @@ class Measurement:
     steps: int
     blocks: int
     seconds: float  # wall time of the run (model build and time loop)
-    iterations: int  # linear solves (Newton iterations, augmentations, friction updates)
+    iterations: int  # linear solves (Newton iterations and chord steps, over all passes)
     factorisations: int
+    newton_iterations: int = 0  # assembled systems solved (the rest are chord steps)
     stage_seconds: dict[str, float] = field(default_factory=dict)
     peak_memory_mib: float = float("nan")
     status: str = "finished"
@@ -65,6 +66,10 @@ class Measurement:
     @property
     def iterations_per_step(self) -> float:
         return self.iterations / max(self.steps, 1)
+
+    @property
+    def newton_iterations_per_step(self) -> float:
+        return self.newton_iterations / max(self.steps, 1)
 
 
 def measure(
@@ -123,6 +128,7 @@ def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) ->
         seconds=seconds,
         iterations=int(summary.get("iterations", 0)),
         factorisations=int(summary.get("factorisations", 0)),
+        newton_iterations=int(summary.get("newton_iterations", 0)),
         stage_seconds=dict(summary.get("stage_seconds", {})),
         peak_memory_mib=peak_memory_mib(),
         status=status,
