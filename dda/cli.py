@@ -415,11 +415,18 @@ def _add_render(subparsers: Any) -> None:
         "or a frames/blocks_*.vtu file.",
     )
     p.add_argument("source", type=Path, help="output directory or blocks VTU file")
-    p.add_argument("-o", "--output", type=Path, help="PNG file (default: beside the source)")
+    p.add_argument(
+        "-o", "--output", type=Path,
+        help="PNG file (default: in the run's output directory, named after the frame and "
+        "the scalars)",
+    )  # fmt: skip
     p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
     p.add_argument("--step", type=int, help="step of the frame (OUTDIR only; default last)")
     p.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")
-    p.add_argument("--size", type=positive_int, nargs=2, default=(1200, 900), metavar=("W", "H"))
+    p.add_argument(
+        "--size", type=positive_int, nargs=2, default=(1200, 900), metavar=("W", "H"),
+        help="picture size in pixels (default: 1200 900)",
+    )  # fmt: skip
     p.set_defaults(func=render_command)
 
 
@@ -438,6 +445,7 @@ def render_command(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     from dda.io.images import render_frame
 
+    Path(output).parent.mkdir(parents=True, exist_ok=True)
     run = found.summary()  # the run's title and units, when its summary.json is there
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,

@@ -446,6 +446,20 @@ def test_cut_command_refuses_bad_input_and_writes_nothing(tmp_path, capsys, chan
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
 
 
+def test_cut_command_makes_missing_folders_and_refuses_to_overwrite_its_scene(tmp_path, capsys):
+    raw = base_scene(joint_sets=[{"dip": 30.0, "spacing": 1.5, "joint": "bed"}])
+    scene = write_scene(tmp_path / "mass.toml", raw)
+    before = scene.read_bytes()
+    assert run_cli("cut", str(scene), "-o", str(scene)) == 2
+    assert "is the scene file itself" in capsys.readouterr().err
+    assert scene.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == [
+        "mass.toml"
+    ]
+    out, png = tmp_path / "new" / "dir" / "blocks.toml", tmp_path / "other" / "cut.png"
+    assert run_cli("cut", str(scene), "-o", str(out), "--png", str(png)) == 0
+    assert out.is_file() and png.stat().st_size > 1000
+
+
 def test_cut_is_an_entry_point_of_the_dda_command():
     names = {ep.name: ep.value for ep in entry_points(group="dda.commands")}
     assert names.get("cut") == "dda.rockmass.cli:register"

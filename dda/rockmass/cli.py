@@ -9,7 +9,7 @@ import tomllib
 from pathlib import Path
 
 from dda.errors import SceneError
-from dda.io.atomic import write_text
+from dda.io.atomic import atomic_path, write_text
 from dda.io.output_paths import OutputError, check_output_file
 
 log = logging.getLogger(__name__)
@@ -24,7 +24,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "with explicit [[blocks]] (TOML) and a picture of the blocks (PNG).",
     )
     parser.add_argument("scene", help="scene file (TOML) with [[regions]] and joints")
-    parser.add_argument("-o", "--output", default="blocks.toml", help="TOML file to write")
+    parser.add_argument(
+        "-o", "--output", default="blocks.toml", help="TOML file to write (default: blocks.toml)"
+    )
     parser.add_argument("--png", default=None, help="picture to write (default: OUTPUT.png)")
     parser.add_argument("--no-png", action="store_true", help="do not draw a picture")
     parser.set_defaults(func=run_cut)
@@ -40,7 +42,7 @@ def run_cut(args: argparse.Namespace) -> int:
     try:
         for path, option in ((output, "-o"), (png, "--png")):
             if path is not None:
-                _check_output(path, option)
+                _check_output(path, option, Path(args.scene))
         cut, scene = _cut(Path(args.scene))
         _check_loadable(scene, str(args.scene))
     except (SceneError, OutputError) as exc:
@@ -48,22 +50,29 @@ def run_cut(args: argparse.Namespace) -> int:
         sys.stderr.write(f"dda cut: {exc}\n")
         return 2
     header = f"# Blocks cut from {args.scene} by `dda cut`: {len(cut.names)} blocks.\n"
-    write_text(output, header + dumps(scene))
-    log.info("wrote %s", output)
-    if png is not None:
+    text = header + dumps(scene)
+    if png is not None:  # the picture first: a drawing that fails leaves no scene behind
         from dda.rockmass.picture import draw_cut
 
-        draw_cut(cut, png, title=str(scene.get("title", "")) or Path(args.scene).stem)
+        png.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(png) as tmp:
+            draw_cut(cut, tmp, title=str(scene.get("title", "")) or Path(args.scene).stem)
         log.info("wrote %s", png)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    write_text(output, text)
+    log.info("wrote %s", output)
     sys.stdout.write(f"{output}: {len(cut.names)} blocks, {int(cut.fixed.sum())} fixed\n")
     return 0
 
 
-def _check_output(path: Path, option: str) -> None:
+def _check_output(path: Path, option: str, scene: Path) -> None:
+    """Refuse an output path that cannot be written, or that is the scene file itself."""
     try:
         check_output_file(path)
     except OutputError as exc:
         raise OutputError(f"{option} {path}", exc.reason) from None
+    if path.exists() and scene.exists() and path.resolve() == scene.resolve():
+        raise OutputError(f"{option} {path}", "is the scene file itself; give another name")
 
 
 def _cut(path: Path):
