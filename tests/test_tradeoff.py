@@ -92,6 +92,32 @@ def test_unknown_case_is_bad_input(tmp_path):
     assert args.func(args) == 2
 
 
+def test_a_bad_scene_file_is_bad_input_named_by_its_file(tmp_path, capsys):
+    scene = tmp_path / "neg.toml"
+    text = open("cases/sliding_block.toml").read().replace("density = ", "density = -", 1)
+    scene.write_text(text)
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    args = parser.parse_args(["tradeoff", str(scene), "--serial", "-o", str(tmp_path / "out")])
+    assert args.func(args) == 2
+    err = capsys.readouterr().err
+    assert "neg.toml" in err and "density" in err and "settings" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_cluster_without_dask_is_bad_input_with_the_fix(tmp_path, capsys, monkeypatch):
+    import dda.tradeoff.cli as tradeoff_cli
+
+    monkeypatch.setattr(tradeoff_cli, "_has_dask", lambda: False)
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    args = parser.parse_args(["tradeoff", "sliding_block", "-o", str(tmp_path / "out")])
+    assert args.func(args) == 2
+    err = capsys.readouterr().err
+    assert "dda-rock[tradeoff]" in err and "--serial" in err
+    assert not (tmp_path / "out").exists()
+
+
 def test_sweep_runs_in_dask_workers_with_the_reference_as_a_task(capfd):
     """A scene-file case on a local cluster: the fine run is a task like the others."""
     pytest.importorskip("dask.distributed")

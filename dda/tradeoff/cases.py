@@ -170,7 +170,11 @@ def displacements(r: dda.Result) -> np.ndarray:
 
 
 def scene_file(path: str) -> Case:
-    """Any scene file: final centroids against a fine run (the file is read here, once)."""
+    """Any scene file: final centroids against a fine run (the file is read here, once,
+    and checked: a bad scene raises :class:`dda.SceneError` naming the file)."""
+    from dda.scene import load_scene
+
+    load_scene(path)
     raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
     time_step = raw.get("analysis", {}).get("time_step", 1e-3)
     return Case(

@@ -32,7 +32,10 @@ def register(subparsers: Any) -> None:
         help="e.g. 'method=al,penalty;penalty=1,10;tolerance=1e-4;time_step=0.01;"
         "ratio=0.01' (keys not given keep the case's defaults)",
     )
-    p.add_argument("-o", "--outdir", type=Path, default=Path("out/tradeoff"))
+    p.add_argument(
+        "-o", "--outdir", type=Path, default=Path("out/tradeoff"),
+        help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff)",
+    )  # fmt: skip
     where = p.add_mutually_exclusive_group()
     where.add_argument(
         "--workers",
@@ -91,6 +94,13 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"dda tradeoff: {exc}", file=sys.stderr)
         return 2
+    if not (args.serial or _has_dask()):
+        print(
+            "dda tradeoff: a cluster needs dask[distributed]: pip install 'dda-rock[tradeoff]' "
+            "(or from a clone: pip install -e '.[tradeoff]'), or run with --serial",
+            file=sys.stderr,
+        )
+        return 2
     settings: list[Setting] = expand(grid)
     tasks = make_tasks(case, settings, args.threads, args.repeats)
     reference = None
@@ -117,6 +127,13 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     print(markdown_table(rows, case.quantity))
     print(f"wrote {outdir}/{case.name}.csv, .md and pareto_{case.name}.png", file=sys.stderr)
     return 0
+
+
+def _has_dask() -> bool:
+    """True when dask.distributed (the ``tradeoff`` extra) can be imported."""
+    from importlib.util import find_spec
+
+    return find_spec("dask") is not None and find_spec("distributed") is not None
 
 
 def _progress(done: int, total: int, row: dict) -> None:
