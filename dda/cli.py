@@ -67,10 +67,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not hasattr(args, "func"):
         parser.print_help(sys.stderr)
         return EXIT_INPUT
-    from dda.linsolve import solver_threads
+    from dda.linsolve import solver_choice, solver_threads
 
     try:
         solver_threads()
+        solver_choice()
     except ValueError as exc:
         print(f"dda: {exc}", file=sys.stderr)
         return EXIT_INPUT

@@ -57,6 +57,7 @@ PARDISO_MIN_SIZE = 300
 # costs 0.045 against 0.029 and PCG on a kept factorisation no longer pays
 DENSE_MAX_SIZE = 240
 THREADS_VARIABLE = "DDA_THREADS"  # environment variable: threads of PARDISO's factorisation
+SOLVER_VARIABLE, SOLVER_CHOICES = "DDA_SOLVER", ("pardiso", "superlu")  # sparse solver
 
 
 class Factorisation:
@@ -269,9 +270,24 @@ def pardiso_available() -> bool:
     Nothing is imported: pypardiso (and MKL) load when a system of
     ``PARDISO_MIN_SIZE`` rows is first factorised, so small runs never pay for them.
     """
-    if os.environ.get("DDA_SOLVER", "").lower() == "superlu":
+    if solver_choice() == "superlu":
         return False
     return importlib.util.find_spec("pypardiso") is not None
+
+
+def solver_choice() -> str:
+    """``DDA_SOLVER`` (lower case, blanks stripped): "pardiso", "superlu" or "" (not set:
+    PARDISO when installed).
+
+    Raises
+    ------
+    ValueError : any other value (a misspelt choice would otherwise go unnoticed)
+    """
+    text = os.environ.get(SOLVER_VARIABLE, "").strip().lower()
+    if text and text not in SOLVER_CHOICES:
+        choices = " or ".join(SOLVER_CHOICES)
+        raise ValueError(f"{SOLVER_VARIABLE}={text!r}: expected {choices} (or leave it unset)")
+    return text
 
 
 def block_ordering(nfree: int, pairs: np.ndarray) -> np.ndarray:

@@ -103,6 +103,16 @@ def test_run_refuses_a_bad_thread_count_and_writes_nothing(tmp_path, monkeypatch
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.toml"]
 
 
+@pytest.mark.parametrize("solver", ["super-lu", "mumps"])
+def test_run_refuses_an_unknown_solver_and_writes_nothing(tmp_path, monkeypatch, capsys, solver):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("DDA_SOLVER", solver)
+    (tmp_path / "ok.toml").write_text(SMALL_SCENE)
+    assert cli.main(["run", "ok.toml", "--quiet"]) == 2
+    assert f"DDA_SOLVER={solver!r}: expected pardiso or superlu" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.toml"]
+
+
 # ------------------------------------------------------------------ dda run, engine replaced
 
 

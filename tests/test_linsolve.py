@@ -165,6 +165,16 @@ def test_solver_threads_follow_dda_threads_or_the_usable_cores(monkeypatch):
         dda.simulate(wall_scene(2, steps=1))  # refused before the run starts
 
 
+def test_the_solver_choice_is_pardiso_superlu_or_unset(monkeypatch):
+    monkeypatch.setenv("DDA_SOLVER", " SuperLU ")
+    assert linsolve.solver_choice() == "superlu" and not linsolve.pardiso_available()
+    monkeypatch.setenv("DDA_SOLVER", "super-lu")
+    with pytest.raises(ValueError, match="DDA_SOLVER='super-lu'"):
+        linsolve.pardiso_available()
+    monkeypatch.delenv("DDA_SOLVER")
+    assert linsolve.solver_choice() == ""
+
+
 def test_pardiso_allows_more_pcg_iterations_on_large_systems(monkeypatch):
     """A factorisation grows faster with the size than a back-substitution: the
     budget is 3 PCG iterations below PARDISO_LARGE rows, 5 from there on."""
