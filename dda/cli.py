@@ -379,14 +379,19 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
         f"in {_number(summary.get('wall_seconds'), '.3g')} s wall time",
     ]
     text = " ".join(parts) + "."
+    from dda.io.fields import unit_name
+
+    units = summary.get("units")
     if summary.get("max_penetration") is not None:
-        text += f" Largest penetration {_number(summary['max_penetration'])}."
+        length = unit_name("length", units)
+        text += f" Largest penetration {_number(summary['max_penetration'])} {length}."
     if summary.get("iterations") is not None:
         text += f" {summary['iterations']} solves"
         newton = summary.get("newton_iterations")
         text += "." if newton is None else f" ({newton} Newton iterations)."
     if summary.get("friction_dissipation"):
-        text += f" Friction dissipated {_number(summary['friction_dissipation'], '.3g')}."
+        energy = unit_name("energy", units)
+        text += f" Friction dissipated {_number(summary['friction_dissipation'], '.3g')} {energy}."
     events = summary.get("fracture_events") or 0
     count = events if isinstance(events, int) else len(events)
     if count:

@@ -128,6 +128,13 @@ class Units:
     def velocity(self) -> str:
         return f"{self.length}/{self.time}"
 
+    @property
+    def energy(self) -> str:
+        """Force times length: ``J`` for N and m, else ``force·length``."""
+        if (self.force, self.length) == ("N", "m"):
+            return "J"
+        return f"{self.force}·{self.length}"
+
 
 @dataclass(frozen=True)
 class Material:

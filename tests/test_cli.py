@@ -181,7 +181,10 @@ def test_the_run_paragraph_tells_the_friction_dissipation_only_when_there_is_som
     quiet = cli.summary_paragraph({**base, "friction_dissipation": 0.0}, Path("out"))
     sliding = {**base, "friction_dissipation": 7.61e6}
     assert "Friction" not in quiet
-    assert "Friction dissipated 7.61e+06." in cli.summary_paragraph(sliding, Path("out"))
+    assert "Friction dissipated 7.61e+06 J." in cli.summary_paragraph(sliding, Path("out"))
+    imperial = {**sliding, "units": {"length": "ft", "force": "lb"}, "max_penetration": 0.62}
+    text = cli.summary_paragraph(imperial, Path("out"))
+    assert "Friction dissipated 7.61e+06 lb·ft." in text and "penetration 0.62 ft." in text
 
 
 def test_the_run_paragraph_tells_the_newton_iterations_beside_the_solves():

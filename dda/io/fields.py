@@ -59,6 +59,7 @@ def unit_name(dimension: str, units: Mapping[str, str] | None = None) -> str:
         "length": scene_units.length,
         "velocity": scene_units.velocity,
         "force": scene_units.force,
+        "energy": scene_units.energy,
         "time": scene_units.time,
         "angle": "rad",
     }[dimension]
