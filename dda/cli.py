@@ -338,7 +338,10 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
         except dda.SimulationError as exc:
             print(f"dda run: simulation failed: {exc}", file=sys.stderr)
             writer.finish(getattr(exc, "result", None), scene, status="failed", error=str(exc))
-            print(f"partial output in {folder.outdir}", file=sys.stderr)
+            print(
+                f"partial output in {folder.outdir} (a new run into it needs --overwrite)",
+                file=sys.stderr,
+            )
             return EXIT_SIMULATION
         except KeyboardInterrupt:
             writer.finish(None, scene, status="interrupted", error="interrupted by the user")
