@@ -170,8 +170,9 @@ def _add_run(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "run",
         help="run a scene and write VTU/PVD, CSV, JSON and a picture",
-        description="Run CASE.toml; write OUTDIR/blocks.pvd, frames/*.vtu, history.csv, "
-        "summary.json, checkpoints and final.png. OUTDIR belongs to one run: a second run "
+        description="Run CASE.toml; write OUTDIR/blocks.pvd and contacts.pvd with their "
+        "frames/*.vtu, history.csv (and history_points.csv with [[measure]]), summary.json, "
+        "checkpoints and final.png. OUTDIR belongs to one run: a second run "
         "into it is refused unless --overwrite (replace it) or --resume (continue it). "
         "SIGINT or SIGTERM stops after the current step with a checkpoint.",
     )
@@ -179,8 +180,9 @@ def _add_run(subparsers: Any) -> None:
     p.add_argument("-o", "--outdir", type=Path, help="output directory (default out/<case>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument(
-        "--save-every", type=positive_int, metavar="N", help="keep every N-th step (overrides)"
-    )
+        "--save-every", type=positive_int, metavar="N",
+        help="keep every N-th step (overrides analysis.save_every)",
+    )  # fmt: skip
     p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="final.png colour")
     again = p.add_mutually_exclusive_group()
     again.add_argument(

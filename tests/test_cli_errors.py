@@ -73,7 +73,8 @@ REFUSED = [
     (["run", "ok.toml", "--checkpoint-every", "0"], 2, "argument --checkpoint-every: must be a p"),
     (["run", "ok.toml", "--max-output", "-1"], 2, "argument --max-output: must be a finite n"),
     (["cut", "ok.toml", "-o", "a_file/x.toml"], 2, "-o a_file/x.toml: a_file is a file, not a"),
-    (["render", "a_file"], 2, "dda render: a_file: not a frame file"),
+    (["render", "a_file"], 2, "dda render: a_file: not a blocks frame file"),
+    (["render", "contacts_000000.vtu"], 2, "contacts_000000.vtu: not a blocks frame file"),
     (["render", "a_dir"], 2, "dda render: a_dir: no written frame"),
     (["render", "stopped", "-o", "a_file/x.png"], 2, "a_file/x.png: a_file is a file, not a dir"),
     (["render", "broken/frames/blocks_000000.vtu"], 2, "blocks_000000.vtu: cannot read it as a"),
@@ -124,6 +125,7 @@ def _prepare() -> None:
     for name, text in SCENES.items():
         Path(name).write_text(text)
     Path("a_file").write_text("not a directory")
+    Path("contacts_000000.vtu").write_text("<VTKFile")
     Path("a_dir").mkdir()
     Path("read_only").mkdir()
     assert cli.main(["run", "ok.toml", "-o", "stopped", "-q", "--save-every", "1"]) == 0

@@ -65,10 +65,10 @@ def find_frame(source: str | os.PathLike[str], step: int | None = None) -> Frame
     """
     source = Path(source)
     if source.is_file():
-        if source.suffix != ".vtu":
+        if source.suffix != ".vtu" or source.name.startswith("contacts_"):
             raise ValueError(
-                f"{source}: not a frame file (expected an output directory or "
-                "frames/blocks_NNNNNN.vtu)"
+                f"{source}: not a blocks frame file (expected an output directory or "
+                "frames/blocks_NNNNNN.vtu; contacts files are drawn with their blocks)"
             )
         return _describe(source, _times(source.parent.parent / "blocks.pvd"))
     if not source.is_dir():
