@@ -464,10 +464,12 @@ def solve_step(
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None
     # this pass goes on, on new friction bounds, from an unfinished one whose next
-    # direction was a chord direction (passes start with a chord step only while the
-    # chord steps are fewer than the Newton iterations' budget: a Newton iteration in
-    # every pass bounds the step's work)
-    goes_on = False
+    # direction was a chord direction, or from a converged one whose solution the law
+    # then moved (new bounds or multipliers: the pieces, and so the kept factorisation,
+    # still fit nearly everywhere). Passes start with a chord step only while the chord
+    # steps are fewer than the Newton iterations' budget: a Newton iteration in every
+    # pass bounds the step's work
+    goes_on = after_law = False
     gaps = None  # (g, s) at d, when known
     while solves < budget:
         terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
@@ -492,12 +494,12 @@ def solve_step(
             chord=system.chord,
             max_steps=inner,
             rate=rules.rate,
-            chord_first=rules.chord_first and goes_on and chords < budget,
+            chord_first=(after_law or rules.chord_first and goes_on) and chords < budget,
             start_gaps=gaps,
             conjugate=rules.conjugate,
         )
         gaps = newton.gaps
-        goes_on = not newton.converged and newton.chord_next
+        goes_on, after_law = not newton.converged and newton.chord_next, newton.converged
         solves += newton.solves
         chords += newton.chords
         d = newton.d
