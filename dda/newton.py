@@ -78,8 +78,9 @@ class SizeRules:
     """How a step of a system of a given size spends its linear solves.
 
     rate : chord steps go on while each leaves at most this fraction of ‖∇Π‖
-    chord_first : a pass on new friction bounds that goes on from an unfinished one
-        starts with a chord step (``minimise(chord_first=True)``), not a Newton iteration
+    chord_first : a pass on new friction bounds or multipliers that goes on from an
+        unfinished one, or from a converged one the law's update moved, starts with a
+        chord step (``minimise(chord_first=True)``), not a Newton iteration
     bounds_every_solve : the friction bounds follow the normal forces after every
         linear solve (else after a few, :data:`dda.step.INNER_SOLVES`)
     conjugate : successive chord steps are conjugated (``minimise(conjugate=True)``)

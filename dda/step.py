@@ -466,9 +466,9 @@ def solve_step(
     # this pass goes on, on new friction bounds, from an unfinished one whose next
     # direction was a chord direction, or from a converged one whose solution the law
     # then moved (new bounds or multipliers: the pieces, and so the kept factorisation,
-    # still fit nearly everywhere). Passes start with a chord step only while the chord
-    # steps are fewer than the Newton iterations' budget: a Newton iteration in every
-    # pass bounds the step's work
+    # still fit nearly everywhere); in large systems (SizeRules.chord_first) it starts
+    # with a chord step, only while the chord steps are fewer than the Newton
+    # iterations' budget: a Newton iteration in every pass bounds the step's work
     goes_on = after_law = False
     gaps = None  # (g, s) at d, when known
     while solves < budget:
@@ -494,7 +494,7 @@ def solve_step(
             chord=system.chord,
             max_steps=inner,
             rate=rules.rate,
-            chord_first=(after_law or rules.chord_first and goes_on) and chords < budget,
+            chord_first=rules.chord_first and (goes_on or after_law) and chords < budget,
             start_gaps=gaps,
             conjugate=rules.conjugate,
         )

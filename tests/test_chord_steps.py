@@ -52,3 +52,32 @@ def test_passes_that_start_with_a_chord_step_still_end(monkeypatch):
     with np.testing.assert_raises(dda.SimulationError):
         dda.simulate(dda.load_scene(raw))
     assert any(passes) and not all(passes)
+
+
+def test_in_large_systems_a_pass_after_a_converged_one_starts_with_a_chord_step(monkeypatch):
+    """The law's update (new friction bounds, multipliers) after a converged pass moves few
+    contacts to another piece: the next pass starts from there with a chord step on the
+    kept factorisation. Small systems start it with a Newton iteration."""
+    import dda.newton
+
+    def passes_after_converged(large: bool) -> list[bool]:
+        if large:
+            monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)  # every system counts as large
+        after, minimise, last = [], dda.step.minimise, {"converged": False}
+
+        def recording(*args, **kwargs):
+            first_pass = args[7] is not None  # the step's first pass gets remembered pieces
+            if not first_pass and last["converged"]:
+                after.append(kwargs["chord_first"])
+            result = minimise(*args, **kwargs)
+            last["converged"] = result.converged
+            return result
+
+        monkeypatch.setattr(dda.step, "minimise", recording)
+        dda.simulate(dda.load_scene(wall_scene(6, steps=30)))
+        monkeypatch.undo()
+        return after
+
+    large, small = passes_after_converged(True), passes_after_converged(False)
+    assert len(large) > 5 and all(large)
+    assert len(small) > 5 and not any(small)
