@@ -535,5 +535,6 @@ def solve_step(
             masses = model.inertia.masses(blocks)
             pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
     return StepSolution(
-        d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated, 0.0, solves
-    )
+        d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,
+        newton_iterations=solves,
+    )  # fmt: skip
