@@ -22,7 +22,7 @@ from dda.errors import SimulationError
 from dda.frames import make_frame
 from dda.jit import run_work
 from dda.limits import check_run_size
-from dda.linsolve import single_threaded_blas, solver_threads
+from dda.linsolve import single_threaded_blas, solver_choice, solver_threads
 from dda.measure import Probes
 from dda.model import SEARCH_FACTOR, Model, build
 from dda.result import FractureEvent, Frame, Result
@@ -282,7 +282,8 @@ def run(
     SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
     """
     start = wallclock.perf_counter()
-    solver_threads()  # a bad DDA_THREADS stops the run before it starts
+    solver_threads()  # a bad DDA_THREADS or DDA_SOLVER stops the run before it starts
+    solver_choice()
     check_run_size(scene)
     model = build(scene)
     state = _Run(model)

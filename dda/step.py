@@ -255,9 +255,14 @@ def _forces(base_forces, contacts, rows, coefficients):
     """F: the effects' forces and the contact forces (``coefficients`` as for K)."""
     forces = base_forces.copy()
     _, _, normal, shear = coefficients
+    _subtract_forces(forces, contacts, rows, normal, shear)
+    return forces
+
+
+def _subtract_forces(forces, contacts, rows, normal, shear) -> None:
+    """F −= Σ N ∇g + Σ F ∇s over the contacts (in place; ``normal``, ``shear``: N, F)."""
     gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
     subtract_contact_forces(forces, contacts.block_a, contacts.block_b, gradients, normal, shear)
-    return forces
 
 
 def _solve(
@@ -365,10 +370,8 @@ class _PieceSystem:
 
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
-        rows, contacts = self.rows, self.contacts
-        gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
         out = np.zeros_like(self.base_f)
-        subtract_contact_forces(out, contacts.block_a, contacts.block_b, gradients, -normal, -shear)
+        _subtract_forces(out, self.contacts, self.rows, -normal, -shear)
         return out
 
 
@@ -469,7 +472,7 @@ def solve_step(
     # still fit nearly everywhere); in large systems (SizeRules.chord_first) it starts
     # with a chord step, only while the chord steps are fewer than the Newton
     # iterations' budget: a Newton iteration in every pass bounds the step's work
-    goes_on = after_law = False
+    goes_on = False
     gaps = None  # (g, s) at d, when known
     while solves < budget:
         terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
@@ -494,12 +497,12 @@ def solve_step(
             chord=system.chord,
             max_steps=inner,
             rate=rules.rate,
-            chord_first=rules.chord_first and (goes_on or after_law) and chords < budget,
+            chord_first=rules.chord_first and goes_on and chords < budget,
             start_gaps=gaps,
             conjugate=rules.conjugate,
         )
         gaps = newton.gaps
-        goes_on, after_law = not newton.converged and newton.chord_next, newton.converged
+        goes_on = newton.converged or newton.chord_next
         solves += newton.solves
         chords += newton.chords
         d = newton.d

@@ -171,6 +171,8 @@ def test_the_solver_choice_is_pardiso_superlu_or_unset(monkeypatch):
     monkeypatch.setenv("DDA_SOLVER", "super-lu")
     with pytest.raises(ValueError, match="DDA_SOLVER='super-lu'"):
         linsolve.pardiso_available()
+    with pytest.raises(ValueError, match="DDA_SOLVER"):
+        dda.simulate(wall_scene(2, steps=1))  # refused before the run starts
     monkeypatch.delenv("DDA_SOLVER")
     assert linsolve.solver_choice() == ""
 
