@@ -42,7 +42,8 @@ def test_the_sliding_block_error_does_not_grow_as_the_time_step_shrinks(
     2,000 unknowns and more ("large": conjugated chord steps go on to 0.99 of the
     residual, a pass on new friction bounds starts with a chord step) and of 25,000 and
     more ("huge": plain chord steps to 0.99, the friction bounds follow every solve),
-    here forced on the two-block scene (measured: the same three errors)."""
+    here forced on the two-block scene (measured: −2.6e-7, 7.1e-6, −8.4e-7 m large;
+    1.5e-7, 8.4e-6, 2.6e-7 m huge)."""
     import dda.newton
 
     if size != "small":
