@@ -36,6 +36,9 @@ class BlockSet:
     fixed : (n,) bool, blocks removed from the unknowns
     origin : (n,) int, id of the scene block each block is (or is a fragment of);
         ``[[interfaces]]`` between two scene blocks hold for their fragments too
+    mass_area : (n,) the area that, times the material's density, is the block's mass:
+        its area when it was made. Mass is conserved while the block strains and its
+        area changes (the density is ρ mass_area / area; :attr:`density_ratio`)
     """
 
     names: list[str]
@@ -56,6 +59,7 @@ class BlockSet:
     ixy: np.ndarray = None  # type: ignore[assignment]
     origin: np.ndarray = None  # type: ignore[assignment]
     acceleration: np.ndarray = None  # type: ignore[assignment]
+    mass_area: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         if self.acceleration is None:
@@ -64,6 +68,13 @@ class BlockSet:
             self.origin = np.asarray(self.ids, np.int64).copy()
         if self.centroid is None:
             self.update_moments()
+        if self.mass_area is None:
+            self.mass_area = self.area.copy()
+
+    @property
+    def density_ratio(self) -> np.ndarray:
+        """(n,) current density over the material's: mass_area / area."""
+        return self.mass_area / self.area
 
     @property
     def count(self) -> int:

@@ -59,8 +59,9 @@ log = logging.getLogger(__name__)
 
 # the layout of a checkpoint; raised when the run's state gains an entry that an older
 # checkpoint cannot have (2: the blocks' last acceleration, for [analysis] newmark_gamma;
-# 3: the contact search's reach, dda.contact.reach; 4: the count of Newton iterations)
-FORMAT = 4
+# 3: the contact search's reach, dda.contact.reach; 4: the count of Newton iterations;
+# 5: the blocks' mass areas, the material damping, the equilibrium start's preloads)
+FORMAT = 5
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
 NOT_SAVED = ("model",)  # run attributes rebuilt from the scene

@@ -80,12 +80,12 @@ def kinetic_energy(density: np.ndarray, blocks: BlockSet) -> float:
 def gravity_potential(
     density: np.ndarray, blocks: BlockSet, gravity: np.ndarray, datum: np.ndarray
 ) -> float:
-    """V = Σ ρᵢ Sᵢ g·(x_datum − x_cᵢ) over the free blocks.
+    """V = Σ ρᵢ S₀ᵢ g·(x_datum − x_cᵢ) over the free blocks (S₀ᵢ ρᵢ the block's mass).
 
     With g = (0, −g) this is Σ m g (y_c − y_datum).
     """
     free = ~blocks.fixed
-    mass = density[free] * blocks.area[free]
+    mass = density[free] * blocks.mass_area[free]
     height = (datum[None, :] - blocks.centroid[free]) @ np.asarray(gravity, float)
     return float(np.sum(mass * height))
 

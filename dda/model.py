@@ -12,6 +12,7 @@ from dda.contact.joints import JointTable
 from dda.contact.law import ContactLaw
 from dda.effects.base import Effect
 from dda.effects.bolts import RockBolts
+from dda.effects.damping import MaterialDamping
 from dda.effects.elastic import Elastic, elasticity_matrices
 from dda.effects.fixed_points import FixedPoints
 from dda.effects.gravity import Gravity
@@ -132,6 +133,9 @@ def build(scene: Scene) -> Model:
     inertia = Inertia(density)
     inertia.name = "static_damping" if static else "inertia"
     effects: list[Effect] = [elastic, inertia]
+    damping = np.array([m.damping for m in materials])
+    if not static and np.any(damping > 0.0):
+        effects.append(MaterialDamping(elastic.material_elasticity, density, damping))
     if np.any(np.asarray(a.gravity) != 0.0):
         effects.append(Gravity(density, a.gravity))
     if scene.loads:

@@ -93,6 +93,7 @@ class Analysis:
     max_steps: int = DEFAULT_MAX_STEPS  # refuse (and stop) runs longer than this (dda.limits)
     checkpoint_every: int | None = None  # steps between checkpoints (dda run writes them)
     newmark_gamma: float = SHI_GAMMA  # velocity update (dda.integrator); 1: Shi's
+    start: str = "equilibrium"  # "equilibrium" | "unloaded" (dda.equilibrium_start)
 
 
 @dataclass(frozen=True)
@@ -102,7 +103,7 @@ class ContactSettings:
     method: str = "augmented-lagrangian"  # | "penalty"
     penalty: float | None = None  # default: 10 x largest Young's modulus
     tolerance: float | None = None  # AL: largest penetration; default 1e-4 x model size
-    max_iterations: int = 50
+    max_iterations: int = 100  # Newton iterations a step may take before it is cut
     shear_ratio: float = 0.4  # shear penalty / normal penalty
 
 
@@ -147,6 +148,9 @@ class Material:
     cohesion: float | None = None
     friction_angle: float | None = None  # degrees
     tensile_strength: float | None = None
+    # viscous stress, as a fraction of critical damping of a block's slowest elastic
+    # mode (dda.effects.damping); dynamic analysis only
+    damping: float = 0.2
 
     @property
     def breakable(self) -> bool:
@@ -327,6 +331,8 @@ _UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time"
 
 # γ of the velocity update: unconditionally stable with β = ½ for ½ ≤ γ ≤ 2β = 1
 NEWMARK_GAMMA = Interval(0.5, 1.0, low_closed=True, high_closed=True)
+# a fraction of critical damping: none to critical
+DAMPING_RATIO = Interval(0.0, 1.0, low_closed=True, high_closed=True)
 
 _ANALYSIS: dict[str, Spec] = {
     "mode": choice("dynamic", "static"),
@@ -343,6 +349,7 @@ _ANALYSIS: dict[str, Spec] = {
     "max_steps": Checker.count,
     "checkpoint_every": Checker.count,
     "newmark_gamma": real(NEWMARK_GAMMA),
+    "start": choice("equilibrium", "unloaded"),
 }
 
 _CONTACT: dict[str, Spec] = {
@@ -361,6 +368,7 @@ _MATERIAL: dict[str, Spec] = {
     "cohesion": real(NON_NEGATIVE),
     "friction_angle": real(ANGLE),
     "tensile_strength": real(NON_NEGATIVE),
+    "damping": real(DAMPING_RATIO),
 }
 
 _JOINT: dict[str, Spec] = {

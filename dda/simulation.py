@@ -18,6 +18,7 @@ from dda.contact.pipeline import refresh_contacts
 from dda.effects.base import StepContext
 from dda.energy import TERMS, EnergyAccount
 from dda.environment import environment
+from dda.equilibrium_start import settle
 from dda.errors import SimulationError
 from dda.frames import make_frame
 from dda.jit import run_work
@@ -25,7 +26,7 @@ from dda.limits import check_run_size
 from dda.linsolve import single_threaded_blas, solver_choice, solver_threads
 from dda.measure import Probes
 from dda.model import SEARCH_FACTOR, Model, build
-from dda.result import FractureEvent, Frame, Result
+from dda.result import OPEN, FractureEvent, Frame, Result
 from dda.scene import Scene
 from dda.stages import apply_due_stages
 from dda.step import StepSolution, solve_step
@@ -68,6 +69,8 @@ class _Run:
         self.stages_done = 0  # [[stages]] applied so far
         self.excavated_energy = 0.0  # energy of the blocks the stages removed
         self.probes = _probes(model, self.blocks)  # [[measure]], None without
+        self.start = "unloaded"  # how the run started (dda.equilibrium_start)
+        self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -91,13 +94,15 @@ class _Run:
         return min(self.remaining(), stages.next_time(self.stages_done) - self.time)
 
 
-def _probes(model: Model, blocks: BlockSet) -> Probes | None:
-    """The run's measurements with the row of step 0, or None without ``[[measure]]``."""
+def _probes(model: Model, blocks: BlockSet, contacts: ContactSet | None = None) -> Probes | None:
+    """The run's measurements with the row of step 0 (``contacts``: those at t = 0, none
+    by default), or None without ``[[measure]]``."""
     if not model.scene.measure:
         return None
     names = [] if model.bolts is None else model.bolts.names
     probes = Probes(model.scene.measure, blocks, names, model.exact_rotation)
-    probes.record(0, 0.0, blocks, ContactSet.empty(), model.bolts)
+    start = ContactSet.empty() if contacts is None else contacts
+    probes.record(0, 0.0, blocks, start, model.bolts)
     return probes
 
 
@@ -124,6 +129,32 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
         return None, 1.0, BEYOND_REACH
     solution.moved = float(moved)
     return solution, 1.0, ""
+
+
+def _equilibrium_start(run: _Run) -> None:
+    """Load the contacts that touch at t = 0, the blocks and the effects' springs
+    (dda.equilibrium_start); a start that does not settle leaves the run unloaded."""
+    m = run.model
+    started = wallclock.perf_counter()
+    _search(run, ContactSet.empty())
+    with run.timer("start"):
+        settled = settle(m, run.blocks, run.contacts, run.timer)
+    if settled is None:
+        run.contacts = ContactSet.empty()  # step 1 finds them afresh, as an unloaded start
+        run.start = "unloaded (the equilibrium start did not settle)"
+        return
+    run.contacts = settled.contacts
+    run.blocks.stress = settled.stress
+    run.energy.initial = run.energy.measure(run.blocks, run.contacts)
+    run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
+    run.start = "equilibrium"
+    run.start_newton_iterations = settled.newton_iterations
+    log.info(
+        "equilibrium start: %d contacts loaded, %d Newton iterations, %.2f s",
+        int(np.count_nonzero(settled.contacts.state != OPEN)),
+        settled.newton_iterations,
+        wallclock.perf_counter() - started,
+    )
 
 
 def _search(run: _Run, previous: ContactSet) -> None:
@@ -291,6 +322,9 @@ def run(
         check_scene(resume, scene)
         restore(state, resume)
         start -= resume.wall_seconds
+    elif not model.static and scene.analysis.start == "equilibrium":
+        with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
+            _equilibrium_start(state)
     first = state.probes.take() if state.probes is not None and resume is None else None
     frames = [_frame(state, first)]
     if on_frame and resume is None:
@@ -414,6 +448,8 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "newton_iterations": state.newton_iterations,
         "newton_iterations_per_step": state.newton_iterations / steps,
         "max_iterations_step": state.max_iterations_step,
+        "start": state.start,
+        "start_newton_iterations": state.start_newton_iterations,
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
         "search_redos": state.search_redos,

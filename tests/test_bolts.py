@@ -93,10 +93,10 @@ def hanging_pair(mode: str = "static", pretension: float = 0.0, steps: int = 60)
 def test_a_chain_of_two_blocks_hangs_on_its_bolts(pretension):
     """Statics: the lower bolt holds W_b, the upper W_a + W_b, whatever the pretension.
 
-    (W = ρ g S with the area S as strained: the hanging blocks stretch by ~5e-6, and
-    their weight with their area.)"""
+    (W = ρ g S₀ with the area S₀ the block was made with: the hanging blocks stretch by
+    ~5e-6, and their mass stays.)"""
     result = dda.simulate(hanging_pair(pretension=pretension))
-    w = ROCK["density"] * G * result.final.areas
+    w = ROCK["density"] * G * result.frames[0].areas
     m = result.measurements
     assert m["lower.force"][-1] == pytest.approx(w[2], rel=1e-9)
     assert m["upper.force"][-1] == pytest.approx(w[1] + w[2], rel=1e-9)

@@ -53,6 +53,25 @@ def test_multipliers_move_only_beyond_the_tolerance():
     assert contacts.shear_multiplier[[0, 2, 3]].tolist() == [0.0, 0.0, 0.0]
 
 
+def test_a_contact_found_deeper_than_the_tolerance_is_not_augmented():
+    """A fresh contact that starts overlapping beyond the tolerance (fresh fracture
+    fragments) is pushed out by its penalty spring, not augmented: in the paper's Fig. 3
+    at three times the load a 4.6 cm overlap among fragments had the augmentation ask
+    for more than any step could give, down to Δt = 1e-13 s. One that started within
+    the tolerance is augmented as usual."""
+    contacts = contact_set(2)
+    contacts.fresh[:] = True
+    contacts.penetration[:] = [5e-2, 0.5e-6]  # found 5 cm deep / within the tolerance
+    joint = joints(2, tan_phi=0.0)
+    law = ContactLaw(augmented=True, tolerance=1e-6, shear_ratio=0.4, friction=False)
+    terms = contact_terms(contacts, joint, law, np.zeros(2))
+    g = np.array([3e-2, 3e-6])
+    outcome = update(contacts, terms, g, np.zeros(2), np.array([5e-2, 3e-6]), joint, law)
+    assert outcome.augmented == 1
+    assert contacts.normal_multiplier.tolist() == [0.0, pytest.approx(1e8 * 3e-6)]
+    assert contacts.penalty.tolist() == [1e8, 1e9]
+
+
 def test_the_penalty_grows_where_the_penetration_does_not_shrink():
     contacts = contact_set(2)
     joint = joints(2, tan_phi=0.0)

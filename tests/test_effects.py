@@ -81,9 +81,14 @@ def single_block_scene() -> dict:
 
 
 def test_only_declared_effects_are_active():
+    """A dynamic block's elasticity comes with its material damping (dda.effects.damping)
+    unless its material sets none."""
     summary = dda.simulate(single_block_scene()).summary
-    assert summary["active_effects"] == ["elastic", "inertia"]
+    assert summary["active_effects"] == ["elastic", "inertia", "material_damping"]
     assert "contact_search" not in summary["stage_seconds"]
+    undamped = single_block_scene()
+    undamped["materials"] = {"rock": {**ROCK, "damping": 0.0}}
+    assert dda.simulate(undamped).summary["active_effects"] == ["elastic", "inertia"]
 
 
 def test_undeclared_effects_never_run(monkeypatch):

@@ -112,12 +112,14 @@ def test_point_load_work_enters_the_budget():
 def test_penalty_contact_energy_is_half_p_d_squared():
     """The stack at rest with a pure penalty: C = ½ Σ N²/p + ½ Σ T²/p_s (p_s = 0.4 p).
 
-    With a pure penalty N = p d and T = p_s s, so this is ½ p d² + ½ p_s s².
+    With a pure penalty N = p d and T = p_s s, so this is ½ p d² + ½ p_s s² (Shi's start:
+    the springs unloaded at t = 0, so that each carries p d; the equilibrium start's
+    preload is in test_engine_acceptance.py).
     """
     from tests.test_engine_acceptance import stack_scene
 
     raw = stack_scene("penalty")
-    raw["analysis"]["duration"] = 0.05
+    raw["analysis"].update(duration=0.05, start="unloaded")
     result = dda.simulate(raw)
     c = result.final.contacts
     closed = c.state > 0

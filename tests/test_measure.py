@@ -55,7 +55,7 @@ def test_the_contact_force_on_a_block_at_rest_carries_its_weight():
     }  # fmt: skip
     result = dda.simulate(scene)
     m = result.measurements
-    weight = ROCK["density"] * G * result.final.areas[1]  # as strained (by 1e-6)
+    weight = ROCK["density"] * G * result.frames[0].areas[1]  # its mass: ρ S₀
     on_b = [m["on_b.fx"][-1], m["on_b.fy"][-1]]
     np.testing.assert_allclose(on_b, [0, weight], atol=1e-9 * weight)
     np.testing.assert_allclose(m["on_floor.fy"][-1], -weight, rtol=1e-9)

@@ -60,9 +60,12 @@ def wall_scene(
             "steps": int(steps),
             "gravity": [0.0, -9.81],
             "save_every": int(save_every or steps),
+            # Shi's start, as the C code's: every contact spring unloaded, no material
+            # damping (the wall rings; dda.equilibrium_start, dda.effects.damping)
+            "start": "unloaded",
         },
         "contact": {"method": method, "penalty": 5e7},
-        "materials": {"rock": {"density": 2.6, "young": 1e6, "poisson": 0.25}},
+        "materials": {"rock": {"density": 2.6, "young": 1e6, "poisson": 0.25, "damping": 0.0}},
         "joints": {"default": {"friction_angle": 30.0}},
         "blocks": blocks,
     }

@@ -101,7 +101,7 @@ def contact_terms(
     solve clamps the carried shear force: that is slip, it dissipates).
     """
     tension = np.where(contacts.intact, joint.tensile, 0.0)
-    lam_n = contacts.normal_multiplier if law.augmented else np.zeros(len(contacts))
+    lam_n = contacts.normal_multiplier
     if law.friction:
         shear_penalty = law.shear_ratio * contacts.penalty
     else:
@@ -227,7 +227,12 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
     tolerance = law.tolerance
     trial_n = terms.normal_trial(g)
     elastic = trial_n >= -terms.tension
-    far = elastic & (np.abs(g) > tolerance)
+    # a contact found this step already deeper than the tolerance (fresh fracture
+    # fragments) is pushed out by its penalty spring (dda.contact.push_out), not
+    # augmented: removing all of its overlap within one step can take more than any
+    # multiplier gives once Δt is cut (a 4.6 cm overlap among fragments: cut to 1e-13 s)
+    found_deep = contacts.fresh & (contacts.penetration > tolerance)
+    far = elastic & (np.abs(g) > tolerance) & ~found_deep
     stuck = (np.abs(terms.shear_trial(s)) < terms.bound) & (terms.shear_penalty > 0.0)
     slid = stuck & (np.abs(s) > tolerance)
     contacts.normal_multiplier = np.where(
@@ -272,6 +277,7 @@ def record(
     trial = terms.shear_trial(s)
     stuck = (np.abs(trial) < (1.0 - limit_band) * terms.bound) & (terms.shear_penalty > 0.0)
     contacts.state = np.where(closed, np.where(stuck, LOCKED, SLIDING), OPEN).astype(np.int8)
+    contacts.normal_multiplier = np.where(closed, contacts.normal_multiplier, 0.0)
     sliding = contacts.state == SLIDING
     contacts.slide_direction = np.where(sliding, np.sign(trial), 0.0)
     contacts.normal_force = normal

@@ -51,3 +51,8 @@ class Effect:
     def on_blocks_replaced(self, old: BlockSet, new: BlockSet, parent_of: np.ndarray) -> None:
         """Blocks were split: ``parent_of[k]`` is the old row of new block k."""
         return None
+
+    def preload(self, blocks: BlockSet, d: np.ndarray) -> None:
+        """Take on, with the blocks where they are, the forces the effect's springs would
+        have after the step ``d`` (the equilibrium start, dda.equilibrium_start)."""
+        return None

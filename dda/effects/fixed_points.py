@@ -41,6 +41,13 @@ class FixedPoints(Effect):
         np.add.at(f, self.points.rows, self.stiffness_value * np.einsum("mki,mk->mi", t, gap))
         return f
 
+    def preload(self, blocks: BlockSet, d: np.ndarray) -> None:
+        """x₀ ← x₀ − T d: each spring pulls as it would with its point moved by the
+        step ``d`` (linear in d, as in the step's equations)."""
+        if len(self.points):
+            moved = np.einsum("mki,mi->mk", self._matrices(blocks), d[self.points.rows])
+            self.anchors = self.anchors - moved
+
     def after_step(self, blocks: BlockSet, d: np.ndarray, ctx: StepContext) -> None:
         self.points.move(blocks, d, self.exact_rotation)
 

@@ -9,7 +9,8 @@ from dda.effects.base import Effect, StepContext
 
 
 class Gravity(Effect):
-    """F_i[0:2] += ρ g S (a uniform body force acts at the centroid)."""
+    """F_i[0:2] += m g, m = ρ S₀ the block's mass (a uniform body force acts at the
+    centroid; S₀ its area when made: mass is conserved as it strains)."""
 
     name = "gravity"
 
@@ -19,11 +20,11 @@ class Gravity(Effect):
 
     def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray:
         f = np.zeros((blocks.count, 6))
-        mass = self.material_density[blocks.material] * blocks.area
+        mass = self.material_density[blocks.material] * blocks.mass_area
         f[:, 0:2] = mass[:, None] * self.gravity[None, :]
         return f
 
     def potential_energy(self, blocks: BlockSet) -> float:
         """-Σ m g·x_c (zero at the origin)."""
-        mass = self.material_density[blocks.material] * blocks.area
+        mass = self.material_density[blocks.material] * blocks.mass_area
         return float(-np.sum(mass * (blocks.centroid @ self.gravity)))

@@ -9,7 +9,9 @@ from dda.effects.base import Effect, StepContext
 
 
 def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
-    """M_i = ρ ∫ T_iᵀ T_i dA about the centroid (docs/theory.md §3), (n, 6, 6)."""
+    """M_i = ρ_i ∫ T_iᵀ T_i dA about the centroid (docs/theory.md §3), (n, 6, 6), with the
+    current density ρ_i = ``density`` × mass_area / area: the mass ρ S₀ is conserved
+    as the block strains (:class:`dda.blocks.BlockSet`)."""
     s, ixx, iyy, ixy = blocks.area, blocks.ixx, blocks.iyy, blocks.ixy
     m = np.zeros((blocks.count, 6, 6))
     m[:, 0, 0] = m[:, 1, 1] = s
@@ -22,7 +24,7 @@ def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
     m[:, 3, 5] = m[:, 5, 3] = ixy / 2
     m[:, 4, 5] = m[:, 5, 4] = ixy / 2
     m[:, 5, 5] = (ixx + iyy) / 4
-    return density[:, None, None] * m
+    return (density * blocks.density_ratio)[:, None, None] * m
 
 
 class Inertia(Effect):

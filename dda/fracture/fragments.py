@@ -131,4 +131,13 @@ def replace_blocks(
                 *[np.full(len(f.names), blocks.origin[f.parent]) for f in broken],
             ]
         ),
+        mass_area=np.concatenate(  # a fragment keeps its share of the parent's mass
+            [blocks.mass_area[keep], *[_mass_areas(blocks, f) for f in broken]]
+        ),
     )
+
+
+def _mass_areas(blocks: BlockSet, fragments: Fragments) -> np.ndarray:
+    """Each fragment's area times its parent's density ratio (its share of the mass)."""
+    areas = polygon_moments(*pack_polygons(fragments.polygons))["area"]
+    return areas * blocks.density_ratio[fragments.parent]

@@ -151,3 +151,28 @@ def test_the_ringing_wall_gains_no_energy_with_the_large_systems_chord_rules(siz
     assert sum(chord_first) > 100
     assert result.summary["cut_steps"] == 0
     assert largest_gain(result) <= SLACK
+
+
+# the runs of the stick matrix (tests/stability/test_stick_slip.py, the same cached runs)
+STICK = [
+    (ratio, dt, pf, method)
+    for ratio in (0.5, 0.8, 0.95)
+    for dt in (1e-3, 2.5e-4, 1e-4, 2.5e-5)
+    for pf in (1.0, 10.0, 100.0)
+    for method in ("augmented-lagrangian", "penalty")
+]
+QUICK_STICK = [(0.95, 2.5e-4, 10.0, "augmented-lagrangian"), (0.95, 1e-3, 10.0, "penalty")]
+
+
+@pytest.mark.parametrize(
+    "ratio, dt, pf, method",
+    [c if c in QUICK_STICK else pytest.param(*c, marks=pytest.mark.slow) for c in STICK],
+)
+def test_a_block_standing_on_a_slope_gains_no_energy(ratio, dt, pf, method):
+    """The stick matrix's blocks (started loaded, materially damped): kinetic + potential
+    + strain + contact ≤ E₀ + W + 1e-3 E₀ at every step (measured: at most 1.5e-9 E₀,
+    at p = E)."""
+    from tests.stability.incline import largest_gain as gain
+    from tests.stability.incline import run
+
+    assert gain(run(ratio, dt, 0.5, pf, method)) <= SLACK

@@ -30,13 +30,13 @@ def test_stiffness_contrast_of_ten_thousand_between_neighbours():
 def test_stiffness_contrast_settles_to_the_weight_above():
     """Static analysis: the base carries the weight; the soft bottom block the 5.5 above.
 
-    The soft blocks strain by 3 %: their areas, and with Shi's mass ρ·S their
-    weights, change with it, so the force on the base is compared with the
-    current weights. Static relaxation of the soft blocks needs ~1000 steps.
+    The soft blocks strain by 3 %; they keep their mass, ρ times their initial area,
+    so the base carries ρ g · 6 m². Static relaxation of the soft blocks needs ~1000
+    steps.
     """
     result = run_checked(contrast_stack(mode="static", time_step=0.01, steps=1000))
     final = result.final
-    weight = 2700.0 * 9.81 * final.areas[1:].sum()
+    weight = 2700.0 * 9.81 * result.frames[0].areas[1:].sum()
     c = final.contacts
     names = np.array(final.names)
     on_base = (c.state > 0) & ((names[c.block_a] == "base") | (names[c.block_b] == "base"))

@@ -1,0 +1,74 @@
+"""Material damping: a viscous stress in every block (Kelvin–Voigt), as a fraction of
+critical damping of the block's slowest elastic mode.
+
+Each block carries, beside its elastic stress E ε, a viscous stress β E ε̇ (β in
+seconds, stiffness-proportional: every strain mode of frequency ω is damped at
+the ratio β ω / 2). In a step of length Δt the strain rate is the step's strain
+D_s / Δt, so the step's potential gains the dissipation potential
+
+    ½ (β / Δt) S D_sᵀ E D_s        (S the block's area)
+
+— K_ii[3:6, 3:6] += (β / Δt) S E, no force term: convex, and it only takes
+energy out (the step's work against it is (β / Δt) S D_sᵀ E D_s ≥ 0). The stress
+carried to the next step stays E ε: a viscous stress is not stored.
+
+β is set per block from ``ratio`` ξ: β = 2 ξ / ω₁ with ω₁ the slowest of the
+block's three strain modes (K_s = S E against the strain part of its mass
+matrix), so that a block's fundamental elastic mode is damped at ξ of critical
+whatever the block's size and stiffness.
+
+Why a real joint model needs it: an elastic block sliding on Coulomb friction
+has a flutter mode (its shear deformation and the normal forces at its corners
+feed each other through the friction forces, and through Poisson's ratio its
+normal strain) that grows without any damping. Shi's velocity update damps
+such a mode numerically, by about (γ − ½) ω Δt / 2: at Δt = 1e-3 that is 0.3 of
+critical for a 1 m block with E = 1e9 Pa, at 1e-4 0.03, and the sliding block
+then rocks itself apart. With ξ = ``DEFAULT_RATIO`` of material damping the
+mode decays at every Δt (docs/contact.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.effects.base import Effect, StepContext
+from dda.effects.inertia import mass_matrices
+
+DEFAULT_RATIO = 0.2  # fraction of critical damping of each block's slowest elastic mode
+
+
+def slowest_strain_frequency(stiffness: np.ndarray, masses: np.ndarray) -> np.ndarray:
+    """ω₁ of each block: √ of the smallest eigenvalue of M_s⁻¹ K_s (3 × 3 strain blocks).
+
+    ``stiffness``: (n, 3, 3) S E; ``masses``: (n, 6, 6) mass matrices. M_s is
+    symmetric positive definite, so with its Cholesky factor L the eigenvalues
+    are those of the symmetric L⁻¹ K_s L⁻ᵀ.
+    """
+    lower = np.linalg.cholesky(masses[:, 3:, 3:])
+    inverse = np.linalg.inv(lower)
+    symmetric = inverse @ stiffness @ np.swapaxes(inverse, 1, 2)
+    return np.sqrt(np.linalg.eigvalsh(symmetric)[:, 0])
+
+
+class MaterialDamping(Effect):
+    """K_ii[3:6, 3:6] += (β_i / Δt) S_i E_i with β_i = 2 ξ / ω₁ᵢ (module docstring)."""
+
+    name = "material_damping"
+
+    def __init__(
+        self, material_elasticity: np.ndarray, density: np.ndarray, ratio: np.ndarray
+    ) -> None:
+        self.material_elasticity = material_elasticity
+        self.density = density
+        self.ratio = np.asarray(ratio, float)  # per material
+
+    def stiffness(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray | None:
+        if ctx.static:
+            return None
+        elastic = blocks.area[:, None, None] * self.material_elasticity[blocks.material]
+        masses = mass_matrices(self.density[blocks.material], blocks)
+        beta = 2.0 * self.ratio[blocks.material] / slowest_strain_frequency(elastic, masses)
+        k = np.zeros((blocks.count, 6, 6))
+        k[:, 3:, 3:] = (beta / ctx.dt)[:, None, None] * elastic
+        return k
