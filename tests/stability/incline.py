@@ -76,18 +76,9 @@ def incline_scene(
 
 
 @cache
-def run(
-    ratio: float,
-    time_step: float,
-    duration: float,
-    penalty_factor: float = 10.0,
-    method: str = "augmented-lagrangian",
-    stack: int = 1,
-    mode: str = "dynamic",
-    width: float = 1.0,
-    height: float = 1.0,
-) -> dda.Result:
-    scene = incline_scene(ratio, time_step, duration, penalty_factor, method, stack, width, height)
+def run(*scene_args, mode: str = "dynamic", **scene_kwargs) -> dda.Result:
+    """The run of ``incline_scene(*scene_args, **scene_kwargs)`` in ``mode`` (cached)."""
+    scene = incline_scene(*scene_args, **scene_kwargs)
     scene["analysis"]["mode"] = mode
     return dda.simulate(scene)
 
@@ -98,17 +89,12 @@ def largest_move(result: dda.Result) -> float:
 
 
 def settlement(
-    ratio: float,
-    penalty_factor: float,
-    method: str = "augmented-lagrangian",
-    stack: int = 1,
-    width: float = 1.0,
-    height: float = 1.0,
+    ratio: float, penalty_factor: float, method: str = "augmented-lagrangian", **shape
 ) -> float:
     """The elastic settlement: the largest centroid displacement of a static run (Shi's
-    static analysis: every step from rest, 300 steps of 1e-3 s, settled to round-off)."""
-    static = run(ratio, 1e-3, 0.3, penalty_factor, method, stack, "static", width, height)
-    return largest_move(static)
+    static analysis: every step from rest, 300 steps of 1e-3 s, settled to round-off);
+    ``shape``: ``stack``, ``width``, ``height`` of :func:`incline_scene`."""
+    return largest_move(run(ratio, 1e-3, 0.3, penalty_factor, method, mode="static", **shape))
 
 
 def largest_gain(result: dda.Result) -> float:
