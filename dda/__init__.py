@@ -18,8 +18,8 @@ except metadata.PackageNotFoundError:  # a source tree that was never installed
 
 
 def simulate(scene, progress: bool = False, **kwargs) -> Result:
-    """Run a scene (``Scene``, path, TOML text or dict); see :func:`dda.simulation.run`."""
-    from dda.simulation import run
+    """Run a scene (``Scene``, path, TOML text or dict); see :func:`dda.run.simulation.run`."""
+    from dda.run.simulation import run
 
     if not isinstance(scene, Scene):
         scene = load_scene(scene)

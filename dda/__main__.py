@@ -1,7 +1,7 @@
-"""``python -m dda``: the ``dda`` command (:mod:`dda.cli`)."""
+"""``python -m dda``: the ``dda`` command (:mod:`dda.commands.cli`)."""
 
 import sys
 
-from dda.cli import main
+from dda.commands.cli import main
 
 sys.exit(main())

@@ -29,7 +29,7 @@ class BlockSet:
     centroid, area, ixx, iyy, ixy : current polygon integrals (about the centroid)
     velocity : (n, 6) time derivative of Shi's six unknowns (u0, v0, r0, ex, ey, gxy)
     acceleration : (n, 6) their acceleration over the last step (NaN: not known yet;
-        :mod:`dda.integrator`)
+        :mod:`dda.solve.integrator`)
     stress : (n, 3) sxx, syy, sxy (tension positive)
     rotation : (n,) accumulated rotation
     displacement : (n, 2) centroid displacement since the start

@@ -22,9 +22,9 @@ from dda.effects.points import MaterialPoints
 from dda.effects.seismic import GroundMotion
 from dda.effects.water import WaterPressure
 from dda.geometry import pack_polygons
-from dda.presets import apply_preset
 from dda.scene import Scene
-from dda.stages import StagePlan, stage_plan
+from dda.scene.presets import apply_preset
+from dda.scene.stage_plan import StagePlan, stage_plan
 
 log = logging.getLogger(__name__)
 
@@ -111,7 +111,7 @@ def build(scene: Scene) -> Model:
     """Instantiate the model; effects absent from the scene are not created.
 
     An ``[analysis] accuracy`` preset first fills in the settings the scene
-    leaves at their defaults (:func:`dda.presets.apply_preset`).
+    leaves at their defaults (:func:`dda.scene.presets.apply_preset`).
     """
     scene = apply_preset(scene)
     materials = list(scene.materials.values())

@@ -100,13 +100,13 @@ class Result:
     ``step``, ``time`` and ``name.component``; empty without ``[[measure]]``).
 
     ``summary`` keys: steps, time, wall_seconds, iterations (linear solves: Newton
-    iterations and chord steps, dda.newton), iterations_per_step, newton_iterations
+    iterations and chord steps, dda.solve.newton), iterations_per_step, newton_iterations
     (assembled systems solved), newton_iterations_per_step, factorisations,
     max_penetration, active_effects, stage_seconds, contact_method, cut_steps,
     search_redos (steps redone after a contact search with the full distance,
     dda.contact.reach), friction_dissipation (work of the friction forces against the
     slips, dda.contact.law.friction_dissipation), status ("finished", "interrupted" by
-    ``stop``, "failed"), environment (dda.environment).
+    ``stop``, "failed"), environment (dda.run.environment).
     """
 
     frames: list[Frame]

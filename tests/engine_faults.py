@@ -27,7 +27,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-import dda.simulation as simulation
+import dda.run.simulation as simulation
 from dda.effects.elastic import elasticity_matrices
 from dda.effects.gravity import Gravity
 from dda.model import Model

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import dda.assembly as assembly
-from dda.assembly import (
+import dda.solve.assembly as assembly
+from dda.solve.assembly import (
     BlockPattern,
     assemble,
     free_rows,
     reassemble,
     subtract_contact_forces,
 )
-from dda.step import LinearCache
+from dda.solve.step import LinearCache
 
 
 def random_case(seed: int, n: int = 9, m: int = 40):

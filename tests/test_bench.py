@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import dda
-from dda.bench import cli
 from dda.bench.report import growth_exponent, table
 from dda.bench.run import WARM_UP_SIZE, WARM_UP_STEPS, Measurement, measure
 from dda.bench.scenes import wall_scene
+from dda.commands import bench as cli
 from dda.jit import MIN_WORK
 
 

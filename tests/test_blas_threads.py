@@ -7,9 +7,9 @@ import pytest
 from threadpoolctl import ThreadpoolController, threadpool_info
 
 import dda
-import dda.simulation as simulation
+import dda.run.simulation as simulation
 from dda.bench.scenes import wall_scene
-from dda.linsolve import single_threaded_blas
+from dda.solve.linsolve import single_threaded_blas
 
 
 def openblas_threads() -> list[int]:

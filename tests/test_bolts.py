@@ -1,4 +1,4 @@
-"""Rock bolts (dda/effects/bolts.py, dda/pair_springs.py): closed forms, breaking, energy,
+"""Rock bolts (dda/effects/bolts.py, dda/effects/pair_springs.py): closed forms, breaking, energy,
 and the coupling terms of K and of the Newton solve's quadratic."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import dda
-from dda import assembly
-from dda.assembly import BlockPattern, assemble
-from dda.newton import BlockQuadratic
-from dda.pair_springs import PairSprings
+from dda.effects.pair_springs import PairSprings
+from dda.solve import assembly
+from dda.solve.assembly import BlockPattern, assemble
+from dda.solve.newton import BlockQuadratic
 from tests.helpers import ROCK, G, rectangle, rotated, slope_scene
 
 WEIGHT = ROCK["density"] * G * 0.5  # the 1 m x 0.5 m slider of slope_scene, per metre

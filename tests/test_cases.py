@@ -60,7 +60,7 @@ def block_syy(name):
 # case -> (analysis overrides for the test run, quantity, stored value, relative tolerance)
 EXPECTED = {
     # closed form 0.5 g (sin30 - cos30 tan20) = 0.906407 m; DDA gives 0.9064074 (4e-7: it
-    # starts loaded, N = W cos 30 from t = 0, dda.equilibrium_start)
+    # starts loaded, N = W cos 30 from t = 0, dda.run.equilibrium_start)
     "sliding_block": ({}, sliding, 0.906407, 0.01),
     "projectile": ({}, projectile_x, 3.1, 1e-9),
     "spinning_block": ({}, spinner_area, 1.0, 1e-9),

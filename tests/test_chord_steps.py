@@ -1,4 +1,4 @@
-"""Chord steps (dda.newton.minimise): after a Newton iteration, directions −K_f⁻¹∇Π with
+"""Chord steps (dda.solve.newton.minimise): after a Newton iteration, directions −K_f⁻¹∇Π with
 the factorisation just made. On a wall whose side joints carry next to no force they
 save factorisations, and the run ends where Newton alone ends it."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 import dda
-import dda.step
+import dda.solve.step
 from dda.bench.scenes import wall_scene
 
 
@@ -18,7 +18,7 @@ def test_chord_steps_save_factorisations_and_change_no_answer(monkeypatch):
     in 30 steps."""
     scene = dda.load_scene(wall_scene(10, steps=30))
     chords = dda.simulate(scene)
-    monkeypatch.setattr(dda.step._PieceSystem, "chord", lambda self, residual: None)
+    monkeypatch.setattr(dda.solve.step._PieceSystem, "chord", lambda self, residual: None)
     newton = dda.simulate(scene)
     assert chords.summary["cut_steps"] == newton.summary["cut_steps"] == 0
     assert chords.summary["factorisations"] <= 0.85 * newton.summary["factorisations"]
@@ -33,9 +33,9 @@ def test_passes_that_start_with_a_chord_step_still_end(monkeypatch):
     budget every pass starts with a Newton iteration again, and a step that never
     settles still ends (and is cut). A stand-in for the minimiser that never converges:
     a chord step when asked to start with one, else one Newton iteration."""
-    import dda.newton
+    import dda.solve.newton
 
-    monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)  # every system counts as large
+    monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)  # every system counts as large
     passes = []
 
     def never_settles(*args, **kwargs):
@@ -44,9 +44,11 @@ def test_passes_that_start_with_a_chord_step_still_end(monkeypatch):
         first = kwargs["chord_first"]
         geometry, start = args[1], args[5]
         gaps = geometry.at(start)
-        return dda.newton.NewtonResult(start, int(not first), False, int(first) + 2, True, gaps)
+        return dda.solve.newton.NewtonResult(
+            start, int(not first), False, int(first) + 2, True, gaps
+        )
 
-    monkeypatch.setattr(dda.step, "minimise", never_settles)
+    monkeypatch.setattr(dda.solve.step, "minimise", never_settles)
     raw = wall_scene(2, steps=1)
     raw["contact"]["max_iterations"] = 5
     with np.testing.assert_raises(dda.SimulationError):
@@ -58,12 +60,12 @@ def test_in_large_systems_a_pass_after_a_converged_one_starts_with_a_chord_step(
     """The law's update (new friction bounds, multipliers) after a converged pass moves few
     contacts to another piece: the next pass starts from there with a chord step on the
     kept factorisation. Small systems start it with a Newton iteration."""
-    import dda.newton
+    import dda.solve.newton
 
     def passes_after_converged(large: bool) -> list[bool]:
         if large:
-            monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)  # every system counts as large
-        after, minimise, last = [], dda.step.minimise, {"converged": False}
+            monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)  # every system counts as large
+        after, minimise, last = [], dda.solve.step.minimise, {"converged": False}
 
         def recording(*args, **kwargs):
             first_pass = args[7] is not None  # the step's first pass gets remembered pieces
@@ -73,7 +75,7 @@ def test_in_large_systems_a_pass_after_a_converged_one_starts_with_a_chord_step(
             last["converged"] = result.converged
             return result
 
-        monkeypatch.setattr(dda.step, "minimise", recording)
+        monkeypatch.setattr(dda.solve.step, "minimise", recording)
         dda.simulate(dda.load_scene(wall_scene(6, steps=30)))
         monkeypatch.undo()
         return after

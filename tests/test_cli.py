@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import dda
-from dda import cli
-from dda.progress import ProgressBar
+from dda.commands import cli
 from dda.result import Frame, Result
+from dda.run.progress import ProgressBar
 
 SMALL_SCENE = """\
 title = "Block on a base"
@@ -239,14 +239,16 @@ def test_plugins_register_and_a_missing_module_is_skipped(tmp_path, monkeypatch,
         metadata.EntryPoint("clash", "hello_plugin:register", cli.PLUGIN_GROUP),
     ]
     monkeypatch.setattr(cli.metadata, "entry_points", lambda group: entries)
-    with caplog.at_level(logging.WARNING, logger="dda.cli"):
+    with caplog.at_level(logging.WARNING, logger="dda.commands.cli"):
         assert cli.main(["hello"]) == 7
     messages = " ".join(r.getMessage() for r in caplog.records)
     assert "ghost" in messages and "clash" in messages
 
 
 def test_the_cli_does_not_import_verify():
-    code = "import dda.cli, sys; print(any(m.split('.')[0] == 'verify' for m in sys.modules))"
+    code = (
+        "import dda.commands.cli, sys; print(any(m.split('.')[0] == 'verify' for m in sys.modules))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.stdout.strip() == "False", out.stderr
 

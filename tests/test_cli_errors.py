@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 import dda
-from dda import cli
+from dda.commands import cli
 from tests.test_cli import SMALL_SCENE
 
 FAR_LOAD = '\n[[loads]]\nblock = "top"\npoint = [1.5, 50.0]\nforce = [0.0, -10.0]\n'
@@ -141,7 +141,7 @@ def _prepare() -> None:
 
 
 def _plan(folder: str):
-    from dda.checkpoint import CheckpointPlan
+    from dda.run.checkpoint import CheckpointPlan
 
     return CheckpointPlan(Path(folder, "checkpoint.npz"), None, None)
 

@@ -15,7 +15,7 @@ from dda.contact.contact_set import ContactSet
 from dda.contact.node import ANGLE_FILL
 from dda.contact.pipeline import refresh_contacts
 from dda.model import build
-from dda.step import NEIGHBOUR_MARGIN, pattern_neighbours
+from dda.solve.step import NEIGHBOUR_MARGIN, pattern_neighbours
 
 
 def corners(starts_deg, spans_deg):

@@ -1,6 +1,6 @@
 """Every relative link and every cited file in the docs and the docstrings exists.
 
-Scanned: README.md, bench/README, docs/*.md, and the Python sources of dda/,
+Scanned: README.md, docs/*.md, and the Python sources of dda/,
 verify/, cases/ and bench/. A citation is a path under one of the project's
 folders (``docs/theory.md``, ``dda/jit.py``, ``cases/verify/node.toml``) or a
 Markdown file name (``contact.md``, ``DESIGN.md``); it must name a file or
@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-FOLDERS = (".ci", "bench", "cases", "dda", "docs", "tests", "verify")
+FOLDERS = (".ci", "cases", "dda", "docs", "tests", "verify")
 CITATION = re.compile(
     r"(?<![\w/.\-])((?:" + "|".join(re.escape(f) for f in FOLDERS) + r")/[\w./\-]*[\w\-]"
     r"|[\w\-]+\.md)\b"
@@ -28,8 +28,8 @@ WRITTEN = {"report.md"}  # written by `dda verify`, not part of the repository
 
 
 def sources() -> list[Path]:
-    files = [ROOT / "README.md", ROOT / "bench" / "README", *sorted(ROOT.glob("docs/*.md"))]
-    for folder in ("dda", "verify", "cases", "bench"):
+    files = [ROOT / "README.md", *sorted(ROOT.glob("docs/*.md"))]
+    for folder in ("dda", "verify", "cases"):
         files += sorted((ROOT / folder).rglob("*.py"))
     return files
 

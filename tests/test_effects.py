@@ -101,13 +101,13 @@ def test_undeclared_effects_never_run(monkeypatch):
     import dda.effects.fixed_points
     import dda.effects.gravity
     import dda.effects.loads
-    import dda.simulation
+    import dda.run.simulation
 
     monkeypatch.setattr(dda.effects.gravity.Gravity, "forces", forbidden)
     monkeypatch.setattr(dda.effects.loads.PointLoads, "forces", forbidden)
     monkeypatch.setattr(dda.effects.fixed_points.FixedPoints, "stiffness", forbidden)
-    monkeypatch.setattr(dda.simulation, "refresh_contacts", forbidden)
-    monkeypatch.setattr(dda.simulation, "_fracture", forbidden)
+    monkeypatch.setattr(dda.run.simulation, "refresh_contacts", forbidden)
+    monkeypatch.setattr(dda.run.simulation, "_fracture", forbidden)
     result = dda.simulate(single_block_scene())
     assert result.summary["steps"] == 5
 

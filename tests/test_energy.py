@@ -1,4 +1,4 @@
-"""Energy accounting (dda/energy.py) and its per-step record in Result.history."""
+"""Energy accounting (dda/run/energy.py) and its per-step record in Result.history."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import dda
-from dda.energy import EnergyTerms, contact_energy, elastic_energy, kinetic_energy
 from dda.model import build
+from dda.run.energy import EnergyTerms, contact_energy, elastic_energy, kinetic_energy
 from tests.helpers import ROCK, G, projectile_scene, rectangle, slope_scene
 
 

@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 import dda
-from dda import measure, model, simulation, stages
+from dda import model
 from dda.effects import bolts, seismic, water
+from dda.run import measure, simulation
+from dda.scene import stage_plan
 from tests.test_cases import CASES
 
 NEW = ("bolts", "seismic", "water", "measure", "stages")
@@ -24,7 +26,7 @@ def nothing_new(monkeypatch):
     for cls in (bolts.RockBolts, seismic.GroundMotion, water.WaterPressure, measure.Probes):
         monkeypatch.setattr(cls, "__init__", refuse)
     monkeypatch.setattr(simulation, "apply_due_stages", refuse)
-    monkeypatch.setattr(stages, "StagePlan", refuse)
+    monkeypatch.setattr(stage_plan, "StagePlan", refuse)
 
 
 def test_an_old_scene_builds_and_runs_none_of_the_new_code(nothing_new):

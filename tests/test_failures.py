@@ -31,7 +31,7 @@ def test_cut_steps_are_counted_and_time_is_reached():
 def test_the_last_steps_end_the_run_without_a_sliver():
     """Δt 0.3 over 1.0 s: 0.3, 0.3, then the 0.4 left in two steps of 0.2 (not 0.3 + 0.1);
     a duration that is a whole number of steps keeps them all equal despite round-off."""
-    from dda.simulation import _step_length
+    from dda.run.simulation import _step_length
 
     assert _step_length(0.3, 0.4) == pytest.approx(0.2)
     assert _step_length(0.3, 0.2) == pytest.approx(0.2)

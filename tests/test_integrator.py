@@ -1,4 +1,4 @@
-"""The velocity update (dda.integrator): Newmark with β = ½ and the scene's γ.
+"""The velocity update (dda.solve.integrator): Newmark with β = ½ and the scene's γ.
 
 Independent expectations: Shi's update v1 = 2D/Δt − v0 (γ = 1); a block that
 hops on a stiff base for less than a step (hop time 2w/g < Δt) is a mode much
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import dda
-from dda.integrator import new_velocity
+from dda.solve.integrator import new_velocity
 from tests.helpers import ROCK, G, projectile_scene, slope_scene
 
 

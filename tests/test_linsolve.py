@@ -12,10 +12,10 @@ import pytest
 import scipy.sparse as sp
 
 import dda
-import dda.linsolve as linsolve
+import dda.solve.linsolve as linsolve
 from dda.bench.scenes import wall_scene
-from dda.linsolve import Factorisation, ReusingSolver, block_ordering, pcg
-from dda.step import _keyed_springs
+from dda.solve.linsolve import Factorisation, ReusingSolver, block_ordering, pcg
+from dda.solve.step import _keyed_springs
 
 
 def spd_matrix(seed: int, n: int = 60, density: float = 0.08) -> sp.csc_matrix:
@@ -241,7 +241,7 @@ def test_open_contacts_are_no_spring_of_k():
 
 
 def test_direct_pardiso_calls_solve_many_columns_and_report_errors():
-    """The ctypes call (dda.pardiso_call) solves one or several right-hand sides, and a
+    """The ctypes call (dda.solve.pardiso_call) solves one or several right-hand sides, and a
     matrix that is not positive definite is PARDISO's error, raised, not a wrong x."""
     pytest.importorskip("pypardiso")
     from pypardiso.pardiso_wrapper import PyPardisoError

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 import dda
-import dda.low_rank as low_rank
-import dda.step
-from dda.assembly import BlockPattern, assemble
+import dda.solve.low_rank as low_rank
+import dda.solve.step
 from dda.bench.scenes import wall_scene
-from dda.linsolve import Factorisation
-from dda.low_rank import StepUpdates
+from dda.solve.assembly import BlockPattern, assemble
+from dda.solve.linsolve import Factorisation
+from dda.solve.low_rank import StepUpdates
 
 
 @pytest.fixture(autouse=True)
@@ -108,7 +108,7 @@ def test_a_wall_runs_the_same_with_fewer_factorisations(monkeypatch):
     """The 6 x 6 wall for 20 steps: the same solves and displacements (every solve is
     to a residual of 1e-13), fewer factorisations. Without chord steps, whose
     direction depends on which matrix was factorised last."""
-    monkeypatch.setattr(dda.step._PieceSystem, "chord", lambda self, residual: None)
+    monkeypatch.setattr(dda.solve.step._PieceSystem, "chord", lambda self, residual: None)
     scene = dda.load_scene(wall_scene(6, steps=20))
     with_updates = dda.simulate(scene)
     monkeypatch.setattr(low_rank, "MAX_COLUMNS", 0)

@@ -1,4 +1,4 @@
-"""Measurement points (dda/measure.py): their values, history_points.csv and `dda plot`."""
+"""Measurement points (dda/run/measure.py): their values, history_points.csv and `dda plot`."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import dda
-from dda import cli
+from dda.commands import cli
 from tests.helpers import ROCK, G, rectangle, slope_scene
 
 

@@ -1,4 +1,4 @@
-"""Newton with an exact line search on a step's potential (dda.newton), on random
+"""Newton with an exact line search on a step's potential (dda.solve.newton), on random
 problems solved densely: Π falls at every iteration, and the result is Π's minimiser
 (its gradient vanishes and no nearby point is lower)."""
 
@@ -9,7 +9,7 @@ import pytest
 
 from dda.contact.potential import ContactTerms
 from dda.contact.rows import _empty_rows
-from dda.newton import BlockQuadratic, ContactGeometry, _conjugated, minimise, potential
+from dda.solve.newton import BlockQuadratic, ContactGeometry, _conjugated, minimise, potential
 
 
 def problem(seed: int, blocks: int = 6, contacts: int = 40):
@@ -210,7 +210,7 @@ def test_a_run_counts_newton_iterations_and_chord_steps_apart(monkeypatch):
     """summary["iterations"] = Newton iterations + chord steps; summary["newton_iterations"]
     the Newton iterations alone (assembled systems), counted here from minimise() itself."""
     import dda
-    import dda.step as step_module
+    import dda.solve.step as step_module
     from dda.bench.scenes import wall_scene
 
     counted = {"newton": 0, "chords": 0}

@@ -16,7 +16,7 @@ import pytest
 
 import dda
 import dda.contact.reach
-import dda.step as step
+import dda.solve.step as step
 from dda.bench.scenes import wall_scene
 
 

@@ -6,7 +6,7 @@ import pytest
 
 import dda
 from dda.model import build
-from dda.presets import PRESETS, apply_preset
+from dda.scene.presets import PRESETS, apply_preset
 from tests.helpers import ROCK, slope_scene
 
 SLAB_EXTENT = 10 * 0.8660254037844 + 0.5  # slope_scene's slab, 10 m rotated by 30°

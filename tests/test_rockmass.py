@@ -15,9 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from tomli_w import dumps
 
+from dda.commands.cut import register
 from dda.errors import SceneError
-from dda.rockmass import expand_rock_mass
-from dda.rockmass.cli import register
+from dda.scene.rockmass import expand_rock_mass
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "cases"
@@ -462,7 +462,7 @@ def test_cut_command_makes_missing_folders_and_refuses_to_overwrite_its_scene(tm
 
 def test_cut_is_an_entry_point_of_the_dda_command():
     names = {ep.name: ep.value for ep in entry_points(group="dda.commands")}
-    assert names.get("cut") == "dda.rockmass.cli:register"
+    assert names.get("cut") == "dda.commands.cut:register"
 
 
 # --- through the scene loader and the engine ----------------------------------------------
@@ -713,7 +713,7 @@ def test_cut_command_refuses_a_scene_without_regions(tmp_path, capsys):
 
 
 def test_dda_cut_through_the_dda_command(tmp_path):
-    from dda.cli import main
+    from dda.commands.cli import main
 
     raw = base_scene(joint_sets=[{"dip": 0.0, "spacing": 2.0}])
     scene = write_scene(tmp_path / "mass.toml", raw)

@@ -22,18 +22,18 @@ import numpy as np
 import pytest
 
 import dda
-from dda import cli
 from dda.blocks import BlockSet
-from dda.checkpoint import (
+from dda.commands import cli
+from dda.contact.contact_set import ContactSet
+from dda.io.run_folder import RunFolder
+from dda.io.run_writer import RunWriter
+from dda.run.checkpoint import (
     CheckpointError,
     CheckpointPlan,
     capture,
     read_checkpoint,
     write_checkpoint,
 )
-from dda.contact.contact_set import ContactSet
-from dda.io.run_folder import RunFolder
-from dda.io.run_writer import RunWriter
 
 ROOT = Path(__file__).resolve().parents[1]
 SLOPE = ROOT / "cases" / "rock_slope.toml"
@@ -132,9 +132,9 @@ def test_checkpoints_leave_the_run_unchanged(tmp_path, superlu):
 def test_a_checkpoint_holds_every_field_of_the_run_state(tmp_path):
     """Every attribute of the run (but the model) and every field of the block and
     contact sets is saved, found by walking them: a new field needs no change."""
-    from dda import simulation
+    from dda.run import simulation
 
-    state = simulation._Run(dda.simulation.build(slope_scene(5)))
+    state = simulation._Run(dda.run.simulation.build(slope_scene(5)))
     simulation._advance(state)
     checkpoint = capture(state)
     keys = set(checkpoint.arrays) | set(checkpoint.meta["state"])
@@ -192,7 +192,7 @@ def test_the_step_limit_is_checked_before_and_during_a_run(monkeypatch):
     capped = dataclasses.replace(scene, analysis=dataclasses.replace(scene.analysis, max_steps=3))
     with pytest.raises(dda.SceneError, match="analysis.steps: 5 steps are more than"):
         dda.simulate(capped)
-    monkeypatch.setattr(dda.simulation, "check_run_size", lambda scene: None)
+    monkeypatch.setattr(dda.run.simulation, "check_run_size", lambda scene: None)
     with pytest.raises(dda.SimulationError, match="step 3 .* reached analysis.max_steps = 3"):
         dda.simulate(capped)
 
@@ -275,7 +275,7 @@ def test_sigkill_leaves_a_readable_prefix_and_the_run_resumes(tmp_path, monkeypa
     continues from the last checkpoint to the uninterrupted run's history."""
     monkeypatch.chdir(tmp_path)
     scene = slope_file(tmp_path, 100)
-    command = [sys.executable, "-m", "dda.cli", "run", str(scene), "-o", "out", "-q"]
+    command = [sys.executable, "-m", "dda.commands.cli", "run", str(scene), "-o", "out", "-q"]
     process = subprocess.Popen([*command, "--checkpoint-every", "10"])
     try:
         summary = {}

@@ -1,4 +1,4 @@
-"""Tests of the scene loader and its validation (dda/scene.py)."""
+"""Tests of the scene loader and its validation (dda/scene/format.py)."""
 
 from __future__ import annotations
 
@@ -377,7 +377,8 @@ BAD = [
 
 def _case_id(case: tuple) -> str:
     path, value, _ = case
-    return ".".join(map(str, path)) + "=" + repr(value)[:30]
+    shown = "<deleted>" if value is DELETE else repr(value)[:30]
+    return ".".join(map(str, path)) + "=" + shown
 
 
 @pytest.mark.parametrize(("path", "value", "key"), BAD, ids=[_case_id(c) for c in BAD])
@@ -616,9 +617,9 @@ def test_rock_mass_keys_are_expanded(monkeypatch):
         out["groups"] = {"region": ["r1"]}
         return out
 
-    module = types.ModuleType("dda.rockmass")
+    module = types.ModuleType("dda.scene.rockmass")
     module.expand_rock_mass = expand_rock_mass
-    monkeypatch.setitem(sys.modules, "dda.rockmass", module)
+    monkeypatch.setitem(sys.modules, "dda.scene.rockmass", module)
     raw = full()
     for key in ("loads", "interfaces", "blocks"):
         del raw[key]
@@ -632,16 +633,16 @@ def test_rock_mass_keys_are_expanded(monkeypatch):
 
 
 def test_rock_mass_scene_without_the_module(monkeypatch):
-    monkeypatch.setitem(sys.modules, "dda.rockmass", None)
+    monkeypatch.setitem(sys.modules, "dda.scene.rockmass", None)
     error = refused(edited(("joint_lines",), []))
     assert error.key == "regions"
-    assert "dda.rockmass" in error.reason
+    assert "dda.scene.rockmass" in error.reason
 
 
 def test_rock_mass_typo_after_expansion_is_refused(monkeypatch):
-    module = types.ModuleType("dda.rockmass")
+    module = types.ModuleType("dda.scene.rockmass")
     module.expand_rock_mass = lambda raw, source: {k: v for k, v in raw.items() if k != "regions"}
-    monkeypatch.setitem(sys.modules, "dda.rockmass", module)
+    monkeypatch.setitem(sys.modules, "dda.scene.rockmass", module)
     raw = full()
     raw["regions"] = []
     raw["titel"] = "x"
@@ -675,7 +676,7 @@ spacing = 1.0
 
 
 def test_rock_mass_scene_with_the_real_module():
-    pytest.importorskip("dda.rockmass")
+    pytest.importorskip("dda.scene.rockmass")
     scene = load_scene(ROCK_MASS_SCENE)
     assert len(scene.blocks) > 1
     assert all(_signed_area(b.vertices) > 0 for b in scene.blocks)
@@ -683,7 +684,7 @@ def test_rock_mass_scene_with_the_real_module():
 
 
 def test_plain_scene_never_imports_rock_mass(monkeypatch):
-    monkeypatch.setitem(sys.modules, "dda.rockmass", None)
+    monkeypatch.setitem(sys.modules, "dda.scene.rockmass", None)
     assert load_scene(full()).block_names == ("slider", "base")
 
 

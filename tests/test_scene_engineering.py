@@ -1,4 +1,4 @@
-"""The scene keys of rock engineering (dda/scene_engineering.py): accepted, and refused in
+"""The scene keys of rock engineering (dda/scene/engineering.py): accepted, and refused in
 one line naming the key."""
 
 from __future__ import annotations
@@ -174,7 +174,7 @@ def test_bolt_pretension_and_seismic_mode_and_stage_order_are_checked():
 def test_the_cli_refuses_a_bad_section_in_one_line(tmp_path, capsys):
     import tomli_w
 
-    from dda import cli
+    from dda.commands import cli
 
     raw = edit(("water", "unit_weight"), -1.0)()
     (tmp_path / "bad.toml").write_text(tomli_w.dumps(raw))

@@ -1,4 +1,4 @@
-"""Staged excavation (dda/stages.py): blocks removed and bolts installed at given times."""
+"""Staged excavation (dda/run/stages.py): blocks removed and bolts installed at given times."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dda
-from dda import simulation
+from dda.run import simulation
 from tests.helpers import ROCK, G, rectangle
 
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
+from dda.commands.tradeoff import register
 from dda.tradeoff.cases import fine_setting, get_case
-from dda.tradeoff.cli import register
 from dda.tradeoff.grid import Setting, expand, parse_grid
 from dda.tradeoff.pareto import cheapest_within, pareto_front
 from dda.tradeoff.runner import Cluster, add_errors, make_tasks, run_task, sweep
@@ -106,7 +106,7 @@ def test_a_bad_scene_file_is_bad_input_named_by_its_file(tmp_path, capsys):
 
 
 def test_a_cluster_without_dask_is_bad_input_with_the_fix(tmp_path, capsys, monkeypatch):
-    import dda.tradeoff.cli as tradeoff_cli
+    import dda.commands.tradeoff as tradeoff_cli
 
     monkeypatch.setattr(tradeoff_cli, "_has_dask", lambda: False)
     parser = argparse.ArgumentParser()

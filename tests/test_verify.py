@@ -462,7 +462,7 @@ def test_fem_side_reads_nothing_from_the_engine(monkeypatch):
     scene = dda.load_scene(case.scene_path)
     before = solve_fem(scene, FemOptions(size=0.25))
     monkeypatch.setattr(dda, "simulate", None)
-    monkeypatch.setattr("dda.simulation.run", None)
+    monkeypatch.setattr("dda.run.simulation.run", None)
     after = solve_fem(scene, FemOptions(size=0.25))
     assert np.array_equal(before.u, after.u)
 
@@ -687,7 +687,7 @@ def test_cli_refuses_a_bad_expectation_file_in_one_line(tmp_path, capsys):
 
 
 def test_dda_command_has_verify():
-    from dda.cli import build_parser
+    from dda.commands.cli import build_parser
 
     parser = build_parser()
     args = parser.parse_args(["verify", "--quick", "-o", "x"])

@@ -8,7 +8,7 @@ import subprocess
 from collections.abc import Iterable
 
 from dda.bench.run import STAGES, Measurement
-from dda.linsolve import THREADS_VARIABLE, solver_threads
+from dda.solve.linsolve import THREADS_VARIABLE, solver_threads
 
 SHORT = {
     "contact_search": "search",

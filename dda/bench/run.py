@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field
 import dda
 from dda.bench.scenes import wall_scene
 from dda.jit import MIN_WORK, numba_enabled
-from dda.linsolve import new_pardiso_handle, pardiso_available
+from dda.solve.linsolve import new_pardiso_handle, pardiso_available
 
 log = logging.getLogger(__name__)
 

@@ -61,7 +61,7 @@ def wall_scene(
             "gravity": [0.0, -9.81],
             "save_every": int(save_every or steps),
             # Shi's start, as the C code's: every contact spring unloaded, no material
-            # damping (the wall rings; dda.equilibrium_start, dda.effects.damping)
+            # damping (the wall rings; dda.run.equilibrium_start, dda.effects.damping)
             "start": "unloaded",
         },
         "contact": {"method": method, "penalty": 5e7},

@@ -25,23 +25,23 @@ import numpy as np
 import scipy.sparse as sp
 
 import dda
-import dda.assembly as assembly
 import dda.contact.broad as broad
 import dda.contact.narrow as narrow
+import dda.solve.assembly as assembly
 from dda.bench.scenes import wall_scene
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
-from dda.linsolve import (
+from dda.model import build
+from dda.solve.linsolve import (
     Factorisation,
     PardisoFactorisation,
     block_ordering,
     pardiso_available,
     pcg,
 )
-from dda.model import build
-from dda.step import _effect_terms, _stiffness
+from dda.solve.step import _effect_terms, _stiffness
 
 
 def best_of(function: Callable[[], object], repeat: int = 3) -> float:

@@ -2,7 +2,7 @@
 
 Each Newton solve minimises the step's potential with the contact data
 frozen (:mod:`dda.contact.potential`). Between solves (the outer loop of
-:func:`dda.step.solve_step`) this module updates that data from the solution:
+:func:`dda.solve.step.solve_step`) this module updates that data from the solution:
 
 * **augmented Lagrangian** (paper §3): a contact on its elastic normal piece
   whose |g| exceeds the tolerance is augmented, λn ← max(λn + p g, −T)

@@ -207,7 +207,7 @@ def _empty_rows(m: int) -> ContactRows:
 
     The normal and shear gradients of each side are the two halves of one
     (2, m, 6) array, which the assembly then takes as it is, without a copy
-    (:func:`dda.assembly.stacked`).
+    (:func:`dda.solve.assembly.stacked`).
     """
     gradient_i, gradient_j = np.zeros((2, m, 6)), np.zeros((2, m, 6))
     arrays = {name: np.zeros(m) for name in ContactRows.__dataclass_fields__}

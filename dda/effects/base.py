@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dda.blocks import BlockSet
-from dda.pair_springs import PairSprings
+from dda.effects.pair_springs import PairSprings
 
 
 @dataclass
@@ -28,7 +28,7 @@ class Effect:
 
     ``stiffness`` returns (n, 6, 6) diagonal blocks of K (or None);
     ``forces`` returns (n, 6) additions to F (or None); ``couplings`` the
-    springs it puts between two blocks (:mod:`dda.pair_springs`, or None); all
+    springs it puts between two blocks (:mod:`dda.effects.pair_springs`, or None); all
     are evaluated once per step attempt. ``after_step`` lets an effect move its own state
     (tracked material points, ...) once a step is accepted.
     """
@@ -54,5 +54,5 @@ class Effect:
 
     def preload(self, blocks: BlockSet, d: np.ndarray) -> None:
         """Take on, with the blocks where they are, the forces the effect's springs would
-        have after the step ``d`` (the equilibrium start, dda.equilibrium_start)."""
+        have after the step ``d`` (the equilibrium start, dda.run.equilibrium_start)."""
         return None

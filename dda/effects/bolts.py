@@ -10,7 +10,7 @@ with n = (Q − P)/|Q − P| at the step start and T(x, y) of docs/theory.md §1
 (the bolt's analogue of a contact's linearised distance, paper eqs. 9-13).
 Its energy f0 e + ½ k e² is a convex quadratic in D: it adds k r_iᵀr_i,
 k r_iᵀr_j, k r_jᵀr_i, k r_jᵀr_j to K_ii, K_ij, K_ji, K_jj (as
-:class:`dda.pair_springs.PairSprings`) and −(f0 + k e0) r_iᵀ, −(f0 + k e0) r_jᵀ
+:class:`dda.effects.pair_springs.PairSprings`) and −(f0 + k e0) r_iᵀ, −(f0 + k e0) r_jᵀ
 to F_i, F_j. Where a fixed block follows the ground, its known step enters
 e0 as it enters a contact's gap (:mod:`dda.effects.seismic`).
 
@@ -29,9 +29,9 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.effects.base import Effect, StepContext
+from dda.effects.pair_springs import PairSprings
 from dda.effects.points import MaterialPoints
 from dda.kinematics import project_rows
-from dda.pair_springs import PairSprings
 from dda.result import BoltEvent
 
 log = logging.getLogger(__name__)

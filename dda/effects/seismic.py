@@ -13,7 +13,7 @@ t + Δt moves each moving fixed block rigidly by u(t + Δt) − u(t): those
 blocks stay out of the unknowns, and that known step enters every contact
 gap they take part in (g0 + ∇g_j·D_j, likewise the shear motion and a bolt's
 stretch) before the step is solved. The work the moving ground does on the
-blocks is counted as external work (:mod:`dda.energy`).
+blocks is counted as external work (:mod:`dda.run.energy`).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ blocks sharing a wetted joint get equal and opposite pressures on its two
 faces, which is the effective-stress principle: the contact carries the
 normal force less the water's (Hoek & Bray's U on a sliding plane).
 The loads are evaluated at the step start; their work is external work
-(:mod:`dda.energy`).
+(:mod:`dda.run.energy`).
 """
 
 from __future__ import annotations

@@ -88,7 +88,7 @@ def replace_blocks(
 
     Vectorised over the kept blocks (one mask over the packed vertices);
     only the fragments are handled one by one. ``removed``: (n,) bool, blocks
-    left out without fragments (excavated by a stage, :mod:`dda.stages`).
+    left out without fragments (excavated by a stage, :mod:`dda.run.stages`).
     """
     gone = np.zeros(blocks.count, dtype=bool) if removed is None else removed.copy()
     gone[[f.parent for f in broken]] = True

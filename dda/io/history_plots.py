@@ -19,7 +19,7 @@ import numpy as np
 from dda.io.atomic import atomic_path
 from dda.io.fields import unit_name
 from dda.io.tables import POINTS_NAME
-from dda.scene_engineering import BOLT_QUANTITIES, CONTACT_QUANTITIES, POINT_QUANTITIES
+from dda.scene.engineering import BOLT_QUANTITIES, CONTACT_QUANTITIES, POINT_QUANTITIES
 
 logger = logging.getLogger(__name__)
 

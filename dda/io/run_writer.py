@@ -10,7 +10,7 @@ Layout of ``outdir``::
     history.csv             one row per block per kept frame
     history_points.csv      one row per step of the [[measure]] quantities (with [[measure]])
     summary.json            the run summary (status "running", "finished", "failed", ...)
-    checkpoint.npz          the last checkpoint, while the run is not finished (dda.checkpoint)
+    checkpoint.npz          the last checkpoint, while the run is not finished (dda.run.checkpoint)
     final.png               the last frame, coloured by a stress component
 
 Per kept frame, in this order: the two VTU files (each atomically), a line
@@ -283,7 +283,7 @@ def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:
             if TEMP_MARK in path.name or step_of_file(path) > step:
                 path.unlink(missing_ok=True)
     _truncate_history(outdir / "history.csv", step)
-    # the measurements were written up to the last frame kept (dda.measure)
+    # the measurements were written up to the last frame kept (dda.run.measure)
     last = max((step_of_file(file) for file, _ in kept[0]), default=-1)
     _truncate_history(outdir / POINTS_NAME, last, header=None)
     logger.info("resuming %s at step %d: %d frames kept", outdir, step, len(kept[0]))

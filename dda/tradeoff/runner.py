@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import dda
-from dda.linsolve import THREADS_VARIABLE
+from dda.solve.linsolve import THREADS_VARIABLE
 from dda.tradeoff.cases import Case, model_size, relative_error
 from dda.tradeoff.grid import Setting
 

@@ -3,7 +3,7 @@ friction, augmented Lagrangian and penalty, 3 to 20 blocks.
 
 At every step the stored energy (kinetic + potential + elastic + contact springs)
 stays below its initial value plus the work of the loads, E₀ + W, within 1e-3 E₀.
-Each step minimises one convex incremental potential (dda.newton), and Shi's
+Each step minimises one convex incremental potential (dda.solve.newton), and Shi's
 integrator with a convex potential can only dissipate; before, the open–close
 iteration's held contacts gave the 3-block leaning stack 36 % of E₀ and the
 10-block one 62 %.
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import dda
-import dda.step
+import dda.solve.step
 from tests.helpers import ROCK, G, rectangle
 
 SLACK = 1e-3
@@ -111,14 +111,14 @@ def test_the_ringing_wall_gains_no_energy_through_chord_steps(monkeypatch):
     from dda.bench.scenes import wall_scene
 
     chords = []
-    minimise = dda.step.minimise
+    minimise = dda.solve.step.minimise
 
     def counting(*args, **kwargs):
         result = minimise(*args, **kwargs)
         chords.append(result.chords)
         return result
 
-    monkeypatch.setattr(dda.step, "minimise", counting)
+    monkeypatch.setattr(dda.solve.step, "minimise", counting)
     result = dda.simulate(dda.load_scene(wall_scene(10, steps=100)))
     assert sum(chords) > 100  # measured: 433 chord steps in 100 steps; largest gain −1.3e-7 E₀
     assert result.summary["cut_steps"] == 0
@@ -136,17 +136,17 @@ def test_the_ringing_wall_gains_no_energy_with_the_large_systems_chord_rules(siz
     gain −8.4e-12 E₀ both."""
     from dda.bench.scenes import wall_scene
 
-    monkeypatch.setattr(dda.newton, "LARGE_ROWS", 0)  # every system counts as large
+    monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)  # every system counts as large
     if size == "huge":
-        monkeypatch.setattr(dda.newton, "HUGE_ROWS", 0)
+        monkeypatch.setattr(dda.solve.newton, "HUGE_ROWS", 0)
     chord_first = []
-    minimise = dda.step.minimise
+    minimise = dda.solve.step.minimise
 
     def counting(*args, **kwargs):
         chord_first.append(kwargs.get("chord_first", False))
         return minimise(*args, **kwargs)
 
-    monkeypatch.setattr(dda.step, "minimise", counting)
+    monkeypatch.setattr(dda.solve.step, "minimise", counting)
     result = dda.simulate(dda.load_scene(wall_scene(10, steps=100)))
     assert sum(chord_first) > 100
     assert result.summary["cut_steps"] == 0

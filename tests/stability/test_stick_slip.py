@@ -2,7 +2,7 @@
 
 The scenes (tests/stability/incline.py): a 1 x 1 m block (E = 1e9 Pa) released from
 rest on a 30° slope, with the engine's default physics (the equilibrium start,
-dda.equilibrium_start; the blocks' material damping, dda.effects.damping).
+dda.run.equilibrium_start; the blocks' material damping, dda.effects.damping).
 
 * Stick: inside its friction (tan θ / tan φ = 0.5, 0.8, 0.95) the block's centroid
   moves less than twice its elastic settlement + 1 µm over 0.5 s. The settlement is

@@ -1,0 +1,77 @@
+"""``dda bench``: run the wall benchmark at several sizes and print the table."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from typing import Any
+
+from dda.bench.scenes import METHODS
+from dda.commands.cli import positive_int
+
+log = logging.getLogger(__name__)
+
+DEFAULT_SIZES = (5, 10, 20, 30, 50, 100)
+
+
+def register(subparsers: Any) -> None:
+    """Add ``dda bench`` to the ``dda`` command's sub-commands."""
+    parser = subparsers.add_parser(
+        "bench",
+        help="performance benchmark (wall of blocks on a base)",
+        description="Time the engine on an n x n wall of unit blocks on a fixed base, "
+        "each size in its own process (peak memory per size).",
+    )
+    parser.add_argument(
+        "--sizes",
+        type=positive_int,
+        nargs="+",
+        default=list(DEFAULT_SIZES),
+        metavar="N",
+        help="wall sizes N (an N x N wall of blocks); default: %(default)s",
+    )
+    parser.add_argument(
+        "--method",
+        choices=[*METHODS, "both"],
+        default="both",
+        help="contact method (default: both)",
+    )
+    parser.add_argument("--steps", type=positive_int, default=100, help="time steps (default: 100)")
+    parser.add_argument(
+        "--repeat",
+        type=positive_int,
+        default=1,
+        metavar="N",
+        help="run each size N times (each in its own process) and keep the fastest: "
+        "on a shared machine the minimum is the figure least disturbed by other work "
+        "(default: 1)",
+    )
+    parser.set_defaults(func=run_command)
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Measure every (size, method) and print the Markdown table; 0 on success."""
+    from dda.bench.report import machine_line, table
+    from dda.bench.run import measure_in_subprocess
+
+    methods = METHODS if args.method == "both" else (args.method,)
+    results = []
+    for size in args.sizes:
+        for method in methods:
+            log.info("wall %dx%d, %s, %d steps", size, size, method, args.steps)
+            try:
+                runs = [measure_in_subprocess(size, method, args.steps) for _ in range(args.repeat)]
+            except RuntimeError as exc:
+                log.error("%dx%d %s: %s", size, size, method, exc)
+                return 1
+            finished = [run for run in runs if run.status == "finished"] or runs
+            m = min(finished, key=lambda run: run.ms_per_step)
+            results.append(m)
+            print(table([m]).splitlines()[-1] if len(results) > 1 else table([m]), flush=True)
+    print(f"\nmachine: {machine_line()}")
+    print(
+        f"command: dda bench --sizes {' '.join(map(str, args.sizes))} "
+        f"--method {args.method} --steps {args.steps}"
+        + (f" --repeat {args.repeat} (fastest of {args.repeat} runs)" if args.repeat > 1 else "")
+    )
+    return 0 if all(m.status == "finished" for m in results) else 3

@@ -1,0 +1,472 @@
+"""The ``dda`` command: ``dda run``, ``dda render`` and plugin sub-commands.
+
+Sub-commands other than ``run`` and ``render`` come from entry points in the
+group ``dda.commands``: each names a ``register(subparsers)`` function that
+adds its parser and sets ``func`` (``func(args) -> int``) with
+``set_defaults``. A plugin that cannot be imported is skipped with a logged
+warning, so a broken or absent optional package never breaks ``dda run``.
+
+Exit codes: 0 success, 1 other failure, 2 bad input (scene refused, missing
+file, an argument or output path that cannot be used), 3 the simulation
+failed, 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM. Every error ends
+in one line on stderr naming the file, key or argument and the reason; a
+traceback only with ``-v``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import shutil
+import sys
+from collections.abc import Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import dda
+from dda.io.fields import SCALARS
+
+logger = logging.getLogger(__name__)
+
+PLUGIN_GROUP = "dda.commands"
+EXIT_OK, EXIT_FAILURE, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+CHECKPOINT_MINUTES = 10.0  # default wall time between checkpoints of ``dda run``
+MAX_OUTPUT_GB = 20.0  # ``dda run`` refuses runs estimated to write more, unless told
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (and exit code 2)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_INPUT, f"{self.prog}: {message} (see {self.prog} -h)\n")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``dda`` command line.
+
+    Parameters
+    ----------
+    argv
+        Arguments without the program name; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    verbosity = _verbosity(argv)
+    configure_logging(verbosity)
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a refused argument (one line written), or --help
+        return exc.code if isinstance(exc.code, int) else EXIT_INPUT
+    if not hasattr(args, "func"):
+        parser.print_help(sys.stderr)
+        return EXIT_INPUT
+    from dda.solve.linsolve import solver_choice, solver_threads
+
+    try:
+        solver_threads()
+        solver_choice()
+    except ValueError as exc:
+        print(f"dda: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    label = f"dda {args.command}" if getattr(args, "command", None) else "dda"
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print(f"\n{label}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # the last resort: one line, the traceback with -v
+        if verbosity:
+            raise
+        print(f"{label}: {_one_line(exc)} (dda -v {args.command} ... shows where)", file=sys.stderr)
+        return EXIT_FAILURE
+
+
+def _one_line(exc: BaseException) -> str:
+    """``TypeName: message`` of an exception on one line (OSError: file and reason)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f"{exc.filename}: " if exc.filename else ""
+        return f"{where}{exc.strerror}"
+    text = " ".join(str(exc).split()) or "no message"
+    return f"{type(exc).__name__}: {text}"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with the built-in and the plugin sub-commands."""
+    description = "2-D Discontinuous Deformation Analysis of blocky rock."
+    parser = Parser(prog="dda", description=description)
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="more log output (-v info, -vv debug)"
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {dda.__version__}")
+    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND", dest="command")
+    _add_run(subparsers)
+    _add_render(subparsers)
+    load_plugins(subparsers)
+    return parser
+
+
+def configure_logging(verbosity: int) -> None:
+    """Log to stderr: warnings by default, info with ``-v``, debug with ``-vv``."""
+    level = {0: logging.WARNING, 1: logging.INFO}.get(verbosity, logging.DEBUG)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    logging.getLogger().setLevel(level)
+
+
+def _verbosity(argv: Sequence[str]) -> int:
+    """Count ``-v`` flags before parsing, so plugin loading is logged at that level."""
+    count = 0
+    for arg in argv:
+        if arg == "--":
+            break
+        if arg == "--verbose":
+            count += 1
+        elif arg.startswith("-") and not arg.startswith("--") and set(arg[1:]) == {"v"}:
+            count += len(arg) - 1
+    return count
+
+
+def load_plugins(subparsers: Any, group: str = PLUGIN_GROUP) -> list[str]:
+    """Let every entry point of ``group`` register its sub-command.
+
+    Parameters
+    ----------
+    subparsers
+        The object returned by ``ArgumentParser.add_subparsers``.
+    group
+        Entry point group.
+
+    Returns
+    -------
+    list of str
+        Names of the entry points that registered.
+    """
+    loaded = []
+    for entry in metadata.entry_points(group=group):
+        try:
+            register = entry.load()
+        except Exception as exc:  # ImportError, or an error while importing it
+            logger.warning("skipping command %r (%s): %s", entry.name, entry.value, exc)
+            continue
+        try:
+            register(subparsers)
+        except Exception as exc:  # e.g. a name that is already taken
+            logger.warning("command %r could not register: %s", entry.name, exc)
+            continue
+        loaded.append(entry.name)
+    return loaded
+
+
+# ---------------------------------------------------------------- dda run
+
+
+def _add_run(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "run",
+        help="run a scene and write VTU/PVD, CSV, JSON and a picture",
+        description="Run CASE.toml; write OUTDIR/blocks.pvd and contacts.pvd with their "
+        "frames/*.vtu, history.csv (and history_points.csv with [[measure]]), summary.json, "
+        "checkpoints and final.png. OUTDIR belongs to one run: a second run "
+        "into it is refused unless --overwrite (replace it) or --resume (continue it). "
+        "SIGINT or SIGTERM stops after the current step with a checkpoint.",
+    )
+    p.add_argument("case", type=Path, help="scene file (TOML)")
+    p.add_argument("-o", "--outdir", type=Path, help="output directory (default out/<case>)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
+    p.add_argument(
+        "--save-every", type=positive_int, metavar="N",
+        help="keep every N-th step (overrides analysis.save_every)",
+    )  # fmt: skip
+    p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="final.png colour")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument(
+        "--overwrite", action="store_true", help="replace the outputs of a run in OUTDIR"
+    )
+    again.add_argument(
+        "--resume", action="store_true", help="continue the run in OUTDIR from its checkpoint"
+    )
+    p.add_argument(
+        "--checkpoint-every",
+        type=positive_int,
+        metavar="STEPS",
+        help="write a checkpoint every STEPS steps (overrides analysis.checkpoint_every)",
+    )
+    p.add_argument(
+        "--checkpoint-minutes",
+        type=non_negative_float,
+        metavar="M",
+        default=CHECKPOINT_MINUTES,
+        help="and every M minutes of wall time (default %(default)g; 0: not by time)",
+    )
+    p.add_argument(
+        "--max-steps", type=positive_int, metavar="N", help="overrides analysis.max_steps"
+    )
+    p.add_argument(
+        "--max-output",
+        type=non_negative_float,
+        metavar="GB",
+        default=MAX_OUTPUT_GB,
+        help="refuse a run estimated to write more than GB gigabytes (default %(default)g)",
+    )
+    p.set_defaults(func=run_command)
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer of at least 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """argparse type: a finite number of at least 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0.0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return value
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """``dda run``: load, claim OUTDIR, simulate with live output and checkpoints, summarise."""
+    from dda.io.output_paths import OutputError
+    from dda.io.run_folder import RunFolder
+    from dda.run.checkpoint import CheckpointError
+
+    try:
+        scene = _run_scene(args)
+    except dda.SceneError as exc:
+        print(f"dda run: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    outdir = args.outdir or Path("out") / args.case.stem
+    mode = "resume" if args.resume else "overwrite" if args.overwrite else "new"
+    try:
+        folder = RunFolder(outdir, mode)
+    except OutputError as exc:
+        print(f"dda run: -o {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    with folder:
+        try:
+            return _run_in(folder, scene, args)
+        except CheckpointError as exc:
+            print(f"dda run: {exc}", file=sys.stderr)
+            return EXIT_INPUT
+
+
+def _run_scene(args: argparse.Namespace):
+    """The scene with the command line's overrides, checked for its size."""
+    from dda.scene.limits import check_run_size
+
+    scene = dda.load_scene(args.case)
+    overrides = {
+        "save_every": args.save_every,
+        "checkpoint_every": args.checkpoint_every,
+        "max_steps": args.max_steps,
+    }
+    overrides = {k: v for k, v in overrides.items() if v is not None}
+    if overrides:
+        analysis = dataclasses.replace(scene.analysis, **overrides)
+        scene = dataclasses.replace(scene, analysis=analysis)
+    check_run_size(scene)
+    _check_output_size(scene, args)
+    return scene
+
+
+def _check_output_size(scene, args: argparse.Namespace) -> None:
+    """Refuse a run whose frames would take more than ``--max-output``; warn beyond free space."""
+    from dda.scene.limits import estimated_frames, estimated_output_bytes
+
+    size = estimated_output_bytes(scene)
+    if size > args.max_output * 1e9:
+        raise dda.SceneError(
+            scene.source,
+            "analysis.save_every",
+            f"about {estimated_frames(scene):,} frames, {size / 1e9:.3g} GB on disk, more than "
+            f"--max-output {args.max_output:g} GB; keep fewer frames (analysis.save_every, "
+            "--save-every) or raise --max-output",
+        )
+
+
+def _warn_about_free_space(scene, outdir: Path) -> None:
+    """A warning when the run's estimated output exceeds the free space of ``outdir``."""
+    from dda.scene.limits import estimated_output_bytes
+
+    size, disk = estimated_output_bytes(scene), shutil.disk_usage(outdir)
+    if disk.total and size > disk.free:  # (pseudo file systems report no total)
+        logger.warning(
+            "the run may write %.3g GB; %s has %.3g GB free", size / 1e9, outdir, disk.free / 1e9
+        )
+
+
+def _run_in(folder, scene, args: argparse.Namespace) -> int:
+    """Run ``scene`` into the claimed ``folder`` (new, overwritten or resumed)."""
+    from dda.io.run_writer import RunWriter
+    from dda.run.checkpoint import CheckpointPlan, check_scene, read_checkpoint
+    from dda.run.stop import StopOnSignal
+
+    checkpoint = None
+    if args.resume:
+        if folder.previous.status == "finished":
+            print(f"dda run: {folder.outdir}: the run finished already; nothing to resume")
+            return EXIT_OK
+        checkpoint = read_checkpoint(folder.checkpoint_path)
+        check_scene(checkpoint, scene)
+    _warn_about_free_space(scene, folder.outdir)
+    resume_step = None if checkpoint is None else checkpoint.step
+    writer = RunWriter(folder, scalars=args.scalars, resume_step=resume_step, scene=scene)
+    minutes = args.checkpoint_minutes
+    plan = CheckpointPlan(
+        folder.checkpoint_path, scene.analysis.checkpoint_every, minutes * 60 if minutes else None
+    )
+    logger.info("running %s into %s (run %s)", args.case, folder.outdir, writer.run_id)
+    with StopOnSignal("dda run") as stop:
+        try:
+            result = dda.simulate(
+                scene, progress=not args.quiet, on_frame=writer.add_frame, keep_frames=False,
+                stop=stop, checkpoints=plan, resume=checkpoint,
+            )  # fmt: skip
+        except dda.SimulationError as exc:
+            print(f"dda run: simulation failed: {exc}", file=sys.stderr)
+            writer.finish(getattr(exc, "result", None), scene, status="failed", error=str(exc))
+            print(
+                f"partial output in {folder.outdir} (a new run into it needs --overwrite)",
+                file=sys.stderr,
+            )
+            return EXIT_SIMULATION
+        except KeyboardInterrupt:
+            writer.finish(None, scene, status="interrupted", error="interrupted by the user")
+            print(f"\ndda run: interrupted; partial output in {folder.outdir}", file=sys.stderr)
+            return stop.exit_code
+    summary = writer.finish(result, scene)
+    if summary["status"] == "interrupted":
+        print(
+            f"dda run: stopped at step {summary.get('steps')} ({stop.name}); continue with: "
+            f"dda run {args.case} -o {folder.outdir} --resume",
+            file=sys.stderr,
+        )
+        return stop.exit_code
+    if not args.quiet:
+        print(summary_paragraph(summary, folder.outdir))
+    return EXIT_OK
+
+
+def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
+    """A few lines for the terminal: what ran, how long, how well, where the files are.
+
+    Parameters
+    ----------
+    summary
+        The run summary (see :class:`dda.Result`).
+    outdir
+        The output directory.
+
+    Returns
+    -------
+    str
+        The paragraph.
+    """
+    title = summary.get("title") or "run"
+    parts = [
+        f"{title}: {summary.get('status', 'finished')} after {summary.get('steps', '?')} steps",
+        f"to t = {_number(summary.get('time'))} s",
+        f"in {_number(summary.get('wall_seconds'), '.3g')} s wall time",
+    ]
+    text = " ".join(parts) + "."
+    from dda.io.fields import unit_name
+
+    units = summary.get("units")
+    if summary.get("max_penetration") is not None:
+        length = unit_name("length", units)
+        text += f" Largest penetration {_number(summary['max_penetration'])} {length}."
+    if summary.get("iterations") is not None:
+        text += f" {summary['iterations']} solves"
+        newton = summary.get("newton_iterations")
+        text += "." if newton is None else f" ({newton} Newton iterations)."
+    if summary.get("friction_dissipation"):
+        energy = unit_name("energy", units)
+        text += f" Friction dissipated {_number(summary['friction_dissipation'], '.3g')} {energy}."
+    events = summary.get("fracture_events") or 0
+    count = events if isinstance(events, int) else len(events)
+    if count:
+        text += f" {count} fracture events."
+    if summary.get("stages_done"):
+        text += f" {summary['stages_done']} stages applied."
+    if summary.get("bolts") is not None:
+        text += f" {len(summary.get('bolt_events') or ())} of {summary['bolts']} bolts broke."
+    return text + f"\nOutput ({summary.get('frames_written', 0)} frames): {outdir}"
+
+
+def _number(value: Any, fmt: str = ".6g") -> str:
+    try:
+        return format(float(value), fmt)
+    except (TypeError, ValueError):
+        return "?"
+
+
+# ---------------------------------------------------------------- dda render
+
+
+def _add_render(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "render",
+        help="draw a written frame to PNG",
+        description="Draw a frame written by `dda run`: OUTDIR (its last frame, or --step) "
+        "or a frames/blocks_*.vtu file.",
+    )
+    p.add_argument("source", type=Path, help="output directory or blocks VTU file")
+    p.add_argument(
+        "-o", "--output", type=Path,
+        help="PNG file (default: in the run's output directory, named after the frame and "
+        "the scalars)",
+    )  # fmt: skip
+    p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
+    p.add_argument("--step", type=int, help="step of the frame (OUTDIR only; default last)")
+    p.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")
+    p.add_argument(
+        "--size", type=positive_int, nargs=2, default=(1200, 900), metavar=("W", "H"),
+        help="picture size in pixels (default: 1200 900)",
+    )  # fmt: skip
+    p.set_defaults(func=render_command)
+
+
+def render_command(args: argparse.Namespace) -> int:
+    """``dda render``: read a frame back from VTU and draw it."""
+    from dda.io.frame_files import find_frame, read_found_frame
+    from dda.io.output_paths import OutputError, check_output_file
+
+    try:
+        found = find_frame(args.source, args.step)
+        output = args.output or found.default_png(args.scalars)
+        check_output_file(output)
+        frame = read_found_frame(found)
+    except (FileNotFoundError, ValueError, OutputError) as exc:
+        print(f"dda render: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    from dda.io.images import render_frame
+
+    Path(output).parent.mkdir(parents=True, exist_ok=True)
+    run = found.summary()  # the run's title and units, when its summary.json is there
+    render_frame(
+        frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
+        window_size=tuple(args.size), scene_title=run.get("title") or "",
+        units=run.get("units"),
+    )  # fmt: skip
+    logger.info("wrote %s", output)
+    print(output)
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,42 @@
+"""What a run's numbers depend on besides the scene: versions, solver, threads.
+
+Written into every summary (``summary["environment"]``) so that two runs
+that differ can be told apart: docs/runs.md says which of these settings
+give bit-identical repeats.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+from importlib import metadata
+from typing import Any
+
+import numpy as np
+import scipy
+
+from dda.jit import numba_enabled
+from dda.solve.linsolve import pardiso_available, solver_threads
+
+
+def environment() -> dict[str, Any]:
+    """Versions, compiled kernels, sparse solver and its threads, MKL's reproducibility mode."""
+    return {
+        "dda": _version("dda-rock"),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "numba": _version("numba") if numba_enabled() else None,
+        "sparse_solver": "pardiso" if pardiso_available() else "superlu",
+        "pypardiso": _version("pypardiso") if pardiso_available() else None,
+        "threads": solver_threads(),
+        "mkl_cbwr": os.environ.get("MKL_CBWR"),
+        "machine": platform.machine(),
+    }
+
+
+def _version(package: str) -> str | None:
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return None

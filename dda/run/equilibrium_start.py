@@ -1,0 +1,172 @@
+"""The equilibrium start: a dynamic run starts from the state its scene is drawn in,
+loaded.
+
+A scene gives blocks where they touch, at rest and unstressed. Released like that
+(Shi's start, ``[analysis] start = "unloaded"``), every contact spring and every
+block starts unloaded under the full loads: the blocks drop onto their springs and
+ring about their static state, whose force they overshoot up to twice; friction
+slips whenever the normal force dips, and a sliding block leaves that start with
+extra speed (at Δt ≤ 1e-4 a block on a 30° slope at 1.05 of its friction slid 48 %
+further in 1 s than ½ g (sin θ − cos θ tan φ) t²). The scene's geometry is meant as
+the loaded one, so by default (``start = "equilibrium"``) a dynamic run starts from
+the state of the scene's geometry under its loads at t = 0:
+
+* D* minimises the step's potential with the inertia term 2M/Δt² replaced by a
+  regulariser r_i M_i, lowered tenfold a pseudo-step (``REGULARISER_STEP``) from the
+  run's own 2/Δt² down to ``RELATIVE_REGULARISER`` of each block's E_i / m_i: the
+  limit of a static step as Δt → ∞, reached by continuation (each pseudo-step starts
+  from the pieces and friction bounds of the last; one solve at the final regulariser
+  changes too many contact pieces at once to converge in a jointed rock mass).
+  The gaps are linear in D (paper eqs. 9-13), so the pseudo-steps accumulate D* with
+  the geometry of t = 0.
+* The blocks are not moved. The contacts that touch at t = 0 carry the forces of D*
+  at the start geometry (λn = N − p g0: the normal force at zero penetration, for
+  the augmented Lagrangian and, as a preload, for the penalty method too; λt = F,
+  the shear force carried), the blocks the stresses σ0 + E ε(D*), and the effects'
+  springs (fixed points, rock bolts) the stretch of D* (``Effect.preload``).
+
+A block that can stand is in equilibrium from t = 0, to the regulariser and the
+solve's tolerance (the stick matrix of tests/stability/test_stick_slip.py moves by
+1e-13 to 2e-8 m in 0.5 s), at any Δt, penalty and contact method. A block that
+cannot (it slides, topples, falls) gets from the limit the forces of rigid contact
+at the instant of its release (its D* grows without bound, ~ load / regulariser,
+and is never applied): a sliding block starts with N = W cos θ and F = tan φ N, and
+follows ½ g (sin θ − cos θ tan φ) t² from t = 0 (to 3e-8 relative at 1 s).
+
+If a pseudo-step does not settle within ``BUDGET_FACTOR`` × ``[contact]
+max_iterations`` Newton iterations, the run starts unloaded (a warning, and
+``summary["start"]`` says so).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact.contact_set import ContactSet
+from dda.effects.base import Effect, StepContext
+from dda.effects.inertia import Inertia
+from dda.model import Model
+from dda.result import OPEN
+from dda.solve.step import solve_step
+from dda.solve.timing import StageTimer
+
+log = logging.getLogger(__name__)
+
+# the last regulariser's stiffness over each block's Young's modulus: small enough that
+# the forces are those of the limit (to this fraction)
+RELATIVE_REGULARISER = 1e-8
+# each solve's regulariser is this fraction of the last one's (Δt of the pseudo-step
+# grows tenfold): the first is the run's own inertia term 2M/Δt², so each solve starts
+# from the pieces and friction bounds of one that changed fewer of them
+REGULARISER_STEP = 0.1
+# Newton iterations each pseudo-step may take, as a multiple of the scene's
+# [contact] max_iterations (a pseudo-step moves the blocks much further than a step)
+BUDGET_FACTOR = 5
+
+
+class Proximal(Effect):
+    """K_i += r_i M_i, F_i −= K_lin,i D_k: the step ΔD from the accumulated D_k of the
+    earlier solves, held by the regulariser r_i M_i (the inertia term of a static step of
+    Δt = √(2 / r_i)); K_lin D_k: the forces of the block-diagonal springs (elasticity,
+    fixed points) at D_k. Gaps are measured at D_k (``StepContext.prescribed``)."""
+
+    name = "proximal"
+
+    def __init__(self, masses: np.ndarray, scale: np.ndarray, offset: np.ndarray) -> None:
+        self.masses, self.scale, self.offset = masses, scale, offset
+
+    def stiffness(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray:
+        return self.scale[:, None, None] * self.masses
+
+    def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray:
+        return self.offset
+
+
+@dataclass(frozen=True)
+class Settled:
+    """What the equilibrium start gives the run."""
+
+    contacts: ContactSet  # the contacts at t = 0, loaded
+    stress: np.ndarray  # (n, 3) the blocks' stresses
+    newton_iterations: int
+
+
+def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTimer):
+    """The loaded start of ``blocks`` and ``contacts`` (found at t = 0), or None when
+    the limit solve does not settle (the run then starts unloaded). The effects'
+    springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``)."""
+    touching = np.flatnonzero(contacts.state != OPEN)
+    start = contacts.subset(touching)
+    contact = model.contact
+    if contact is not None:
+        contact = replace(contact, law=replace(contact.law, augmented=False))
+    kept = [e for e in model.effects if not isinstance(e, Inertia)]
+    budget = BUDGET_FACTOR * model.scene.contact.max_iterations
+    scene = replace(model.scene, contact=replace(model.scene.contact, max_iterations=budget))
+    ctx = StepContext(dt=model.max_time_step, time=0.0, step=0, static=True)
+    linear = sum(
+        (k for e in kept if (k := e.stiffness(blocks, ctx)) is not None),
+        np.zeros((blocks.count, 6, 6)),
+    )
+    masses = model.inertia.masses(blocks)
+    scale = np.full(blocks.count, 2.0 / model.max_time_step**2)
+    floor = RELATIVE_REGULARISER * _young(model)[blocks.material] / masses[:, 0, 0]
+    free = ~blocks.fixed[:, None]
+    d = np.zeros((blocks.count, 6))
+    current, newton = start.copy(), 0
+    while True:
+        offset = -np.einsum("nij,nj->ni", linear, d)
+        effects = [Proximal(masses, scale, offset), *kept]
+        limit = replace(model, scene=scene, effects=effects, contact=contact)
+        ctx.prescribed = d
+        solution = solve_step(limit, blocks, _restarted(start, current), ctx, timer)
+        newton += solution.newton_iterations
+        if not solution.converged or not np.all(np.isfinite(solution.d)):
+            log.warning("the equilibrium start did not settle: the run starts unloaded")
+            return None
+        d = d + np.where(free, solution.d, 0.0)
+        current = solution.contacts
+        if np.all(scale <= floor):
+            break
+        scale = np.maximum(scale * REGULARISER_STEP, floor)
+    for effect in model.effects:
+        effect.preload(blocks, d)
+    loaded = _loaded(contacts, touching, current, start.penetration)
+    stress = blocks.stress + model.elastic.stress_increment(blocks, d)
+    return Settled(loaded, stress, newton)
+
+
+def _restarted(start: ContactSet, solved: ContactSet) -> ContactSet:
+    """``start`` (no forces carried: the gaps are measured from the start geometry) with
+    the pieces, normal forces and bonds of the last solve ``solved`` (same rows)."""
+    out = start.copy()
+    for name in ("state", "slide_direction", "normal_force", "intact"):
+        setattr(out, name, getattr(solved, name).copy())
+    out.fresh[:] = False
+    return out
+
+
+def _young(model: Model) -> np.ndarray:
+    """Young's modulus of each material (the largest entry of its elasticity matrix)."""
+    return model.elastic.material_elasticity[:, 0, 0]
+
+
+def _loaded(
+    contacts: ContactSet, rows: np.ndarray, solved: ContactSet, start_gap: np.ndarray
+) -> ContactSet:
+    """``contacts`` with the rows ``rows`` carrying the forces of ``solved`` at the start
+    geometry: λn = N − p g0 (so that λn + p g0 = N), λt = F."""
+    out = contacts.copy()
+    closed = solved.state != OPEN
+    out.normal_multiplier[rows] = np.where(
+        closed, solved.normal_force - solved.penalty * start_gap, 0.0
+    )
+    out.shear_multiplier[rows] = np.where(closed, solved.shear_force, 0.0)
+    for name in ("state", "slide_direction", "normal_force", "shear_force", "intact"):
+        getattr(out, name)[rows] = getattr(solved, name)
+    out.fresh[rows] = False
+    return out

@@ -1,0 +1,477 @@
+"""The time loop: contacts, step solve, step control, update, frames, events."""
+
+from __future__ import annotations
+
+import logging
+import time as wallclock
+from array import array
+from collections.abc import Callable
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact import reach
+from dda.contact.broad import KeptPairs
+from dda.contact.contact_set import ContactSet
+from dda.contact.pipeline import refresh_contacts
+from dda.effects.base import StepContext
+from dda.errors import SimulationError
+from dda.jit import run_work
+from dda.model import SEARCH_FACTOR, Model, build
+from dda.result import OPEN, FractureEvent, Frame, Result
+from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
+from dda.run.energy import TERMS, EnergyAccount
+from dda.run.environment import environment
+from dda.run.equilibrium_start import settle
+from dda.run.frames import make_frame
+from dda.run.measure import Probes
+from dda.run.stages import apply_due_stages
+from dda.scene import Scene
+from dda.scene.limits import check_run_size
+from dda.solve.linsolve import single_threaded_blas, solver_choice, solver_threads
+from dda.solve.step import StepSolution, solve_step
+from dda.solve.timing import StageTimer
+from dda.solve.update import apply_step, vertex_displacements
+
+log = logging.getLogger(__name__)
+
+MAX_CUTS = 40  # halvings of one step before the run gives up
+GROWTH = 1.5  # time-step growth per accepted step, back up to the maximum after a cut
+MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
+BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
+# energy columns of Result.history (dda.run.energy): stored terms, their total, work of the loads
+HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_work")
+
+
+class _Run:
+    """Mutable state of one run (kept out of the public API)."""
+
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        self.blocks: BlockSet = model.blocks.copy()
+        self.contacts = ContactSet.empty()
+        self.kept_pairs = KeptPairs()
+        self.reach = model.allowed_displacement  # the next step's search reach (m)
+        self.search_redos = 0  # steps redone after a search with the full distance
+        self.time = 0.0
+        self.step = 0
+        self.dt = model.max_time_step
+        self.timer = StageTimer()
+        self.iterations = 0  # linear solves: Newton iterations and chord steps
+        self.newton_iterations = 0  # assembled systems solved
+        self.factorisations = 0
+        self.cut_steps = 0
+        self.max_iterations_step = 0
+        self.friction_dissipation = 0.0
+        self.max_penetration = 0.0
+        self.events: list[FractureEvent] = []
+        self.energy = EnergyAccount(model, self.blocks)
+        self.stages_done = 0  # [[stages]] applied so far
+        self.excavated_energy = 0.0  # energy of the blocks the stages removed
+        self.probes = _probes(model, self.blocks)  # [[measure]], None without
+        self.start = "unloaded"  # how the run started (dda.run.equilibrium_start)
+        self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
+        self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
+            k: array("q" if k == "iterations" else "d")
+            for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
+        }
+
+    def finished(self) -> bool:
+        m = self.model
+        if m.steps is not None:
+            return self.step >= m.steps
+        return self.time >= m.duration * (1 - 1e-12)
+
+    def remaining(self) -> float:
+        m = self.model
+        return np.inf if m.steps is not None else m.duration - self.time
+
+    def until_event(self) -> float:
+        """Time to the end of the run or to the next stage, whichever comes first."""
+        stages = self.model.stages
+        if stages is None:
+            return self.remaining()
+        return min(self.remaining(), stages.next_time(self.stages_done) - self.time)
+
+
+def _probes(model: Model, blocks: BlockSet, contacts: ContactSet | None = None) -> Probes | None:
+    """The run's measurements with the row of step 0 (``contacts``: those at t = 0, none
+    by default), or None without ``[[measure]]``."""
+    if not model.scene.measure:
+        return None
+    names = [] if model.bolts is None else model.bolts.names
+    probes = Probes(model.scene.measure, blocks, names, model.exact_rotation)
+    start = ContactSet.empty() if contacts is None else contacts
+    probes.record(0, 0.0, blocks, start, model.bolts)
+    return probes
+
+
+def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | None, float, str]:
+    """Solve one step of length dt; return (solution or None, factor to cut dt, reason)."""
+    m = run.model
+    ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
+    if m.ground is not None:  # fixed blocks that follow the ground: their step is known
+        ctx.prescribed = m.ground.prescribed(run.blocks, ctx)
+    solution = solve_step(m, run.blocks, start.copy(), ctx, run.timer)
+    if ctx.prescribed is not None:
+        solution.d = solution.d + ctx.prescribed
+    run.iterations += solution.iterations
+    run.newton_iterations += solution.newton_iterations
+    run.factorisations += solution.factorisations
+    if not np.all(np.isfinite(solution.d)):
+        return None, 0.25, "non-finite solution"
+    if not solution.converged:
+        return None, 0.5, "contacts did not settle"
+    moved = np.abs(vertex_displacements(run.blocks, solution.d, m.exact_rotation)).max(initial=0.0)
+    if moved > m.allowed_displacement * (1 + 1e-9):
+        return None, max(0.1, 0.9 * m.allowed_displacement / moved), "displacement above g2"
+    if m.contact is not None and reach.beyond(moved, run.reach, m.allowed_displacement):
+        return None, 1.0, BEYOND_REACH
+    solution.moved = float(moved)
+    return solution, 1.0, ""
+
+
+def _equilibrium_start(run: _Run) -> None:
+    """Load the contacts that touch at t = 0, the blocks and the effects' springs
+    (dda.run.equilibrium_start); a start that does not settle leaves the run unloaded."""
+    m = run.model
+    started = wallclock.perf_counter()
+    _search(run, ContactSet.empty())
+    with run.timer("start"):
+        settled = settle(m, run.blocks, run.contacts, run.timer)
+    if settled is None:
+        run.contacts = ContactSet.empty()  # step 1 finds them afresh, as an unloaded start
+        run.start = "unloaded (the equilibrium start did not settle)"
+        return
+    run.contacts = settled.contacts
+    run.blocks.stress = settled.stress
+    run.energy.initial = run.energy.measure(run.blocks, run.contacts)
+    run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
+    run.start = "equilibrium"
+    run.start_newton_iterations = settled.newton_iterations
+    log.info(
+        "equilibrium start: %d contacts loaded, %d Newton iterations, %.2f s",
+        int(np.count_nonzero(settled.contacts.state != OPEN)),
+        settled.newton_iterations,
+        wallclock.perf_counter() - started,
+    )
+
+
+def _search(run: _Run, previous: ContactSet) -> None:
+    """The step's contacts, from ``previous`` (the last step's), searched as far as
+    the run's reach (:mod:`dda.contact.reach`)."""
+    m = run.model
+    if m.contact is None:
+        return
+    with run.timer("contact_search"):
+        gap = SEARCH_FACTOR * run.reach
+        run.contacts = refresh_contacts(run.blocks, previous, m.contact, run.kept_pairs, gap)
+
+
+def _step_length(dt: float, remaining: float) -> float:
+    """Length of the next step: ``dt``, shortened to end the run exactly at its duration.
+
+    When less than two steps remain, the rest is split in two equal steps
+    instead of leaving a sliver: in a step 1e-3 of the normal one, any
+    penetration left to remove becomes a velocity of 2 d/Δt (Shi's update).
+    """
+    if remaining <= dt * (1.0 + 1e-9):  # the last step (round-off in the time sum)
+        return remaining
+    if remaining < 2.0 * dt:
+        return 0.5 * remaining
+    return dt
+
+
+def _advance(run: _Run) -> None:
+    """Compute and apply one step, cutting Δt until it is acceptable."""
+    m = run.model
+    previous = run.contacts
+    _search(run, previous)
+    dt = _step_length(run.dt, run.until_event())
+    cut = 0
+    while True:
+        solution, factor, reason = _attempt(run, run.contacts, dt)
+        if solution is not None:
+            break
+        if reason == BEYOND_REACH:  # a vertex moved further than the search looked
+            log.debug("step %d: beyond the search reach, searching in full", run.step + 1)
+            run.reach = m.allowed_displacement
+            run.search_redos += 1
+            _search(run, previous)
+            continue
+        if cut == MAX_CUTS or dt * factor < MIN_STEP_FRACTION * m.max_time_step:
+            raise SimulationError(
+                f"step {run.step + 1} at t = {run.time:.6g}: {reason} after {cut + 1} "
+                f"attempts (last Δt = {dt:.3g}); the run cannot go on"
+            )
+        log.debug("step %d: %s, Δt %.3g -> %.3g", run.step + 1, reason, dt, dt * factor)
+        dt *= factor
+        run.cut_steps += 1
+        cut += 1
+    with run.timer("update"):
+        ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
+        ground = None if m.ground is None else m.ground.prescribed(run.blocks, ctx)
+        run.energy.add_step_work(run.blocks, solution.d, ctx.time, solution.contacts, ground)
+        for effect in m.effects:
+            effect.after_step(run.blocks, solution.d, ctx)
+        if run.probes is not None:
+            run.probes.move(run.blocks, solution.d)
+        apply_step(
+            run.blocks,
+            solution.d,
+            dt,
+            m.elastic,
+            m.static,
+            m.exact_rotation,
+            solution.pushed,
+            m.scene.analysis.newmark_gamma,
+        )
+        if m.ground is not None:  # the blocks that follow the ground move at its velocity
+            m.ground.set_velocity(run.blocks, ctx.time)
+        if not np.all(np.isfinite(run.blocks.vertices)):
+            raise SimulationError(f"step {run.step + 1}: non-finite block positions")
+    run.contacts = solution.contacts
+    run.reach = reach.next_reach(solution.moved, m.allowed_displacement)
+    run.time += dt
+    run.step += 1
+    run.dt = min(m.max_time_step, dt * GROWTH)
+    run.max_iterations_step = max(run.max_iterations_step, solution.iterations)
+    run.friction_dissipation += solution.friction_dissipation
+    run.max_penetration = max(run.max_penetration, solution.max_penetration)
+    _record(run, dt, solution)
+    if m.fracture is not None:
+        with run.timer("fracture"):
+            _fracture(run, ctx)
+    if m.stages is not None:
+        apply_due_stages(run)
+    if run.probes is not None:
+        run.probes.record(run.step, run.time, run.blocks, run.contacts, m.bolts)
+
+
+def _record(run: _Run, dt: float, solution: StepSolution) -> None:
+    h = run.history
+    h["time"].append(run.time)
+    h["dt"].append(dt)
+    h["iterations"].append(solution.iterations)
+    h["max_penetration"].append(solution.max_penetration)
+    with run.timer("energy"):
+        terms = run.energy.measure(run.blocks, run.contacts).as_dict()
+    for name, value in terms.items():
+        h[f"{name}_energy"].append(value)
+    h["external_work"].append(run.energy.work)
+
+
+def _fracture(run: _Run, ctx: StepContext) -> None:
+    """Let the fracture effect split blocks; re-home contacts and tracked points."""
+    old = run.blocks
+    new, events = run.model.fracture.after_step(old, ctx)
+    if not events:
+        return
+    row_of = {name: row for row, name in enumerate(old.names)}  # fragments: "parent/k"
+    parent_of = np.array(
+        [row_of[name] if name in row_of else row_of[name.rsplit("/", 1)[0]] for name in new.names],
+        dtype=np.int64,
+    )
+    for effect in run.model.effects:
+        effect.on_blocks_replaced(old, new, parent_of)
+    if run.probes is not None:
+        run.probes.on_blocks_replaced(old, new, parent_of)
+    run.blocks = new
+    run.contacts = ContactSet.empty()  # rebuilt from the new geometry next step
+    run.events.extend(events)
+
+
+def run(
+    scene: Scene,
+    progress: bool | Callable[[float, dict], None] = False,
+    on_frame: Callable[[Frame], None] | None = None,
+    *,
+    keep_frames: bool = True,
+    stop: Callable[[], bool] | None = None,
+    checkpoints: CheckpointPlan | None = None,
+    resume: Checkpoint | None = None,
+) -> Result:
+    """Run a scene to its end.
+
+    Parameters
+    ----------
+    scene : a validated Scene
+    progress : True for a progress bar on stderr, or a callable(fraction, info)
+    on_frame : called with every kept frame as the run proceeds (for writers)
+    keep_frames : False: the Result keeps only the first and the latest frame
+        (``on_frame`` still sees every one), so memory does not grow with the run
+    stop : asked before every step; True ends the run there with status
+        "interrupted" (after a last checkpoint when ``checkpoints`` is given)
+    checkpoints : where and when to write checkpoints (:mod:`dda.run.checkpoint`)
+    resume : a checkpoint of this scene to continue from; the Result's first
+        frame is then the checkpoint's state, which ``on_frame`` does not see
+
+    Raises
+    ------
+    SceneError : the run would exceed ``analysis.max_steps`` (:mod:`dda.scene.limits`)
+    CheckpointError : ``resume`` was written for another scene or version
+    SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
+    """
+    start = wallclock.perf_counter()
+    solver_threads()  # a bad DDA_THREADS or DDA_SOLVER stops the run before it starts
+    solver_choice()
+    check_run_size(scene)
+    model = build(scene)
+    state = _Run(model)
+    if resume is not None:
+        check_scene(resume, scene)
+        restore(state, resume)
+        start -= resume.wall_seconds
+    elif not model.static and scene.analysis.start == "equilibrium":
+        with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
+            _equilibrium_start(state)
+    first = state.probes.take() if state.probes is not None and resume is None else None
+    frames = [_frame(state, first)]
+    if on_frame and resume is None:
+        on_frame(frames[0])
+    report = _progress_reporter(progress, model)
+    status = "finished"
+    try:
+        # PARDISO's threads get the cores; numba's kernels only where they pay (dda.jit)
+        with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
+            while not state.finished():
+                if stop is not None and stop():
+                    status = "interrupted"
+                    break
+                _check_step_limit(state)
+                _advance(state)
+                last = state.finished()
+                if state.step % model.save_every == 0 or last:
+                    with state.timer("output"):
+                        frame = _frame(state, None if state.probes is None else state.probes.take())
+                        _keep(frames, frame, keep_frames)
+                        if on_frame:
+                            on_frame(frame)
+                if checkpoints is not None and not last and checkpoints.due(state.step):
+                    with state.timer("checkpoint"):
+                        checkpoints.write(state, wallclock.perf_counter() - start)
+                if report:
+                    report(_fraction(state), {"step": state.step, "time": state.time})
+            if status == "interrupted" and checkpoints is not None:
+                checkpoints.write(state, wallclock.perf_counter() - start)
+    except SimulationError as exc:
+        status = "failed"
+        exc.result = _result(state, frames, start, status)  # what was computed, for writers
+        raise
+    finally:
+        if report and hasattr(report, "close"):
+            report.close()
+    return _result(state, frames, start, status)
+
+
+def _frame(state: _Run, measured: dict | None) -> Frame:
+    """The frame of the run's state (with the measurement rows ``measured``)."""
+    bolts = None if state.model.bolts is None else state.model.bolts.segments()
+    return make_frame(state.blocks, state.contacts, state.time, state.step, measured, bolts)
+
+
+def _keep(frames: list[Frame], frame: Frame, keep_all: bool) -> None:
+    """Add ``frame``; unless ``keep_all``, only the first and the latest frame stay."""
+    if keep_all or len(frames) < 2:
+        frames.append(frame)
+    else:
+        frames[-1] = frame
+
+
+def _check_step_limit(state: _Run) -> None:
+    limit = state.model.scene.analysis.max_steps
+    if state.step >= limit:
+        raise SimulationError(
+            f"step {state.step} at t = {state.time:.6g}: reached analysis.max_steps = {limit} "
+            "(cut steps made the run longer than estimated); raise it to go on"
+        )
+
+
+def _result(state: _Run, frames: list[Frame], start: float, status: str) -> Result:
+    bolts = state.model.bolts
+    return Result(
+        frames=frames,
+        fracture_events=state.events,
+        summary=_summary(state, wallclock.perf_counter() - start, status),
+        history={k: np.array(v) for k, v in state.history.items()},
+        bolt_events=[] if bolts is None else list(bolts.events),
+        measurements={} if state.probes is None else state.probes.as_arrays(),
+    )
+
+
+def _expected_steps(model: Model) -> float:
+    """Steps the run will take: its ``steps``, else duration / largest time step."""
+    if model.steps is not None:
+        return float(model.steps)
+    return model.duration / model.max_time_step
+
+
+def _fraction(state: _Run) -> float:
+    m = state.model
+    if m.steps is not None:
+        return state.step / max(m.steps, 1)
+    return min(state.time / m.duration, 1.0)
+
+
+def _progress_reporter(progress, model: Model):
+    if callable(progress):
+        return progress
+    if not progress:
+        return None
+    from dda.run.progress import ProgressBar
+
+    bar = ProgressBar(1.0, label=model.scene.title or "dda")
+
+    class _Bar:
+        def __call__(self, fraction: float, info: dict) -> None:
+            bar.update(fraction, **info)
+
+        def close(self) -> None:
+            bar.close()
+
+    return _Bar()
+
+
+def _summary(state: _Run, wall: float, status: str) -> dict:
+    m = state.model
+    steps = max(state.step, 1)
+    return {
+        "title": m.scene.title,
+        "status": status,
+        "steps": state.step,
+        "time": state.time,
+        "wall_seconds": round(wall, 6),
+        "blocks": state.blocks.count,
+        "iterations": state.iterations,
+        "factorisations": state.factorisations,
+        "iterations_per_step": state.iterations / steps,
+        "newton_iterations": state.newton_iterations,
+        "newton_iterations_per_step": state.newton_iterations / steps,
+        "max_iterations_step": state.max_iterations_step,
+        "start": state.start,
+        "start_newton_iterations": state.start_newton_iterations,
+        "max_penetration": state.max_penetration,
+        "cut_steps": state.cut_steps,
+        "search_redos": state.search_redos,
+        "friction_dissipation": state.friction_dissipation,
+        "contact_method": None if m.contact is None else m.scene.contact.method,
+        "active_effects": list(m.active_effects),
+        "stage_seconds": state.timer.as_dict(),
+        "fracture_events": len(state.events),
+        "initial_energy": state.energy.initial.total,
+        "external_work": state.energy.work,
+        "environment": environment(),
+        **_engineering_summary(state),
+    }
+
+
+def _engineering_summary(state: _Run) -> dict:
+    """Summary entries of bolts and stages (none for a scene without them)."""
+    m, out = state.model, {}
+    if m.bolts is not None:
+        out["bolts"] = len(m.bolts)
+        out["bolt_events"] = list(m.bolts.events)
+    if m.stages is not None:
+        out["stages_done"] = state.stages_done
+        out["excavated_energy"] = state.excavated_energy
+    return out

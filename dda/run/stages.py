@@ -1,0 +1,93 @@
+"""Staged excavation: at given times, remove blocks and install bolts; the run goes on.
+
+A stage takes effect at the end of the step that reaches its time (the time
+loop shortens that step to end there exactly). Removing blocks makes a new
+block set without them, as fracture makes one with fragments
+(:func:`dda.fracture.fragments.replace_blocks`): the effects and the
+measurement points follow their blocks to their new rows, and the contacts
+between the blocks that stay keep their history (state, multipliers, shear
+force: they are matched by their keys, which do not depend on rows). The
+energy of what was removed leaves the account (``summary["excavated_energy"]``).
+Then the stage's bolts are installed where their points are given, in the
+blocks the scene found for them (or, after a fracture, the fragment nearest
+to the point).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import shapely
+
+from dda.blocks import BlockSet
+from dda.contact.contact_set import ContactSet
+from dda.fracture.fragments import replace_blocks
+from dda.scene.stage_plan import StagePlan
+
+log = logging.getLogger(__name__)
+
+TIME_TOLERANCE = 1e-9  # of the largest time step: a step ending this close reaches the stage
+
+
+def apply_due_stages(run) -> None:
+    """Apply every stage whose time the run has reached (``run``: dda.run.simulation's run)."""
+    plan = run.model.stages
+    tolerance = TIME_TOLERANCE * run.model.max_time_step
+    while run.stages_done < len(plan.times) and run.time >= plan.times[run.stages_done] - tolerance:
+        k = run.stages_done
+        if len(plan.removed[k]):
+            _remove(run, plan.removed[k])
+        if len(plan.bolts[k]):
+            _install(run, plan, plan.bolts[k])
+        run.stages_done += 1
+        log.info("stage %d applied at t = %.6g", k + 1, run.time)
+
+
+def _remove(run, ids: np.ndarray) -> None:
+    old = run.blocks
+    gone = np.isin(old.origin, ids)
+    before = run.energy.measure(old, run.contacts).total
+    keep = np.flatnonzero(~gone)
+    new = replace_blocks(old, [], gone)
+    for effect in run.model.effects:
+        effect.on_blocks_replaced(old, new, keep)
+    if run.probes is not None:
+        run.probes.on_blocks_replaced(old, new, keep)
+    run.contacts = _kept_contacts(run.contacts, old, new, gone)
+    run.blocks = new
+    run.excavated_energy += before - run.energy.measure(new, run.contacts).total
+    log.info("removed %d block(s)", int(gone.sum()))
+
+
+def _kept_contacts(contacts: ContactSet, old: BlockSet, new: BlockSet, gone: np.ndarray):
+    """The contacts between blocks that stay, with their rows and vertex numbers renumbered."""
+    row_of = np.cumsum(~gone) - 1  # new row of every kept block
+    owner = old.vertex_owner
+    vertex_of = new.offsets[row_of[owner]] + (np.arange(len(owner)) - old.offsets[owner])
+    kept = contacts.subset(np.flatnonzero(~gone[contacts.block_a] & ~gone[contacts.block_b]))
+    kept.vertex, kept.edge = vertex_of[kept.vertex], vertex_of[kept.edge]
+    kept.block_a, kept.block_b = row_of[kept.block_a], row_of[kept.block_b]
+    return kept
+
+
+def _install(run, plan: StagePlan, bolts: np.ndarray) -> None:
+    first = bolts - (len(run.model.bolts) - len(plan.hosts))  # rows of plan.hosts / points
+    points = plan.points[first]
+    rows = np.array(
+        [
+            [_holder(run.blocks, plan.hosts[k, e], points[q, e]) for e in (0, 1)]
+            for q, k in enumerate(first)
+        ]  # fmt: skip
+    )
+    run.model.bolts.install(bolts, rows, points[:, 0], points[:, 1])
+    log.info("installed %d bolt(s)", len(bolts))
+
+
+def _holder(blocks: BlockSet, origin: int, point: np.ndarray) -> int:
+    """The row of the block of origin ``origin`` (or its fragment) nearest to ``point``."""
+    rows = np.flatnonzero(blocks.origin == origin)
+    if len(rows) == 1:
+        return int(rows[0])
+    polygons = [shapely.Polygon(blocks.polygon(r)) for r in rows]
+    return int(rows[int(np.argmin(shapely.distance(polygons, shapely.Point(point))))])

@@ -1,0 +1,834 @@
+"""Scene: the immutable, validated description of one analysis.
+
+``load_scene`` accepts a path to a TOML file, TOML text or a plain dict and
+returns a frozen :class:`Scene`. Every problem raises :class:`SceneError`
+naming the source, the key (a dotted path such as ``blocks[2].vertices``)
+and the reason; nothing runs for a refused scene.
+
+Validation runs in three layers:
+
+1. every table is checked for unknown keys (with a "did you mean" hint),
+   every value for its type, finiteness and physical range;
+2. names are resolved (materials, joints, blocks of loads and interfaces);
+3. block geometry is checked for all blocks at once with shapely: simple
+   polygons of non-zero area and at most ``MAX_BLOCK_VERTICES`` vertices,
+   stored counter-clockwise, fixed points and load points on their block,
+   and no overlap at the start (an STRtree query, never all pairs); at least
+   one block free to move, and no velocity or load on a fixed block.
+
+The run-size limits (``analysis.max_steps``) are checked when a run starts
+(:mod:`dda.scene.limits`), after command-line overrides.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import tomllib
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, NamedTuple
+
+import numpy as np
+import shapely
+
+from dda.errors import SceneError
+from dda.geometry import next_vertex_index
+from dda.scene.checks import (
+    ANGLE,
+    NON_NEGATIVE,
+    OPEN_UNIT,
+    POISSON,
+    POSITIVE,
+    Checker,
+    Interval,
+    Point,
+    Spec,
+    checked_fields,
+    choice,
+    join_key,
+    real,
+    require,
+    table_list,
+    value_kind,
+    vector,
+)
+from dda.scene.engineering import (
+    ENGINEERING_KEYS,
+    Bolt,
+    Measure,
+    Seismic,
+    Stage,
+    Water,
+    parse_engineering,
+)
+from dda.scene.limits import DEFAULT_MAX_STEPS
+
+logger = logging.getLogger(__name__)
+
+# contact keys number a block's vertices in 10 bits and blocks in 20 (dda.contact.contact_set)
+MAX_BLOCK_VERTICES = (1 << 10) - 1
+MAX_BLOCKS = 1 << 19  # half the ids: the other half is for fracture fragments
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """``[analysis]``: time stepping and global settings."""
+
+    mode: str = "dynamic"  # "dynamic" | "static"
+    time_step: float = 1e-3  # maximum time step
+    duration: float | None = None  # simulated time, or ...
+    steps: int | None = None  # ... a number of steps (one of the two; default 1 s)
+    gravity: Point = (0.0, 0.0)
+    plane: str = "stress"  # "stress" | "strain"
+    rotation: str = "exact"  # "exact" | "linear"
+    max_displacement_ratio: float = 0.01  # g2, of the model half-size
+    save_every: int = 10
+    fixed_point_penalty: float | None = None  # default: 100 x largest Young's modulus
+    accuracy: str | None = None  # "fast" | "balanced" | "precise"; None: engine default
+    max_steps: int = DEFAULT_MAX_STEPS  # refuse (and stop) runs longer than this (dda.scene.limits)
+    checkpoint_every: int | None = None  # steps between checkpoints (dda run writes them)
+    newmark_gamma: float = 1.0  # velocity update (dda.solve.integrator); 1: Shi's
+    start: str = "equilibrium"  # "equilibrium" | "unloaded" (dda.run.equilibrium_start)
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """``[contact]``: contact method and its numbers."""
+
+    method: str = "augmented-lagrangian"  # | "penalty"
+    penalty: float | None = None  # default: 10 x largest Young's modulus
+    tolerance: float | None = None  # AL: largest penetration; default 1e-4 x model size
+    max_iterations: int = 100  # Newton iterations a step may take before it is cut
+    shear_ratio: float = 0.4  # shear penalty / normal penalty
+
+
+@dataclass(frozen=True)
+class Units:
+    """``[units]``: names of the units the scene's numbers are in, for pictures and tables.
+
+    The engine needs only a consistent set; these names label axes and colour bars.
+    """
+
+    length: str = "m"
+    force: str = "N"
+    time: str = "s"
+
+    @property
+    def stress(self) -> str:
+        """Force per area: ``Pa`` for N and m, else ``force/length²``."""
+        if (self.force, self.length) == ("N", "m"):
+            return "Pa"
+        return f"{self.force}/{self.length}²"
+
+    @property
+    def velocity(self) -> str:
+        return f"{self.length}/{self.time}"
+
+    @property
+    def energy(self) -> str:
+        """Force times length: ``J`` for N and m, else ``force·length``."""
+        if (self.force, self.length) == ("N", "m"):
+            return "J"
+        return f"{self.force}·{self.length}"
+
+
+@dataclass(frozen=True)
+class Material:
+    """``[materials.NAME]``. Strength keys (all three) make it breakable."""
+
+    name: str
+    density: float
+    young: float
+    poisson: float
+    cohesion: float | None = None
+    friction_angle: float | None = None  # degrees
+    tensile_strength: float | None = None
+    # viscous stress, as a fraction of critical damping of a block's slowest elastic
+    # mode (dda.effects.damping); dynamic analysis only
+    damping: float = 0.2
+
+    @property
+    def breakable(self) -> bool:
+        return self.cohesion is not None and self.friction_angle is not None
+
+
+@dataclass(frozen=True)
+class Joint:
+    """``[joints.NAME]``: Coulomb joint properties (angle in degrees)."""
+
+    name: str
+    friction_angle: float = 0.0
+    cohesion: float = 0.0
+    tensile_strength: float = 0.0
+
+
+@dataclass(frozen=True)
+class Block:
+    """``[[blocks]]``: one block; vertices counter-clockwise after loading."""
+
+    name: str
+    material: str
+    vertices: tuple[Point, ...]
+    fixed: bool = False
+    fixed_points: tuple[Point, ...] = ()
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    stress: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    # joint name of each edge (edge k runs from vertex k to k+1), None = default
+    edge_joints: tuple[str | None, ...] | None = None
+
+
+@dataclass(frozen=True)
+class Load:
+    """``[[loads]]``: a point load on a block, optionally scaled by a history."""
+
+    block: str
+    point: Point
+    force: Point
+    history: tuple[Point, ...] | None = None  # (time, factor) pairs, time increasing
+
+
+@dataclass(frozen=True)
+class Interface:
+    """``[[interfaces]]``: the joint used between two named blocks."""
+
+    blocks: tuple[str, str]
+    joint: str
+
+
+@dataclass(frozen=True)
+class FractureSettings:
+    """``[fracture]``: joint given to new cracks, smallest fragment kept."""
+
+    joint: str | None = None
+    min_area: float | None = None  # default: 1e-3 of the smallest breakable block
+
+
+def _empty_mapping() -> Mapping[str, tuple[str, ...]]:
+    return MappingProxyType({})
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene. Mappings are read-only; sequences are tuples."""
+
+    title: str
+    analysis: Analysis
+    contact: ContactSettings
+    materials: Mapping[str, Material]
+    joints: Mapping[str, Joint]
+    blocks: tuple[Block, ...]
+    loads: tuple[Load, ...] = ()
+    interfaces: tuple[Interface, ...] = ()
+    fracture: FractureSettings = field(default_factory=FractureSettings)
+    source: str = "<dict>"
+    # named sets of blocks (rock-mass scenes): group name -> block names
+    groups: Mapping[str, tuple[str, ...]] = field(default_factory=_empty_mapping)
+    units: Units = field(default_factory=Units)
+    # rock engineering (dda.scene.engineering): absent sections build nothing
+    bolts: tuple[Bolt, ...] = ()
+    seismic: Seismic | None = None
+    water: Water | None = None
+    measure: tuple[Measure, ...] = ()
+    stages: tuple[Stage, ...] = ()
+
+    @property
+    def block_names(self) -> tuple[str, ...]:
+        return tuple(b.name for b in self.blocks)
+
+
+# --------------------------------------------------------------------------- entry
+
+
+def load_scene(scene: str | Path | Mapping[str, Any]) -> Scene:
+    """Load and validate a scene.
+
+    Parameters
+    ----------
+    scene
+        A :class:`pathlib.Path`, a ``str`` ending in ``.toml`` without a
+        newline (a path), other TOML text, or a dict of the same structure.
+
+    Returns
+    -------
+    Scene
+        The frozen, validated scene; block vertices counter-clockwise.
+
+    Raises
+    ------
+    SceneError
+        For a missing file (key ``<file>``), bad TOML (key ``<toml>``) or any
+        invalid entry (a dotted key such as ``materials.rock.poisson``).
+    """
+    raw, source = _read_raw(scene)
+    return _build_scene(raw, source)
+
+
+def _is_path(scene: object) -> bool:
+    if isinstance(scene, Path):
+        return True
+    return isinstance(scene, str) and "\n" not in scene and scene.endswith(".toml")
+
+
+def _read_raw(scene: str | Path | Mapping[str, Any]) -> tuple[Mapping[str, Any], str]:
+    """The raw nested mapping of a scene and its source name."""
+    if isinstance(scene, Mapping):
+        return scene, "<dict>"
+    if _is_path(scene):
+        return _read_file(Path(scene)), str(scene)
+    if isinstance(scene, str):
+        return _parse_toml(scene, "<text>"), "<text>"
+    raise SceneError(
+        f"<{type(scene).__name__}>",
+        "<scene>",
+        f"expected a path, TOML text or a dict, got {value_kind(scene)}",
+    )
+
+
+def _read_file(path: Path) -> dict[str, Any]:
+    if path.is_dir():
+        raise SceneError(str(path), "<file>", "is a directory, not a scene file")
+    if not path.is_file():
+        raise SceneError(str(path), "<file>", "no such file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(str(path), "<file>", f"cannot read: {exc}") from None
+    return _parse_toml(text, str(path))
+
+
+def _parse_toml(text: str, source: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(source, "<toml>", str(exc)) from None
+
+
+# --------------------------------------------------------------------------- sections
+
+_ROCK_MASS_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
+_TOP_KEYS = (
+    "title",
+    "analysis",
+    "contact",
+    "materials",
+    "joints",
+    "fracture",
+    "blocks",
+    "loads",
+    "interfaces",
+    *_ROCK_MASS_KEYS,
+    "groups",
+    "units",
+    *ENGINEERING_KEYS,
+)
+
+_UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time": Checker.text}
+
+# γ of the velocity update: unconditionally stable with β = ½ for ½ ≤ γ ≤ 2β = 1
+NEWMARK_GAMMA = Interval(0.5, 1.0, low_closed=True, high_closed=True)
+# a fraction of critical damping: none to critical
+DAMPING_RATIO = Interval(0.0, 1.0, low_closed=True, high_closed=True)
+
+_ANALYSIS: dict[str, Spec] = {
+    "mode": choice("dynamic", "static"),
+    "time_step": real(POSITIVE),
+    "duration": real(POSITIVE),
+    "steps": Checker.count,
+    "gravity": vector(2),
+    "plane": choice("stress", "strain"),
+    "rotation": choice("exact", "linear"),
+    "max_displacement_ratio": real(OPEN_UNIT),
+    "save_every": Checker.count,
+    "fixed_point_penalty": real(POSITIVE),
+    "accuracy": choice("fast", "balanced", "precise"),
+    "max_steps": Checker.count,
+    "checkpoint_every": Checker.count,
+    "newmark_gamma": real(NEWMARK_GAMMA),
+    "start": choice("equilibrium", "unloaded"),
+}
+
+_CONTACT: dict[str, Spec] = {
+    "method": choice("augmented-lagrangian", "penalty"),
+    "penalty": real(POSITIVE),
+    "tolerance": real(POSITIVE),
+    "max_iterations": Checker.count,
+    "shear_ratio": real(POSITIVE),
+}
+
+_STRENGTH_KEYS = ("cohesion", "friction_angle", "tensile_strength")
+_MATERIAL: dict[str, Spec] = {
+    "density": real(POSITIVE),
+    "young": real(POSITIVE),
+    "poisson": real(POISSON),
+    "cohesion": real(NON_NEGATIVE),
+    "friction_angle": real(ANGLE),
+    "tensile_strength": real(NON_NEGATIVE),
+    "damping": real(DAMPING_RATIO),
+}
+
+_JOINT: dict[str, Spec] = {
+    "friction_angle": real(ANGLE),
+    "cohesion": real(NON_NEGATIVE),
+    "tensile_strength": real(NON_NEGATIVE),
+}
+
+
+def _units(chk: Checker, raw: Mapping[str, Any]) -> Units:
+    """``[units]``: unit names (non-empty text), SI by default."""
+    values = checked_fields(chk, raw.get("units", {}), "units", _UNITS)
+    for name, text in values.items():
+        if not text.strip():
+            chk.fail(join_key("units", name), "must not be empty")
+    return Units(**values)
+
+
+def _analysis(chk: Checker, raw: Mapping[str, Any]) -> Analysis:
+    """``[analysis]``; duration defaults to 1 s when neither it nor steps is given."""
+    values = checked_fields(chk, raw.get("analysis", {}), "analysis", _ANALYSIS)
+    if "duration" in values and "steps" in values:
+        chk.fail("analysis.steps", "give either duration or steps, not both")
+    if "steps" not in values:
+        values.setdefault("duration", 1.0)
+    return Analysis(**values)
+
+
+def _contact(chk: Checker, raw: Mapping[str, Any]) -> ContactSettings:
+    return ContactSettings(**checked_fields(chk, raw.get("contact", {}), "contact", _CONTACT))
+
+
+def _material(chk: Checker, name: str, value: object) -> Material:
+    """One material; the strength keys come all three or not at all."""
+    key = join_key("materials", name)
+    values = checked_fields(chk, value, key, _MATERIAL)
+    require(chk, values, key, ("density", "young", "poisson"))
+    given = [k for k in _STRENGTH_KEYS if k in values]
+    missing = [k for k in _STRENGTH_KEYS if k not in values]
+    if given and missing:
+        chk.fail(
+            join_key(key, missing[0]),
+            f"is required because {', '.join(given)} given: a breakable material "
+            "needs all of cohesion, friction_angle and tensile_strength",
+        )
+    return Material(name=name, **values)
+
+
+def _materials(chk: Checker, raw: Mapping[str, Any]) -> Mapping[str, Material]:
+    table = chk.named_tables(raw.get("materials", {}), "materials")
+    return MappingProxyType({name: _material(chk, name, v) for name, v in table.items()})
+
+
+def _joints(chk: Checker, raw: Mapping[str, Any]) -> Mapping[str, Joint]:
+    """Declared joints plus a frictionless ``default`` unless one is declared."""
+    table = chk.named_tables(raw.get("joints", {}), "joints")
+    joints = {
+        name: Joint(name=name, **checked_fields(chk, v, join_key("joints", name), _JOINT))
+        for name, v in table.items()
+    }
+    joints.setdefault("default", Joint("default"))
+    return MappingProxyType(joints)
+
+
+def _fracture(chk: Checker, raw: Mapping[str, Any], joints: Collection[str]) -> FractureSettings:
+    specs: dict[str, Spec] = {
+        "joint": partial(Checker.known, names=joints, what="joint"),
+        "min_area": real(POSITIVE),
+    }
+    return FractureSettings(**checked_fields(chk, raw.get("fracture", {}), "fracture", specs))
+
+
+# --------------------------------------------------------------------------- blocks
+
+
+def _ring(chk: Checker, value: object, key: str) -> tuple[Point, ...]:
+    """Polygon vertices: >= 3 pairs, a repeated closing vertex dropped."""
+    vertices = chk.positions(value, key)
+    if len(vertices) > 1 and vertices[0] == vertices[-1]:
+        vertices = vertices[:-1]
+    if len(vertices) < 3:
+        chk.fail(key, f"a polygon needs at least 3 distinct vertices, got {len(vertices)}")
+    if len(vertices) > MAX_BLOCK_VERTICES:
+        chk.fail(
+            key,
+            f"{len(vertices)} vertices, at most {MAX_BLOCK_VERTICES} per block "
+            "(contacts number a block's vertices in 10 bits)",
+        )
+    return vertices
+
+
+def _edge_joints(
+    chk: Checker, value: object, key: str, joints: Collection[str]
+) -> tuple[str | None, ...]:
+    """Joint name per edge; an empty string means the default joint (None)."""
+    items = chk.sequence(value, key)
+    names = [chk.text(item, f"{key}[{k}]") for k, item in enumerate(items)]
+    for k, name in enumerate(names):
+        if name:
+            chk.known(name, f"{key}[{k}]", joints, "joint")
+    return tuple(name or None for name in names)
+
+
+def _block_name(chk: Checker, value: object, key: str) -> str:
+    name = chk.text(value, key)
+    if not name:
+        chk.fail(key, "must not be empty")
+    if "/" in name:
+        chk.fail(key, f"{name!r}: '/' is reserved for fracture fragments")
+    return name
+
+
+def _block_specs(materials: Collection[str], joints: Collection[str]) -> dict[str, Spec]:
+    return {
+        "name": _block_name,
+        "material": partial(Checker.known, names=materials, what="material"),
+        "vertices": _ring,
+        "fixed": Checker.boolean,
+        "fixed_points": Checker.positions,
+        "velocity": vector(3),
+        "stress": vector(3),
+        "edge_joints": partial(_edge_joints, joints=joints),
+    }
+
+
+def _block_values(chk: Checker, value: object, key: str, specs: Mapping[str, Spec]) -> dict:
+    """One ``[[blocks]]`` entry as converted values (geometry not yet checked)."""
+    values = checked_fields(chk, value, key, specs)
+    require(chk, values, key, ("name", "material", "vertices"))
+    if values.get("fixed") and any(v != 0.0 for v in values.get("velocity", ())):
+        chk.fail(f"{key}.velocity", "the block is fixed and cannot move: drop velocity or fixed")
+    edge_joints = values.get("edge_joints")
+    if edge_joints is not None and len(edge_joints) != len(values["vertices"]):
+        chk.fail(
+            f"{key}.edge_joints",
+            f"expected one entry per vertex ({len(values['vertices'])}), got {len(edge_joints)}",
+        )
+    return values
+
+
+def _unique_names(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> None:
+    first: dict[str, int] = {}
+    for i, values in enumerate(blocks):
+        j = first.setdefault(values["name"], i)
+        if j != i:
+            chk.fail(f"blocks[{i}].name", f"duplicate block name {values['name']!r} (blocks[{j}])")
+
+
+def _counter_clockwise(values: dict) -> dict:
+    """Reverse a clockwise block: vertices, and edge joints to match."""
+    vertices = values["vertices"][::-1]
+    n = len(vertices)
+    out = {**values, "vertices": vertices}
+    if values.get("edge_joints") is not None:
+        # new edge j (v[n-1-j] -> v[n-2-j]) is old edge (n-2-j) mod n
+        out["edge_joints"] = tuple(values["edge_joints"][(n - 2 - j) % n] for j in range(n))
+    return out
+
+
+def _blocks(
+    chk: Checker,
+    raw: Mapping[str, Any],
+    materials: Collection[str],
+    joints: Collection[str],
+) -> tuple[Block, ...]:
+    """All ``[[blocks]]``: fields, unique names, then the geometry at once."""
+    specs = _block_specs(materials, joints)
+    items = table_list(chk, raw, "blocks")
+    if len(items) == 0:
+        chk.fail("blocks", "a scene needs at least one block")
+    if len(items) > MAX_BLOCKS:
+        chk.fail("blocks", f"{len(items)} blocks, at most {MAX_BLOCKS}")
+    blocks = [_block_values(chk, v, f"blocks[{i}]", specs) for i, v in enumerate(items)]
+    if all(values.get("fixed", False) for values in blocks):
+        chk.fail("blocks", "every block is fixed: nothing can move; free at least one block")
+    _unique_names(chk, blocks)
+    clockwise = _check_geometry(chk, blocks)
+    for i in np.flatnonzero(clockwise):
+        blocks[i] = _counter_clockwise(blocks[i])
+    return tuple(Block(**values) for values in blocks)
+
+
+# --------------------------------------------------------------------------- geometry
+
+
+class _Packed(NamedTuple):
+    """All block polygons packed for vectorised checks."""
+
+    coords: np.ndarray  # (NV, 2)
+    owner: np.ndarray  # (NV,) block of each vertex
+    offsets: np.ndarray  # (n + 1,)
+    polygons: np.ndarray  # (n,) shapely polygons
+    areas: np.ndarray  # (n,)
+    bounds: np.ndarray  # (n, 4) xmin, ymin, xmax, ymax
+    sizes: np.ndarray  # (n,) bounding-box diagonal
+
+
+def _pack(blocks: Sequence[Mapping[str, Any]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    counts = np.array([len(b["vertices"]) for b in blocks], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    coords = np.array([p for b in blocks for p in b["vertices"]], dtype=float)
+    owner = np.repeat(np.arange(len(blocks)), counts)
+    return coords, owner, offsets
+
+
+def _repeated_vertices(
+    chk: Checker, coords: np.ndarray, owner: np.ndarray, offsets: np.ndarray
+) -> None:
+    """Refuse a vertex equal to the next one (a zero-length edge)."""
+    nxt = next_vertex_index(offsets)
+    same = np.flatnonzero(np.all(coords == coords[nxt], axis=1))
+    if same.size:
+        k = same[0]
+        i = owner[k]
+        chk.fail(
+            f"blocks[{i}].vertices",
+            f"vertices {k - offsets[i]} and {nxt[k] - offsets[i]} coincide (zero-length edge)",
+        )
+
+
+def _simple_polygons(chk: Checker, polygons: np.ndarray) -> None:
+    """Refuse self-intersecting or otherwise invalid polygons."""
+    invalid = np.flatnonzero(~shapely.is_valid(polygons))
+    if invalid.size:
+        i = invalid[0]
+        reason = shapely.is_valid_reason(polygons[i])
+        chk.fail(f"blocks[{i}].vertices", f"not a simple polygon ({reason})")
+
+
+def _sized_polygons(chk: Checker, areas: np.ndarray, sizes: np.ndarray) -> None:
+    """Refuse slivers: area must exceed 1e-12 of the squared bbox diagonal (compared as
+    √area > 1e-6 x diagonal, which does not overflow for huge coordinates)."""
+    thin = np.flatnonzero(~(np.sqrt(np.maximum(areas, 0.0)) > 1e-6 * sizes))
+    if thin.size:
+        i = thin[0]
+        chk.fail(
+            f"blocks[{i}].vertices",
+            f"area {areas[i]:g} is too small for a block of size {sizes[i]:g} "
+            "(needs more than 1e-12 x squared bounding-box diagonal)",
+        )
+
+
+def _build_polygons(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> _Packed:
+    """Pack the block vertices and make valid shapely polygons of them."""
+    coords, owner, offsets = _pack(blocks)
+    _repeated_vertices(chk, coords, owner, offsets)
+    polygons = shapely.polygons(shapely.linearrings(coords, indices=owner))
+    _simple_polygons(chk, polygons)
+    bounds = shapely.bounds(polygons)
+    sizes = np.hypot(bounds[:, 2] - bounds[:, 0], bounds[:, 3] - bounds[:, 1])
+    areas = shapely.area(polygons)
+    _sized_polygons(chk, areas, sizes)
+    return _Packed(coords, owner, offsets, polygons, areas, bounds, sizes)
+
+
+def _clockwise(packed: _Packed) -> np.ndarray:
+    """Boolean per block: vertices given clockwise (signed shoelace area < 0)."""
+    nxt = next_vertex_index(packed.offsets)
+    # shift by each polygon's first vertex for round-off safety
+    p = packed.coords - packed.coords[packed.offsets[:-1]][packed.owner]
+    q = p[nxt]
+    cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+    return np.bincount(packed.owner, weights=cross, minlength=len(packed.areas)) < 0
+
+
+def _box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Area shared by bounding boxes (xmin, ymin, xmax, ymax), row by row."""
+    width = np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
+    height = np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
+    return np.clip(width, 0.0, None) * np.clip(height, 0.0, None)
+
+
+def _overlaps(chk: Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]]) -> None:
+    """Refuse two blocks sharing more than 1e-9 of the smaller area.
+
+    Candidate pairs come from one STRtree query ("intersects"), so the cost is
+    near O(n log n); touching along an edge or at a point has zero area.
+    """
+    tree = shapely.STRtree(packed.polygons)
+    left, right = tree.query(packed.polygons, predicate="intersects")
+    left, right = left[left < right], right[left < right]
+    limit = 1e-9 * np.minimum(packed.areas[left], packed.areas[right])
+    # the shared area is at most the shared bounding-box area: skip pairs below the limit
+    possible = _box_overlap(packed.bounds[left], packed.bounds[right]) > limit
+    left, right, limit = left[possible], right[possible], limit[possible]
+    shared = shapely.area(shapely.intersection(packed.polygons[left], packed.polygons[right]))
+    bad = np.flatnonzero(shared > limit)
+    if bad.size:
+        k = bad[np.lexsort((left[bad], right[bad]))[0]]
+        i, j = left[k], right[k]
+        chk.fail(
+            f"blocks[{j}].vertices",
+            f"overlaps block {blocks[i]['name']!r} (blocks[{i}]) by area {shared[k]:g}",
+        )
+
+
+def _fixed_points_on_blocks(
+    chk: Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]]
+) -> None:
+    """Every fixed point lies inside or on its block (within 1e-9 x size)."""
+    owner = [i for i, b in enumerate(blocks) for _ in b.get("fixed_points", ())]
+    if not owner:
+        return
+    points = np.array([p for b in blocks for p in b.get("fixed_points", ())], dtype=float)
+    owner = np.asarray(owner)
+    distance = shapely.distance(shapely.points(points), packed.polygons[owner])
+    outside = np.flatnonzero(distance > 1e-9 * packed.sizes[owner])
+    if outside.size:
+        k = outside[0]
+        i = owner[k]
+        index = k - np.searchsorted(owner, i)
+        chk.fail(
+            f"blocks[{i}].fixed_points[{index}]",
+            f"lies outside the block (distance {distance[k]:g})",
+        )
+
+
+def _check_geometry(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> np.ndarray:
+    """Check every block polygon at once; return which ones are clockwise."""
+    packed = _build_polygons(chk, blocks)
+    _fixed_points_on_blocks(chk, packed, blocks)
+    _overlaps(chk, packed, blocks)
+    return _clockwise(packed)
+
+
+# --------------------------------------------------------------------------- references
+
+
+def _history(chk: Checker, value: object, key: str) -> tuple[Point, ...]:
+    """(time, factor) pairs with strictly increasing time."""
+    pairs = chk.points(value, key, min_count=1)
+    for k in range(1, len(pairs)):
+        if not pairs[k][0] > pairs[k - 1][0]:
+            chk.fail(f"{key}[{k}]", "times must increase strictly")
+    return pairs
+
+
+def _loads(chk: Checker, raw: Mapping[str, Any], blocks: Mapping[str, Block]) -> tuple[Load, ...]:
+    """``[[loads]]``: on an existing free block, the point on (or in) the block."""
+    specs: dict[str, Spec] = {
+        "block": partial(Checker.known, names=blocks, what="block"),
+        "point": Checker.position,
+        "force": vector(2),
+        "history": _history,
+    }
+    loads = []
+    for i, value in enumerate(table_list(chk, raw, "loads")):
+        values = checked_fields(chk, value, f"loads[{i}]", specs)
+        require(chk, values, f"loads[{i}]", ("block", "point", "force"))
+        block = blocks[values["block"]]
+        if block.fixed:
+            chk.fail(f"loads[{i}].block", f"{block.name!r} is fixed: a load on it does nothing")
+        _on_block(chk, values["point"], block, f"loads[{i}].point")
+        loads.append(Load(**values))
+    return tuple(loads)
+
+
+def _on_block(chk: Checker, point: Point, block: Block, key: str) -> None:
+    """Refuse a point farther than 1e-9 x its size from ``block`` (as for fixed points)."""
+    polygon = shapely.Polygon(block.vertices)
+    xmin, ymin, xmax, ymax = polygon.bounds
+    distance = polygon.distance(shapely.Point(point))
+    if distance > 1e-9 * math.hypot(xmax - xmin, ymax - ymin):
+        chk.fail(key, f"lies outside block {block.name!r} (distance {distance:g})")
+
+
+def _block_pair(chk: Checker, value: object, key: str, blocks: Collection[str]) -> tuple[str, str]:
+    items = chk.sequence(value, key)
+    if len(items) != 2:
+        chk.fail(key, f"expected two block names, got {len(items)}")
+    a, b = (chk.known(name, f"{key}[{k}]", blocks, "block") for k, name in enumerate(items))
+    if a == b:
+        chk.fail(key, f"the two blocks must differ, got {a!r} twice")
+    return a, b
+
+
+def _interfaces(
+    chk: Checker, raw: Mapping[str, Any], blocks: Collection[str], joints: Collection[str]
+) -> tuple[Interface, ...]:
+    """``[[interfaces]]``: distinct existing blocks, an existing joint, one per pair."""
+    specs: dict[str, Spec] = {
+        "blocks": partial(_block_pair, blocks=blocks),
+        "joint": partial(Checker.known, names=joints, what="joint"),
+    }
+    interfaces = []
+    seen: dict[frozenset[str], int] = {}
+    for i, value in enumerate(table_list(chk, raw, "interfaces")):
+        values = checked_fields(chk, value, f"interfaces[{i}]", specs)
+        require(chk, values, f"interfaces[{i}]", ("blocks", "joint"))
+        j = seen.setdefault(frozenset(values["blocks"]), i)
+        if j != i:
+            chk.fail(f"interfaces[{i}].blocks", f"the same pair as interfaces[{j}]")
+        interfaces.append(Interface(**values))
+    return tuple(interfaces)
+
+
+def _groups(
+    chk: Checker, raw: Mapping[str, Any], blocks: Collection[str]
+) -> Mapping[str, tuple[str, ...]]:
+    """``groups``: group name -> names of existing blocks."""
+    table = chk.named_tables(raw.get("groups", {}), "groups")
+    groups = {}
+    for name, members in table.items():
+        key = join_key("groups", name)
+        items = chk.sequence(members, key)
+        groups[name] = tuple(
+            chk.known(m, f"{key}[{k}]", blocks, "block") for k, m in enumerate(items)
+        )
+    return MappingProxyType(groups)
+
+
+# --------------------------------------------------------------------------- scene
+
+
+def _expand_rock_mass(raw: Mapping[str, Any], source: str) -> Mapping[str, Any]:
+    """Hand rock-mass scenes to :mod:`dda.scene.rockmass`, which makes blocks explicit.
+
+    The rock-mass module consumes its own keys (and may accept more than the
+    trigger keys), so top-level keys are checked on the expanded scene.
+    """
+    if not any(key in raw for key in _ROCK_MASS_KEYS):
+        return raw
+    try:
+        from dda.scene.rockmass import expand_rock_mass
+    except ImportError as exc:
+        raise SceneError(source, "regions", "rock-mass scenes need dda.scene.rockmass") from exc
+    logger.debug("expanding rock-mass scene %s", source)
+    return expand_rock_mass(raw, source)
+
+
+def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
+    """Validate a raw nested mapping section by section into a Scene."""
+    chk = Checker(source)
+    raw = chk.table(_expand_rock_mass(raw, source), "", _TOP_KEYS)
+    title = chk.text(raw.get("title", ""), "title")
+    analysis = _analysis(chk, raw)
+    contact = _contact(chk, raw)
+    materials = _materials(chk, raw)
+    joints = _joints(chk, raw)
+    blocks = _blocks(chk, raw, materials, joints)
+    names = frozenset(b.name for b in blocks)
+    by_name = {b.name: b for b in blocks}
+    loads = _loads(chk, raw, by_name)
+    interfaces = _interfaces(chk, raw, names, joints)
+    fracture = _fracture(chk, raw, joints)
+    groups = _groups(chk, raw, names)
+    units = _units(chk, raw)
+    scene = Scene(
+        title=title,
+        analysis=analysis,
+        contact=contact,
+        materials=materials,
+        joints=joints,
+        blocks=blocks,
+        loads=loads,
+        interfaces=interfaces,
+        fracture=fracture,
+        source=source,
+        groups=groups,
+        units=units,
+        **parse_engineering(chk, raw, blocks, groups, analysis, loads),
+    )
+    logger.debug("loaded scene %s: %d blocks", source, len(blocks))
+    return scene

@@ -1,0 +1,223 @@
+"""``expand_rock_mass``: a scene with regions and joints -> a scene with explicit blocks.
+
+The pipeline (Shi's block cutting):
+
+1. validate the rock-mass keys (:mod:`~dda.scene.rockmass.parse`);
+2. regions minus excavations (:mod:`~dda.scene.rockmass.domain`);
+3. joint traces (:mod:`~dda.scene.rockmass.traces`);
+4. node and polygonize (:mod:`~dda.scene.rockmass.cutting`); dangling joints cut nothing;
+5. split blocks with holes, merge slivers (:mod:`~dda.scene.rockmass.holes`,
+   :mod:`~dda.scene.rockmass.merging`);
+6. name blocks bottom-up, tag each edge with its joint, drop straight-line
+   vertices (:mod:`~dda.scene.rockmass.edges`);
+7. fixed blocks and groups (:mod:`~dda.scene.rockmass.selection`).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import shapely
+
+from dda.errors import SceneError
+from dda.geometry import polygon_moments
+from dda.scene.rockmass.cutting import cut_faces
+from dda.scene.rockmass.domain import Domain, build_domain
+from dda.scene.rockmass.edges import COLLINEAR, PackedBlocks, drop_collinear, pack_faces, tag_edges
+from dda.scene.rockmass.holes import split_holes
+from dda.scene.rockmass.merging import merge_small
+from dda.scene.rockmass.parse import parse_rock_mass
+from dda.scene.rockmass.selection import check_names, select_blocks
+from dda.scene.rockmass.spec import RockMass, Selector
+from dda.scene.rockmass.traces import Traces, build_traces
+
+log = logging.getLogger(__name__)
+
+#: keys that make the scene loader call :func:`expand_rock_mass`
+TRIGGER_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
+#: every key consumed (and removed) by :func:`expand_rock_mass`
+ROCK_MASS_KEYS = (*TRIGGER_KEYS, "fix", "groups", "cutting")
+DEFAULT_MIN_AREA = 1e-6  # of the rock area
+TAG_TOLERANCE = 1e-8  # of the rock size: an edge midpoint this close to a trace lies on it
+SELECT_TOLERANCE = 1e-6  # of the rock size: an edge this close to a side or line touches it
+
+
+@dataclass(frozen=True)
+class CutRockMass:
+    """The cut blocks with everything needed to write them or draw them."""
+
+    names: list[str]
+    materials: list[str]
+    blocks: PackedBlocks
+    fixed: np.ndarray  # (n,) bool
+    traces: Traces
+    domain: Domain
+    groups: dict[str, list[str]] = field(default_factory=dict)
+
+    def edge_joints(self, i: int) -> list[str]:
+        """Joint name of each edge of block i ("" = the default joint)."""
+        return [self.traces.joints[s] if s >= 0 else "" for s in self.blocks.sources(i)]
+
+
+def expand_rock_mass(raw: Mapping[str, Any], source: str) -> dict:
+    """Cut the rock mass of a raw scene and return the explicit-block raw scene.
+
+    Parameters
+    ----------
+    raw
+        The scene as read from TOML, with any of ``regions``, ``joint_sets``,
+        ``joint_lines``, ``excavations`` (and optionally ``fix``, ``groups``,
+        ``cutting``).
+    source
+        Where the scene came from, for error messages.
+
+    Returns
+    -------
+    dict
+        The same scene with those keys removed, the cut blocks appended to
+        ``blocks`` (with ``edge_joints``), ``groups`` as name -> block names,
+        and loads without ``block`` attached to the block under their point.
+
+    Raises
+    ------
+    SceneError
+        Naming the offending key, e.g. ``joint_sets[1].spacing``.
+    """
+    return cut_rock_mass(raw, source)[1]
+
+
+def cut_rock_mass(raw: Mapping[str, Any], source: str) -> tuple[CutRockMass, dict]:
+    """Like :func:`expand_rock_mass`, also returning the :class:`CutRockMass`."""
+    mass = parse_rock_mass(raw, source)
+    domain = build_domain(mass, source)
+    traces = build_traces(mass, domain.bounds, source)
+    faces, region = _faces(mass, domain, traces, source)
+    cut = _name_and_tag(mass, domain, traces, faces, region, source)
+    out = _explicit_scene(raw, cut, source)
+    log.info("%s: cut %d blocks (%d fixed)", source, len(cut.names), int(cut.fixed.sum()))
+    return cut, out
+
+
+def _faces(
+    mass: RockMass, domain: Domain, traces: Traces, source: str
+) -> tuple[np.ndarray, np.ndarray]:
+    opts = mass.options
+    faces, region = cut_faces(domain, traces)
+    faces, region = split_holes(faces, region, opts.holes, source)
+    min_area = opts.min_block_area
+    if min_area is None:
+        min_area = DEFAULT_MIN_AREA * domain.rock.area
+    faces, region = merge_small(faces, region, min_area, opts.small_blocks, source)
+    faces, region = split_holes(faces, region, opts.holes, source)
+    bad = ~shapely.is_valid(faces) | (shapely.get_type_id(faces) != 3)
+    if bad.any():
+        raise SceneError(source, "cutting", f"{int(bad.sum())} cut block(s) are not valid polygons")
+    return faces, region
+
+
+def _name_and_tag(
+    mass: RockMass,
+    domain: Domain,
+    traces: Traces,
+    faces: np.ndarray,
+    region: np.ndarray,
+    source: str,
+) -> CutRockMass:
+    vertices, offsets = pack_faces(faces)
+    centroid = polygon_moments(vertices, offsets)["centroid"]
+    order = np.lexsort((centroid[:, 0], centroid[:, 1]))
+    vertices, offsets = pack_faces(faces[order])
+    region = region[order]
+    size = domain.size
+    tags = tag_edges(vertices, offsets, traces, TAG_TOLERANCE * size)
+    blocks = drop_collinear(PackedBlocks(vertices, offsets, tags), COLLINEAR * size)
+    prefix = mass.options.name_prefix
+    names = [f"{prefix}{i + 1}" for i in range(len(order))]
+    materials = [domain.materials[r] for r in region]
+    cut = CutRockMass(names, materials, blocks, np.zeros(len(names), bool), traces, domain)
+    return _select(mass, cut, centroid[order], source)
+
+
+def _select(mass: RockMass, cut: CutRockMass, centroid: np.ndarray, source: str) -> CutRockMass:
+    b = cut.blocks
+    tol = SELECT_TOLERANCE * cut.domain.size
+
+    def pick(selector: Selector) -> np.ndarray:
+        return select_blocks(
+            selector,
+            cut.names,
+            cut.materials,
+            centroid,
+            b.vertices,
+            b.offsets,
+            cut.domain.bounds,
+            tol,
+            source,
+        )
+
+    fixed = np.zeros(len(cut.names), dtype=bool)
+    for selector in mass.fix:
+        fixed |= pick(selector)
+    groups = {}
+    for name, rule in mass.groups.items():
+        if isinstance(rule, tuple):
+            groups[name] = list(rule)
+        else:
+            groups[name] = [cut.names[i] for i in np.flatnonzero(pick(rule))]
+    return CutRockMass(cut.names, cut.materials, b, fixed, cut.traces, cut.domain, groups)
+
+
+def _explicit_scene(raw: Mapping[str, Any], cut: CutRockMass, source: str) -> dict:
+    out = {k: v for k, v in raw.items() if k not in ROCK_MASS_KEYS}
+    written = list(raw.get("blocks", []))
+    known = {str(b.get("name")) for b in written if isinstance(b, Mapping)}
+    clash = known.intersection(cut.names)
+    if clash:
+        raise SceneError(
+            source,
+            "cutting.name_prefix",
+            f"cut block name {sorted(clash)[0]!r} is also a [[blocks]] name; change the prefix",
+        )
+    out["blocks"] = written + [_block_table(cut, i) for i in range(len(cut.names))]
+    known.update(cut.names)
+    for name, members in cut.groups.items():
+        check_names(f"groups.{name}", tuple(members), known, source)
+    if cut.groups or "groups" in raw:
+        out["groups"] = {name: list(members) for name, members in cut.groups.items()}
+    if "loads" in raw:
+        out["loads"] = _attach_loads(raw["loads"], cut, source)
+    return out
+
+
+def _block_table(cut: CutRockMass, i: int) -> dict:
+    return {
+        "name": cut.names[i],
+        "material": cut.materials[i],
+        "vertices": cut.blocks.polygon(i).tolist(),
+        "fixed": bool(cut.fixed[i]),
+        "edge_joints": cut.edge_joints(i),
+    }
+
+
+def _attach_loads(loads: Any, cut: CutRockMass, source: str) -> Any:
+    """Give a load without ``block`` the cut block under its ``point``."""
+    if not isinstance(loads, list):
+        return loads
+    polygons = np.array(
+        [shapely.Polygon(cut.blocks.polygon(i)) for i in range(len(cut.names))], dtype=object
+    )
+    tree = shapely.STRtree(polygons)
+    out = []
+    for i, load in enumerate(loads):
+        if isinstance(load, Mapping) and "block" not in load and "point" in load:
+            load = dict(load)
+            hit = tree.query(shapely.Point(load["point"]), predicate="intersects")
+            if len(hit) == 0:
+                raise SceneError(source, f"loads[{i}].point", "lies in no cut block")
+            load["block"] = cut.names[int(hit.min())]
+        out.append(load)
+    return out

@@ -1,0 +1,543 @@
+"""One time step: the minimiser of the step's incremental potential (:mod:`dda.solve.newton`).
+
+K changes only when contact pieces or penalties change; between such
+changes every Newton iteration, augmentation (AL) or friction update re-uses
+K and only rebuilds F. Across steps, while the contact graph is the same, the block
+pattern of K (its fill-reducing order, CSR structure and scatter indices)
+and the last factorisation are kept: a new K is solved by conjugate
+gradients preconditioned with that factorisation (:mod:`dda.solve.linsolve`),
+and re-factorised only when that stops paying.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.contact import law as contact_law
+from dda.contact.broad import candidate_pairs
+from dda.contact.contact_set import ContactSet
+from dda.contact.law import UNBOUNDED, BoundIteration
+from dda.contact.narrow import separated_blocks
+from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
+from dda.contact.push_out import push_out_displacement, pushed_overlap
+from dda.contact.rows import contact_rows, gaps_after
+from dda.effects.base import StepContext
+from dda.effects.pair_springs import PairSprings
+from dda.model import Model
+from dda.result import LOCKED, OPEN, SLIDING
+from dda.solve.assembly import (
+    BLOCK,
+    BlockPattern,
+    assemble,
+    contacts_key,
+    free_pairs,
+    free_rows,
+    reassemble,
+    subtract_contact_forces,
+)
+from dda.solve.linsolve import ReusingSolver, block_ordering
+from dda.solve.low_rank import StepUpdates
+from dda.solve.newton import (
+    BlockQuadratic,
+    ContactGeometry,
+    better_start,
+    minimise,
+    size_rules,
+)
+from dda.solve.timing import StageTimer
+
+
+@dataclass
+class StepSolution:
+    """Outcome of one step attempt."""
+
+    d: np.ndarray  # (n, 6) unknowns of every block (zeros for fixed blocks)
+    contacts: ContactSet
+    iterations: int  # linear solves (Newton iterations and chord steps)
+    factorisations: int
+    converged: bool
+    max_penetration: float
+    pushed: np.ndarray | None = None  # (n, 6) part of d that removed overlap found this step
+    friction_dissipation: float = 0.0  # work of the friction forces against the slips
+    moved: float = 0.0  # largest vertex displacement (m), once the step is accepted
+    # Newton iterations: assembled systems solved (the rest of ``iterations`` are chord
+    # steps, back-substitutions with a kept factorisation)
+    newton_iterations: int = 0
+
+
+MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
+
+
+# Newton iterations and chord steps on one set of friction bounds before the bounds
+# follow the normal forces (measured, tunnel 0.3 s / 50x50 wall: 3 gives 24 solves a
+# step and no cut step / 152 ms a step; 2 gives 30 and one cut step / 147 ms)
+INNER_SOLVES = 3
+# ... and on a step's first bounds while some are a guess (contacts found touching, no
+# force known): measured on the tunnel, the staged tunnel and the slope (solves a step,
+# cut steps): 3 gives 21.0, 10.3, 4.37 and 3 cuts (one of them the tunnel's step 1);
+# 6 gives 17.7, 13.6, 4.46 and 1 (the tunnel's step 71, bounds that stall); to
+# convergence 18.9, 14.5, 4.42 and 1 (the staged tunnel's step 1, out of iterations)
+GUESSED_BOUND_SOLVES = 6
+SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
+NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
+
+
+@dataclass
+class LinearCache:
+    """What a run keeps between steps: the current block pattern and the solver.
+
+    ``coefficients`` are the contact spring constants (normal and shear) of
+    the factorised K: a new K whose springs differ in more than
+    ``MAX_CHANGED_FOR_PCG`` contacts is a high-rank change, re-factorised
+    at once instead of trying PCG first.
+    """
+
+    pattern: BlockPattern | None = None
+    solver: ReusingSolver = field(default_factory=ReusingSolver)
+    coefficients: tuple[np.ndarray, np.ndarray] | None = None  # sorted contact keys, springs
+
+    def pattern_for(
+        self,
+        fixed: np.ndarray,
+        block_a: np.ndarray,
+        block_b: np.ndarray,
+        neighbours: Callable[[], np.ndarray] | None = None,
+        active: np.ndarray | None = None,
+        coupled: tuple[np.ndarray, np.ndarray] | None = None,
+    ):
+        """The pattern of this contact list (of its ``active``, closed, contacts).
+
+        The kept one when the list is the same; its structure (ordering, CSR,
+        and so the factorisation's analysis) with new slots while every contact
+        still lands on one of its blocks; else a new one. A new pattern also
+        holds the pairs of blocks ``neighbours()`` returns (pairs of blocks
+        close enough to come into contact soon) and the old pattern's pairs
+        (up to ``SPARE_PAIRS`` per needed pair): contacts come and go at the
+        search distance, and each new pattern costs an ordering and an analysis.
+        ``coupled``: pairs of blocks (block_i, block_j) that springs join (rock
+        bolts): the pattern holds them always.
+        """
+        kept = self.pattern
+        if coupled is not None and kept is not None and not kept.covers(fixed, *coupled):
+            kept = None  # a spring between blocks that K has no block for: a new pattern
+        if kept is not None and kept.contacts_key == contacts_key(fixed, block_a, block_b):
+            if kept.lands(active):
+                return kept
+        elif kept is not None and kept.covers(fixed, block_a, block_b, active):
+            self.pattern = kept.with_contacts(block_a, block_b)
+            return self.pattern
+        rows = free_rows(fixed)
+        extra = []
+        if neighbours is not None:
+            near = neighbours()
+            extra.append(free_pairs(rows, near[:, 0], near[:, 1]))
+        if coupled is not None:
+            extra.append(free_pairs(rows, *coupled))
+        if kept is not None and np.array_equal(kept._fixed, fixed):
+            needed = len(free_pairs(rows, block_a, block_b))
+            if len(kept.pairs) <= SPARE_PAIRS * max(needed, 1):
+                extra.append(kept.pairs)
+        spare = np.concatenate(extra) if extra else None
+        self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering, spare, active)
+        self.coefficients = None
+        return self.pattern
+
+
+def pattern_neighbours(blocks: BlockSet, contacts: ContactSet, settings) -> np.ndarray:
+    """Block pairs a new pattern holds beside those of the closed contacts.
+
+    The pairs of boxes within ``NEIGHBOUR_MARGIN`` of the search distance
+    (blocks that may come into contact soon), less the pairs with no contact
+    whose corners meet at a node that other blocks fill
+    (:func:`dda.contact.narrow.separated_blocks`): those get no contact while
+    the node stays filled, so K does not need their fill-in. On the standard
+    walls these are the diagonal neighbours, half the block pairs; without
+    them a factorisation of the 30x30 wall costs a third less.
+    """
+    near = candidate_pairs(blocks, NEIGHBOUR_MARGIN * settings.search_distance)  # i < j
+    search, radius, tight = settings.search_distance, settings.vertex_radius, settings.law.tolerance
+    apart = separated_blocks(blocks, near, search, radius, tight)  # i < j
+
+    def key(a, b):  # one integer per unordered pair
+        return np.minimum(a, b) * blocks.count + np.maximum(a, b)
+
+    no_contact = np.setdiff1d(key(*apart.T), key(contacts.block_a, contacts.block_b))
+    return near[~np.isin(key(*near.T), no_contact)]
+
+
+def linear_cache(model: Model) -> LinearCache:
+    """The run's :class:`LinearCache`, kept on the model (one model per run)."""
+    cache = model.__dict__.get("_linear_cache")
+    if cache is None:
+        cache = LinearCache()
+        model.__dict__["_linear_cache"] = cache
+    return cache
+
+
+def _couplings(model: Model, blocks: BlockSet, ctx: StepContext) -> PairSprings | None:
+    """The springs between blocks that the effects add this step (rock bolts), or None."""
+    return PairSprings.join([effect.couplings(blocks, ctx) for effect in model.effects])
+
+
+def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
+    diagonal = np.zeros((blocks.count, 6, 6))
+    forces = np.zeros((blocks.count, 6))
+    for effect in model.effects:
+        k = effect.stiffness(blocks, ctx)
+        if k is not None:
+            diagonal += k
+        f = effect.forces(blocks, ctx)
+        if f is not None:
+            forces += f
+    return diagonal, forces
+
+
+def _stiffness(
+    pattern, blocks, base_diagonal, coefficients, rows, law, earlier=None, couplings=None
+):
+    """K (in the pattern's order) and the contact springs (2, m) it holds.
+
+    ``coefficients``: the contacts' :func:`dda.contact.law.contact_coefficients`.
+    ``earlier``: (pattern, K, springs) assembled before in this step (the same
+    rows and effects); on the same pattern, only the contacts whose springs
+    changed are added to it (:func:`dda.solve.assembly.reassemble`). ``couplings``:
+    the springs between blocks (rock bolts, :mod:`dda.effects.pair_springs`).
+    """
+    p, ps, _, _ = coefficients
+    springs = np.stack([p, ps if law.friction else np.zeros_like(ps)])  # the ones K holds
+    if earlier is not None and earlier[0] is pattern:
+        change = springs - earlier[2]
+        changed = np.flatnonzero(change.any(axis=0))
+        if len(changed) == 0:
+            return earlier[1], springs
+        terms = [(rows.normal_i[changed], rows.normal_j[changed], change[0, changed])]
+        if law.friction:
+            terms.append((rows.shear_i[changed], rows.shear_j[changed], change[1, changed]))
+        return reassemble(pattern, earlier[1], terms, changed), springs
+    terms = [(rows.normal_i, rows.normal_j, springs[0])]  # rows of one array: no copy
+    if law.friction:
+        terms.append((rows.shear_i, rows.shear_j, springs[1]))
+    return assemble(pattern, base_diagonal, blocks.fixed, terms, couplings), springs
+
+
+def _keyed_springs(contacts: ContactSet, springs: np.ndarray):
+    """The springs K holds, by contact key (sorted); open contacts hold none and are left
+    out, so that one coming or going within the search distance is no change of K."""
+    live = np.flatnonzero(springs.any(axis=0))
+    order = live[np.argsort(contacts.key[live], kind="stable")]
+    return contacts.key[order], springs[:, order]
+
+
+def _similar(cache: LinearCache, keys: np.ndarray, springs: np.ndarray) -> bool:
+    """True when few contact springs differ from those of the factorised K.
+
+    Contacts are matched by their persistent keys (sorted); one that is new,
+    gone or has other springs counts as changed.
+    """
+    if cache.coefficients is None or cache.solver.pcg_budget < 2:
+        return False
+    old_keys, old_springs = cache.coefficients
+    if len(old_keys) == 0:
+        changed = len(keys)
+    else:
+        at = np.clip(np.searchsorted(old_keys, keys), 0, len(old_keys) - 1)
+        found = old_keys[at] == keys
+        same = found & np.all(old_springs[:, at] == springs, axis=0)
+        changed = (len(keys) - int(same.sum())) + (len(old_keys) - int(found.sum()))
+    return changed <= MAX_CHANGED_FOR_PCG and changed + 2 <= cache.solver.pcg_budget
+
+
+def _forces(base_forces, contacts, rows, coefficients):
+    """F: the effects' forces and the contact forces (``coefficients`` as for K)."""
+    forces = base_forces.copy()
+    _, _, normal, shear = coefficients
+    _subtract_forces(forces, contacts, rows, normal, shear)
+    return forces
+
+
+def _subtract_forces(forces, contacts, rows, normal, shear) -> None:
+    """F −= Σ N ∇g + Σ F ∇s over the contacts (in place; ``normal``, ``shear``: N, F)."""
+    gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
+    subtract_contact_forces(forces, contacts.block_a, contacts.block_b, gradients, normal, shear)
+
+
+def _solve(
+    cache: LinearCache, pattern, k, forces, blocks, timer, springs=None, updates=None, raw=None
+) -> np.ndarray:
+    """D (n, 6) from K (in the pattern's order) and F (n, 6) per block.
+
+    ``springs``: (contact keys, springs) of K, sorted by key (None without
+    contacts), to decide whether PCG on the kept factorisation is worth trying.
+    ``updates``: the :class:`StepUpdates` of this step's factorised K, and ``raw`` K's
+    springs per contact: a few changed springs are solved for through that factorisation.
+    """
+    rhs = pattern.to_matrix_order(forces, blocks.fixed).ravel()
+    x = None
+    if updates is not None and updates.applies(cache.solver.factored, pattern):
+        with timer("solve"):
+            x = updates.solve(k, rhs, raw)
+    if x is None:
+        similar = springs is None or _similar(cache, *springs)
+        x = cache.solver.solve(k, rhs, key=pattern.key, timer=timer, similar=similar)
+    if springs is not None and cache.solver.factored is k:
+        cache.coefficients = springs
+    return pattern.from_matrix_order(x, blocks.count)
+
+
+class _PieceSystem:
+    """The linear system of one Newton iteration, K(springs) D = F(offsets), with reuse.
+
+    K is re-assembled only when some contact spring changed (only those contacts
+    are added again, on the same pattern); the solve re-uses the kept
+    factorisation through PCG or low-rank updates (:class:`dda.solve.low_rank.StepUpdates`)
+    when few springs changed since it was made.
+    """
+
+    def __init__(
+        self, cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings=None
+    ):
+        self.cache, self.blocks, self.contacts, self.rows = cache, blocks, contacts, rows
+        self.base_k, self.base_f, self.law = base_k, base_f, law
+        self.neighbours, self.timer = neighbours, timer
+        self.couplings = couplings  # springs between blocks (rock bolts), constant in the step
+        self.coupled = None if couplings is None else (couplings.block_i, couplings.block_j)
+        self.pattern = self.k = self.keyed = self.assembled = self.updates = None
+
+    def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
+        blocks, contacts, cache = self.blocks, self.contacts, self.cache
+        coefficients = (kn, ks, offset_n, offset_t)
+        with self.timer("assembly"):
+            if self.assembled is None or not np.array_equal(np.stack([kn, ks]), self.assembled[2]):
+                active = (kn > 0.0) | (ks > 0.0)  # contacts that add to K
+                self.pattern = cache.pattern_for(
+                    blocks.fixed,
+                    contacts.block_a,
+                    contacts.block_b,
+                    self.neighbours,
+                    active,
+                    self.coupled,
+                )
+                self.k, springs = _stiffness(
+                    self.pattern,
+                    blocks,
+                    self.base_k,
+                    coefficients,
+                    self.rows,
+                    self.law,
+                    self.assembled,
+                    self.couplings,
+                )
+                self.assembled = (self.pattern, self.k, springs)
+                self.keyed = _keyed_springs(contacts, springs)
+            f = _forces(self.base_f, contacts, self.rows, coefficients)
+        d = _solve(
+            cache,
+            self.pattern,
+            self.k,
+            f,
+            blocks,
+            self.timer,
+            self.keyed,
+            self.updates,
+            self.assembled[2],
+        )
+        k = self.k
+        if cache.solver.factored is k and (self.updates is None or self.updates.factored is not k):
+            self.updates = StepUpdates(
+                k,
+                self.assembled[2],
+                self.pattern,
+                self.rows,
+                contacts.block_a,
+                contacts.block_b,
+                cache.solver.solve_many,
+            )
+        return d
+
+    def chord(self, residual: np.ndarray) -> np.ndarray | None:
+        """K_f⁻¹ r (n, 6) with the solver's kept factorisation K_f, when it is one of
+        this pattern (:func:`dda.solve.newton.minimise`'s chord steps), else None."""
+        if self.pattern is None:
+            return None
+        rhs = self.pattern.to_matrix_order(residual, self.blocks.fixed).ravel()
+        with self.timer("solve"):
+            x = self.cache.solver.solve_kept(rhs, self.pattern.key)
+        return None if x is None else self.pattern.from_matrix_order(x, self.blocks.count)
+
+    def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
+        """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
+        out = np.zeros_like(self.base_f)
+        _subtract_forces(out, self.contacts, self.rows, -normal, -shear)
+        return out
+
+
+def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
+    """Friction bounds of the step's first solve, from the larger of each contact's
+    normal force at the end of the last step and at this step's start geometry
+    (a contact of blocks that turn together may open by the second-order rotation
+    of one step and close again in the next: its last force is the better guess);
+    a contact found this step touching (no force known yet) starts stuck
+    (``UNBOUNDED``); one found open starts with the bound of its start geometry (0: no
+    normal force, and no bond across a gap): a stuck shear spring on an open contact
+    would join two blocks a search distance apart in K and its block pattern."""
+    if not law.friction:
+        return np.zeros(len(contacts))
+    start = contact_law.contact_terms(contacts, joints, law, np.zeros(len(contacts)))
+    normal = np.maximum(start.normal_force(rows.penetration), contacts.normal_force)
+    bound = contact_law.friction_bound(contacts, joints, normal)
+    return np.where(contacts.fresh & (contacts.state != OPEN), UNBOUNDED, bound)
+
+
+def _remembered_pieces(contacts: ContactSet, terms, g: np.ndarray, s: np.ndarray):
+    """Pieces for the step's first Newton iteration: the states the contacts ended the
+    last step in (a contact closed then is taken closed, one sliding then is taken
+    sliding the same way), else the pieces at the start point."""
+    normal, shear = terms.pieces(g, s)
+    normal = np.where(contacts.state != OPEN, NORMAL_ELASTIC, normal).astype(np.int8)
+    sliding = np.where(contacts.slide_direction < 0.0, SLIP_BACK, SLIP_FORWARD)
+    shear = np.where(contacts.state == SLIDING, sliding, shear)
+    shear = np.where(contacts.state == LOCKED, STICK, shear).astype(np.int8)
+    return normal, shear
+
+
+def _constant_velocity(blocks: BlockSet, ctx: StepContext) -> np.ndarray:
+    """D = v0 Δt: the step if nothing changed the blocks' motion (fixed blocks: 0)."""
+    return np.where(blocks.fixed[:, None], 0.0, blocks.velocity * ctx.dt)
+
+
+def solve_step(
+    model: Model,
+    blocks: BlockSet,
+    contacts: ContactSet,
+    ctx: StepContext,
+    timer: StageTimer,
+) -> StepSolution:
+    """Minimise the step's incremental potential (:mod:`dda.solve.newton`).
+
+    Outer loop: Newton on the potential with the contact data frozen, then the
+    law's update (:func:`dda.contact.law.update`: AL multipliers and variable
+    penalty, friction bounds from the new normal forces, broken bonds), until
+    that changes nothing beyond its tolerances. Every Newton iteration (an
+    assembled and solved quadratic; not the chord steps between them) counts
+    against ``[contact] max_iterations``; a step that does not settle within
+    them is not converged (the caller cuts Δt).
+    """
+    cache = linear_cache(model)
+    factorisations_before = cache.solver.factorisations
+    with timer("assembly"):
+        base_k, base_f = _effect_terms(model, blocks, ctx)
+        couplings = _couplings(model, blocks, ctx)
+        coupled = None if couplings is None else (couplings.block_i, couplings.block_j)
+    cm = model.contact
+    if cm is None or len(contacts) == 0:
+        with timer("assembly"):
+            none = np.zeros(0, np.int64)
+            pattern = cache.pattern_for(blocks.fixed, none, none, coupled=coupled)
+            k = assemble(pattern, base_k, blocks.fixed, couplings=couplings)
+        d = _solve(cache, pattern, k, base_f, blocks, timer)
+        made = cache.solver.factorisations - factorisations_before
+        finite = bool(np.all(np.isfinite(d)))
+        return StepSolution(d, contacts, 1, made, finite, 0.0, newton_iterations=1)
+
+    law = cm.law
+    with timer("contact_law"):
+        rows = contact_rows(blocks, contacts)
+        if ctx.prescribed is not None:  # fixed blocks moved by the ground: known part of g, s
+            rows.penetration, rows.slip = gaps_after(
+                rows, contacts.block_a, contacts.block_b, ctx.prescribed
+            )
+        joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
+        bounds = BoundIteration(_first_bounds(contacts, rows, joints, law))
+
+    def neighbours():
+        return pattern_neighbours(blocks, contacts, cm)
+
+    system = _PieceSystem(
+        cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
+    )
+    quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
+    geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
+    budget = model.scene.contact.max_iterations
+    rules = size_rules(BLOCK * int(np.count_nonzero(~blocks.fixed)))
+    between_bounds = 1 if rules.bounds_every_solve else INNER_SOLVES
+    d = np.zeros((blocks.count, 6))
+    solves, chords, converged, previous_g = 0, 0, False, None
+    # this pass goes on, on new friction bounds, from an unfinished one whose next
+    # direction was a chord direction, or from a converged one whose solution the law
+    # then moved (new bounds or multipliers: the pieces, and so the kept factorisation,
+    # still fit nearly everywhere); in large systems (SizeRules.chord_first) it starts
+    # with a chord step, only while the chord steps are fewer than the Newton
+    # iterations' budget: a Newton iteration in every pass bounds the step's work
+    goes_on = False
+    gaps = None  # (g, s) at d, when known
+    while solves < budget:
+        terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
+        guess = None
+        if solves == 0:
+            if not ctx.static:
+                d = better_start(quadratic, geometry, terms, [d, _constant_velocity(blocks, ctx)])
+            gaps = geometry.at(d)
+            guess = _remembered_pieces(contacts, terms, *gaps)
+        inner = None
+        if law.friction:
+            inner = GUESSED_BOUND_SOLVES if bounds.guessing else between_bounds
+        newton = minimise(
+            quadratic,
+            geometry,
+            terms,
+            system,
+            system.contact_vector,
+            d,
+            budget - solves,
+            guess,
+            chord=system.chord,
+            max_steps=inner,
+            rate=rules.rate,
+            chord_first=rules.chord_first and goes_on and chords < budget,
+            start_gaps=gaps,
+            conjugate=rules.conjugate,
+        )
+        gaps = newton.gaps
+        goes_on = newton.converged or newton.chord_next
+        solves += newton.solves
+        chords += newton.chords
+        d = newton.d
+        if not np.all(np.isfinite(d)):
+            cache.solver.reset()
+            break
+        if not newton.converged:
+            if solves >= budget:
+                break
+            with timer("contact_law"):  # the bounds follow the normal forces as they come
+                normal = terms.normal_force(gaps[0])
+                bounds.advance(contact_law.friction_bound(contacts, joints, normal))
+            continue
+        with timer("contact_law"):
+            g, s = gaps
+            outcome = contact_law.update(contacts, terms, g, s, previous_g, joints, law)
+        if outcome.settled:
+            converged = True
+            break
+        bounds.advance(outcome.bound)
+        previous_g = g
+    with timer("contact_law"):
+        g, s = geometry.at(d) if gaps is None else gaps
+        dissipated = contact_law.friction_dissipation(terms, s)
+        contact_law.record(contacts, terms, g, s, law.friction_tolerance)
+    closed = contacts.state != OPEN
+    max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
+    made = cache.solver.factorisations - factorisations_before
+    pushed = None
+    if converged and not ctx.static:
+        overlap = pushed_overlap(contacts, rows, contacts.penetration, law.tolerance)
+        if overlap.any():
+            masses = model.inertia.masses(blocks)
+            pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
+    return StepSolution(
+        d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,
+        newton_iterations=solves,
+    )  # fmt: skip
