@@ -719,3 +719,75 @@ def test_the_released_block_agrees_with_the_fem_under_a_damped_velocity_update(t
     result = run_case(discover(tmp_path)[0])
     assert result.scene.analysis.newmark_gamma == 0.9
     assert all(v.passed for v in result.verdicts), [(v.quantity, v.error) for v in result.verdicts]
+
+
+def raising_for(name: str, monkeypatch) -> list[str]:
+    """Make the case ``name`` raise SimulationError; returns the names of the cases run."""
+    import verify.suite
+
+    ran, real = [], verify.suite.run_case
+
+    def run_case(case, reference=None):
+        ran.append(case.name)
+        if case.name == name:
+            raise dda.SimulationError("step 3: the contacts did not settle")
+        return real(case, reference)
+
+    monkeypatch.setattr(verify.suite, "run_case", run_case)
+    return ran
+
+
+def test_a_case_that_raises_is_an_error_and_the_others_still_run(tmp_path, capsys, monkeypatch):
+    """A crash cannot silence the suite: the raising case is ERROR in the console table,
+    report.md and report.json, the cases after it still run, and the exit status (3)
+    says "a case raised", apart from "a check failed" (1)."""
+    from verify.cli import EXIT_ERRORS, main
+
+    ran = raising_for("self_weight", monkeypatch)
+    code = main(["self_weight", "column", "-o", str(tmp_path), *QUICK_CLI])
+    assert code == EXIT_ERRORS == 3
+    assert ran == ["self_weight", "column"]
+    out = capsys.readouterr().out
+    assert "ERROR: SimulationError: step 3: the contacts did not settle" in out
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert not report["passed"] and [c["name"] for c in report["cases"]] == ["column"]
+    assert report["errors"] == [
+        {"name": "self_weight", "message": "SimulationError: step 3: the contacts did not settle"}
+    ]
+    markdown = (tmp_path / "report.md").read_text()
+    assert "| self_weight | - | - | - | ERROR: SimulationError" in markdown
+    assert "## Errors" in markdown
+
+
+def test_an_output_folder_that_cannot_be_written_is_refused_before_any_case(
+    tmp_path, capsys, monkeypatch
+):
+    """-o below a file: exit 2 with the folder and the reason, before any case runs."""
+    from verify.cli import main
+
+    ran = raising_for("none", monkeypatch)
+    (tmp_path / "a_file").write_text("")
+    out = tmp_path / "a_file" / "report"
+    assert main(["self_weight", "-o", str(out), *QUICK_CLI]) == 2
+    assert ran == []
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert str(out) in error and "cannot write there" in error and "Traceback" not in error
+
+
+def test_a_study_that_raises_is_an_error_too(tmp_path, monkeypatch):
+    """The block-refinement study raising (as it did under a fault that left cohesion out
+    of the friction bound) is ERROR, with exit status 3, not an aborted suite."""
+    import verify.suite
+    from verify.cli import main
+
+    def refinement(largest, progress=None):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(verify.suite, "run_refinement", refinement)
+    options = ["-o", str(tmp_path), "--no-images", "--no-convergence", "--refinement-max", "2"]
+    assert main(["self_weight", *options]) == 3
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["errors"] == [
+        {"name": "block refinement study", "message": "LinAlgError: Singular matrix"}
+    ]
+    assert [c["name"] for c in report["cases"]] == ["self_weight"]

@@ -82,6 +82,14 @@ class CaseResult:
         return all(v.passed for v in self.verdicts)
 
 
+@dataclass(frozen=True)
+class CaseError:
+    """A case (or a study) that raised instead of giving verdicts: ERROR in the report."""
+
+    name: str
+    message: str  # "ExceptionType: message"
+
+
 def discover(
     directory: Path | Traversable | None = None,
     names: list[str] | None = None,

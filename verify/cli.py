@@ -2,8 +2,10 @@
 
 Registered with the ``dda`` command through the ``dda.commands`` entry point
 (``verify = "verify.cli:register"``); also ``python -m verify``.
-Exit status 0 when every case is within its stated tolerances, 1 otherwise,
-2 for unknown case names.
+Exit status 0 when every case is within its stated tolerances, 1 when a check
+fails, 2 on bad input (an unknown case, a scene or expectation refused, an output
+folder that cannot be written: all checked before any case runs), 3 when a case or
+study raised (it is ERROR in the report; the other cases still run).
 """
 
 from __future__ import annotations
@@ -13,11 +15,12 @@ import logging
 import sys
 from pathlib import Path
 
-EXIT_OK, EXIT_FAILED, EXIT_INPUT = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_ERRORS = 0, 1, 2, 3
 DESCRIPTION = (
     "The FEM verification suite: re-solve each case's blocks with finite elements "
     "(scikit-fem) and compare stresses, displacements and contact states with the DDA run. "
-    "Exit status 0 when every case is within its stated tolerances, 1 otherwise, 2 on bad input."
+    "Exit status 0 when every case is within its stated tolerances, 1 when a check fails, "
+    "2 on bad input, 3 when a case raised (ERROR in the report)."
 )
 
 
@@ -70,7 +73,7 @@ def run_verify(args: argparse.Namespace) -> int:
     from dda import SceneError
     from verify.expect import ExpectationError
     from verify.report import format_console
-    from verify.suite import run_suite
+    from verify.suite import OutputError, run_suite
 
     largest = args.refinement_max or (4 if args.quick else 16)
     if largest < 1 or largest & (largest - 1):
@@ -90,13 +93,15 @@ def run_verify(args: argparse.Namespace) -> int:
     except KeyError as exc:  # an unknown case name
         print(f"dda verify: {exc.args[0]}", file=sys.stderr)
         return EXIT_INPUT
-    except (ExpectationError, SceneError) as exc:  # they name the file and the key
+    except (ExpectationError, SceneError, OutputError) as exc:  # they name file and key
         print(f"dda verify: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    print(format_console(output.results))
+    print(format_console(output.results, output.errors))
     if output.refinement:
         print(format_findings(output.refinement.findings))
     print(f"report: {Path(args.output) / 'report.md'}")
+    if output.errors:
+        return EXIT_ERRORS
     return EXIT_OK if output.passed else EXIT_FAILED
 
 

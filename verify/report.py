@@ -7,7 +7,7 @@ import math
 from dataclasses import asdict
 from pathlib import Path
 
-from verify.cases import CaseResult
+from verify.cases import CaseError, CaseResult
 from verify.convergence import ConvergencePoint, observed_rates
 
 
@@ -28,15 +28,22 @@ def verdict_table(results: list[CaseResult]) -> list[list[str]]:
     return rows
 
 
-def format_console(results: list[CaseResult]) -> str:
-    """Plain-text table for the terminal."""
+def error_table(errors: list[CaseError]) -> list[list[str]]:
+    """Rows: case, "-", "-", "-", ERROR: message (a case that raised has no verdicts)."""
+    return [[e.name, "-", "-", "-", f"ERROR: {e.message}"] for e in errors]
+
+
+def format_console(results: list[CaseResult], errors: list[CaseError] = ()) -> str:
+    """Plain-text table for the terminal; a case that raised is a row ERROR."""
     header = ["case", "quantity", "error", "tolerance", "result"]
-    rows = [header] + verdict_table(results)
+    rows = [header] + verdict_table(results) + error_table(list(errors))
     widths = [max(len(row[k]) for row in rows) for k in range(len(header))]
     lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)) for row in rows]
     lines.insert(1, "  ".join("-" * w for w in widths))
     failed = sum(not r.passed for r in results)
     lines.append(f"{len(results) - failed}/{len(results)} cases within their tolerances")
+    if errors:
+        lines.append(f"{len(errors)} raised (ERROR): {', '.join(e.name for e in errors)}")
     return "\n".join(lines)
 
 
@@ -191,13 +198,18 @@ def write_markdown(
     convergence: list[ConvergencePoint] | None = None,
     summary_image: str | None = None,
     refinement=None,
+    errors: list[CaseError] = (),
 ) -> Path:
-    """Write ``report.md``."""
+    """Write ``report.md``; cases that raised are ERROR rows and an "Errors" section."""
     images = images or {}
     lines = ["# DDA verification against FEM (scikit-fem)", ""]
     lines += _markdown_table(
-        ["case", "quantity", "error", "tolerance", "result"], verdict_table(results)
+        ["case", "quantity", "error", "tolerance", "result"],
+        verdict_table(results) + error_table(list(errors)),
     )
+    if errors:
+        lines += ["", "## Errors", "", "These raised instead of giving verdicts:", ""]
+        lines += [f"- **{e.name}**: `{e.message}`" for e in errors]
     if summary_image:
         lines += ["", f"![summary]({summary_image})"]
     lines.append("")
@@ -227,10 +239,13 @@ def write_json(
     path: Path,
     convergence: list[ConvergencePoint] | None = None,
     refinement=None,
+    errors: list[CaseError] = (),
 ) -> Path:
-    """Write ``report.json``: verdicts and every compared row of every case."""
+    """Write ``report.json``: verdicts and every compared row of every case, and the
+    cases that raised (``errors``: name and message)."""
     data = {
-        "passed": all(r.passed for r in results),
+        "passed": not errors and all(r.passed for r in results),
+        "errors": [{"name": e.name, "message": e.message} for e in errors],
         "cases": [
             {
                 "name": r.case.name,

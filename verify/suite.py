@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 import logging
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from verify.cases import CaseResult, discover, run_case
+from verify.cases import CaseError, CaseResult, discover, run_case
 from verify.convergence import ConvergencePoint, convergence_study
 from verify.refinement import Finding, RefinementPoint, findings, refinement_study
 from verify.report import write_json, write_markdown
 
 log = logging.getLogger(__name__)
+
+
+class OutputError(Exception):
+    """The report's folder cannot be written (checked before any case runs)."""
 
 
 @dataclass
@@ -25,12 +30,39 @@ class SuiteOutput:
     convergence: list[ConvergencePoint] = field(default_factory=list)
     refinement: Refinement | None = None
     files: list[Path] = field(default_factory=list)
+    errors: list[CaseError] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
-        """Whether every check of every case, and every refinement finding, holds."""
+        """Whether every case and study ran, and every check and finding holds."""
         refined = self.refinement is None or all(f.passed for f in self.refinement.findings)
-        return refined and all(r.passed for r in self.results)
+        return not self.errors and refined and all(r.passed for r in self.results)
+
+
+def check_output(outdir: Path) -> None:
+    """Make ``outdir`` and write a file in it, or raise :class:`OutputError` saying why."""
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=outdir):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        raise OutputError(f"-o {outdir}: cannot write there ({reason})") from exc
+
+
+def guarded(name: str, errors: list[CaseError], work: Callable[[], object]) -> object:
+    """``work()``, or None when it raises: the error goes to ``errors`` and the log.
+
+    A case that raises (the engine's SimulationError, a failed FEM solve, any fault)
+    is reported as ERROR and the suite goes on with the others.
+    """
+    try:
+        return work()
+    except Exception as exc:  # noqa: BLE001 - every fault of a case is reported, not raised
+        message = f"{type(exc).__name__}: {exc}"
+        log.error("%s raised %s", name, message)
+        errors.append(CaseError(name, message))
+        return None
 
 
 @dataclass
@@ -67,20 +99,29 @@ def run_suite(
     and ``verify_refinement.png``.
     """
     cases = discover(cases_dir, names, quick)
+    for case in cases:  # bad input (scene, expectations) is refused before any case runs
+        case.load()
+    if outdir is not None:
+        outdir = Path(outdir)
+        check_output(outdir)
     tell = progress or log.info
-    results = []
+    results, errors = [], []
     for number, case in enumerate(cases, 1):
         tell(f"case {number}/{len(cases)}: {case.name}")
-        results.append(run_case(case))
+        result = guarded(case.name, errors, lambda case=case: run_case(case))
+        if result is not None:
+            results.append(result)
+    points = []
     if convergence:
         tell("FEM convergence study")
-    points = convergence_study() if convergence else []
-    refined = run_refinement(refinement, tell) if refinement else None
-    output = SuiteOutput(results, points, refined)
+        points = guarded("FEM convergence study", errors, convergence_study) or []
+    refined = None
+    if refinement:
+        work = lambda: run_refinement(refinement, tell)  # noqa: E731
+        refined = guarded("block refinement study", errors, work)
+    output = SuiteOutput(results, points, refined, errors=errors)
     if outdir is None:
         return output
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
     pictures, summary = {}, None
     if images:
         from verify.images import case_image, refinement_chart, summary_chart
@@ -97,7 +138,7 @@ def run_suite(
             output.files.append(summary_chart(results, outdir / "images" / "verify_summary.png"))
             summary = "images/verify_summary.png"
     output.files.append(
-        write_markdown(results, outdir / "report.md", pictures, points, summary, refined)
+        write_markdown(results, outdir / "report.md", pictures, points, summary, refined, errors)
     )
-    output.files.append(write_json(results, outdir / "report.json", points, refined))
+    output.files.append(write_json(results, outdir / "report.json", points, refined, errors))
     return output
