@@ -14,6 +14,8 @@ computes something else. The faults:
     ``[contact] penalty`` or its default);
 ``gravity_dropped``
     no gravity on the scene's last block;
+``gravity_one_density``
+    gravity computed with the first material's density for every block;
 ``stress_x1.05``
     the stresses the engine reports in its frames scaled by 1.05;
 ``friction_plus2``
@@ -75,12 +77,20 @@ def _drop_gravity_on_last_block(model: Model) -> None:
             effect.forces = forces
 
 
+def _gravity_with_one_density(model: Model) -> None:
+    for effect in model.effects:
+        if isinstance(effect, Gravity):
+            density = effect.material_density
+            effect.material_density = np.full_like(density, density[0])
+
+
 MODEL_FAULTS: dict[str, Callable[[Model], None]] = {
     "young_x1.05": _scale_young(1.05),
     "young_x0.97": _scale_young(0.97),
     "poisson_zero": _poisson_zero,
     "penalty_x0.5": _half_penalty,
     "gravity_dropped": _drop_gravity_on_last_block,
+    "gravity_one_density": _gravity_with_one_density,
     "friction_plus2": _friction_plus2,
 }
 FAULTS = (*MODEL_FAULTS, "stress_x1.05")
