@@ -19,7 +19,9 @@ computes something else. The faults:
 ``stress_x1.05``
     the stresses the engine reports in its frames scaled by 1.05;
 ``friction_plus2``
-    2° added to every joint friction angle above zero.
+    2° added to every joint friction angle above zero;
+``cohesion_dropped``
+    every joint's cohesion left out of its friction bound.
 """
 
 from __future__ import annotations
@@ -63,6 +65,11 @@ def _friction_plus2(model: Model) -> None:
     joints.tan_friction = np.where(angle > 0, np.tan(angle + np.radians(2.0)), 0.0)
 
 
+def _drop_cohesion(model: Model) -> None:
+    if model.contact is not None:
+        model.contact.joints.cohesion = np.zeros_like(model.contact.joints.cohesion)
+
+
 def _drop_gravity_on_last_block(model: Model) -> None:
     name = model.scene.blocks[-1].name
     for effect in model.effects:
@@ -92,6 +99,7 @@ MODEL_FAULTS: dict[str, Callable[[Model], None]] = {
     "gravity_dropped": _drop_gravity_on_last_block,
     "gravity_one_density": _gravity_with_one_density,
     "friction_plus2": _friction_plus2,
+    "cohesion_dropped": _drop_cohesion,
 }
 FAULTS = (*MODEL_FAULTS, "stress_x1.05")
 
