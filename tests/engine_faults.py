@@ -21,7 +21,9 @@ computes something else. The faults:
 ``friction_plus2``
     2° added to every joint friction angle above zero;
 ``cohesion_dropped``
-    every joint's cohesion left out of its friction bound.
+    every joint's cohesion left out of its friction bound;
+``tension_dropped``
+    every joint's tensile strength left out (a bonded joint holds no tension).
 """
 
 from __future__ import annotations
@@ -70,6 +72,11 @@ def _drop_cohesion(model: Model) -> None:
         model.contact.joints.cohesion = np.zeros_like(model.contact.joints.cohesion)
 
 
+def _drop_tension(model: Model) -> None:
+    if model.contact is not None:
+        model.contact.joints.tensile = np.zeros_like(model.contact.joints.tensile)
+
+
 def _drop_gravity_on_last_block(model: Model) -> None:
     name = model.scene.blocks[-1].name
     for effect in model.effects:
@@ -100,6 +107,7 @@ MODEL_FAULTS: dict[str, Callable[[Model], None]] = {
     "gravity_one_density": _gravity_with_one_density,
     "friction_plus2": _friction_plus2,
     "cohesion_dropped": _drop_cohesion,
+    "tension_dropped": _drop_tension,
 }
 FAULTS = (*MODEL_FAULTS, "stress_x1.05")
 
