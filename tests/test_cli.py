@@ -93,6 +93,20 @@ def test_run_refuses_a_missing_file(tmp_path, monkeypatch, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_run_takes_a_shipped_case_by_name_from_any_folder(tmp_path, monkeypatch, capsys):
+    """``dda run sliding_block`` runs the shipped scene (dda.cases) into out/sliding_block,
+    from a folder without it; a name that is neither a file nor a shipped case is refused
+    with the shipped names, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["run", "sliding_blok", "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert "sliding_blok" in error and "no shipped case" in error and "sliding_block" in error
+    assert list(tmp_path.iterdir()) == []
+    assert cli.main(["run", "sliding_block", "--quiet"]) == 0
+    summary = json.loads((tmp_path / "out" / "sliding_block" / "summary.json").read_text())
+    assert summary["status"] == "finished"
+
+
 @pytest.mark.parametrize(
     ("variable", "value", "message"),
     [

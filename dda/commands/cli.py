@@ -176,7 +176,10 @@ def _add_run(subparsers: Any) -> None:
         "into it is refused unless --overwrite (replace it) or --resume (continue it). "
         "SIGINT or SIGTERM stops after the current step with a checkpoint.",
     )
-    p.add_argument("case", type=Path, help="scene file (TOML)")
+    p.add_argument(
+        "case", type=Path,
+        help="scene file (TOML), or the name of a shipped case (sliding_block, tunnel, ...)",
+    )  # fmt: skip
     p.add_argument("-o", "--outdir", type=Path, help="output directory (default out/<case>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument(
@@ -269,7 +272,7 @@ def _run_scene(args: argparse.Namespace):
     """The scene with the command line's overrides, checked for its size."""
     from dda.scene.limits import check_run_size
 
-    scene = dda.load_scene(args.case)
+    scene = dda.load_scene(scene_source(args.case))
     overrides = {
         "save_every": args.save_every,
         "checkpoint_every": args.checkpoint_every,
@@ -282,6 +285,22 @@ def _run_scene(args: argparse.Namespace):
     check_run_size(scene)
     _check_output_size(scene, args)
     return scene
+
+
+def scene_source(case: Path):
+    """The scene file ``case``, or the shipped case of that name (``dda.cases``) when no
+    such file exists: ``dda run sliding_block`` works from any folder. Neither: a
+    SceneError that names both."""
+    import dda.cases
+
+    if case.exists() or case.suffix:
+        return case
+    if str(case) in dda.cases.names():
+        return dda.cases.folder().joinpath(f"{case}.toml")
+    shipped = ", ".join(dda.cases.names())
+    raise dda.SceneError(
+        str(case), "<file>", f"no such file, and no shipped case of that name ({shipped})"
+    )
 
 
 def _check_output_size(scene, args: argparse.Namespace) -> None:
