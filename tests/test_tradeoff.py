@@ -134,3 +134,29 @@ def test_sweep_runs_in_dask_workers_with_the_reference_as_a_task(capfd):
     add_errors(rows, case, np.asarray(fine["value"]))
     assert rows[0]["error"] < 0.01
     assert "INFO" not in capfd.readouterr().err  # distributed's logs at WARNING
+
+
+@pytest.mark.parametrize("span", [(0.7, 7.0), (1.2, 1.9), (0.01, 5.0), (1e-3, 50.0)])
+def test_the_pareto_time_axis_labels_do_not_overlap(span):
+    """Times spanning less than a decade to several: every x label is a plain number and no
+    two drawn labels overlap (matplotlib's default labels the minor ticks of a narrow log
+    axis in powers of ten, over each other)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dda.tradeoff.report import _plain_log_ticks
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    ax.plot(span, [1.0, 0.1])
+    ax.set_xscale("log")
+    _plain_log_ticks(ax.xaxis, list(span))
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    labels = [t for t in ax.get_xticklabels(which="both") if t.get_visible() and t.get_text()]
+    boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+    plt.close(fig)
+    assert len(boxes) >= 2
+    assert all("10^" not in t.get_text() and "$" not in t.get_text() for t in labels)
+    assert all(a.x1 < b.x0 for a, b in zip(boxes, boxes[1:], strict=False))

@@ -98,6 +98,7 @@ def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
             label=f"{method} (front)",
         )
     ax.set_xscale("log")
+    _plain_log_ticks(ax.xaxis, [r["seconds"] for r in rows if r["seconds"] > 0])
     ax.set_yscale("log")
     ax.set_xlabel("wall time of a run, median of its repeats (s)")
     ax.set_ylabel("relative error")
@@ -109,3 +110,17 @@ def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def _plain_log_ticks(axis, values: list[float]) -> None:
+    """Label a log axis in plain numbers (0.5, 1, 2, 5, 10), at 1, 2 and 5 of each decade
+    when the ``values`` span up to 1.5 decades, at 1 and 3 up to 3, else at 1; the other
+    ticks unlabelled. (A run's times often span less than a decade, where matplotlib
+    labels every minor tick in powers of ten and the labels overlap.)"""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    decades = math.log10(max(values) / min(values)) if values else 0.0
+    subs = (1.0, 2.0, 5.0) if decades <= 1.5 else (1.0, 3.0) if decades <= 3.0 else (1.0,)
+    axis.set_major_locator(LogLocator(subs=subs))
+    axis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    axis.set_minor_formatter(NullFormatter())
