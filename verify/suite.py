@@ -6,6 +6,7 @@ import logging
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -108,7 +109,7 @@ def run_suite(
     results, errors = [], []
     for number, case in enumerate(cases, 1):
         tell(f"case {number}/{len(cases)}: {case.name}")
-        result = guarded(case.name, errors, lambda case=case: run_case(case))
+        result = guarded(case.name, errors, partial(run_case, case))
         if result is not None:
             results.append(result)
     points = []
@@ -117,7 +118,7 @@ def run_suite(
         points = guarded("FEM convergence study", errors, convergence_study) or []
     refined = None
     if refinement:
-        work = lambda: run_refinement(refinement, tell)  # noqa: E731
+        work = partial(run_refinement, refinement, tell)
         refined = guarded("block refinement study", errors, work)
     output = SuiteOutput(results, points, refined, errors=errors)
     if outdir is None:
