@@ -153,9 +153,10 @@ def test_pardiso_solves_without_iterative_refinement():
         assert np.linalg.norm(k @ x - f) <= 1e-13 * np.linalg.norm(f)
 
 
-def test_solver_threads_follow_dda_threads_or_the_usable_cores(monkeypatch):
+def test_solver_threads_follow_dda_threads_or_the_thread_policy(monkeypatch):
     monkeypatch.delenv("DDA_THREADS", raising=False)
-    assert linsolve.solver_threads() == len(os.sched_getaffinity(0))
+    monkeypatch.setattr(linsolve.thread_policy.POLICY, "threads", lambda: 7)
+    assert linsolve.solver_threads() == 7
     monkeypatch.setenv("DDA_THREADS", " 3 ")
     assert linsolve.solver_threads() == 3
     monkeypatch.setenv("DDA_THREADS", "1.5")

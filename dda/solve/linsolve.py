@@ -30,6 +30,7 @@ import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 from threadpoolctl import ThreadpoolController
 
+from dda.solve import thread_policy
 from dda.solve.pardiso_call import PardisoCall
 
 log = logging.getLogger(__name__)
@@ -158,7 +159,9 @@ class PardisoFactorisation:
         return np.asarray(matrix.data)[self._upper]
 
     def factor(self, matrix: sp.spmatrix) -> None:
-        """Numeric factorisation of a matrix with the analysed pattern."""
+        """Numeric factorisation of a matrix with the analysed pattern, on the threads
+        :func:`solver_threads` gives now."""
+        _set_mkl_threads(self._solver.libmkl, solver_threads())
         self._call.set_values(self._upper_values(matrix))
         self._call(22, np.zeros(self.size))
 
@@ -194,11 +197,14 @@ def new_pardiso_handle():
 
 
 def solver_threads() -> int:
-    """Threads for PARDISO: ``DDA_THREADS`` if set, else the cores this process may use.
+    """Threads for PARDISO: ``DDA_THREADS`` if set, else the cores the machine can give
+    now (:mod:`dda.solve.thread_policy`: the usable cores less those other processes
+    kept busy over the last second).
 
-    On the 2-core benchmark machine two threads factorise the 30x30 wall's K in
-    4.3 ms instead of 9.5 (docs/benchmarks.md); processes that share the cores
-    (``dda tradeoff``'s workers) set ``DDA_THREADS=1``.
+    On the idle 2-core benchmark machine two threads factorise the 30x30 wall's K in
+    4.3 ms instead of 9.5; with another process busy on one core, one thread is the
+    faster (docs/benchmarks.md). ``DDA_THREADS=1`` makes a run repeat bit for bit;
+    processes that share the cores (``dda tradeoff``'s workers) set it.
 
     Raises
     ------
@@ -206,10 +212,7 @@ def solver_threads() -> int:
     """
     text = os.environ.get(THREADS_VARIABLE, "").strip()
     if not text:
-        try:
-            return max(1, len(os.sched_getaffinity(0)))
-        except AttributeError:  # pragma: no cover - not on Linux
-            return max(1, os.cpu_count() or 1)
+        return thread_policy.POLICY.threads()
     if not text.isdigit() or int(text) < 1:
         raise ValueError(f"{THREADS_VARIABLE}={text!r}: expected a positive integer (threads)")
     return int(text)
