@@ -83,6 +83,25 @@ def find_frame(source: str | os.PathLike[str], step: int | None = None) -> Frame
     return _describe(candidates[-1], times)
 
 
+def all_frames(folder: str | os.PathLike[str]) -> list[FrameFiles]:
+    """Every frame an output directory holds, in step order (its ``blocks.pvd``, else
+    ``frames/blocks_*.vtu``).
+
+    Raises
+    ------
+    FileNotFoundError
+        ``folder`` is not a directory, or holds no frame.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"{folder}: not an output directory of `dda run`")
+    times = _times(folder / "blocks.pvd")
+    files = list(times) or sorted((folder / "frames").glob("blocks_*.vtu"), key=step_of_file)
+    if not files:
+        raise FileNotFoundError(f"{folder}: no written frame (no blocks.pvd or frames/)")
+    return sorted((_describe(path, times) for path in files), key=lambda f: f.step)
+
+
 def read_found_frame(found: FrameFiles):
     """The :class:`~dda.result.Frame` in ``found``'s files.
 

@@ -120,6 +120,28 @@ def render_side_by_side(
     Path
         ``path``.
     """
+    figure = compose(frames, titles, scalars, show_contacts, window_size, clim, scene_title, units)
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, format="png", dpi=_DPI)
+    logger.debug("wrote %s (%s)", path, scalars)
+    return path
+
+
+def compose(
+    frames: Sequence[Frame],
+    titles: Sequence[str | None],
+    scalars: str = "syy",
+    show_contacts: bool = True,
+    window_size: tuple[int, int] | None = None,
+    clim: tuple[float, float] | None = None,
+    scene_title: str = "",
+    units: Mapping[str, str] | None = None,
+    view: np.ndarray | None = None,
+) -> Any:
+    """The matplotlib ``Figure`` of :func:`render_side_by_side` (arguments as there);
+    ``view``: ``[[x_min, y_min], [x_max, y_max]]`` to show instead of the frames' extent
+    (a movie keeps one view for all its frames)."""
     if not frames or len(titles) != len(frames):
         raise ValueError("give one title (or None) per frame, and at least one frame")
     if any(len(f.vertices) == 0 for f in frames):
@@ -138,17 +160,28 @@ def render_side_by_side(
         ax.set_title(title or default_title(frame), fontsize=11)
         ax.set_xlabel(f"x ({length})")
         ax.set_ylabel(f"y ({length})")
-    _share_view(axes, frames)
+    _share_view(axes, frames if view is None else None, view)
     label = f"{info.label} ({unit_name(info.dimension, units)})"
     _colour_bar(figure, mappable, axes, clim, label)
     _legend(figure, frames, show_contacts)
     if scene_title:
         figure.suptitle("\n".join(textwrap.wrap(scene_title, 90)), fontsize=13)
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        figure.savefig(tmp, format="png", dpi=_DPI)
-    logger.debug("wrote %s (%s, range %.4g..%.4g)", path, scalars, *clim)
-    return path
+    return figure
+
+
+def picture_pixels(figure: Any) -> np.ndarray:
+    """The figure drawn by Agg: (height, width, 3) uint8 RGB."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
+
+
+def extent(frames: Sequence[Frame]) -> np.ndarray:
+    """``[[x_min, y_min], [x_max, y_max]]`` of the blocks of all ``frames``."""
+    points = np.concatenate([np.concatenate(f.vertices) for f in frames])
+    return np.array([points.min(axis=0), points.max(axis=0)])
 
 
 def default_title(frame: Frame) -> str:
@@ -247,10 +280,10 @@ def _draw_frame(ax, frame: Frame, values: np.ndarray, clim, cmap, show_contacts:
     return coloured
 
 
-def _share_view(axes, frames: Sequence[Frame]) -> None:
-    """One view for all frames (motion between them shows), with a margin."""
-    points = np.concatenate([np.concatenate(f.vertices) for f in frames])
-    corners = np.array([points.min(axis=0), points.max(axis=0)])
+def _share_view(axes, frames: Sequence[Frame] | None, view: np.ndarray | None = None) -> None:
+    """One view for all frames (motion between them shows), with a margin: the frames'
+    extent, or ``view``."""
+    corners = extent(frames) if view is None else np.asarray(view, dtype=float)
     for ax in axes:
         ax.update_datalim(corners)
         ax.margins(0.05)

@@ -1,0 +1,132 @@
+"""Animations of a run: its frames drawn one after the other into MP4 or GIF.
+
+Every picture of a movie has the same view (the extent of the blocks over all its
+frames) and the same colour range (over all its frames), so that motion and the
+growth of a stress show as they happened; each is titled with its time and step.
+MP4 (H.264, ``yuv420p``: what browsers and players open) is written through
+imageio-ffmpeg, which carries its own ffmpeg (the optional ``movie`` extra);
+GIF through Pillow, which matplotlib already brings. :func:`movie_format` picks
+MP4 when imageio-ffmpeg is installed and the name does not ask for GIF.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from dda.io.atomic import atomic_path
+from dda.io.fields import SCALARS, scalar_field
+from dda.io.images import color_range, compose, extent, picture_pixels
+from dda.result import Frame
+
+FORMATS = (".mp4", ".gif")
+
+
+class MovieError(ValueError):
+    """A movie that cannot be written as asked (format, size, no frames)."""
+
+
+def mp4_available() -> bool:
+    """True when imageio-ffmpeg (and so an ffmpeg) is installed."""
+    return importlib.util.find_spec("imageio_ffmpeg") is not None
+
+
+def movie_format(path: str | os.PathLike[str] | None) -> str:
+    """``".mp4"`` or ``".gif"``: the suffix of ``path``, or (no path) MP4 when it can be
+    written, else GIF.
+
+    Raises
+    ------
+    MovieError
+        Another suffix, or ``.mp4`` without imageio-ffmpeg.
+    """
+    if path is None:
+        return ".mp4" if mp4_available() else ".gif"
+    suffix = Path(path).suffix.lower()
+    if suffix not in FORMATS:
+        raise MovieError(f"{path}: a movie is .mp4 or .gif, not {suffix or 'no suffix'!r}")
+    if suffix == ".mp4" and not mp4_available():
+        raise MovieError(
+            f"{path}: MP4 needs imageio-ffmpeg (pip install 'dda-rock[movie]'); or name a .gif"
+        )
+    return suffix
+
+
+def shared_look(frames: Sequence[Frame], scalars: str) -> tuple[tuple[float, float], np.ndarray]:
+    """(colour range, view) over all ``frames``: the range of ``scalars`` on the free
+    blocks (as :func:`dda.io.images.color_range` makes it) and the blocks' extent."""
+    values = np.concatenate([np.where(f.fixed, np.nan, scalar_field(f, scalars)) for f in frames])
+    clim, _ = color_range(values, SCALARS[scalars].signed)
+    return clim, extent(frames)
+
+
+def write_movie(
+    frames: Iterable[Frame],
+    path: str | os.PathLike[str],
+    clim: tuple[float, float],
+    view: np.ndarray,
+    scalars: str = "syy",
+    fps: float = 10.0,
+    size: tuple[int, int] = (960, 720),
+    show_contacts: bool = True,
+    scene_title: str = "",
+    units: Mapping[str, str] | None = None,
+    on_frame: Callable[[int], None] | None = None,
+) -> int:
+    """Draw ``frames`` into the movie ``path`` (.mp4 or .gif, written atomically);
+    returns the number of frames. ``on_frame(k)`` is called after the k-th (from 1)."""
+    suffix = movie_format(path)
+    if size[0] % 2 or size[1] % 2:
+        raise MovieError(f"movie size {size[0]} x {size[1]}: width and height must be even")
+
+    def pictures():
+        for k, frame in enumerate(frames, start=1):
+            figure = compose(
+                [frame], [None], scalars, show_contacts, size, clim, scene_title, units, view
+            )
+            yield picture_pixels(figure)
+            if on_frame is not None:
+                on_frame(k)
+
+    with atomic_path(Path(path)) as tmp:
+        writer = _write_mp4 if suffix == ".mp4" else _write_gif
+        count = writer(pictures(), tmp, fps, size)
+    if count == 0:
+        raise MovieError("no frame to draw")
+    return count
+
+
+def _write_gif(pictures: Iterable[np.ndarray], path: Path, fps: float, size) -> int:
+    """GIF through Pillow: each picture reduced to its own 256-colour palette."""
+    from PIL import Image
+
+    images = [Image.fromarray(p).quantize(colors=256) for p in pictures]
+    if images:
+        images[0].save(
+            path, format="GIF", save_all=True, append_images=images[1:],
+            duration=max(20, round(1000.0 / fps)), loop=0,
+        )  # fmt: skip
+    return len(images)
+
+
+def _write_mp4(pictures: Iterable[np.ndarray], path: Path, fps: float, size) -> int:
+    """MP4 (H.264, yuv420p) through imageio-ffmpeg, one picture at a time."""
+    import imageio_ffmpeg
+
+    writer = imageio_ffmpeg.write_frames(
+        str(path), size, fps=fps, codec="libx264", pix_fmt_out="yuv420p",
+        output_params=["-f", "mp4"], macro_block_size=2, ffmpeg_log_level="error",
+    )  # fmt: skip
+    writer.send(None)
+    count = 0
+    try:
+        for picture in pictures:
+            writer.send(np.ascontiguousarray(picture))
+            count += 1
+    finally:
+        writer.close()
+    return count
