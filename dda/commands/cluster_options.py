@@ -5,7 +5,10 @@
 from __future__ import annotations
 
 import argparse
+import logging
 from typing import Any
+
+log = logging.getLogger(__name__)
 
 
 def count(text: str) -> int:
@@ -32,15 +35,26 @@ def add_cluster_options(parser: Any, workers: int = 2) -> None:
     where.add_argument("--serial", action="store_true", help="run in this process")
 
 
-def cluster_of(args: argparse.Namespace):
-    """The :class:`dda.parallel.Cluster` the options name, or None for ``--serial``."""
-    from dda.parallel import Cluster
+def cluster_of(args: argparse.Namespace, command: str | None = None):
+    """The :class:`dda.parallel.Cluster` the options name, or None for ``--serial``.
+
+    With ``command`` (a command that can run without dask): None also when dask is
+    not installed and no scheduler is named (a warning says so), and the one-line
+    refusal (a str) when a scheduler is named without dask.
+    """
+    from dda.parallel import Cluster, has_dask
 
     if args.serial:
         return None
-    return Cluster(
+    cluster = Cluster(
         args.scheduler, args.scheduler_file, args.workers, getattr(args, "verbose", 0) > 0
     )
+    if command is None or has_dask():
+        return cluster
+    if cluster.remote:
+        return dask_missing(command)
+    log.warning("dask is not installed: the tasks run in this process")
+    return None
 
 
 def dask_missing(command: str) -> str:

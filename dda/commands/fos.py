@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from dda.commands.cluster_options import add_cluster_options, cluster_of, dask_missing
+from dda.commands.cluster_options import add_cluster_options, cluster_of
 
 log = logging.getLogger(__name__)
 
@@ -43,14 +43,19 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("scene", type=Path, help="scene file (or a shipped case's name)")
     p.add_argument("-o", "--outdir", type=Path, help="output folder (default out/fos_SCENE)")
+    add_fos_options(p)
+    add_cluster_options(p)
+    p.set_defaults(func=fos_command)
+
+
+def add_fos_options(p: Any) -> None:
+    """The options that override the scene's ``[fos]`` keys."""
     for name, kind in OVERRIDES.items():
         p.add_argument(f"--{name}", type=kind, metavar="X", help=f"[fos] {name}")
     p.add_argument("--blocks", metavar="A,B", help="[fos] blocks: watched blocks or groups")
     p.add_argument(
         "--intact", action="store_true", help="[fos] intact: reduce breakable materials too"
     )
-    add_cluster_options(p)
-    p.set_defaults(func=fos_command)
 
 
 def with_overrides(raw: dict, args: argparse.Namespace) -> dict:
@@ -71,8 +76,10 @@ def with_overrides(raw: dict, args: argparse.Namespace) -> dict:
     return raw
 
 
-def prepare(args: argparse.Namespace, command: str):
-    """(raw scene with overrides, loaded scene, criterion, source) or an error line."""
+def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=None):
+    """(raw scene with overrides, loaded scene, criterion, source) or an error line;
+    ``reduced``: the strengths will be reduced (something must be reducible); ``edit``:
+    more overrides, ``edit(raw)`` in place."""
     import dda
     from dda.commands.cli import scene_source
     from dda.scene import read_scene_file
@@ -82,9 +89,12 @@ def prepare(args: argparse.Namespace, command: str):
     try:
         path = scene_source(args.scene)
         raw = with_overrides(read_scene_file(path), args)
+        if edit is not None:
+            edit(raw)
         scene = dda.load_scene(raw, str(path))
         criterion = criterion_of(scene)
-        check_reducible(scene)
+        if reduced:
+            check_reducible(scene)
     except dda.SceneError as exc:
         return f"dda {command}: {exc}"
     return raw, scene, criterion, str(path)
@@ -93,7 +103,7 @@ def prepare(args: argparse.Namespace, command: str):
 def fos_command(args: argparse.Namespace) -> int:
     """Run the search; return the exit code (0 done, 2 bad input, 130 interrupted)."""
     from dda.io.output_paths import OutputError, check_output_dir
-    from dda.parallel import Workers, has_dask
+    from dda.parallel import Workers
     from dda.stability.search import search
     from dda.stability.store import RowStore, scene_hash
 
@@ -108,12 +118,9 @@ def fos_command(args: argparse.Namespace) -> int:
     except OutputError as exc:
         print(f"dda fos: -o {exc}", file=sys.stderr)
         return EXIT_INPUT
-    cluster = cluster_of(args)
-    if cluster is not None and not cluster.remote and not has_dask():
-        log.warning("dask is not installed: the trials run in this process")
-        cluster = None
-    elif cluster is not None and not has_dask():
-        print(dask_missing("fos"), file=sys.stderr)
+    cluster = cluster_of(args, "fos")
+    if isinstance(cluster, str):
+        print(cluster, file=sys.stderr)
         return EXIT_INPUT
     store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
     runner = _Runner(raw, source, store, scene.units.velocity)
