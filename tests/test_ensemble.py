@@ -217,3 +217,19 @@ def test_bad_ensembles_are_refused(tmp_path, capsys, monkeypatch, change, messag
     assert err.count("\n") == 1 and "Traceback" not in err
     assert err.startswith("dda ensemble: slope.toml: ") and message in err
     assert not (tmp_path / "out").exists()
+
+
+def test_each_realisation_gets_its_own_fos(tmp_path, capsys, monkeypatch):
+    """--fos: every realisation's factor of safety is tan φ / tan θ of its own φ."""
+    monkeypatch.chdir(tmp_path)
+    write_scene(tmp_path / "slope.toml", slope_ensemble(3))
+    assert cli.main(["ensemble", "slope.toml", "-o", "out", "--serial", "--fos"]) == 0
+    capsys.readouterr()
+    rows = (tmp_path / "out/ensemble.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    for line in rows[1:]:
+        row = dict(zip(header, line.split(","), strict=True))
+        phi = float(row["joints.default.friction_angle"])
+        exact = math.tan(math.radians(phi)) / math.tan(math.radians(THETA))
+        assert abs(float(row["fos"]) - exact) <= 0.02, (row, exact)
+        assert (row["failed"] == "True") == (exact < 1.0)

@@ -91,6 +91,19 @@ def test_strengths_are_divided_by_the_factor():
     assert joint.cohesion == 500.0
     assert scene.joints["default"].cohesion == 1000.0  # the scene itself is unchanged
     assert reduced_angle(45.0, 1.0) == pytest.approx(45.0, rel=1e-12)
+    assert reduced.materials == scene.materials  # intact rock only when asked
+
+
+def test_intact_rock_is_reduced_when_asked():
+    raw = block_on_plane(30.0, 40.0)
+    raw["materials"]["rock"].update(cohesion=1e6, friction_angle=50.0, tensile_strength=2e5)
+    scene = dda.load_scene(raw)
+    rock = reduce_strengths(scene, 4.0, intact=True).materials["rock"]
+    assert (rock.cohesion, rock.tensile_strength) == (2.5e5, 5e4)
+    assert math.tan(math.radians(rock.friction_angle)) == pytest.approx(
+        math.tan(math.radians(50.0)) / 4.0, rel=1e-12
+    )
+    assert rock.young == scene.materials["rock"].young
 
 
 # ----------------------------------------------------------------- acceptance 1 and 2
