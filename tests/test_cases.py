@@ -95,6 +95,11 @@ EXPECTED = {
     # mass started unloaded and compressed under its weight)
     "rock_slope": ({"steps": 3}, total_area, 1900.0, 1e-5),
     "tunnel": ({"steps": 3}, total_area, 849.87805, 1e-6),
+    # the slope of dda fos (docs/stability.md) tiles its 288.42 m² and stands as given
+    # (its free blocks move 1.5e-9 m in 3 steps); its stored factor of safety is below
+    "jointed_slope_fos": ({"steps": 3}, total_area, 288.42, 1e-6),
+    # the same slope as written (the means of its [ensemble]); its realisations below
+    "jointed_slope_ensemble": ({"steps": 3}, total_area, 288.42, 1e-6),
     # closed form W (sin 30 - cos 30 tan 20) = 2447.30 N; DDA gives 2447.298 (1e-6)
     "bolted_block": ({}, measured("anchor.force"), 2447.2999, 0.01),
     # Newmark: c (A - a_y) A t0^2 / (2 a_y) = 0.100180 m; DDA gives 0.100173 (7e-5)
@@ -128,3 +133,58 @@ def test_case_runs_and_matches_stored_number(name):
     result = dda.simulate(load_case(name, overrides))
     assert result.summary["status"] == "finished"
     assert quantity(result) == pytest.approx(expected, rel=rel)
+
+
+# shipped strength-reduction cases: (stored FoS, the bracket dda fos found) with the
+# case's [fos] settings, one worker (docs/stability.md)
+STORED_FOS = {"jointed_slope_fos": (1.774, 1.76953, 1.7793)}
+
+
+@pytest.mark.parametrize("name", sorted(STORED_FOS))
+def test_stored_fos_bracket_holds(name):
+    """The stored bracket still holds: the case stands at its lower end, fails at its upper."""
+    from dda.stability.trial import Trial, run_trial
+
+    _, stands, fails = STORED_FOS[name]
+    raw = tomllib.loads((CASES / f"{name}.toml").read_text())
+    assert not run_trial(Trial(raw, stands, keep_frame=False))["failed"]
+    assert run_trial(Trial(raw, fails, keep_frame=False))["failed"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(STORED_FOS))
+def test_stored_fos(name):
+    from dda.stability.fos import factor_of_safety
+
+    fos, _, _ = STORED_FOS[name]
+    outcome, _ = factor_of_safety(CASES / f"{name}.toml")
+    assert outcome.fos == pytest.approx(fos, abs=0.005)
+
+
+# shipped ensemble cases: (realisation -> fails?, of the first ten) with the case's seed
+STORED_ENSEMBLE = {
+    "jointed_slope_ensemble": {0: True, 1: False, 2: True, 3: False, 4: False, 5: False,
+                               6: False, 7: False, 8: False, 9: False},
+}  # fmt: skip
+
+
+def _realisation_fails(name: str, index: int) -> bool:
+    from dda.stability.ensemble import Realisation, run_realisation
+
+    raw = tomllib.loads((CASES / f"{name}.toml").read_text())
+    return run_realisation(Realisation(raw, index, keep_frame=False))["failed"]
+
+
+@pytest.mark.parametrize("name", sorted(STORED_ENSEMBLE))
+def test_stored_realisations(name):
+    """A failing and a standing realisation of the stored ten."""
+    stored = STORED_ENSEMBLE[name]
+    for index in (0, 1):
+        assert _realisation_fails(name, index) == stored[index]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(STORED_ENSEMBLE))
+def test_stored_ensemble(name):
+    stored = STORED_ENSEMBLE[name]
+    assert {k: _realisation_fails(name, k) for k in stored} == stored

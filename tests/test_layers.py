@@ -34,7 +34,9 @@ LAYERS = {
     "dda.run": 7,
     "dda": 8,  # the public API: load_scene, simulate, the result types
     "dda.bench": 9,  # the benchmark wall and its timing
+    "dda.parallel": 9,  # tasks at once: in this process, or on a dask cluster
     "dda.tradeoff": 10,  # accuracy against time sweeps (the wall is one of its cases)
+    "dda.stability": 10,  # factor of safety and probability of failure
     "dda.commands": 11,
     "dda.__main__": 12,
 }

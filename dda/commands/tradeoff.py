@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dda.commands.cluster_options import add_cluster_options, count, dask_missing
 from dda.io.output_paths import OutputError, check_output_dir
 
 log = logging.getLogger(__name__)
@@ -36,21 +37,9 @@ def register(subparsers: Any) -> None:
         "-o", "--outdir", type=Path, default=Path("out/tradeoff"),
         help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff)",
     )  # fmt: skip
-    where = p.add_mutually_exclusive_group()
-    where.add_argument(
-        "--workers",
-        type=_count,
-        default=2,
-        metavar="N",
-        help="workers of the local cluster (default 2; one thread each)",
-    )
-    where.add_argument("--scheduler", metavar="ADDRESS", help="a running dask scheduler")
-    where.add_argument(
-        "--scheduler-file", metavar="FILE", help="the file a running dask scheduler wrote"
-    )
-    where.add_argument("--serial", action="store_true", help="run in this process")
+    add_cluster_options(p)
     p.add_argument(
-        "--threads", type=_count, default=1, metavar="N", help="solver threads per run (default 1)"
+        "--threads", type=count, default=1, metavar="N", help="solver threads per run (default 1)"
     )
     p.add_argument(
         "--repeats",
@@ -62,16 +51,10 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=tradeoff_command)
 
 
-def _count(text: str) -> int:
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
-    return int(text)
-
-
 def _repeats(text: str) -> int:
     from dda.tradeoff.runner import MIN_REPEATS
 
-    value = _count(text)
+    value = count(text)
     if value < MIN_REPEATS:
         raise argparse.ArgumentTypeError(f"at least {MIN_REPEATS} (the time is their median)")
     return value
@@ -95,11 +78,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
         print(f"dda tradeoff: {exc}", file=sys.stderr)
         return 2
     if not (args.serial or _has_dask()):
-        print(
-            "dda tradeoff: a cluster needs dask[distributed]: pip install 'dda-rock[tradeoff]' "
-            "(or from a clone: pip install -e '.[tradeoff]'), or run with --serial",
-            file=sys.stderr,
-        )
+        print(dask_missing("tradeoff"), file=sys.stderr)
         return 2
     settings: list[Setting] = expand(grid)
     tasks = make_tasks(case, settings, args.threads, args.repeats)
@@ -131,9 +110,9 @@ def tradeoff_command(args: argparse.Namespace) -> int:
 
 def _has_dask() -> bool:
     """True when dask.distributed (the ``tradeoff`` extra) can be imported."""
-    from importlib.util import find_spec
+    from dda.parallel import has_dask
 
-    return find_spec("dask") is not None and find_spec("distributed") is not None
+    return has_dask()
 
 
 def _progress(done: int, total: int, row: dict) -> None:

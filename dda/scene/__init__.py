@@ -2,10 +2,11 @@
 
 ``format`` (the dataclasses and :func:`load_scene`), ``checks`` (the validation
 toolkit), ``engineering`` (bolts, seismic input, water, measurement, stages),
-``presets`` (the accuracy presets), ``limits`` (the size limits checked before a
-run), ``stage_plan`` (the stages resolved to scene rows) and ``rockmass`` (rock
-masses described by regions and joint sets, cut into explicit blocks as the scene
-is loaded). Imports only the shared vocabulary of :mod:`dda`.
+``stability`` (``[fos]`` and ``[ensemble]``), ``presets`` (the accuracy presets),
+``limits`` (the size limits checked before a run), ``stage_plan`` (the stages
+resolved to scene rows) and ``rockmass`` (rock masses described by regions and joint
+sets, cut into explicit blocks as the scene is loaded). Imports only the shared
+vocabulary of :mod:`dda`.
 """
 
 from dda.scene.format import (
@@ -22,7 +23,9 @@ from dda.scene.format import (
     Scene,
     Units,
     load_scene,
+    read_scene_file,
 )
+from dda.scene.stability import Distribution, EnsembleSettings, FosSettings
 
 __all__ = [
     "MAX_BLOCKS",
@@ -38,4 +41,8 @@ __all__ = [
     "Scene",
     "Units",
     "load_scene",
+    "read_scene_file",
+    "Distribution",
+    "EnsembleSettings",
+    "FosSettings",
 ]

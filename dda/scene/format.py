@@ -66,6 +66,12 @@ from dda.scene.engineering import (
     parse_engineering,
 )
 from dda.scene.limits import DEFAULT_MAX_STEPS
+from dda.scene.stability import (
+    STABILITY_KEYS,
+    EnsembleSettings,
+    FosSettings,
+    parse_stability,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -234,6 +240,9 @@ class Scene:
     water: Water | None = None
     measure: tuple[Measure, ...] = ()
     stages: tuple[Stage, ...] = ()
+    # stability (dda.scene.stability): dda fos and dda ensemble
+    fos: FosSettings = field(default_factory=FosSettings)
+    ensemble: EnsembleSettings | None = None
 
     @property
     def block_names(self) -> tuple[str, ...]:
@@ -243,7 +252,7 @@ class Scene:
 # --------------------------------------------------------------------------- entry
 
 
-def load_scene(scene: str | Path | Mapping[str, Any]) -> Scene:
+def load_scene(scene: str | Path | Mapping[str, Any], source: str | None = None) -> Scene:
     """Load and validate a scene.
 
     Parameters
@@ -251,6 +260,9 @@ def load_scene(scene: str | Path | Mapping[str, Any]) -> Scene:
     scene
         A :class:`pathlib.Path`, a ``str`` ending in ``.toml`` without a
         newline (a path), other TOML text, or a dict of the same structure.
+    source
+        For a dict: the file it was read from (messages name it, and files the
+        scene names are found beside it), e.g. a scene file changed in memory.
 
     Returns
     -------
@@ -263,8 +275,19 @@ def load_scene(scene: str | Path | Mapping[str, Any]) -> Scene:
         For a missing file (key ``<file>``), bad TOML (key ``<toml>``) or any
         invalid entry (a dotted key such as ``materials.rock.poisson``).
     """
-    raw, source = _read_raw(scene)
-    return _build_scene(raw, source)
+    raw, read_from = _read_raw(scene)
+    return _build_scene(raw, source if source and isinstance(scene, Mapping) else read_from)
+
+
+def read_scene_file(path: str | Path) -> dict[str, Any]:
+    """The raw tables of a scene file, unchecked (:func:`load_scene` checks them).
+
+    Raises
+    ------
+    SceneError
+        For a missing file (key ``<file>``) or bad TOML (key ``<toml>``).
+    """
+    return _read_file(Path(path))
 
 
 def _is_path(scene: object) -> bool:
@@ -324,6 +347,7 @@ _TOP_KEYS = (
     "groups",
     "units",
     *ENGINEERING_KEYS,
+    *STABILITY_KEYS,
 )
 
 _UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time": Checker.text}
@@ -801,6 +825,7 @@ def _expand_rock_mass(raw: Mapping[str, Any], source: str) -> Mapping[str, Any]:
 def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
     """Validate a raw nested mapping section by section into a Scene."""
     chk = Checker(source)
+    written = raw
     raw = chk.table(_expand_rock_mass(raw, source), "", _TOP_KEYS)
     title = chk.text(raw.get("title", ""), "title")
     analysis = _analysis(chk, raw)
@@ -815,6 +840,9 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
     fracture = _fracture(chk, raw, joints)
     groups = _groups(chk, raw, names)
     units = _units(chk, raw)
+    engineering = parse_engineering(chk, raw, blocks, groups, analysis, loads)
+    stages = engineering.get("stages", ())
+    last_stage = stages[-1].time if stages else None
     scene = Scene(
         title=title,
         analysis=analysis,
@@ -828,7 +856,8 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
         source=source,
         groups=groups,
         units=units,
-        **parse_engineering(chk, raw, blocks, groups, analysis, loads),
+        **engineering,
+        **parse_stability(chk, raw, written, blocks, groups, last_stage),
     )
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene

@@ -11,7 +11,8 @@ reports the median (the first run of a process also loads compiled kernels;
 identical runs on a shared machine vary by a factor of several), and the
 host it ran on.
 
-dask is imported only when a sweep uses it (optional extra ``dda-rock[tradeoff]``).
+The pool of workers is :mod:`dda.parallel`'s (dask is imported only when a sweep
+uses it: optional extra ``dda-rock[tradeoff]``).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import dda
+from dda.parallel import Cluster, Workers
 from dda.solve.linsolve import THREADS_VARIABLE
 from dda.tradeoff.cases import Case, model_size, relative_error
 from dda.tradeoff.grid import Setting
@@ -131,16 +133,6 @@ def add_errors(rows: list[dict], case: Case, reference: np.ndarray | None) -> No
             row["error"] = relative_error(np.asarray(row["value"]), reference, scale)
 
 
-@dataclass(frozen=True)
-class Cluster:
-    """Where the tasks run: a scheduler (address or file), else a local cluster."""
-
-    scheduler: str | None = None
-    scheduler_file: str | None = None
-    workers: int = 2  # local cluster only
-    verbose: bool = False  # distributed's INFO logs
-
-
 def sweep(
     tasks: list[Task],
     reference: Task | None = None,
@@ -155,59 +147,12 @@ def sweep(
     (rows in completion order, the reference's row or None); ``progress(done,
     total, row)`` is called for each row of ``tasks``.
     """
-    if serial:
-        fine = run_task(reference) if reference is not None else None
+    with Workers(None if serial else (cluster or Cluster())) as workers:
+        # first in the queue: the longest run
+        fine = None if reference is None else workers.submit(run_task, reference, priority=1)
         rows = []
-        for task in tasks:
-            rows.append(run_task(task))
+        for row in workers.map_unordered(run_task, tasks):
+            rows.append(row)
             if progress:
-                progress(len(rows), len(tasks), rows[-1])
-        return rows, fine
-    return _distributed(tasks, reference, cluster or Cluster(), progress)
-
-
-def _distributed(
-    tasks: list[Task], reference: Task | None, cluster: Cluster, progress: Progress | None
-) -> tuple[list[dict], dict | None]:
-    from dask.distributed import as_completed
-
-    client, local = _connect(cluster)
-    try:
-        fine = None
-        if reference is not None:  # first in the queue: the longest run
-            fine = client.submit(run_task, reference, pure=False, priority=1)
-        futures = client.map(run_task, tasks, pure=False)
-        rows = []
-        for future in as_completed(futures):
-            rows.append(future.result())
-            if progress:
-                progress(len(rows), len(tasks), rows[-1])
+                progress(len(rows), len(tasks), row)
         return rows, None if fine is None else fine.result()
-    finally:
-        client.close()
-        if local is not None:
-            local.close()
-
-
-def _connect(cluster: Cluster):
-    """A client of the given scheduler, or of a new local cluster (returned second)."""
-    import dask
-    from dask.distributed import Client, LocalCluster
-
-    level = logging.INFO if cluster.verbose else logging.WARNING
-    dask.config.set({"logging.distributed": logging.getLevelName(level).lower()})
-    logging.getLogger("distributed").setLevel(level)
-    if cluster.scheduler or cluster.scheduler_file:
-        client = Client(address=cluster.scheduler, scheduler_file=cluster.scheduler_file)
-        log.info("connected to %s (dashboard %s)", client.scheduler.address, client.dashboard_link)
-        return client, None
-    local = LocalCluster(
-        n_workers=cluster.workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",  # a free port, never a fixed one another program may hold
-        silence_logs=level,
-    )
-    client = Client(local)
-    log.info("local cluster of %d workers (dashboard %s)", cluster.workers, client.dashboard_link)
-    return client, local

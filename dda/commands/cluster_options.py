@@ -1,0 +1,65 @@
+"""The options that say where a command's tasks run (``dda tradeoff``, ``dda fos``,
+``dda ensemble``): ``--workers N | --scheduler ADDRESS | --scheduler-file FILE |
+--serial``."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+
+def count(text: str) -> int:
+    """A positive integer argument."""
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive integer")
+    return int(text)
+
+
+def add_cluster_options(parser: Any, workers: int = 2) -> None:
+    """Add the mutually exclusive options of where the tasks run."""
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=count,
+        default=workers,
+        metavar="N",
+        help=f"workers of the local cluster (default {workers}; one thread each)",
+    )
+    where.add_argument("--scheduler", metavar="ADDRESS", help="a running dask scheduler")
+    where.add_argument(
+        "--scheduler-file", metavar="FILE", help="the file a running dask scheduler wrote"
+    )
+    where.add_argument("--serial", action="store_true", help="run in this process")
+
+
+def cluster_of(args: argparse.Namespace, command: str | None = None):
+    """The :class:`dda.parallel.Cluster` the options name, or None for ``--serial``.
+
+    With ``command`` (a command that can run without dask): None also when dask is
+    not installed and no scheduler is named (a warning says so), and the one-line
+    refusal (a str) when a scheduler is named without dask.
+    """
+    from dda.parallel import Cluster, has_dask
+
+    if args.serial:
+        return None
+    cluster = Cluster(
+        args.scheduler, args.scheduler_file, args.workers, getattr(args, "verbose", 0) > 0
+    )
+    if command is None or has_dask():
+        return cluster
+    if cluster.remote:
+        return dask_missing(command)
+    log.warning("dask is not installed: the tasks run in this process")
+    return None
+
+
+def dask_missing(command: str) -> str:
+    """The one-line refusal when a cluster is asked for without dask installed."""
+    return (
+        f"dda {command}: a cluster needs dask[distributed]: pip install 'dda-rock[tradeoff]' "
+        "(or from a clone: pip install -e '.[tradeoff]'), or run with --serial"
+    )

@@ -1,0 +1,240 @@
+"""``dda fos SCENE [-o OUT] [--lower F] [--upper F] [--tolerance T] [--duration S]
+[--velocity V] [--acceleration A] [--window W] [--blocks A,B] [--intact]
+[--workers N | --scheduler ADDRESS | --scheduler-file FILE | --serial]``."""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import logging
+import sys
+from pathlib import Path
+from typing import Any
+
+from dda.commands.cluster_options import add_cluster_options, cluster_of
+
+log = logging.getLogger(__name__)
+
+EXIT_INPUT = 2
+# the [fos] keys the command line overrides: option -> (key, type)
+OVERRIDES = {
+    "lower": float,
+    "upper": float,
+    "tolerance": float,
+    "duration": float,
+    "velocity": float,
+    "acceleration": float,
+    "window": float,
+}
+COLUMNS = ("factor", "failed", "speed", "limit", "steps", "seconds", "host", "status")
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``fos`` sub-command (entry point of group ``dda.commands``)."""
+    p = subparsers.add_parser(
+        "fos",
+        help="factor of safety by strength reduction",
+        description="Divide the joints' tan(friction angle), cohesion and tensile strength by F "
+        "and find the F at which the model fails (its watched blocks do not come to rest; "
+        "docs/stability.md). Writes OUT/fos.csv (a row per trial, as it finishes: a rerun "
+        "reuses them), OUT/fos.png, OUT/failure.png and OUT/fos.json. Options override the "
+        "scene's [fos] keys of the same name.",
+    )
+    p.add_argument("scene", type=Path, help="scene file (or a shipped case's name)")
+    p.add_argument("-o", "--outdir", type=Path, help="output folder (default out/fos_SCENE)")
+    add_fos_options(p)
+    add_cluster_options(p)
+    p.set_defaults(func=fos_command)
+
+
+def add_fos_options(p: Any) -> None:
+    """The options that override the scene's ``[fos]`` keys."""
+    for name, kind in OVERRIDES.items():
+        p.add_argument(f"--{name}", type=kind, metavar="X", help=f"[fos] {name}")
+    p.add_argument("--blocks", metavar="A,B", help="[fos] blocks: watched blocks or groups")
+    p.add_argument(
+        "--intact", action="store_true", help="[fos] intact: reduce breakable materials too"
+    )
+
+
+def with_overrides(raw: dict, args: argparse.Namespace) -> dict:
+    """The raw scene with the command line's ``[fos]`` keys put in."""
+    raw = copy.deepcopy(raw)
+    table = raw.get("fos", {})
+    table = dict(table) if isinstance(table, dict) else table
+    if isinstance(table, dict):
+        for name in OVERRIDES:
+            if getattr(args, name) is not None:
+                table[name] = getattr(args, name)
+        if args.blocks:
+            table["blocks"] = [b.strip() for b in args.blocks.split(",") if b.strip()]
+        if args.intact:
+            table["intact"] = True
+    if table:
+        raw["fos"] = table
+    return raw
+
+
+def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=None):
+    """(raw scene with overrides, loaded scene, criterion, source) or an error line;
+    ``reduced``: the strengths will be reduced (something must be reducible); ``edit``:
+    more overrides, ``edit(raw)`` in place."""
+    import dda
+    from dda.commands.cli import scene_source
+    from dda.scene import read_scene_file
+    from dda.stability.criterion import criterion_of
+    from dda.stability.fos import check_reducible
+
+    try:
+        path = scene_source(args.scene)
+        raw = with_overrides(read_scene_file(path), args)
+        if edit is not None:
+            edit(raw)
+        scene = dda.load_scene(raw, str(path))
+        criterion = criterion_of(scene)
+        if reduced:
+            check_reducible(scene)
+    except dda.SceneError as exc:
+        return f"dda {command}: {exc}"
+    return raw, scene, criterion, str(path)
+
+
+def fos_command(args: argparse.Namespace) -> int:
+    """Run the search; return the exit code (0 done, 2 bad input, 130 interrupted)."""
+    from dda.io.output_paths import OutputError, check_output_dir
+    from dda.parallel import Workers
+    from dda.stability.search import search
+    from dda.stability.store import RowStore, scene_hash
+
+    prepared = prepare(args, "fos")
+    if isinstance(prepared, str):
+        print(prepared, file=sys.stderr)
+        return EXIT_INPUT
+    raw, scene, criterion, source = prepared
+    outdir = args.outdir or Path("out") / f"fos_{Path(source).stem}"
+    try:
+        check_output_dir(outdir)
+    except OutputError as exc:
+        print(f"dda fos: -o {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    cluster = cluster_of(args, "fos")
+    if isinstance(cluster, str):
+        print(cluster, file=sys.stderr)
+        return EXIT_INPUT
+    store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
+    runner = _Runner(raw, source, store, scene.units.velocity)
+    fos = scene.fos
+    print(
+        f"{source}: strength reduction F in [{fos.lower:g}, {fos.upper:g}] to {fos.tolerance:g}; "
+        f"a trial fails above {criterion.velocity:.3g} {scene.units.velocity} in its last "
+        f"{criterion.window * criterion.duration:g} {scene.units.time}",
+        file=sys.stderr,
+    )
+    with Workers(cluster) as workers:
+        runner.workers = workers
+        outcome = search(runner.run, fos.lower, fos.upper, fos.tolerance, workers.size)
+    _finish(outdir, runner, outcome, scene, criterion)
+    print(outcome.describe())
+    return 0
+
+
+class _Runner:
+    """Runs a round of trials, reusing stored ones, writing each row as it finishes."""
+
+    def __init__(self, raw: dict, source: str, store, speed_unit: str) -> None:
+        from dda.stability.search import DIGITS
+
+        self.raw, self.source, self.store, self.unit = raw, source, store, speed_unit
+        self.rows: dict[float, dict] = {}
+        for row in store.open():
+            parsed = _parse_row(row)
+            self.rows[round(parsed["factor"], DIGITS)] = parsed
+        self.frames: dict[float, Any] = {}
+        self.workers = None
+        self.done = 0
+
+    def run(self, factors: list[float]):
+        from dda.stability.trial import Trial, run_trial
+
+        todo = [f for f in factors if f not in self.rows]
+        for factor in factors:
+            if factor in self.rows:
+                self._progress(self.rows[factor], "reused")
+                yield factor, self.rows[factor]["failed"]
+        trials = [Trial(self.raw, f, self.source) for f in todo]
+        for row in self.workers.map_unordered(run_trial, trials):
+            frame = row.pop("frame")
+            if frame is not None:
+                self.frames[row["factor"]] = frame
+            self.store.append(row)
+            self.rows[row["factor"]] = row
+            self._progress(row, f"{row['seconds']:.2f} s on {row['host']}")
+            yield row["factor"], row["failed"]
+
+    def _progress(self, row: dict, where: str) -> None:
+        self.done += 1
+        verdict = "fails " if row["failed"] else "stands"
+        print(
+            f"[trial {self.done}] F = {row['factor']:<10.6g} {verdict} largest speed "
+            f"{row['speed']:.3g} {self.unit} (limit {row['limit']:.3g})  {where}",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
+def _parse_row(row: dict[str, str]) -> dict:
+    return {
+        "factor": float(row["factor"]),
+        "failed": row["failed"] == "True",
+        "speed": float(row["speed"]),
+        "limit": float(row["limit"]),
+        "steps": int(row["steps"]),
+        "seconds": float(row["seconds"]),
+        "host": row["host"],
+        "status": row["status"],
+    }
+
+
+def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
+    """fos.png, failure.png (the first failing trial, blocks by displacement), fos.json."""
+    from dda.io.atomic import write_text
+    from dda.io.images import render_frame
+    from dda.stability.report import fos_plot
+    from dda.stability.trial import Trial, run_trial
+
+    rows = sorted(runner.rows.values(), key=lambda r: r["factor"])
+    fos_plot(rows, outcome, criterion.velocity, outdir / "fos.png", scene.title,
+             scene.units.velocity)  # fmt: skip
+    written = ["fos.csv", "fos.png"]
+    if outcome.fails is not None:
+        frame = runner.frames.get(outcome.fails)
+        if frame is None:  # a reused trial: run it again for its picture
+            frame = run_trial(Trial(runner.raw, outcome.fails, runner.source))["frame"]
+        if frame is not None:
+            render_frame(
+                frame, outdir / "failure.png", scalars="displacement",
+                title=f"first failing trial: F = {outcome.fails:.6g}, t = {frame.time:.4g} "
+                f"{scene.units.time}", scene_title=scene.title,
+                units={"length": scene.units.length, "force": scene.units.force,
+                       "time": scene.units.time},
+            )  # fmt: skip
+            written.append("failure.png")
+    summary = {
+        "scene": runner.source,
+        "fos": outcome.fos,
+        "stands": outcome.stands,
+        "fails": outcome.fails,
+        "verdict": outcome.verdict,
+        "tolerance": scene.fos.tolerance,
+        "criterion": {
+            "duration": criterion.duration,
+            "window": criterion.window,
+            "velocity": criterion.velocity,
+            "blocks": list(criterion.blocks),
+        },
+        "trials": len(rows),
+    }
+    write_text(outdir / "fos.json", json.dumps(summary, indent=2) + "\n")
+    written.append("fos.json")
+    print(f"wrote {outdir}/" + ", ".join(written), file=sys.stderr)

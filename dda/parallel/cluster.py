@@ -1,0 +1,57 @@
+"""Where tasks run: an existing dask scheduler (address or file), else a new local cluster.
+
+dask is imported only when a cluster is used (optional extra ``dda-rock[tradeoff]``).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Cluster:
+    """Where the tasks run: a scheduler (address or file), else a local cluster."""
+
+    scheduler: str | None = None
+    scheduler_file: str | None = None
+    workers: int = 2  # local cluster only
+    verbose: bool = False  # distributed's INFO logs
+
+    @property
+    def remote(self) -> bool:
+        """True when an existing scheduler is named."""
+        return bool(self.scheduler or self.scheduler_file)
+
+
+def has_dask() -> bool:
+    """True when dask.distributed (the ``tradeoff`` extra) can be imported."""
+    from importlib.util import find_spec
+
+    return find_spec("dask") is not None and find_spec("distributed") is not None
+
+
+def connect(cluster: Cluster):
+    """A client of the given scheduler, or of a new local cluster (returned second)."""
+    import dask
+    from dask.distributed import Client, LocalCluster
+
+    level = logging.INFO if cluster.verbose else logging.WARNING
+    dask.config.set({"logging.distributed": logging.getLevelName(level).lower()})
+    logging.getLogger("distributed").setLevel(level)
+    if cluster.remote:
+        client = Client(address=cluster.scheduler, scheduler_file=cluster.scheduler_file)
+        log.info("connected to %s (dashboard %s)", client.scheduler.address, client.dashboard_link)
+        return client, None
+    local = LocalCluster(
+        n_workers=cluster.workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",  # a free port, never a fixed one another program may hold
+        silence_logs=level,
+    )
+    client = Client(local)
+    log.info("local cluster of %d workers (dashboard %s)", cluster.workers, client.dashboard_link)
+    return client, local

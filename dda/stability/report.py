@@ -1,0 +1,77 @@
+"""The pictures of a strength-reduction search and of an ensemble."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from dda.io.atomic import atomic_path
+from dda.stability.search import Outcome
+
+FLOOR = 1e-16  # speeds of blocks at rest are drawn here on the log axis
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def fos_plot(
+    rows: Sequence[dict], outcome: Outcome, limit: float, path: Path, title: str, speed_unit: str
+) -> Path:
+    """The criterion (largest speed in the judged window) against F, the limit and the
+    bracket marked; standing trials as circles, failing ones as crosses."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    for failed, marker, label in ((False, "o", "stands"), (True, "x", "fails")):
+        pick = [r for r in rows if bool(r["failed"]) == failed]
+        speeds = [min(max(float(r["speed"]), FLOOR), 1e300) for r in pick]
+        ax.scatter([float(r["factor"]) for r in pick], speeds, marker=marker, label=label)
+    ax.axhline(limit, color="k", lw=0.8, ls="--", label=f"limit {limit:.3g} {speed_unit}")
+    if outcome.stands is not None and outcome.fails is not None:
+        ax.axvspan(outcome.stands, outcome.fails, color="C3", alpha=0.25, label="bracket")
+    ax.set_yscale("log")
+    ax.set_xlabel("strength reduction factor F")
+    ax.set_ylabel(f"largest speed at the end of the trial ({speed_unit})")
+    ax.set_title(f"{title}\n{outcome.describe()}" if title else outcome.describe(), fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp)
+    plt.close(fig)
+    return path
+
+
+def ensemble_plot(
+    values: Sequence[float], failed: Sequence[bool], label: str, path: Path, title: str
+) -> Path:
+    """Histogram of a drawn value (standing and failing realisations stacked) and its
+    empirical CDF."""
+    plt = _pyplot()
+    values, failed = np.asarray(values, float), np.asarray(failed, bool)
+    fig, (ax, cdf) = plt.subplots(1, 2, figsize=(9.6, 4.0), dpi=120)
+    bins = np.histogram_bin_edges(values, bins="auto")
+    ax.hist([values[~failed], values[failed]], bins=bins, stacked=True,
+            label=["stands", "fails"], color=["C0", "C3"])  # fmt: skip
+    ax.set_xlabel(label)
+    ax.set_ylabel("realisations")
+    ax.legend(fontsize=8)
+    order = np.sort(values)
+    cdf.step(order, np.arange(1, len(order) + 1) / len(order), where="post")
+    cdf.set_xlabel(label)
+    cdf.set_ylabel("fraction of realisations ≤ value")
+    for a in (ax, cdf):
+        a.grid(True, alpha=0.3)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp)
+    plt.close(fig)
+    return path

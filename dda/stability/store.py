@@ -1,0 +1,75 @@
+"""Finished trials on disk: one CSV row per trial, written as it finishes, reused by a rerun.
+
+Every row carries ``scene_hash``, a digest of the scene (with its ``[fos]`` and
+``[ensemble]`` tables and the command's overrides): a rerun of the same search reads
+the rows with its own hash back and runs only what is missing; rows of another scene
+are dropped when the new search starts. A row is appended and flushed at once, so a
+search stopped at any point (Ctrl-C, a lost worker) keeps every finished trial.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from dda.io.atomic import write_text
+
+HASH_COLUMN = "scene_hash"
+
+
+def scene_hash(raw: Mapping[str, Any], *extra: object) -> str:
+    """A short digest of a raw scene and anything else that changes the answers."""
+    text = json.dumps([raw, *extra], sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+class RowStore:
+    """A CSV of rows with fixed columns (``HASH_COLUMN`` last), appended row by row."""
+
+    def __init__(self, path: Path, columns: Sequence[str], digest: str) -> None:
+        self.path = Path(path)
+        self.columns = [*columns, HASH_COLUMN]
+        self.digest = digest
+
+    def open(self) -> list[dict[str, str]]:
+        """The rows of an earlier run of the same scene (as text); the file is started
+        afresh (header and those rows only) so that later rows are appended to it."""
+        kept = [r for r in self._read() if r.get(HASH_COLUMN) == self.digest]
+        lines = [",".join(self.columns)] + [self._line(r) for r in kept]
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        write_text(self.path, "\n".join(lines) + "\n")
+        return kept
+
+    def append(self, row: Mapping[str, Any]) -> None:
+        """Write one finished row at once."""
+        with self.path.open("a", encoding="utf-8", newline="") as f:
+            f.write(self._line({**row, HASH_COLUMN: self.digest}) + "\n")
+            f.flush()
+
+    def _read(self) -> list[dict[str, str]]:
+        if not self.path.is_file():
+            return []
+        with self.path.open(encoding="utf-8", newline="") as f:
+            reader = csv.DictReader(f)
+            if reader.fieldnames is None or list(reader.fieldnames) != self.columns:
+                return []
+            return [r for r in reader if None not in r.values()]
+
+    def _line(self, row: Mapping[str, Any]) -> str:
+        cells = [_cell(row.get(c, "")) for c in self.columns]
+        out = io.StringIO()
+        csv.writer(out, lineterminator="").writerow(cells)
+        return out.getvalue()
+
+
+def _cell(value: Any) -> str:
+    """A value as CSV text (floats in full precision)."""
+    if isinstance(value, float) and math.isfinite(value):
+        return repr(value)
+    return str(value)
