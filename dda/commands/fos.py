@@ -176,7 +176,7 @@ class _Runner:
         self.done += 1
         verdict = "fails " if row["failed"] else "stands"
         print(
-            f"[trial {self.done}] F = {row['factor']:<10.6g} {verdict} largest speed "
+            f"[trial {self.done}] F = {row['factor']:<10.6g} {verdict} mean speed "
             f"{row['speed']:.3g} {self.unit} (limit {row['limit']:.3g})  {where}",
             file=sys.stderr,
             flush=True,

@@ -25,7 +25,7 @@ def _pyplot():
 def fos_plot(
     rows: Sequence[dict], outcome: Outcome, limit: float, path: Path, title: str, speed_unit: str
 ) -> Path:
-    """The criterion (largest speed in the judged window) against F, the limit and the
+    """The criterion (largest mean speed over the judged window) against F, the limit and the
     bracket marked; standing trials as circles, failing ones as crosses."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
@@ -38,7 +38,7 @@ def fos_plot(
         ax.axvspan(outcome.stands, outcome.fails, color="C3", alpha=0.25, label="bracket")
     ax.set_yscale("log")
     ax.set_xlabel("strength reduction factor F")
-    ax.set_ylabel(f"largest speed at the end of the trial ({speed_unit})")
+    ax.set_ylabel(f"largest mean speed over the judged window ({speed_unit})")
     ax.set_title(f"{title}\n{outcome.describe()}" if title else outcome.describe(), fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
