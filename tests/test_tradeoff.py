@@ -114,7 +114,7 @@ def test_a_cluster_without_dask_is_bad_input_with_the_fix(tmp_path, capsys, monk
     args = parser.parse_args(["tradeoff", "sliding_block", "-o", str(tmp_path / "out")])
     assert args.func(args) == 2
     err = capsys.readouterr().err
-    assert "dda-rock[tradeoff]" in err and "--serial" in err
+    assert "pip install 'dask[distributed]'" in err and "--serial" in err
     assert not (tmp_path / "out").exists()
 
 

@@ -60,6 +60,6 @@ def cluster_of(args: argparse.Namespace, command: str | None = None):
 def dask_missing(command: str) -> str:
     """The one-line refusal when a cluster is asked for without dask installed."""
     return (
-        f"dda {command}: a cluster needs dask[distributed]: pip install 'dda-rock[tradeoff]' "
-        "(or from a clone: pip install -e '.[tradeoff]'), or run with --serial"
+        f"dda {command}: a cluster needs dask[distributed], a dependency of dda-rock "
+        "that is missing here: pip install 'dask[distributed]', or run with --serial"
     )

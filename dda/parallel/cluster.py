@@ -1,6 +1,6 @@
 """Where tasks run: an existing dask scheduler (address or file), else a new local cluster.
 
-dask is imported only when a cluster is used (optional extra ``dda-rock[tradeoff]``).
+dask (a dependency) is imported only when a cluster is used.
 """
 
 from __future__ import annotations

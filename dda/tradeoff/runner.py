@@ -11,8 +11,8 @@ reports the median (the first run of a process also loads compiled kernels;
 identical runs on a shared machine vary by a factor of several), and the
 host it ran on.
 
-The pool of workers is :mod:`dda.parallel`'s (dask is imported only when a sweep
-uses it: optional extra ``dda-rock[tradeoff]``).
+The pool of workers is :mod:`dda.parallel`'s (dask, a dependency, is imported only
+when a sweep uses it).
 """
 
 from __future__ import annotations
