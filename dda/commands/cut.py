@@ -8,6 +8,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+from dda.commands.cli import positive_int
 from dda.errors import SceneError
 from dda.io.atomic import atomic_path, write_text
 from dda.io.output_paths import OutputError, check_output_file
@@ -29,6 +30,10 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     )
     parser.add_argument("--png", default=None, help="picture to write (default: OUTPUT.png)")
     parser.add_argument("--no-png", action="store_true", help="do not draw a picture")
+    parser.add_argument(
+        "--max-blocks", type=positive_int, metavar="N",
+        help="cut even if the estimate exceeds N blocks (overrides cutting.max_blocks)",
+    )  # fmt: skip
     parser.set_defaults(func=run_cut)
     return parser
 
@@ -43,7 +48,7 @@ def run_cut(args: argparse.Namespace) -> int:
         for path, option in ((output, "-o"), (png, "--png")):
             if path is not None:
                 _check_output(path, option, Path(args.scene))
-        cut, scene = _cut(Path(args.scene))
+        cut, scene = _cut(Path(args.scene), args.max_blocks)
         _check_loadable(scene, str(args.scene))
     except (SceneError, OutputError) as exc:
         log.debug("refused: %s", exc)
@@ -75,7 +80,7 @@ def _check_output(path: Path, option: str, scene: Path) -> None:
         raise OutputError(f"{option} {path}", "is the scene file itself; give another name")
 
 
-def _cut(path: Path):
+def _cut(path: Path, max_blocks: int | None = None):
     if path.is_dir():
         raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
@@ -85,6 +90,9 @@ def _cut(path: Path):
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(str(path), "<toml>", str(exc)) from None
     from dda.scene.rockmass.expand import cut_rock_mass
+
+    if max_blocks is not None and isinstance(raw.get("cutting", {}), dict):
+        raw["cutting"] = {**raw.get("cutting", {}), "max_blocks": max_blocks}
 
     return cut_rock_mass(raw, str(path))
 
