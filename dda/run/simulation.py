@@ -329,6 +329,9 @@ def run(
     frames = [_frame(state, first)]
     if on_frame and resume is None:
         on_frame(frames[0])
+    if checkpoints is not None and checkpoints.at_start and resume is None:
+        with state.timer("checkpoint"):
+            checkpoints.write(state, wallclock.perf_counter() - start)
     report = _progress_reporter(progress, model)
     status = "finished"
     try:
