@@ -66,6 +66,7 @@ from dda.scene.engineering import (
     parse_engineering,
 )
 from dda.scene.limits import DEFAULT_MAX_STEPS
+from dda.scene.local_frame import origin_of
 from dda.scene.stability import (
     STABILITY_KEYS,
     EnsembleSettings,
@@ -587,6 +588,7 @@ class _Packed(NamedTuple):
     areas: np.ndarray  # (n,)
     bounds: np.ndarray  # (n, 4) xmin, ymin, xmax, ymax
     sizes: np.ndarray  # (n,) bounding-box diagonal
+    origin: np.ndarray  # (2,) subtracted from the coordinates (dda.scene.local_frame)
 
 
 def _pack(blocks: Sequence[Mapping[str, Any]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -638,13 +640,15 @@ def _build_polygons(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> _Packe
     """Pack the block vertices and make valid shapely polygons of them."""
     coords, owner, offsets = _pack(blocks)
     _repeated_vertices(chk, coords, owner, offsets)
+    origin = origin_of(coords)  # far from (0, 0): check about the model's centre
+    coords = coords - origin
     polygons = shapely.polygons(shapely.linearrings(coords, indices=owner))
     _simple_polygons(chk, polygons)
     bounds = shapely.bounds(polygons)
     sizes = np.hypot(bounds[:, 2] - bounds[:, 0], bounds[:, 3] - bounds[:, 1])
     areas = shapely.area(polygons)
     _sized_polygons(chk, areas, sizes)
-    return _Packed(coords, owner, offsets, polygons, areas, bounds, sizes)
+    return _Packed(coords, owner, offsets, polygons, areas, bounds, sizes, origin)
 
 
 def _clockwise(packed: _Packed) -> np.ndarray:
@@ -696,6 +700,7 @@ def _fixed_points_on_blocks(
     if not owner:
         return
     points = np.array([p for b in blocks for p in b.get("fixed_points", ())], dtype=float)
+    points -= packed.origin
     owner = np.asarray(owner)
     distance = shapely.distance(shapely.points(points), packed.polygons[owner])
     outside = np.flatnonzero(distance > 1e-9 * packed.sizes[owner])
