@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -99,3 +100,34 @@ def test_a_scene_near_the_origin_is_not_moved():
 def test_a_scene_whose_rounding_at_1e9_makes_blocks_overlap_is_refused():
     with pytest.raises(dda.SceneError, match=r"blocks\[1\].vertices: overlaps block 'slope'"):
         dda.load_scene(moved(sliding_block(), 1e9))
+
+
+def test_a_far_run_stopped_and_resumed_through_dda_run(tmp_path, monkeypatch, capsys):
+    """The checkpoint holds the local frame; --resume of the far scene accepts it and
+    writes the uninterrupted history.csv (in the scene's coordinates)."""
+    import os
+    import signal
+
+    import tomli_w
+
+    from dda.commands import cli
+    from dda.io.run_writer import RunWriter
+
+    monkeypatch.setenv("DDA_SOLVER", "superlu")
+    monkeypatch.chdir(tmp_path)
+    Path("far.toml").write_text(tomli_w.dumps(moved(loaded_engineering_scene(), 1e8)))
+    assert cli.main(["run", "far.toml", "-q", "-o", "whole"]) == 0
+    add_frame = RunWriter.add_frame
+
+    def add_and_signal(writer, frame):
+        add_frame(writer, frame)
+        if frame.step == 7:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(RunWriter, "add_frame", add_and_signal)
+    assert cli.main(["run", "far.toml", "-q", "-o", "out"]) == 143
+    monkeypatch.setattr(RunWriter, "add_frame", add_frame)
+    assert cli.main(["run", "far.toml", "-q", "-o", "out", "--resume"]) == 0
+    assert Path("out/history.csv").read_bytes() == Path("whole/history.csv").read_bytes()
+    x = float(Path("whole/history.csv").read_text().splitlines()[1].split(",")[4])
+    assert abs(x - 1e8) < 10.0  # positions written in the scene's coordinates

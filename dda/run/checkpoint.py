@@ -171,10 +171,12 @@ def check_scene(checkpoint: Checkpoint, scene: Any) -> None:
     ------
     CheckpointError
     """
+    from dda.scene.local_frame import local_origin, translated
     from dda.scene.presets import apply_preset
 
     stored = checkpoint.meta.get("scene", {})
-    current = scene_fingerprint(apply_preset(scene))
+    local = translated(scene, local_origin(scene))  # as the run holds it
+    current = scene_fingerprint(apply_preset(local))
     differ = sorted(k for k in set(stored) | set(current) if stored.get(k) != current.get(k))
     if differ:
         raise CheckpointError(
