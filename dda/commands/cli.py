@@ -180,7 +180,7 @@ def _add_run(subparsers: Any) -> None:
         "case", type=Path,
         help="scene file (TOML), or the name of a shipped case (sliding_block, tunnel, ...)",
     )  # fmt: skip
-    p.add_argument("-o", "--outdir", type=Path, help="output directory (default out/<case>)")
+    p.add_argument("-o", "--outdir", type=output_path, help="output directory (default out/<case>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument(
         "--save-every", type=positive_int, metavar="N",
@@ -229,6 +229,14 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
     return value
+
+
+def output_path(text: str) -> Path:
+    """argparse type: a file or folder name, not empty (``-o ""`` would mean the current
+    folder, where a run's files would mix with everything else)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give a file or folder name")
+    return Path(text)
 
 
 def non_negative_float(text: str) -> float:
@@ -475,7 +483,7 @@ def _add_render(subparsers: Any) -> None:
     )
     p.add_argument("source", type=Path, help="output directory or blocks VTU file")
     p.add_argument(
-        "-o", "--output", type=Path,
+        "-o", "--output", type=output_path,
         help="PNG file (default: in the run's output directory, named after the frame and "
         "the scalars)",
     )  # fmt: skip

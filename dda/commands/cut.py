@@ -8,7 +8,7 @@ import sys
 import tomllib
 from pathlib import Path
 
-from dda.commands.cli import positive_int
+from dda.commands.cli import output_path, positive_int
 from dda.errors import SceneError
 from dda.io.atomic import atomic_path, write_text
 from dda.io.output_paths import OutputError, check_output_file
@@ -26,9 +26,15 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     )
     parser.add_argument("scene", help="scene file (TOML) with [[regions]] and joints")
     parser.add_argument(
-        "-o", "--output", default="blocks.toml", help="TOML file to write (default: blocks.toml)"
+        "-o",
+        "--output",
+        type=output_path,
+        default=Path("blocks.toml"),
+        help="TOML file to write (default: blocks.toml)",
     )
-    parser.add_argument("--png", default=None, help="picture to write (default: OUTPUT.png)")
+    parser.add_argument(
+        "--png", type=output_path, default=None, help="picture to write (default: OUTPUT.png)"
+    )
     parser.add_argument("--no-png", action="store_true", help="do not draw a picture")
     parser.add_argument(
         "--max-blocks", type=positive_int, metavar="N",

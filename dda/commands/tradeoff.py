@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dda.commands.cli import output_path
 from dda.commands.cluster_options import add_cluster_options, count, dask_missing
 from dda.io.output_paths import OutputError, check_output_dir
 
@@ -34,7 +35,7 @@ def register(subparsers: Any) -> None:
         "ratio=0.01' (keys not given keep the case's defaults)",
     )
     p.add_argument(
-        "-o", "--outdir", type=Path, default=Path("out/tradeoff"),
+        "-o", "--outdir", type=output_path, default=Path("out/tradeoff"),
         help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff)",
     )  # fmt: skip
     add_cluster_options(p)
