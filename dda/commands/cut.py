@@ -63,10 +63,11 @@ def run_cut(args: argparse.Namespace) -> int:
     header = f"# Blocks cut from {args.scene} by `dda cut`: {len(cut.names)} blocks.\n"
     text = header + dumps(scene)
     if png is not None:  # the picture first: a drawing that fails leaves no scene behind
+        from dda.io.fonts import unicode_text
         from dda.scene.rockmass.picture import draw_cut
 
         png.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(png) as tmp:
+        with atomic_path(png) as tmp, unicode_text():
             draw_cut(cut, tmp, title=str(scene.get("title", "")) or Path(args.scene).stem)
         log.info("wrote %s", png)
     output.parent.mkdir(parents=True, exist_ok=True)
