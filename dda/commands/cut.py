@@ -92,8 +92,10 @@ def _cut(path: Path, max_blocks: int | None = None):
         raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
+    from dda.scene.text_file import read_scene_text
+
     try:
-        raw = tomllib.loads(path.read_text())
+        raw = tomllib.loads(read_scene_text(path))
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(str(path), "<toml>", str(exc)) from None
     from dda.scene.rockmass.expand import cut_rock_mass
