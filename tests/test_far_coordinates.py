@@ -98,7 +98,7 @@ def test_a_scene_near_the_origin_is_not_moved():
 
 
 def test_a_scene_whose_rounding_at_1e9_makes_blocks_overlap_is_refused():
-    with pytest.raises(dda.SceneError, match=r"blocks\[1\].vertices: overlaps block 'slope'"):
+    with pytest.raises(dda.SceneError, match=r"blocks\[1\].vertices: \(block 'slider'\) overlaps"):
         dda.load_scene(moved(sliding_block(), 1e9))
 
 
