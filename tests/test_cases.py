@@ -53,6 +53,12 @@ def slide_on_ground(result):
     return float(np.linalg.norm(d[_row(result.final, "block")] - d[_row(result.final, "slope")]))
 
 
+def block_slide(name):
+    return lambda result: float(
+        np.linalg.norm(result.final.displacements[_row(result.final, name)])
+    )
+
+
 def block_syy(name):
     return lambda result: float(result.final.stresses[_row(result.final, name), 1])
 
@@ -109,6 +115,10 @@ EXPECTED = {
     # from a mass that started loaded (2.32 mm when it started unloaded and was still
     # ringing about its weight then); the full 1 s run: docs/engineering.md
     "tunnel_staged": ({"duration": 0.07}, measured("crown.uy"), -0.0028173, 0.02),
+    # closed form (W sin 30 - tan 35 (W cos 30 - U)) / m / 2 = 0.3594179 m in 1 s, U the
+    # water's uplift (dry, the blocks stand); DDA gives 0.35941790 (1.3e-8) and the
+    # effective normal force W cos 30 - U = 8070.924 N on the upper block's base as 8070.933
+    "wet_slope": ({}, block_slide("upper"), 0.3594179, 0.01),
 }
 
 

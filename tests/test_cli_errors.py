@@ -36,7 +36,11 @@ SCENES = {
 # (arguments, exit code, what the one line says); {d} is the test's directory
 REFUSED = [
     (["run", "all_fixed.toml"], 2, "all_fixed.toml: blocks: every block is fixed"),
-    (["run", "round.toml"], 2, "round.toml: blocks[1].vertices: 1024 vertices, at most 1023"),
+    (
+        ["run", "round.toml"],
+        2,
+        "round.toml: blocks[1].vertices: (block 'top') 1024 vertices, at most 1023",
+    ),
     (["run", "ok.toml", "-o", "a_file"], 2, "-o a_file: exists and is not a directory"),
     (["run", "ok.toml", "-o", "a_file/x"], 2, "-o a_file/x: {d}/a_file is a file, not a directory"),
     (
@@ -60,7 +64,11 @@ REFUSED = [
         "far_load.toml: loads[0].point: lies outside block 'top' (distance 48)",
     ),
     (["run", "fixed_load.toml"], 2, "loads[0].block: 'base' is fixed: a load on it does nothing"),
-    (["run", "moving_base.toml"], 2, "moving_base.toml: blocks[0].velocity: the block is fixed"),
+    (
+        ["run", "moving_base.toml"],
+        2,
+        "moving_base.toml: blocks[0].velocity: (block 'base') the block is fixed",
+    ),
     (["run", "ok.toml", "-o", "fresh", "--resume"], 2, "-o fresh: holds no run to resume"),
     (["run", "ok.toml", "-o", "stopped", "--resume"], 2, "stopped/checkpoint.npz: no checkpoint"),
     (

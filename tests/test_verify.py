@@ -774,6 +774,21 @@ def test_an_output_folder_that_cannot_be_written_is_refused_before_any_case(
     assert str(out) in error and "cannot write there" in error and "Traceback" not in error
 
 
+def test_a_read_only_output_folder_is_refused_before_any_case(tmp_path, capsys, monkeypatch):
+    """-o on a read-only file system (a tmpfs mounted read-only; skipped where it cannot
+    be mounted): exit 2 naming the folder, before any case runs."""
+    from tests.tmpfs import mounted
+    from verify.cli import main
+
+    ran = raising_for("none", monkeypatch)
+    with mounted(tmp_path / "read_only", read_only=True) as read_only:
+        for out in (read_only, read_only / "report"):
+            assert main(["self_weight", "-o", str(out), *QUICK_CLI]) == 2
+            error = capsys.readouterr().err.strip().splitlines()[-1]
+            assert str(out) in error and "Read-only file system" in error
+    assert ran == []
+
+
 def test_a_study_that_raises_is_an_error_too(tmp_path, monkeypatch):
     """The block-refinement study raising (as it did under a fault that left cohesion out
     of the friction bound) is ERROR, with exit status 3, not an aborted suite."""

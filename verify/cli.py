@@ -24,13 +24,20 @@ DESCRIPTION = (
 )
 
 
+def _output_path(text: str) -> Path:
+    """argparse type: a folder name, not empty (``-o ""`` would be the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give a folder name")
+    return Path(text)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of the verify command."""
     parser.add_argument("cases", nargs="*", help="case names (default: all in cases/verify)")
     parser.add_argument(
         "-o",
         "--output",
-        type=Path,
+        type=_output_path,
         default=Path("verify-report"),
         help="output directory (default: verify-report)",
     )

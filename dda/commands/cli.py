@@ -32,7 +32,7 @@ logger = logging.getLogger(__name__)
 
 PLUGIN_GROUP = "dda.commands"
 EXIT_OK, EXIT_FAILURE, EXIT_INPUT, EXIT_SIMULATION, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-CHECKPOINT_MINUTES = 10.0  # default wall time between checkpoints of ``dda run``
+CHECKPOINT_MINUTES = 1.0  # default wall time between checkpoints of ``dda run``
 MAX_OUTPUT_GB = 20.0  # ``dda run`` refuses runs estimated to write more, unless told
 
 
@@ -180,7 +180,7 @@ def _add_run(subparsers: Any) -> None:
         "case", type=Path,
         help="scene file (TOML), or the name of a shipped case (sliding_block, tunnel, ...)",
     )  # fmt: skip
-    p.add_argument("-o", "--outdir", type=Path, help="output directory (default out/<case>)")
+    p.add_argument("-o", "--outdir", type=output_path, help="output directory (default out/<case>)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument(
         "--save-every", type=positive_int, metavar="N",
@@ -229,6 +229,14 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {value}")
     return value
+
+
+def output_path(text: str) -> Path:
+    """argparse type: a file or folder name, not empty (``-o ""`` would mean the current
+    folder, where a run's files would mix with everything else)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; give a file or folder name")
+    return Path(text)
 
 
 def non_negative_float(text: str) -> float:
@@ -347,8 +355,9 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
     writer = RunWriter(folder, scalars=args.scalars, resume_step=resume_step, scene=scene)
     minutes = args.checkpoint_minutes
     plan = CheckpointPlan(
-        folder.checkpoint_path, scene.analysis.checkpoint_every, minutes * 60 if minutes else None
-    )
+        folder.checkpoint_path, scene.analysis.checkpoint_every,
+        minutes * 60 if minutes else None, at_start=True,
+    )  # fmt: skip
     logger.info("running %s into %s (run %s)", args.case, folder.outdir, writer.run_id)
     with StopOnSignal("dda run") as stop:
         try:
@@ -368,6 +377,8 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
             writer.finish(None, scene, status="interrupted", error="interrupted by the user")
             print(f"\ndda run: interrupted; partial output in {folder.outdir}", file=sys.stderr)
             return stop.exit_code
+        except OSError as exc:  # a full disk, a file system gone read-only, ...
+            return _write_failed(exc, writer, scene, folder, args)
     summary = writer.finish(result, scene)
     if summary["status"] == "interrupted":
         print(
@@ -379,6 +390,32 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
     if not args.quiet:
         print(summary_paragraph(summary, folder.outdir))
     return EXIT_OK
+
+
+def _write_failed(exc: OSError, writer, scene, folder, args: argparse.Namespace) -> int:
+    """A write failed mid-run: say which file and why, mark the summary "failed" (if it
+    can still be written; else the last summary stays), keep the last checkpoint."""
+    from dda.run.checkpoint import read_checkpoint
+
+    what = _one_line(exc)
+    writer.image = False  # no picture on a full disk
+    try:
+        writer.finish(None, scene, status="failed", error=f"cannot write {what}")
+    except OSError as again:
+        writer.folder.release()
+        logger.info("summary.json not updated: %s", _one_line(again))
+    print(f"dda run: cannot write {what}; the run stopped", file=sys.stderr)
+    try:
+        step = read_checkpoint(folder.checkpoint_path).step
+    except ValueError:
+        print(f"partial output in {folder.outdir}; no checkpoint to resume from", file=sys.stderr)
+        return EXIT_FAILURE
+    print(
+        f"its checkpoint of step {step} is kept: free space, then continue with: "
+        f"dda run {args.case} -o {folder.outdir} --resume",
+        file=sys.stderr,
+    )
+    return EXIT_FAILURE
 
 
 def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
@@ -446,7 +483,7 @@ def _add_render(subparsers: Any) -> None:
     )
     p.add_argument("source", type=Path, help="output directory or blocks VTU file")
     p.add_argument(
-        "-o", "--output", type=Path,
+        "-o", "--output", type=output_path,
         help="PNG file (default: in the run's output directory, named after the frame and "
         "the scalars)",
     )  # fmt: skip

@@ -8,6 +8,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+from dda.commands.cli import output_path, positive_int
 from dda.errors import SceneError
 from dda.io.atomic import atomic_path, write_text
 from dda.io.output_paths import OutputError, check_output_file
@@ -25,10 +26,20 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     )
     parser.add_argument("scene", help="scene file (TOML) with [[regions]] and joints")
     parser.add_argument(
-        "-o", "--output", default="blocks.toml", help="TOML file to write (default: blocks.toml)"
+        "-o",
+        "--output",
+        type=output_path,
+        default=Path("blocks.toml"),
+        help="TOML file to write (default: blocks.toml)",
     )
-    parser.add_argument("--png", default=None, help="picture to write (default: OUTPUT.png)")
+    parser.add_argument(
+        "--png", type=output_path, default=None, help="picture to write (default: OUTPUT.png)"
+    )
     parser.add_argument("--no-png", action="store_true", help="do not draw a picture")
+    parser.add_argument(
+        "--max-blocks", type=positive_int, metavar="N",
+        help="cut even if the estimate exceeds N blocks (overrides cutting.max_blocks)",
+    )  # fmt: skip
     parser.set_defaults(func=run_cut)
     return parser
 
@@ -43,7 +54,7 @@ def run_cut(args: argparse.Namespace) -> int:
         for path, option in ((output, "-o"), (png, "--png")):
             if path is not None:
                 _check_output(path, option, Path(args.scene))
-        cut, scene = _cut(Path(args.scene))
+        cut, scene = _cut(Path(args.scene), args.max_blocks)
         _check_loadable(scene, str(args.scene))
     except (SceneError, OutputError) as exc:
         log.debug("refused: %s", exc)
@@ -52,10 +63,11 @@ def run_cut(args: argparse.Namespace) -> int:
     header = f"# Blocks cut from {args.scene} by `dda cut`: {len(cut.names)} blocks.\n"
     text = header + dumps(scene)
     if png is not None:  # the picture first: a drawing that fails leaves no scene behind
+        from dda.io.fonts import unicode_text
         from dda.scene.rockmass.picture import draw_cut
 
         png.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(png) as tmp:
+        with atomic_path(png) as tmp, unicode_text():
             draw_cut(cut, tmp, title=str(scene.get("title", "")) or Path(args.scene).stem)
         log.info("wrote %s", png)
     output.parent.mkdir(parents=True, exist_ok=True)
@@ -75,16 +87,21 @@ def _check_output(path: Path, option: str, scene: Path) -> None:
         raise OutputError(f"{option} {path}", "is the scene file itself; give another name")
 
 
-def _cut(path: Path):
+def _cut(path: Path, max_blocks: int | None = None):
     if path.is_dir():
         raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
+    from dda.scene.text_file import read_scene_text
+
     try:
-        raw = tomllib.loads(path.read_text())
+        raw = tomllib.loads(read_scene_text(path))
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(str(path), "<toml>", str(exc)) from None
     from dda.scene.rockmass.expand import cut_rock_mass
+
+    if max_blocks is not None and isinstance(raw.get("cutting", {}), dict):
+        raw["cutting"] = {**raw.get("cutting", {}), "max_blocks": max_blocks}
 
     return cut_rock_mass(raw, str(path))
 

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dda.commands.cli import output_path
 from dda.commands.cluster_options import add_cluster_options, cluster_of, count
 from dda.commands.fos import EXIT_INPUT, add_fos_options, prepare
 
@@ -30,7 +31,9 @@ def register(subparsers: Any) -> None:
         "OUT/failing_K.png and OUT/ensemble.json (docs/stability.md).",
     )
     p.add_argument("scene", type=Path, help="scene file (or a shipped case's name)")
-    p.add_argument("-o", "--outdir", type=Path, help="output folder (default out/ensemble_SCENE)")
+    p.add_argument(
+        "-o", "--outdir", type=output_path, help="output folder (default out/ensemble_SCENE)"
+    )
     p.add_argument(
         "--realisations", type=count, metavar="N", help="[ensemble] realisations (default 100)"
     )

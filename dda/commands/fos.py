@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dda.commands.cli import output_path
 from dda.commands.cluster_options import add_cluster_options, cluster_of
 
 log = logging.getLogger(__name__)
@@ -42,7 +43,7 @@ def register(subparsers: Any) -> None:
         "scene's [fos] keys of the same name.",
     )
     p.add_argument("scene", type=Path, help="scene file (or a shipped case's name)")
-    p.add_argument("-o", "--outdir", type=Path, help="output folder (default out/fos_SCENE)")
+    p.add_argument("-o", "--outdir", type=output_path, help="output folder (default out/fos_SCENE)")
     add_fos_options(p)
     add_cluster_options(p)
     p.set_defaults(func=fos_command)

@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from dda.commands.cli import positive_int
+from dda.commands.cli import output_path, positive_int
 from dda.io.fields import SCALARS
 
 EXIT_OK, EXIT_INPUT = 0, 2
@@ -28,7 +28,10 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     )
     parser.add_argument("outdir", type=Path, help="output directory of dda run")
     parser.add_argument(
-        "-o", "--output", type=Path, help="movie file, .mp4 or .gif (default: OUTDIR/movie.*)"
+        "-o",
+        "--output",
+        type=output_path,
+        help="movie file, .mp4 or .gif (default: OUTDIR/movie.*)",
     )
     parser.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
     parser.add_argument(

@@ -11,6 +11,8 @@ import json
 import sys
 from pathlib import Path
 
+from dda.commands.cli import output_path
+
 EXIT_OK, EXIT_INPUT = 0, 2
 
 
@@ -23,7 +25,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "one PNG per quantity against time, in OUTDIR/plots unless -o.",
     )
     parser.add_argument("outdir", type=Path, help="output directory of dda run")
-    parser.add_argument("-o", "--output", type=Path, help="folder for the PNGs")
+    parser.add_argument("-o", "--output", type=output_path, help="folder for the PNGs")
     parser.set_defaults(func=plot_command)
     return parser
 

@@ -9,7 +9,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dda.commands.cli import output_path
 from dda.commands.cluster_options import add_cluster_options, count, dask_missing
+from dda.io.atomic import write_text
 from dda.io.output_paths import OutputError, check_output_dir
 
 log = logging.getLogger(__name__)
@@ -34,7 +36,7 @@ def register(subparsers: Any) -> None:
         "ratio=0.01' (keys not given keep the case's defaults)",
     )
     p.add_argument(
-        "-o", "--outdir", type=Path, default=Path("out/tradeoff"),
+        "-o", "--outdir", type=output_path, default=Path("out/tradeoff"),
         help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff)",
     )  # fmt: skip
     add_cluster_options(p)
@@ -65,7 +67,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     from dda.tradeoff.cases import fine_setting, get_case
     from dda.tradeoff.grid import Setting, expand, parse_grid
     from dda.tradeoff.report import markdown_table, pareto_plot, write_csv
-    from dda.tradeoff.runner import Cluster, Task, add_errors, make_tasks, sweep
+    from dda.tradeoff.runner import Cluster, SweepInterrupted, Task, add_errors, make_tasks, sweep
 
     try:
         check_output_dir(args.outdir)
@@ -94,18 +96,41 @@ def tradeoff_command(args: argparse.Namespace) -> int:
         + (" and the fine reference run" if reference else ""),
         file=sys.stderr,
     )
-    rows, fine_row = sweep(tasks, reference, cluster, serial=args.serial, progress=_progress)
+    try:
+        rows, fine_row = sweep(tasks, reference, cluster, serial=args.serial, progress=_progress)
+    except SweepInterrupted as stopped:
+        return _write_interrupted(stopped, case, reference, args.outdir)
     if reference is not None and (fine_row is None or fine_row["value"] is None):
         print("dda tradeoff: the fine reference run failed", file=sys.stderr)
         return 3
     add_errors(rows, case, case.reference if reference is None else fine_row["value"])
     outdir = args.outdir
     write_csv(rows, outdir / f"{case.name}.csv")
-    (outdir / f"{case.name}.md").write_text(markdown_table(rows, case.quantity))
+    write_text(outdir / f"{case.name}.md", markdown_table(rows, case.quantity))
     pareto_plot(rows, outdir / f"pareto_{case.name}.png", title=case.name)
     print(markdown_table(rows, case.quantity))
     print(f"wrote {outdir}/{case.name}.csv, .md and pareto_{case.name}.png", file=sys.stderr)
     return 0
+
+
+def _write_interrupted(stopped, case, reference, outdir: Path) -> int:
+    """Ctrl-C: keep the settings that finished (CSV and table, errors where the closed
+    form gives them; a case measured against a fine run has none then); exit 130."""
+    from dda.tradeoff.report import markdown_table, write_csv
+    from dda.tradeoff.runner import add_errors
+
+    rows = stopped.rows
+    print(f"\ndda tradeoff: {stopped}", file=sys.stderr)
+    if not rows:
+        return 130
+    add_errors(rows, case, case.reference if reference is None else None)
+    name = f"{case.name}_partial"
+    write_csv(rows, outdir / f"{name}.csv")
+    write_text(outdir / f"{name}.md", markdown_table(rows, case.quantity))
+    print(
+        f"wrote the {len(rows)} finished settings to {outdir}/{name}.csv and .md", file=sys.stderr
+    )
+    return 130
 
 
 def _has_dask() -> bool:

@@ -10,6 +10,7 @@ file, plus at worst a stray ``*.tmp-*`` file, never a truncated one.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import secrets
 from collections.abc import Iterator
@@ -115,3 +116,32 @@ def write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8")
         ``path``.
     """
     return write_bytes(path, text.encode(encoding))
+
+
+def write_fully(fd: int, data: bytes, offset: int | None = None) -> None:
+    """Write all of ``data`` to ``fd`` (appended, or at ``offset``), or raise OSError.
+
+    ``os.write`` and ``os.pwrite`` may write part of the data when the disk fills
+    (they return the count written); this retries the rest, so a full disk raises
+    ``OSError(ENOSPC)`` instead of losing the tail of the data silently.
+    """
+    view = memoryview(data)
+    while view:
+        done = os.write(fd, view) if offset is None else os.pwrite(fd, view, offset)
+        if done <= 0:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        view = view[done:]
+        if offset is not None:
+            offset += done
+
+
+@contextlib.contextmanager
+def naming(path: str | os.PathLike[str]) -> Iterator[None]:
+    """Re-raise an OSError of the block with ``path`` as its file name when it has none
+    (so "No space left on device" says which file)."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None and exc.errno is not None:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+        raise

@@ -66,6 +66,25 @@ def unit_name(dimension: str, units: Mapping[str, str] | None = None) -> str:
 
 
 _UNIT_KEYS = ("length", "force", "time")
+PREFIXED = ("Pa", "N", "J")  # SI units shown with k, M or G when their numbers are large
+PREFIXES = {0: "", 3: "k", 6: "M", 9: "G"}
+
+
+def engineering_scale(magnitude: float, unit: str) -> tuple[float, str]:
+    """Divisor and name of the unit to show numbers up to ``magnitude`` in.
+
+    SI units of :data:`PREFIXED` take the prefix k, M or G that leaves at most three
+    digits before the point; other units (and small numbers) are kept.
+
+    >>> engineering_scale(1.6e6, "Pa")
+    (1000000.0, 'MPa')
+    >>> engineering_scale(1.6e6, "lb/ft²")
+    (1.0, 'lb/ft²')
+    """
+    if unit not in PREFIXED or not np.isfinite(magnitude) or magnitude < 1e3:
+        return 1.0, unit
+    exponent = min(9, 3 * int(np.floor(np.log10(magnitude) / 3)))
+    return 10.0**exponent, PREFIXES[exponent] + unit
 
 
 def stress_measures(stresses: np.ndarray) -> dict[str, np.ndarray]:

@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import csv
 import logging
+import textwrap
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from dda.io.atomic import atomic_path
-from dda.io.fields import unit_name
+from dda.io.fields import engineering_scale, unit_name
+from dda.io.fonts import unicode_text
 from dda.io.tables import POINTS_NAME
 from dda.scene.engineering import BOLT_QUANTITIES, CONTACT_QUANTITIES, POINT_QUANTITIES
 
@@ -28,12 +30,14 @@ QUANTITIES = {
     "displacement": ("displacement", "length", "displacement of the measurement points"),
     "velocity": ("velocity", "velocity", "velocity of the measurement points"),
     "stress": ("stress (tension positive)", "stress", "stress of the measured points' blocks"),
-    "contact_force": ("contact force (N normal; fx, fy on the first block)", "force",
-                      "contact forces between the measured pairs of blocks"),
+    "contact_force": ("contact force", "force",
+                      "contact forces between the measured pairs of blocks "
+                      "(N: normal, sum over the contacts; fx, fy: on the first block)"),
     "bolt_force": ("bolt tension", "force", "tension of the measured bolts"),
 }  # fmt: skip
 _COMPONENTS = {**POINT_QUANTITIES, **CONTACT_QUANTITIES, **BOLT_QUANTITIES}
 _DPI = 100
+TITLE_WIDTH = 80  # characters of a title line (fontsize 11 on the 9 in wide figure)
 
 
 def read_points(path: Path) -> dict[str, np.ndarray]:
@@ -84,17 +88,23 @@ def plot_histories(
 
 
 def _draw(path, time, curves, quantity, title, units) -> None:
+    """One quantity's curves; large stresses and forces in k, M or G of their unit; the
+    title wrapped to the figure's width."""
     from matplotlib.figure import Figure
 
     label, dimension, heading = QUANTITIES[quantity]
-    figure = Figure(figsize=(9, 5.5), dpi=_DPI, layout="constrained")
-    ax = figure.subplots()
-    for name, values in curves.items():
-        ax.plot(time, values, label=name, linewidth=1.2)
-    ax.set_xlabel(f"time ({unit_name('time', units)})")
-    ax.set_ylabel(f"{label} ({unit_name(dimension, units)})")
-    ax.set_title(f"{title}: {heading}" if title else heading, fontsize=11)
-    ax.grid(True, linewidth=0.4, alpha=0.6)
-    ax.legend(fontsize=8, loc="best")
-    with atomic_path(path) as tmp:
-        figure.savefig(tmp, format="png", dpi=_DPI)
+    largest = max((np.abs(v[np.isfinite(v)]).max(initial=0.0) for v in curves.values()), default=0)
+    scale, unit = engineering_scale(float(largest), unit_name(dimension, units))
+    with unicode_text():
+        figure = Figure(figsize=(9, 5.5), dpi=_DPI, layout="constrained")
+        ax = figure.subplots()
+        for name, values in curves.items():
+            ax.plot(time, values / scale, label=name, linewidth=1.2)
+        ax.set_xlabel(f"time ({unit_name('time', units)})")
+        ax.set_ylabel(f"{label} ({unit})")
+        text = f"{title}: {heading}" if title else heading
+        ax.set_title("\n".join(textwrap.wrap(text, TITLE_WIDTH)), fontsize=11)
+        ax.grid(True, linewidth=0.4, alpha=0.6)
+        ax.legend(fontsize=8, loc="best")
+        with atomic_path(path) as tmp:
+            figure.savefig(tmp, format="png", dpi=_DPI)

@@ -7,8 +7,10 @@ magenta segments along the contact normal, centred on the contact point,
 their length proportional to the force; rock bolts are orange segments
 between their end points. The picture has the scene's title,
 axes in the scene's length unit, a colour bar naming the quantity and its
-unit with ticks that read differently from one another, and a legend for
-the grey and the magenta.
+unit (stresses in kPa, MPa or GPa when large) with ticks that read
+differently from one another, and a legend for the grey, the magenta (with
+the force of the longest mark) and the orange. Stresses that are all below
+1e-6 of their unit (a free block's round-off) are drawn as zero.
 
 matplotlib is imported when a picture is made, never by ``import dda.io``.
 """
@@ -25,7 +27,8 @@ from typing import Any
 import numpy as np
 
 from dda.io.atomic import atomic_path
-from dda.io.fields import SCALARS, scalar_field, unit_name
+from dda.io.fields import SCALARS, engineering_scale, scalar_field, unit_name
+from dda.io.fonts import unicode_text
 from dda.result import Frame
 
 logger = logging.getLogger(__name__)
@@ -35,6 +38,7 @@ CONTACT_COLOUR = "magenta"
 BOLT_COLOUR = "darkorange"
 _CONTACT_LENGTH = 0.06  # longest contact segment, as a fraction of the model size
 _DPI = 100
+ROUND_OFF_STRESS = 1e-6  # stresses all below this (scene units) are drawn as zero
 
 
 def render_frame(
@@ -122,7 +126,7 @@ def render_side_by_side(
     """
     figure = compose(frames, titles, scalars, show_contacts, window_size, clim, scene_title, units)
     path = Path(path)
-    with atomic_path(path) as tmp:
+    with unicode_text(), atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=_DPI)
     logger.debug("wrote %s (%s)", path, scalars)
     return path
@@ -138,10 +142,12 @@ def compose(
     scene_title: str = "",
     units: Mapping[str, str] | None = None,
     view: np.ndarray | None = None,
+    force_max: float | None = None,
 ) -> Any:
     """The matplotlib ``Figure`` of :func:`render_side_by_side` (arguments as there);
     ``view``: ``[[x_min, y_min], [x_max, y_max]]`` to show instead of the frames' extent
-    (a movie keeps one view for all its frames)."""
+    (a movie keeps one view for all its frames); ``force_max``: the contact force drawn
+    longest (default the largest of ``frames``; a movie keeps one scale)."""
     if not frames or len(titles) != len(frames):
         raise ValueError("give one title (or None) per frame, and at least one frame")
     if any(len(f.vertices) == 0 for f in frames):
@@ -149,23 +155,26 @@ def compose(
     # fixed blocks carry no computed field: grey (NaN), outside the colour range
     values = [np.where(f.fixed, np.nan, scalar_field(f, scalars)) for f in frames]
     info = SCALARS[scalars]
+    values = [_without_round_off(v, info.dimension) for v in values]
     clim, cmap = color_range(np.concatenate(values), info.signed, clim)
     size = window_size or (700 * len(frames), 600)
-    figure = _figure(size)
-    axes = figure.subplots(1, len(frames), squeeze=False)[0]
-    mappable = None
-    length = unit_name("length", units)
-    for ax, frame, title, value in zip(axes, frames, titles, values, strict=True):
-        mappable = _draw_frame(ax, frame, value, clim, cmap, show_contacts)
-        ax.set_title(title or default_title(frame), fontsize=11)
-        ax.set_xlabel(f"x ({length})")
-        ax.set_ylabel(f"y ({length})")
-    _share_view(axes, frames if view is None else None, view)
-    label = f"{info.label} ({unit_name(info.dimension, units)})"
-    _colour_bar(figure, mappable, axes, clim, label)
-    _legend(figure, frames, show_contacts)
-    if scene_title:
-        figure.suptitle("\n".join(textwrap.wrap(scene_title, 90)), fontsize=13)
+    if force_max is None:
+        force_max = max((largest_force(f) for f in frames), default=0.0)
+    with unicode_text():
+        figure = _figure(size)
+        axes = figure.subplots(1, len(frames), squeeze=False)[0]
+        mappable = None
+        length = unit_name("length", units)
+        for ax, frame, title, value in zip(axes, frames, titles, values, strict=True):
+            mappable = _draw_frame(ax, frame, value, clim, cmap, show_contacts, force_max)
+            ax.set_title(title or default_title(frame), fontsize=11)
+            ax.set_xlabel(f"x ({length})")
+            ax.set_ylabel(f"y ({length})")
+        _share_view(axes, frames if view is None else None, view)
+        _colour_bar(figure, mappable, axes, clim, info.label, unit_name(info.dimension, units))
+        _legend(figure, frames, show_contacts, force_max, unit_name("force", units))
+        if scene_title:
+            figure.suptitle("\n".join(textwrap.wrap(scene_title, 90)), fontsize=13)
     return figure
 
 
@@ -174,7 +183,8 @@ def picture_pixels(figure: Any) -> np.ndarray:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     canvas = FigureCanvasAgg(figure)
-    canvas.draw()
+    with unicode_text():
+        canvas.draw()
     return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
 
 
@@ -182,6 +192,22 @@ def extent(frames: Sequence[Frame]) -> np.ndarray:
     """``[[x_min, y_min], [x_max, y_max]]`` of the blocks of all ``frames``."""
     points = np.concatenate([np.concatenate(f.vertices) for f in frames])
     return np.array([points.min(axis=0), points.max(axis=0)])
+
+
+def _without_round_off(values: np.ndarray, dimension: str) -> np.ndarray:
+    """Stresses all below ``ROUND_OFF_STRESS`` (in the scene's unit) are round-off of
+    zero (a free block): drawn as 0, so the colour bar does not span ±8e-10."""
+    finite = values[np.isfinite(values)]
+    if dimension == "stress" and finite.size and np.abs(finite).max() < ROUND_OFF_STRESS:
+        return np.where(np.isfinite(values), 0.0, values)
+    return values
+
+
+def largest_force(frame: Frame) -> float:
+    """The largest compressive contact normal force of ``frame`` (0 without any)."""
+    force = np.asarray(frame.contacts.normal_force, dtype=float)
+    force = force[np.isfinite(force) & (force > 0.0)]
+    return float(force.max()) if force.size else 0.0
 
 
 def default_title(frame: Frame) -> str:
@@ -215,13 +241,15 @@ def color_range(
     """
     finite = values[np.isfinite(values)]
     low, high = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    if clim is not None:  # the map fits the range given (frames of a movie share both)
+        low, high = float(clim[0]), float(clim[1])
     diverging = signed and low < 0.0 < high
     if clim is None:
         if diverging:
             bound = max(-low, high)
             low, high = -bound, bound
         if high - low <= 1e-12 * max(abs(low), abs(high), 1.0):
-            pad = max(abs(low) * 1e-3, 1e-9)
+            pad = abs(low) * 1e-3 if low else 1.0  # zero everywhere: a bar of -1..1
             low, high = low - pad, high + pad
         clim = (low, high)
     return (float(clim[0]), float(clim[1])), ("coolwarm" if diverging else "viridis")
@@ -254,7 +282,9 @@ def _figure(size: tuple[int, int]) -> Any:
     return Figure(figsize=(size[0] / _DPI, size[1] / _DPI), dpi=_DPI, layout="constrained")
 
 
-def _draw_frame(ax, frame: Frame, values: np.ndarray, clim, cmap, show_contacts: bool) -> Any:
+def _draw_frame(
+    ax, frame: Frame, values: np.ndarray, clim, cmap, show_contacts: bool, force_max: float
+) -> Any:
     """Blocks (coloured or grey), outlines and contact forces on ``ax``; the colour mapping."""
     from matplotlib.collections import LineCollection, PolyCollection
 
@@ -269,7 +299,7 @@ def _draw_frame(ax, frame: Frame, values: np.ndarray, clim, cmap, show_contacts:
     if fixed:
         grey = PolyCollection(fixed, facecolors=FIXED_COLOUR, edgecolors="black", linewidths=0.8)
         ax.add_collection(grey)
-    segments = contact_segments(frame, _CONTACT_LENGTH * _model_size(frame))
+    segments = contact_segments(frame, _CONTACT_LENGTH * _model_size(frame), force_max)
     if show_contacts and segments is not None:
         ax.add_collection(LineCollection(segments, colors=CONTACT_COLOUR, linewidths=2.0))
     if frame.bolts is not None and len(frame.bolts):
@@ -290,30 +320,33 @@ def _share_view(axes, frames: Sequence[Frame] | None, view: np.ndarray | None = 
         ax.autoscale_view()
 
 
-def _colour_bar(figure, mappable, axes, clim, label: str) -> None:
+def _colour_bar(figure, mappable, axes, clim, label: str, unit: str) -> None:
+    """A horizontal colour bar; stresses in kPa, MPa or GPa when their numbers are large."""
     from matplotlib.ticker import FixedFormatter, FixedLocator, MaxNLocator
 
     ticks = [t for t in MaxNLocator(6).tick_values(*clim) if clim[0] <= t <= clim[1]]
+    scale, unit = engineering_scale(max(abs(clim[0]), abs(clim[1])), unit)
     bar = figure.colorbar(mappable, ax=list(axes), orientation="horizontal", shrink=0.7)
     bar.locator = FixedLocator(ticks)
-    bar.formatter = FixedFormatter(distinct_labels(ticks))
+    bar.formatter = FixedFormatter(distinct_labels([t / scale for t in ticks]))
     bar.update_ticks()
-    bar.set_label(label)
+    bar.set_label(f"{label} ({unit})")
 
 
-def _legend(figure, frames: Sequence[Frame], show_contacts: bool) -> None:
+def _legend(
+    figure, frames: Sequence[Frame], show_contacts: bool, force_max: float, force_unit: str
+) -> None:
+    """Fixed blocks, contact forces with the force of the longest mark, bolts."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     handles = []
     if any(np.any(f.fixed) for f in frames):
         handles.append(Patch(facecolor=FIXED_COLOUR, edgecolor="black", label="fixed block"))
-    if show_contacts and any(contact_segments(f, 1.0) is not None for f in frames):
-        handles.append(
-            Line2D(
-                [], [], color=CONTACT_COLOUR, lw=2, label="contact normal force (length ∝ force)"
-            )
-        )
+    if show_contacts and force_max > 0.0:
+        scale, unit = engineering_scale(force_max, force_unit)
+        label = f"contact normal force (length ∝ force; longest {force_max / scale:.3g} {unit})"
+        handles.append(Line2D([], [], color=CONTACT_COLOUR, lw=2, label=label))
     if any(f.bolts is not None and len(f.bolts) for f in frames):
         handles.append(Line2D([], [], color=BOLT_COLOUR, lw=2.5, marker="o", label="rock bolt"))
     if handles:
@@ -325,7 +358,9 @@ def _model_size(frame: Frame) -> float:
     return float(np.ptp(points, axis=0).max()) or 1.0
 
 
-def contact_segments(frame: Frame, length: float) -> np.ndarray | None:
+def contact_segments(
+    frame: Frame, length: float, force_max: float | None = None
+) -> np.ndarray | None:
     """Compressive contact forces as segments along the normals (``None`` if there are none).
 
     Parameters
@@ -333,7 +368,10 @@ def contact_segments(frame: Frame, length: float) -> np.ndarray | None:
     frame
         The frame.
     length
-        Length of the segment of the largest normal force.
+        Length of the segment of the force ``force_max``.
+    force_max
+        The force drawn ``length`` long; default the frame's largest normal force
+        (frames side by side share the largest of them all).
 
     Returns
     -------
@@ -346,5 +384,6 @@ def contact_segments(frame: Frame, length: float) -> np.ndarray | None:
     keep = np.isfinite(force) & (force > 0.0)
     if not keep.any():
         return None
-    half = 0.5 * length * (force[keep] / force[keep].max())[:, None] * c.normals[keep]
+    reference = force_max or force[keep].max()
+    half = 0.5 * length * (force[keep] / reference)[:, None] * c.normals[keep]
     return np.stack([c.points[keep] - half, c.points[keep] + half], axis=1)

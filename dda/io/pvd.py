@@ -24,7 +24,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-from dda.io.atomic import write_text
+from dda.io.atomic import naming, write_fully, write_text
 
 HEAD = (
     '<?xml version="1.0"?>\n'
@@ -83,13 +83,20 @@ class PvdIndex:
         replace = self._last is not None and self._last[0] == name
         offset = self._last[1] if replace else self._end
         data = line + TAIL.encode("utf-8")
-        fd = os.open(self.path, os.O_WRONLY)
-        try:
-            os.pwrite(fd, data, offset)  # one write: the file is whole before and after
-            if os.fstat(fd).st_size > offset + len(data):
-                os.ftruncate(fd, offset + len(data))
-        finally:
-            os.close(fd)
+        with naming(self.path):
+            fd = os.open(self.path, os.O_RDWR)
+            try:
+                size, before = os.fstat(fd).st_size, os.pread(fd, len(data), offset)
+                try:
+                    write_fully(fd, data, offset)  # one write: whole before and after
+                except OSError:  # a full disk: put back what was there (its space exists)
+                    os.pwrite(fd, before, offset)
+                    os.ftruncate(fd, size)
+                    raise
+                if os.fstat(fd).st_size > offset + len(data):
+                    os.ftruncate(fd, offset + len(data))
+            finally:
+                os.close(fd)
         self._last = (name, offset)
         self._end = offset + len(line)
         self._count += 0 if replace else 1

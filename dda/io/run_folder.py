@@ -44,6 +44,8 @@ SUMMARY_NAME = "summary.json"
 OUTPUTS = ("blocks.pvd", "contacts.pvd", "history.csv", "history_points.csv", SUMMARY_NAME,
            "final.png", CHECKPOINT_NAME)  # fmt: skip
 FRAME_PATTERNS = ("blocks_*.vtu", "contacts_*.vtu", f"*{TEMP_MARK}*")
+# drawn from a run: dda render's default PNGs, dda plot's folder, dda movie's file
+DRAWN_PATTERNS = ("blocks_[0-9]*_*.png", "plots/*.png", "movie.gif", "movie.mp4")
 MODES = ("new", "overwrite", "resume")
 
 
@@ -169,12 +171,18 @@ def new_run_id() -> str:
 
 
 def remove_outputs(outdir: Path) -> int:
-    """Remove the files a run writes in ``outdir`` (others are left); return how many."""
+    """Remove the files a run writes in ``outdir``, and those drawn from it by ``dda
+    render``, ``dda plot`` and ``dda movie`` in their default places (others are left);
+    return how many."""
     old = [outdir / name for name in OUTPUTS if (outdir / name).is_file()]
     old += [p for pattern in FRAME_PATTERNS for p in (outdir / "frames").glob(pattern)]
     old += list(outdir.glob(f"*{TEMP_MARK}*"))
+    old += [p for pattern in DRAWN_PATTERNS for p in outdir.glob(pattern) if p.is_file()]
     for path in old:
         path.unlink(missing_ok=True)
+    for folder in (outdir / "plots", outdir / "frames"):
+        if folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
     if old:
         logger.info("removed %d files of an earlier run in %s", len(old), outdir)
     return len(old)

@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from dda.io.atomic import TEMP_MARK, write_text
+from dda.io.atomic import TEMP_MARK, naming, write_fully, write_text
 from dda.io.images import render_frame
 from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
 from dda.io.run_folder import SUMMARY_NAME, RunFolder
@@ -129,12 +129,17 @@ class RunWriter:
         if step < self.last_step:
             raise ValueError(f"frame of step {step} after step {self.last_step}")
         stem = f"{step:06d}"
-        blocks = write_blocks_vtu(frame, self.frames_dir / f"blocks_{stem}.vtu")
-        contacts = write_contacts_vtu(frame, self.frames_dir / f"contacts_{stem}.vtu")
+        blocks, contacts = (
+            self.frames_dir / f"{kind}_{stem}.vtu" for kind in ("blocks", "contacts")
+        )
+        with naming(blocks):
+            write_blocks_vtu(frame, blocks)
+        with naming(contacts):
+            write_contacts_vtu(frame, contacts)
         self.blocks_index.add(frame.time, blocks)
         self.contacts_index.add(frame.time, contacts)
         if step > self.last_step:
-            os.write(self._history_fd, history_rows(frame).encode("utf-8"))
+            _append(self._history_fd, history_rows(frame), self.history_path)
             self.frame_count += 1
         if frame.measured is not None and len(frame.measured.get("step", ())):
             self._write_points(frame.measured)
@@ -198,7 +203,7 @@ class RunWriter:
             if not self.points_path.is_file():
                 write_text(self.points_path, points_header(measured))
             self._points_fd = os.open(self.points_path, os.O_WRONLY | os.O_APPEND)
-        os.write(self._points_fd, points_rows(measured).encode("utf-8"))
+        _append(self._points_fd, points_rows(measured), self.points_path)
 
     def close(self) -> None:
         """Close ``history.csv`` and ``history_points.csv`` (all rows are written already)."""
@@ -269,6 +274,18 @@ def write_run(
         The summary as written.
     """
     return RunWriter(outdir, **options).finish(result, scene)
+
+
+def _append(fd: int, text: str, path: Path) -> None:
+    """Append ``text`` to the open file ``fd`` whole, or not at all (a full disk: the
+    file is cut back to its whole rows and the OSError names ``path``)."""
+    size = os.fstat(fd).st_size
+    with naming(path):
+        try:
+            write_fully(fd, text.encode("utf-8"))
+        except OSError:
+            os.ftruncate(fd, size)
+            raise
 
 
 def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:

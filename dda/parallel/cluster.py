@@ -5,7 +5,11 @@ dask (a dependency) is imported only when a cluster is used.
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import signal
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 log = logging.getLogger(__name__)
@@ -38,20 +42,37 @@ def connect(cluster: Cluster):
     import dask
     from dask.distributed import Client, LocalCluster
 
-    level = logging.INFO if cluster.verbose else logging.WARNING
+    # quiet unless -v: a Ctrl-C would otherwise print the workers' shutdown warnings
+    level = logging.INFO if cluster.verbose else logging.ERROR
     dask.config.set({"logging.distributed": logging.getLevelName(level).lower()})
     logging.getLogger("distributed").setLevel(level)
     if cluster.remote:
         client = Client(address=cluster.scheduler, scheduler_file=cluster.scheduler_file)
         log.info("connected to %s (dashboard %s)", client.scheduler.address, client.dashboard_link)
         return client, None
-    local = LocalCluster(
-        n_workers=cluster.workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",  # a free port, never a fixed one another program may hold
-        silence_logs=level,
-    )
+    with _sigint_ignored():  # Ctrl-C stops the client, which closes the workers
+        local = LocalCluster(
+            n_workers=cluster.workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",  # a free port, never a fixed one another program may hold
+            silence_logs=level,
+        )
     client = Client(local)
     log.info("local cluster of %d workers (dashboard %s)", cluster.workers, client.dashboard_link)
     return client, local
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while worker processes start: they inherit it, so Ctrl-C in the
+    terminal (sent to the whole process group) reaches the client only, which closes
+    them, and the workers do not die printing tracebacks of their own."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -111,7 +111,9 @@ class CheckpointPlan:
 
     A checkpoint is due after every ``every_steps``-th step and whenever
     ``every_seconds`` of wall time have passed since the last one (either
-    may be ``None``: not by that measure), and when a run is stopped on request.
+    may be ``None``: not by that measure), and when a run is stopped on request;
+    with ``at_start`` also one of the first state, so that a run stopped in any
+    way before the next one can be resumed (from its start).
     Checkpoints read the run's state and never change it: a run writes the
     same results with or without them, whenever they come.
     """
@@ -119,6 +121,7 @@ class CheckpointPlan:
     path: Path
     every_steps: int | None = None
     every_seconds: float | None = DEFAULT_SECONDS
+    at_start: bool = False  # also one of the first state (step 0, after the start)
     written: int = 0
     _last: float = field(default_factory=time.monotonic, repr=False)
 
@@ -168,10 +171,12 @@ def check_scene(checkpoint: Checkpoint, scene: Any) -> None:
     ------
     CheckpointError
     """
+    from dda.scene.local_frame import local_origin, translated
     from dda.scene.presets import apply_preset
 
     stored = checkpoint.meta.get("scene", {})
-    current = scene_fingerprint(apply_preset(scene))
+    local = translated(scene, local_origin(scene))  # as the run holds it
+    current = scene_fingerprint(apply_preset(local))
     differ = sorted(k for k in set(stored) | set(current) if stored.get(k) != current.get(k))
     if differ:
         raise CheckpointError(

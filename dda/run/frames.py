@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from dda.blocks import BlockSet
@@ -54,4 +56,21 @@ def make_frame(
         contacts=frame_contacts(blocks, contacts),
         measured=measured,
         bolts=bolts,
+    )
+
+
+def shifted(frame: Frame, origin: tuple[float, float]) -> Frame:
+    """``frame`` with its positions (centroids, vertices, contact points, bolt ends) moved
+    by ``origin``: from the run's local frame back to the scene's (dda.scene.local_frame).
+    Displacements, velocities, stresses and forces do not change."""
+    if origin == (0.0, 0.0):
+        return frame
+    o = np.asarray(origin, float)
+    contacts = dataclasses.replace(frame.contacts, points=frame.contacts.points + o)
+    return dataclasses.replace(
+        frame,
+        centroids=frame.centroids + o,
+        vertices=[v + o for v in frame.vertices],
+        contacts=contacts,
+        bolts=None if frame.bolts is None else frame.bolts + o,
     )

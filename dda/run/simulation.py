@@ -23,11 +23,12 @@ from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
 from dda.run.energy import TERMS, EnergyAccount
 from dda.run.environment import environment
 from dda.run.equilibrium_start import settle
-from dda.run.frames import make_frame
+from dda.run.frames import make_frame, shifted
 from dda.run.measure import Probes
 from dda.run.stages import apply_due_stages
 from dda.scene import Scene
 from dda.scene.limits import check_run_size
+from dda.scene.local_frame import local_origin, translated
 from dda.solve.linsolve import single_threaded_blas, solver_choice, solver_threads
 from dda.solve.step import StepSolution, solve_step
 from dda.solve.timing import StageTimer
@@ -316,19 +317,24 @@ def run(
     solver_threads()  # a bad DDA_THREADS or DDA_SOLVER stops the run before it starts
     solver_choice()
     check_run_size(scene)
-    model = build(scene)
+    origin = local_origin(scene)  # far from (0, 0): compute about the model's centre
+    local = translated(scene, origin)
+    model = build(local)
     state = _Run(model)
     if resume is not None:
-        check_scene(resume, scene)
+        check_scene(resume, local)
         restore(state, resume)
         start -= resume.wall_seconds
     elif not model.static and scene.analysis.start == "equilibrium":
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
             _equilibrium_start(state)
     first = state.probes.take() if state.probes is not None and resume is None else None
-    frames = [_frame(state, first)]
+    frames = [_frame(state, first, origin)]
     if on_frame and resume is None:
         on_frame(frames[0])
+    if checkpoints is not None and checkpoints.at_start and resume is None:
+        with state.timer("checkpoint"):
+            checkpoints.write(state, wallclock.perf_counter() - start)
     report = _progress_reporter(progress, model)
     status = "finished"
     try:
@@ -343,7 +349,8 @@ def run(
                 last = state.finished()
                 if state.step % model.save_every == 0 or last:
                     with state.timer("output"):
-                        frame = _frame(state, None if state.probes is None else state.probes.take())
+                        measured = None if state.probes is None else state.probes.take()
+                        frame = _frame(state, measured, origin)
                         _keep(frames, frame, keep_frames)
                         if on_frame:
                             on_frame(frame)
@@ -364,10 +371,12 @@ def run(
     return _result(state, frames, start, status)
 
 
-def _frame(state: _Run, measured: dict | None) -> Frame:
-    """The frame of the run's state (with the measurement rows ``measured``)."""
+def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> Frame:
+    """The frame of the run's state (with the measurement rows ``measured``), in the
+    scene's coordinates (the run's own are ``origin`` less: dda.scene.local_frame)."""
     bolts = None if state.model.bolts is None else state.model.bolts.segments()
-    return make_frame(state.blocks, state.contacts, state.time, state.step, measured, bolts)
+    frame = make_frame(state.blocks, state.contacts, state.time, state.step, measured, bolts)
+    return shifted(frame, origin)
 
 
 def _keep(frames: list[Frame], frame: Frame, keep_all: bool) -> None:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 import tomllib
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -66,12 +67,14 @@ from dda.scene.engineering import (
     parse_engineering,
 )
 from dda.scene.limits import DEFAULT_MAX_STEPS
+from dda.scene.local_frame import origin_of
 from dda.scene.stability import (
     STABILITY_KEYS,
     EnsembleSettings,
     FosSettings,
     parse_stability,
 )
+from dda.scene.text_file import read_scene_text
 
 logger = logging.getLogger(__name__)
 
@@ -291,9 +294,18 @@ def read_scene_file(path: str | Path) -> dict[str, Any]:
 
 
 def _is_path(scene: object) -> bool:
+    """A Path; or a one-line str that ends in ``.toml``, names a file, or holds no ``=``
+    (TOML text of one line without a key/value pair is no scene: read it as a path)."""
     if isinstance(scene, Path):
         return True
-    return isinstance(scene, str) and "\n" not in scene and scene.endswith(".toml")
+    if not isinstance(scene, str) or "\n" in scene:
+        return False
+    if scene.endswith(".toml") or "=" not in scene:
+        return True
+    try:
+        return Path(scene).is_file()
+    except (OSError, ValueError):  # a name the file system refuses
+        return False
 
 
 def _read_raw(scene: str | Path | Mapping[str, Any]) -> tuple[Mapping[str, Any], str]:
@@ -316,11 +328,7 @@ def _read_file(path: Path) -> dict[str, Any]:
         raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(str(path), "<file>", f"cannot read: {exc}") from None
-    return _parse_toml(text, str(path))
+    return _parse_toml(read_scene_text(path), str(path))
 
 
 def _parse_toml(text: str, source: str) -> dict[str, Any]:
@@ -332,6 +340,7 @@ def _parse_toml(text: str, source: str) -> dict[str, Any]:
 
 # --------------------------------------------------------------------------- sections
 
+MAX_SIZES_PER_STEP = 1000.0  # an initial velocity may move a block this many model sizes a step
 _ROCK_MASS_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
 _TOP_KEYS = (
     "title",
@@ -564,14 +573,50 @@ def _blocks(
         chk.fail("blocks", "a scene needs at least one block")
     if len(items) > MAX_BLOCKS:
         chk.fail("blocks", f"{len(items)} blocks, at most {MAX_BLOCKS}")
-    blocks = [_block_values(chk, v, f"blocks[{i}]", specs) for i, v in enumerate(items)]
-    if all(values.get("fixed", False) for values in blocks):
-        chk.fail("blocks", "every block is fixed: nothing can move; free at least one block")
-    _unique_names(chk, blocks)
-    clockwise = _check_geometry(chk, blocks)
+    try:
+        blocks = [_block_values(chk, v, f"blocks[{i}]", specs) for i, v in enumerate(items)]
+        if all(values.get("fixed", False) for values in blocks):
+            chk.fail("blocks", "every block is fixed: nothing can move; free at least one block")
+        _unique_names(chk, blocks)
+        clockwise = _check_geometry(chk, blocks)
+    except SceneError as exc:
+        raise _naming_the_block(exc, items) from None
     for i in np.flatnonzero(clockwise):
         blocks[i] = _counter_clockwise(blocks[i])
     return tuple(Block(**values) for values in blocks)
+
+
+def _check_speeds(chk: Checker, blocks: Sequence[Block], analysis: Analysis) -> None:
+    """Refuse an initial velocity that moves a block more than ``MAX_SIZES_PER_STEP``
+    model sizes in one time step (1e10 m/s for 10 m/s, a unit mix-up): no step could
+    resolve it, and the run would fail with "contacts did not settle"."""
+    points = np.concatenate([np.asarray(b.vertices, float) for b in blocks])
+    size = float(np.hypot(*np.ptp(points, axis=0)))
+    velocity = np.array([b.velocity for b in blocks], float).reshape(-1, 3)
+    speed = np.hypot(velocity[:, 0], velocity[:, 1]) + np.abs(velocity[:, 2]) * size
+    sizes = speed * analysis.time_step / size if size > 0 else np.zeros(len(blocks))
+    fast = np.flatnonzero(~(sizes <= MAX_SIZES_PER_STEP))
+    if fast.size:
+        i = fast[0]
+        chk.fail(
+            f"blocks[{i}].velocity",
+            f"(block {blocks[i].name!r}) moves {sizes[i]:.3g} model sizes ({size:.3g}) in one "
+            f"time step ({analysis.time_step:g}), more than {MAX_SIZES_PER_STEP:g}: no step "
+            "can follow it; check the velocity and its units",
+        )
+
+
+def _naming_the_block(exc: SceneError, items: Sequence[Any]) -> SceneError:
+    """The error of ``blocks[i]...`` with the block's name in its reason: in a scene of a
+    thousand blocks, ``blocks[734]`` alone is hard to find."""
+    match = re.match(r"blocks\[(\d+)\]", exc.key)
+    if match is None or int(match.group(1)) >= len(items):
+        return exc
+    item = items[int(match.group(1))]
+    name = item.get("name") if isinstance(item, Mapping) else None
+    if not isinstance(name, str) or exc.reason.startswith(f"(block {name!r})"):
+        return exc
+    return SceneError(exc.source, exc.key, f"(block {name!r}) {exc.reason}")
 
 
 # --------------------------------------------------------------------------- geometry
@@ -587,6 +632,7 @@ class _Packed(NamedTuple):
     areas: np.ndarray  # (n,)
     bounds: np.ndarray  # (n, 4) xmin, ymin, xmax, ymax
     sizes: np.ndarray  # (n,) bounding-box diagonal
+    origin: np.ndarray  # (2,) subtracted from the coordinates (dda.scene.local_frame)
 
 
 def _pack(blocks: Sequence[Mapping[str, Any]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -638,13 +684,15 @@ def _build_polygons(chk: Checker, blocks: Sequence[Mapping[str, Any]]) -> _Packe
     """Pack the block vertices and make valid shapely polygons of them."""
     coords, owner, offsets = _pack(blocks)
     _repeated_vertices(chk, coords, owner, offsets)
+    origin = origin_of(coords)  # far from (0, 0): check about the model's centre
+    coords = coords - origin
     polygons = shapely.polygons(shapely.linearrings(coords, indices=owner))
     _simple_polygons(chk, polygons)
     bounds = shapely.bounds(polygons)
     sizes = np.hypot(bounds[:, 2] - bounds[:, 0], bounds[:, 3] - bounds[:, 1])
     areas = shapely.area(polygons)
     _sized_polygons(chk, areas, sizes)
-    return _Packed(coords, owner, offsets, polygons, areas, bounds, sizes)
+    return _Packed(coords, owner, offsets, polygons, areas, bounds, sizes, origin)
 
 
 def _clockwise(packed: _Packed) -> np.ndarray:
@@ -696,6 +744,7 @@ def _fixed_points_on_blocks(
     if not owner:
         return
     points = np.array([p for b in blocks for p in b.get("fixed_points", ())], dtype=float)
+    points -= packed.origin
     owner = np.asarray(owner)
     distance = shapely.distance(shapely.points(points), packed.polygons[owner])
     outside = np.flatnonzero(distance > 1e-9 * packed.sizes[owner])
@@ -833,6 +882,7 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
     materials = _materials(chk, raw)
     joints = _joints(chk, raw)
     blocks = _blocks(chk, raw, materials, joints)
+    _check_speeds(chk, blocks, analysis)
     names = frozenset(b.name for b in blocks)
     by_name = {b.name: b for b in blocks}
     loads = _loads(chk, raw, by_name)

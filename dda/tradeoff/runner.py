@@ -133,6 +133,15 @@ def add_errors(rows: list[dict], case: Case, reference: np.ndarray | None) -> No
             row["error"] = relative_error(np.asarray(row["value"]), reference, scale)
 
 
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a sweep: ``rows`` holds the settings finished until then."""
+
+    def __init__(self, rows: list[dict], total: int) -> None:
+        super().__init__(f"interrupted after {len(rows)} of {total} settings")
+        self.rows = rows
+        self.total = total
+
+
 def sweep(
     tasks: list[Task],
     reference: Task | None = None,
@@ -146,13 +155,21 @@ def sweep(
     -------
     (rows in completion order, the reference's row or None); ``progress(done,
     total, row)`` is called for each row of ``tasks``.
+
+    Raises
+    ------
+    SweepInterrupted
+        On Ctrl-C, with the rows finished until then.
     """
-    with Workers(None if serial else (cluster or Cluster())) as workers:
-        # first in the queue: the longest run
-        fine = None if reference is None else workers.submit(run_task, reference, priority=1)
-        rows = []
-        for row in workers.map_unordered(run_task, tasks):
-            rows.append(row)
-            if progress:
-                progress(len(rows), len(tasks), row)
-        return rows, None if fine is None else fine.result()
+    rows: list[dict] = []
+    try:
+        with Workers(None if serial else (cluster or Cluster())) as workers:
+            # first in the queue: the longest run
+            fine = None if reference is None else workers.submit(run_task, reference, priority=1)
+            for row in workers.map_unordered(run_task, tasks):
+                rows.append(row)
+                if progress:
+                    progress(len(rows), len(tasks), row)
+            return rows, None if fine is None else fine.result()
+    except KeyboardInterrupt:
+        raise SweepInterrupted(rows, len(tasks)) from None

@@ -28,6 +28,7 @@ from dda.geometry import polygon_moments
 from dda.scene.rockmass.cutting import cut_faces
 from dda.scene.rockmass.domain import Domain, build_domain
 from dda.scene.rockmass.edges import COLLINEAR, PackedBlocks, drop_collinear, pack_faces, tag_edges
+from dda.scene.rockmass.estimate import check_block_count
 from dda.scene.rockmass.holes import split_holes
 from dda.scene.rockmass.merging import merge_small
 from dda.scene.rockmass.parse import parse_rock_mass
@@ -41,6 +42,7 @@ log = logging.getLogger(__name__)
 TRIGGER_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
 #: every key consumed (and removed) by :func:`expand_rock_mass`
 ROCK_MASS_KEYS = (*TRIGGER_KEYS, "fix", "groups", "cutting")
+LARGE_CUT = 5_000  # estimated blocks above which the cut says it is cutting
 DEFAULT_MIN_AREA = 1e-6  # of the rock area
 TAG_TOLERANCE = 1e-8  # of the rock size: an edge midpoint this close to a trace lies on it
 SELECT_TOLERANCE = 1e-6  # of the rock size: an edge this close to a side or line touches it
@@ -94,6 +96,9 @@ def cut_rock_mass(raw: Mapping[str, Any], source: str) -> tuple[CutRockMass, dic
     """Like :func:`expand_rock_mass`, also returning the :class:`CutRockMass`."""
     mass = parse_rock_mass(raw, source)
     domain = build_domain(mass, source)
+    estimate = check_block_count(mass, domain, source)
+    if estimate > LARGE_CUT:
+        log.warning("%s: cutting about %s blocks; this may take a minute", source, f"{estimate:,}")
     traces = build_traces(mass, domain.bounds, source)
     faces, region = _faces(mass, domain, traces, source)
     cut = _name_and_tag(mass, domain, traces, faces, region, source)

@@ -17,6 +17,7 @@ import shapely
 
 from dda.scene.checks import ANY, NON_NEGATIVE, POSITIVE, Checker, Interval
 from dda.scene.rockmass.spec import (
+    DEFAULT_MAX_BLOCKS,
     CuttingOptions,
     Excavation,
     JointLine,
@@ -43,7 +44,7 @@ JOINT_SET_KEYS = {
 JOINT_LINE_KEYS = {"name", "joint", "points"}
 EXCAVATION_KEYS = {"polygon", "center", "radius", "segments"}
 SELECTOR_KEYS = {"polygon", "touching", "sides", "material", "blocks"}
-CUTTING_KEYS = {"min_block_area", "small_blocks", "holes", "name_prefix"}
+CUTTING_KEYS = {"min_block_area", "small_blocks", "holes", "name_prefix", "max_blocks"}
 SIDES = ("bottom", "top", "left", "right")
 MAX_CIRCLE_SEGMENTS = 4096
 
@@ -244,4 +245,7 @@ def _options(chk: Checker, table: Any) -> CuttingOptions:
         ),
         holes=chk.choice(table.get("holes", "split"), "cutting.holes", ("split", "refuse")),
         name_prefix=prefix,
+        max_blocks=chk.integer(
+            table.get("max_blocks", DEFAULT_MAX_BLOCKS), "cutting.max_blocks", 1
+        ),
     )

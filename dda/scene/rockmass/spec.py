@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
+DEFAULT_MAX_BLOCKS = 20_000  # cutting.max_blocks: see dda.scene.rockmass.estimate
+
 
 @dataclass(frozen=True)
 class Region:
@@ -85,6 +87,7 @@ class CuttingOptions:
     small_blocks: str = "merge"  # "merge" | "refuse"
     holes: str = "split"  # "split" | "refuse"
     name_prefix: str = "b"
+    max_blocks: int = DEFAULT_MAX_BLOCKS  # refuse a cut estimated to give more blocks
 
 
 @dataclass(frozen=True)

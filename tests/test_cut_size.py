@@ -1,0 +1,91 @@
+"""The block count of a rock mass is estimated before cutting; a huge one is refused."""
+
+from __future__ import annotations
+
+import time
+import tomllib
+
+import pytest
+from tomli_w import dumps
+
+import dda.cases
+from dda.commands.cli import main
+from dda.scene.rockmass.domain import build_domain
+from dda.scene.rockmass.estimate import estimated_blocks
+from dda.scene.rockmass.expand import cut_rock_mass
+from dda.scene.rockmass.parse import parse_rock_mass
+
+
+def shipped(name: str) -> dict:
+    return tomllib.loads(dda.cases.folder().joinpath(f"{name}.toml").read_text())
+
+
+def estimate_and_count(raw: dict) -> tuple[int, int]:
+    mass = parse_rock_mass(raw, "<t>")
+    estimate = estimated_blocks(mass, build_domain(mass, "<t>"))
+    return estimate, len(cut_rock_mass(raw, "<t>")[0].names)
+
+
+@pytest.mark.parametrize("name", ["rock_slope", "tunnel"])
+def test_the_estimate_bounds_the_cut_of_the_shipped_cases_within_30_percent(name):
+    estimate, count = estimate_and_count(shipped(name))  # 104 for 81, 319 for 265
+    assert count <= estimate <= 1.3 * count
+
+
+def test_the_estimate_of_two_fine_persistent_sets_is_within_5_percent():
+    raw = shipped("rock_slope")
+    raw["joint_sets"] = [
+        {"dip": 35.0, "spacing": 1.0, "offset": 0.1},
+        {"dip": 110.0, "spacing": 1.3, "offset": 0.1},
+    ]
+    raw.pop("cutting")
+    estimate, count = estimate_and_count(raw)
+    assert abs(estimate - count) <= 0.05 * count
+
+
+def test_a_mistyped_spacing_is_refused_within_2_s_with_the_estimate(tmp_path, capsys):
+    text = dda.cases.folder().joinpath("rock_slope.toml").read_text()
+    scene = tmp_path / "typo.toml"
+    scene.write_text(text.replace("spacing = 4.0", "spacing = 0.001"))  # 1 m meant
+    cut = ["cut", str(scene), "-o", str(tmp_path / "b.toml")]
+    for argv in (cut, ["run", str(scene), "-o", str(tmp_path / "o")]):
+        start = time.perf_counter()
+        assert main(argv) == 2
+        assert time.perf_counter() - start < 2.0
+        err = capsys.readouterr().err
+        assert (
+            "typo.toml: joint_sets[0].spacing: the joints (joint_sets[0].spacing = 0.001, " in err
+        )
+        assert "about 355,865 blocks, more than cutting.max_blocks = 20,000" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["typo.toml"]
+
+
+def test_max_blocks_in_the_scene_and_on_the_command_line(tmp_path, capsys):
+    raw = shipped("rock_slope")
+    raw["cutting"]["max_blocks"] = 50  # the estimate is 104
+    scene = tmp_path / "slope.toml"
+    scene.write_text(dumps(raw))
+    out = tmp_path / "blocks.toml"
+    assert main(["cut", str(scene), "-o", str(out), "--no-png"]) == 2
+    assert "about 104 blocks, more than cutting.max_blocks = 50" in capsys.readouterr().err
+    assert main(["cut", str(scene), "-o", str(out), "--no-png", "--max-blocks", "200"]) == 0
+    assert len(tomllib.loads(out.read_text())["blocks"]) == 81
+
+
+def test_max_blocks_must_be_a_positive_integer(tmp_path, capsys):
+    raw = shipped("rock_slope")
+    raw["cutting"]["max_blocks"] = 0
+    scene = tmp_path / "slope.toml"
+    scene.write_text(dumps(raw))
+    assert main(["run", str(scene), "-o", str(tmp_path / "o")]) == 2
+    assert "cutting.max_blocks: must be a positive integer" in capsys.readouterr().err
+
+
+def test_a_large_cut_says_so_before_it_starts(caplog, monkeypatch):
+    import dda.scene.rockmass.expand as expand
+
+    monkeypatch.setattr(expand, "LARGE_CUT", 100)  # 5,000 in use; the rock slope's 104
+    with caplog.at_level("WARNING"):
+        cut = cut_rock_mass(shipped("rock_slope"), "<t>")[0]
+    assert "<t>: cutting about 104 blocks; this may take a minute" in caplog.text
+    assert len(cut.names) == 81

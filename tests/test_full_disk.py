@@ -1,0 +1,68 @@
+"""A full disk mid-run: a clean error naming the file, a consistent prefix, a checkpoint
+kept, and ``--resume`` finishing the run once space is freed (a small tmpfs, mounted
+where the tests may; skipped elsewhere)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+from dda.commands.cli import main
+from dda.io.pvd import read_pvd
+from dda.run.checkpoint import read_checkpoint
+from tests.tmpfs import mounted
+
+RUN = ["sliding_block", "-q", "--save-every", "1"]  # 101 frames, about 0.8 MB on a tmpfs
+
+
+def test_a_full_disk_stops_the_run_cleanly_and_resume_finishes_it(tmp_path, capsys):
+    whole = tmp_path / "whole"
+    assert main(["run", *RUN, "-o", str(whole)]) == 0
+    with mounted(tmp_path / "small", size="256k") as disk:
+        out = disk / "run"
+        assert main(["run", *RUN, "-o", str(out)]) == 1
+        err = capsys.readouterr().err
+        assert f"dda run: cannot write {out}/" in err and "No space left on device" in err
+        assert f"dda run sliding_block -o {out} --resume" in err and "Traceback" not in err
+        summary = json.loads((out / "summary.json").read_text())  # whole, "running" or "failed"
+        assert summary["status"] in ("running", "failed") and summary["steps"] < 100
+        for index in ("blocks.pvd", "contacts.pvd"):  # the indexes list whole files only
+            assert all(path.stat().st_size > 0 for _, path in read_pvd(out / index))
+        rows = (out / "history.csv").read_bytes()
+        assert rows.endswith(b"\n") and 1 < rows.count(b"\n") < 101 * 2
+        assert read_checkpoint(out / "checkpoint.npz").step == 0
+        assert not list(out.rglob("*.tmp-*"))
+        subprocess.run(["mount", "-o", "remount,size=4m", str(disk)], check=True)
+        assert main(["run", *RUN, "-o", str(out), "--resume"]) == 0
+        assert json.loads((out / "summary.json").read_text())["status"] == "finished"
+        assert (out / "history.csv").read_bytes() == (whole / "history.csv").read_bytes()
+        assert not (out / "checkpoint.npz").exists()
+
+
+def test_a_partial_append_is_cut_back_to_whole_rows(tmp_path, monkeypatch):
+    """os.write may write part of the data on a full disk: the writer appends all of it
+    or nothing (the file is cut back) and names the file."""
+    import errno
+    import os
+
+    import pytest
+
+    from dda.io import run_writer
+
+    path = tmp_path / "h.csv"
+    path.write_text("head\n")
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    real_write, calls = os.write, []
+
+    def full_disk(fd, data):
+        calls.append(len(data))
+        if len(calls) == 1:
+            return real_write(fd, bytes(data[:3]))  # a short write
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "write", full_disk)
+    with pytest.raises(OSError, match="No space left on device") as caught:
+        run_writer._append(fd, "1,2,3\n4,5,6\n", path)
+    monkeypatch.undo()
+    os.close(fd)
+    assert caught.value.filename == str(path) and path.read_text() == "head\n"

@@ -1,0 +1,76 @@
+"""What a scene file's reader says: encodings, block names, absurd speeds, odd paths."""
+
+from __future__ import annotations
+
+import codecs
+
+import pytest
+import tomli_w
+
+import dda
+import dda.cases
+from dda.commands.cli import main
+
+TEXT = dda.cases.folder().joinpath("sliding_block.toml").read_text(encoding="utf-8")
+
+
+def test_a_byte_order_mark_is_read_past(tmp_path):
+    """Windows Notepad's UTF-8 starts with EF BB BF (was: Invalid statement, line 1)."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(codecs.BOM_UTF8 + TEXT.encode("utf-8"))
+    assert dda.load_scene(path).blocks == dda.load_scene(TEXT).blocks
+
+
+@pytest.mark.parametrize(
+    ("encoding", "reason"),
+    [
+        ("utf-16", "is UTF-16 text, not UTF-8; save it as UTF-8"),
+        ("utf-16-le", "is UTF-16 text, not UTF-8; save it as UTF-8"),
+        ("latin-1", "is not UTF-8 text (byte 0xe9 on line 1: Latin-1 or Windows-1252?); save"),
+    ],
+)
+def test_other_encodings_are_refused_with_the_fix(tmp_path, capsys, encoding, reason):
+    path = tmp_path / "scene.toml"
+    path.write_bytes(TEXT.replace("Block sliding", "Bloc glissé").encode(encoding))
+    for argv in (["run", str(path), "-o", str(tmp_path / "out")], ["cut", str(path)]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{path}: <file>: {reason}" in err[0]
+        assert "codec" not in err[0]
+
+
+def test_an_error_in_a_thousand_blocks_names_the_block(tmp_path, capsys):
+    floor = [[-1, -1], [1001, -1], [1001, 0], [-1, 0]]
+    blocks = [{"name": "floor", "material": "rock", "fixed": True, "vertices": floor}]
+    for i in range(1000):
+        square = [[i, 0], [i + 0.9, 0], [i + 0.9, 1], [i, 1]]
+        blocks.append({"name": f"column_{i + 1}", "material": "rock", "vertices": square})
+    blocks[735]["material"] = "rokc"
+    raw = {"analysis": {"steps": 2}, "blocks": blocks,
+           "materials": {"rock": {"density": 2600.0, "young": 5e9, "poisson": 0.25}}}  # fmt: skip
+    path = tmp_path / "columns.toml"
+    path.write_text(tomli_w.dumps(raw))
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "blocks[735].material: (block 'column_735') unknown material 'rokc'" in err
+
+
+def test_an_absurd_initial_speed_is_refused_by_name_before_the_run(tmp_path, capsys):
+    """1e10 m/s (a unit mix-up) was blamed on "contacts did not settle" after the run."""
+    path = tmp_path / "fast.toml"
+    path.write_text(TEXT.replace('name = "slider"', 'name = "slider"\nvelocity = [1e10, 0, 0]'))
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "blocks[1].velocity: (block 'slider') moves 9.19e+06 model sizes (10.9)" in err
+    assert "no step can follow it" in err and not (tmp_path / "out").exists()
+    path.write_text(TEXT.replace('name = "slider"', 'name = "slider"\nvelocity = [100, 0, 0]'))
+    assert dda.load_scene(path).blocks[1].velocity == (100.0, 0.0, 0.0)  # 0.09 sizes a step
+
+
+def test_a_path_without_toml_is_read_as_a_path(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "slide.txt").write_text(TEXT)
+    assert len(dda.load_scene("slide.txt").blocks) == 2
+    with pytest.raises(dda.SceneError, match="^missing_scene: <file>: no such file$"):
+        dda.load_scene("missing_scene")
+    assert dda.load_scene(TEXT).title  # TOML text still works
