@@ -66,10 +66,11 @@ def test_an_mp4_by_default_when_imageio_ffmpeg_is_there(run_folder):
 def test_one_view_and_one_colour_range_for_the_whole_movie(run_folder):
     frames = [read_found_frame(f) for f in all_frames(run_folder)]
     assert [f.step for f in frames] == list(range(6))
-    clim, view = shared_look(frames, "syy")
+    look = shared_look(frames, "syy")
     # the block falls from y = 6 to y = 3.5: the view holds its start and its end
-    np.testing.assert_allclose(view, [[0.0, 0.0], [4.0, 6.0]])
-    assert clim == (-5.0, 0.0)  # syy of the free block over all frames (fixed: no field)
+    np.testing.assert_allclose(look.view, [[0.0, 0.0], [4.0, 6.0]])
+    assert look.clim == (-5.0, 0.0)  # syy of the free block over all frames (fixed: no field)
+    assert look.force_max == 0.0  # the frames have no contacts
 
 
 @pytest.mark.parametrize(

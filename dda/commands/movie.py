@@ -65,14 +65,14 @@ def movie_command(args: argparse.Namespace) -> int:
             raise MovieError(f"--size {args.size[0]} {args.size[1]}: give even numbers")
         check_output_file(output)
         frames = [read_found_frame(f) for f in found]
-        clim, view = shared_look(frames, args.scalars)
+        look = shared_look(frames, args.scalars)
     except (FileNotFoundError, ValueError, OutputError) as exc:
         print(f"dda movie: {exc}", file=sys.stderr)
         return EXIT_INPUT
     run = found[0].summary()
     with ProgressBar(total=len(frames), label=f"movie {output.name}") as bar:
         count = write_movie(
-            frames, output, clim, view, scalars=args.scalars, fps=args.fps,
+            frames, output, look, scalars=args.scalars, fps=args.fps,
             size=tuple(args.size), show_contacts=not args.no_contacts,
             scene_title=run.get("title") or "", units=run.get("units"),
             on_frame=lambda k: bar.update(k, frame=k),

@@ -1,8 +1,8 @@
 """Animations of a run: its frames drawn one after the other into MP4 or GIF.
 
 Every picture of a movie has the same view (the extent of the blocks over all its
-frames) and the same colour range (over all its frames), so that motion and the
-growth of a stress show as they happened; each is titled with its time and step.
+frames), the same colour range and the same contact-force scale (over all its
+frames), so that motion and the growth of a stress or a force show as they happened; each is titled with its time and step.
 MP4 (H.264, ``yuv420p``: what browsers and players open) is written through
 imageio-ffmpeg, which carries its own ffmpeg (the optional ``movie`` extra);
 GIF through Pillow, which matplotlib already brings. :func:`movie_format` picks
@@ -14,13 +14,14 @@ from __future__ import annotations
 import importlib.util
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from dda.io.atomic import atomic_path
 from dda.io.fields import SCALARS, scalar_field
-from dda.io.images import color_range, compose, extent, picture_pixels
+from dda.io.images import color_range, compose, extent, largest_force, picture_pixels
 from dda.result import Frame
 
 FORMATS = (".mp4", ".gif")
@@ -56,19 +57,30 @@ def movie_format(path: str | os.PathLike[str] | None) -> str:
     return suffix
 
 
-def shared_look(frames: Sequence[Frame], scalars: str) -> tuple[tuple[float, float], np.ndarray]:
-    """(colour range, view) over all ``frames``: the range of ``scalars`` on the free
-    blocks (as :func:`dda.io.images.color_range` makes it) and the blocks' extent."""
+@dataclass(frozen=True)
+class MovieLook:
+    """What every picture of a movie shares: colour range, view
+    (``[[x_min, y_min], [x_max, y_max]]``) and the contact force drawn longest."""
+
+    clim: tuple[float, float]
+    view: np.ndarray
+    force_max: float
+
+
+def shared_look(frames: Sequence[Frame], scalars: str) -> MovieLook:
+    """The :class:`MovieLook` of ``frames``: the range of ``scalars`` on the free blocks
+    (as :func:`dda.io.images.color_range` makes it), the blocks' extent and the largest
+    contact force, each over all frames."""
     values = np.concatenate([np.where(f.fixed, np.nan, scalar_field(f, scalars)) for f in frames])
     clim, _ = color_range(values, SCALARS[scalars].signed)
-    return clim, extent(frames)
+    force_max = max((largest_force(f) for f in frames), default=0.0)
+    return MovieLook(clim, extent(frames), force_max)
 
 
 def write_movie(
     frames: Iterable[Frame],
     path: str | os.PathLike[str],
-    clim: tuple[float, float],
-    view: np.ndarray,
+    look: MovieLook,
     scalars: str = "syy",
     fps: float = 10.0,
     size: tuple[int, int] = (960, 720),
@@ -77,8 +89,9 @@ def write_movie(
     units: Mapping[str, str] | None = None,
     on_frame: Callable[[int], None] | None = None,
 ) -> int:
-    """Draw ``frames`` into the movie ``path`` (.mp4 or .gif, written atomically);
-    returns the number of frames. ``on_frame(k)`` is called after the k-th (from 1)."""
+    """Draw ``frames`` into the movie ``path`` (.mp4 or .gif, written atomically), each
+    with ``look``; returns the number of frames. ``on_frame(k)`` is called after the
+    k-th (from 1)."""
     suffix = movie_format(path)
     if size[0] % 2 or size[1] % 2:
         raise MovieError(f"movie size {size[0]} x {size[1]}: width and height must be even")
@@ -86,8 +99,9 @@ def write_movie(
     def pictures():
         for k, frame in enumerate(frames, start=1):
             figure = compose(
-                [frame], [None], scalars, show_contacts, size, clim, scene_title, units, view
-            )
+                [frame], [None], scalars, show_contacts, size, look.clim, scene_title, units,
+                look.view, look.force_max,
+            )  # fmt: skip
             yield picture_pixels(figure)
             if on_frame is not None:
                 on_frame(k)
