@@ -2,11 +2,12 @@
 
 Every picture of a movie has the same view (the extent of the blocks over all its
 frames), the same colour range and the same contact-force scale (over all its
-frames), so that motion and the growth of a stress or a force show as they happened; each is titled with its time and step.
-MP4 (H.264, ``yuv420p``: what browsers and players open) is written through
-imageio-ffmpeg, which carries its own ffmpeg (the optional ``movie`` extra);
-GIF through Pillow, which matplotlib already brings. :func:`movie_format` picks
-MP4 when imageio-ffmpeg is installed and the name does not ask for GIF.
+frames), so that motion and the growth of a stress or a force show as they
+happened; each is titled with its time and step. MP4 (H.264, ``yuv420p``: what
+browsers and players open) is written through imageio-ffmpeg, which carries its
+own ffmpeg (the optional ``movie`` extra); GIF through Pillow, which matplotlib
+already brings. :func:`movie_format` picks MP4 when imageio-ffmpeg is installed
+and the name does not ask for GIF.
 """
 
 from __future__ import annotations
