@@ -4,6 +4,8 @@
   their constant stress and displacement beside the FEM field on its mesh, and
   the signed differences on a ± tolerance scale, rendered off screen with
   pyvista through EGL (:mod:`verify.field_pictures`).
+- A motion case (:func:`case_image`): the DDA against its closed form and
+  the errors against the time step, drawn with matplotlib.
 - A dynamic case (:func:`case_image`), the summary bar chart and the
   block-refinement convergence plot: curves, drawn with matplotlib
   (:mod:`verify.plots`).
@@ -16,7 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from verify.cases import CaseResult
-from verify.plots import history_picture, refinement_chart, summary_chart
+from verify.plots import history_picture, motion_picture, refinement_chart, summary_chart
 
 __all__ = ["case_image", "case_title", "refinement_chart", "summary_chart"]
 
@@ -26,6 +28,8 @@ def case_image(result: CaseResult, path: Path) -> Path:
     title = case_title(result)
     if result.expectation.kind == "dynamic":
         return history_picture(result, title, path)
+    if result.expectation.kind == "motion":
+        return motion_picture(result, title, path)
     from verify.field_pictures import state_picture
 
     return state_picture(result, title, path)
