@@ -188,6 +188,10 @@ def drop(scene: Scene, block: int, times: np.ndarray) -> Motion:
     return Motion(u, np.zeros(len(times)), valid, {"impact": t_impact})
 
 
+# the stress rows' smallest scale, as a strain (about the elastic strains of the cases):
+# a block that carries no stress is not judged on the round-off of its vertices
+STRAIN_FLOOR = 1e-6
+
 # errors below this fraction of their scale are round-off (no order is measured from them)
 ROUND_OFF = 1e-10
 
@@ -298,9 +302,12 @@ def stress_rows(scene: Scene, block: int, track: Track) -> list[Row]:
     """Rows ``stress``: the block's stress against the stress its vertices imply,
     σ = R σ₀ Rᵀ + C ε (σ₀ the first frame's stress turned with the block by the
     rotation since, ε the strain of the vertices since the first frame, current axes).
-    A constant-strain block's stress is C times its strain whatever moves it."""
-    implied = turned_stress(track.stress[0], track.r) + track.strain @ elasticity(scene, block).T
-    scale = max(float(np.abs(track.stress).max()), float(np.abs(implied).max()))
+    A constant-strain block's stress is C times its strain whatever moves it. Scale:
+    the largest stress of either side, at least C₁₁ × ``STRAIN_FLOOR``."""
+    stiffness = elasticity(scene, block)
+    implied = turned_stress(track.stress[0], track.r) + track.strain @ stiffness.T
+    floor = STRAIN_FLOOR * float(stiffness[0, 0])  # a block without stress: not round-off
+    scale = max(float(np.abs(track.stress).max()), float(np.abs(implied).max()), floor)
     name = scene.blocks[block].name
     return [
         Row("stress", f"{name}@{t:.6g}", c, float(track.stress[k, m]), float(implied[k, m]), scale)
