@@ -45,6 +45,9 @@ def case_title(result: CaseResult) -> str:
             for n, f in onset.items()
         )
         title += f" (state before the break, factor {result.series['factor_before']:.4g})"
+    e = result.expectation
+    if e.fem_turn:
+        title += f"; compared at rest, the scene turned by {e.fem_turn:.4g}° about {e.fem_about}"
     if result.expectation.frame:
         title += f"; components along a frame at {result.expectation.frame:g}°"
     return title
