@@ -118,3 +118,17 @@ def test_motion_case_reports_its_dt_study_and_draws_its_picture(tmp_path):
     assert study["expected_order"] == 1.0
     assert (tmp_path / "images" / "verify_rocking.png").stat().st_size > 20_000
     assert "observed order in Δt" in (tmp_path / "report.md").read_text()
+
+
+def test_motion_expectations_are_checked_on_loading(tmp_path):
+    from verify.expect import MOTION_REFERENCES, ExpectationError, load_expectation
+    from verify.motion import REFERENCES
+
+    assert set(MOTION_REFERENCES) == set(REFERENCES)
+    path = tmp_path / "x.expect.toml"
+    path.write_text('kind = "motion"\nreference = "drop"\n')
+    with pytest.raises(ExpectationError, match="reference"):
+        load_expectation(path)
+    path.write_text('kind = "motion"\nreference = "free"\ntime_steps = [4, 2]\n')
+    with pytest.raises(ExpectationError, match="time_steps"):
+        load_expectation(path)

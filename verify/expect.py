@@ -29,7 +29,7 @@ its expectations live beside it::
     vertex = "..."
 
 A ``motion`` case (:mod:`verify.motion`) has no FEM side: ``reference`` names
-its closed form ("free", "slide", "rocking", "drop"), ``time_steps`` the
+its closed form ("free", "slide", "rocking"), ``time_steps`` the
 factors of the scene's time step it is run at (e.g. [4, 2, 1]; 1 is the scene
 as written and gives the compared rows) and ``order`` the order of accuracy in
 Δt the rows ``order`` are compared with.
@@ -63,6 +63,7 @@ KNOWN_CHECKS = (
     "al_updates",
 )
 KINDS = ("static", "dynamic", "fracture", "motion")
+MOTION_REFERENCES = ("free", "slide", "rocking")  # the closed forms of verify.motion
 
 
 class ExpectationError(ValueError):
@@ -135,6 +136,21 @@ def _check(path: Path, name: str, table: dict) -> Check:
     )
 
 
+def _check_motion(path: Path, raw: dict) -> None:
+    """A motion case names a known closed form and time-step factors that include 1."""
+    reference = raw.get("reference")
+    if reference not in MOTION_REFERENCES:
+        raise ExpectationError(
+            f"{path}: reference: {reference!r} is not one of {MOTION_REFERENCES}"
+        )
+    factors = raw.get("time_steps", [1])
+    if not all(isinstance(f, int) and f >= 1 for f in factors) or 1 not in factors:
+        raise ExpectationError(
+            f"{path}: time_steps: {factors!r}: positive whole factors of the scene's "
+            "time step, 1 among them"
+        )
+
+
 def load_expectation(path: Path) -> Expectation:
     """Read and check an expectation file."""
     try:
@@ -145,6 +161,8 @@ def load_expectation(path: Path) -> Expectation:
     if kind not in KINDS:
         raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")
     fem = raw.get("fem", {})
+    if kind == "motion":
+        _check_motion(path, raw)
     return Expectation(
         summary=str(raw.get("summary", "")),
         quick=bool(raw.get("quick", False)),

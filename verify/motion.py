@@ -25,16 +25,14 @@ here from the scene alone (``reference`` in the expectation file):
     θ'' = −(3 g / (4 R)) sin(α − θ), R the half-diagonal, α = atan(b/h), θ the
     tilt (θ0 at t = 0), integrated with scipy (rtol 1e-11) up to θ = 0. Rows
     before the impact only.
-``drop``
-    a block above a level fixed base falls freely, u_y = −½ g t², until it
-    touches, t_i = √(2 h0 / g) (h0 the gap); rows before the impact, and the
-    impact time itself.
 
 Rows ``motion`` (every saved frame of the finest run: the centroid displacement
 ux, uy in the case's frame and the rotation r measured from the vertices — the
 angle of the polar decomposition of the affine map that moved them, so a
 first-order vertex update that rotates by atan r₀ and inflates by 1 + r₀² is
-seen), ``area`` (the largest |A/A₀ − 1| over the frames) and ``order`` (the
+seen), ``area`` (the largest |A/A₀ − 1| over the frames), ``stress`` (the
+block's stress against the stress its vertices imply, :func:`stress_rows`) and
+``order`` (the
 observed order of accuracy in Δt of each component, log(e(f Δt)/e(Δt))/log f
 between the two finest runs, e the largest |DDA − reference| over the common
 frames; against the expectation's ``order`` when it states one).
@@ -172,22 +170,6 @@ def rocking(scene: Scene, block: int, times: np.ndarray) -> Motion:
     return Motion(turned - arm, r, valid, {"impact": t_impact})
 
 
-def drop(scene: Scene, block: int, times: np.ndarray) -> Motion:
-    """Free fall until the block touches the fixed blocks below it."""
-    import shapely
-
-    if scene.analysis.gravity[0] != 0.0 or scene.loads or any(scene.blocks[block].velocity):
-        raise ExpectationError(f"{scene.source}: reference 'drop': vertical g, no loads, at rest")
-    g = -float(scene.analysis.gravity[1])
-    polygon = shapely.Polygon(scene.blocks[block].vertices)
-    fixed = [shapely.Polygon(b.vertices) for b in scene.blocks if b.fixed]
-    gap = min(polygon.distance(f) for f in fixed)
-    t_impact = float(np.sqrt(2.0 * gap / g))
-    valid = times < t_impact
-    u = np.column_stack([np.zeros(len(times)), -0.5 * g * times**2])
-    return Motion(u, np.zeros(len(times)), valid, {"impact": t_impact})
-
-
 # the stress rows' smallest scale, as a strain (about the elastic strains of the cases):
 # a block that carries no stress is not judged on the round-off of its vertices
 STRAIN_FLOOR = 1e-6
@@ -195,7 +177,7 @@ STRAIN_FLOOR = 1e-6
 # errors below this fraction of their scale are round-off (no order is measured from them)
 ROUND_OFF = 1e-10
 
-REFERENCES = {"free": free_motion, "slide": slide, "rocking": rocking, "drop": drop}
+REFERENCES = {"free": free_motion, "slide": slide, "rocking": rocking}
 
 
 def with_time_step(scene: Scene, factor: int) -> Scene:
