@@ -381,7 +381,7 @@ def test_block_strain_from_vertices_is_free_of_rotation():
 
 # --- cases ---------------------------------------------------------------------
 
-DISPLACEMENT_CHECKS = {"strain", "centroid", "vertex", "history", "onset"}
+DISPLACEMENT_CHECKS = {"strain", "centroid", "vertex", "history", "onset", "motion"}
 STRESS_CHECKS = {"stress", "closed_form", "stress_history"}
 
 
@@ -393,7 +393,8 @@ def test_every_case_is_a_valid_scene_with_reasoned_expectations():
     for case in cases:
         scene = dda.load_scene(case.scene_path)
         expectation = load_expectation(case.expect_path)
-        assert scene.analysis.mode == ("dynamic" if expectation.kind == "dynamic" else "static")
+        dynamic = expectation.kind in ("dynamic", "motion")
+        assert scene.analysis.mode == ("dynamic" if dynamic else "static")
         assert expectation.summary and expectation.checks
         # every case checks displacements (or what is measured from them) and stresses
         assert DISPLACEMENT_CHECKS & set(expectation.checks), case.name

@@ -22,6 +22,7 @@ from verify.dda_side import DdaSide
 from verify.expect import Expectation, ExpectationError, load_expectation
 from verify.fem import FemOptions, FemSolution
 from verify.runners import RUNNERS
+from verify.turn import turned_scene
 
 log = logging.getLogger(__name__)
 
@@ -146,6 +147,8 @@ def run_case(case: Case, reference=None) -> CaseResult:
             f"{case.expect_path}: offsets: no such rows: {', '.join(sorted(unknown))}"
         )
     verdicts = judge(result.rows, expectation)
+    # a case compared in a turned state (verify.turn) is drawn there
+    scene = turned_scene(scene, expectation.fem_turn, expectation.fem_about)
     log.info(
         "%s: %s",
         case.name,

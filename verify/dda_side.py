@@ -44,8 +44,12 @@ class DdaSide:
     time: float = 0.0
 
     @classmethod
-    def from_result(cls, result: Result, scene: Scene, frame: int = -1) -> DdaSide:
-        """Collect frame ``frame`` (default the last) of ``result`` in scene order."""
+    def from_result(
+        cls, result: Result, scene: Scene, frame: int = -1, start: Scene | None = None
+    ) -> DdaSide:
+        """Collect frame ``frame`` (default the last) of ``result`` in scene order;
+        displacements and strains from the geometry of ``start`` (a turned scene,
+        :mod:`verify.turn`) instead of the first frame when it is given."""
         final = result.frames[frame]
         missing = [b.name for b in scene.blocks if b.name not in final.names]
         if missing:
@@ -53,29 +57,47 @@ class DdaSide:
                 f"blocks {missing} are not in the frame (broken?): "
                 "the FEM comparison needs the scene's blocks intact"
             )
-        side = cls.from_frames(result.frames[0], final, scene)
+        side = cls.from_frames(result.frames[0], final, scene, start)
         index = frame % len(result.frames)
         settled = settling(result.frames[: index + 1])
         return cls(**{**side.__dict__, "settled": settled, "summary": dict(result.summary)})
 
     @classmethod
-    def from_frames(cls, first: Frame, final: Frame, scene: Scene) -> DdaSide:
-        """Displacements of ``final`` against ``first``, in scene order."""
+    def from_frames(
+        cls, first: Frame, final: Frame, scene: Scene, start: Scene | None = None
+    ) -> DdaSide:
+        """Displacements of ``final`` against ``first`` (or the geometry of ``start``),
+        in scene order."""
         rows = [final.block(b.name) for b in scene.blocks]
         first_rows = [first.block(b.name) for b in scene.blocks]
         before = [first.vertices[r] for r in first_rows]
+        if start is not None:
+            before = [np.asarray(b.vertices, dtype=float) for b in start.blocks]
         after = [final.vertices[r] for r in rows]
+        moved = final.displacements[rows]
+        if start is not None:  # centroid against the start geometry's
+            moved = final.centroids[rows] - np.array([_centroid(v) for v in before])
         to_scene = {row: i for i, row in enumerate(rows)}
         return cls(
             stresses=final.stresses[rows],
             strains=np.array([block_strain(x0, x1) for x0, x1 in zip(before, after, strict=True)]),
-            centroid_displacement=final.displacements[rows],
+            centroid_displacement=moved,
             vertex_displacement=tuple(x1 - x0 for x0, x1 in zip(before, after, strict=True)),
             interfaces=group_contacts(final.contacts, to_scene),
             settled=float("nan"),
             summary={},
             time=float(final.time),
         )
+
+
+def _centroid(vertices: np.ndarray) -> np.ndarray:
+    """Area centroid of a polygon (shoelace)."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    area = cross.sum() / 2.0
+    return np.array(
+        [((x + np.roll(x, -1)) * cross).sum(), ((y + np.roll(y, -1)) * cross).sum()]
+    ) / (6.0 * area)
 
 
 def block_strain(before: np.ndarray, after: np.ndarray) -> np.ndarray:

@@ -12,6 +12,8 @@ its expectations live beside it::
     [fem]
     size = 0.125                # element size (default: mesh.default_size)
     order = 2
+    turn = -34.38               # optional: the FEM model is the scene turned by this
+    about = [0.5, 2.0]          # (degrees) about this point (verify.turn)
     [checks.stress]             # one table per checked quantity
     tolerance = 1e-4            # largest |error| allowed (see verify.compare)
     why = "..."                 # why this agreement is expected
@@ -25,6 +27,12 @@ its expectations live beside it::
     [dda_closed_form]           # exact block stresses or strains of the DDA alone
     [notes]                     # optional: why a reported quantity is not checked
     vertex = "..."
+
+A ``motion`` case (:mod:`verify.motion`) has no FEM side: ``reference`` names
+its closed form ("free", "slide", "rocking"), ``time_steps`` the
+factors of the scene's time step it is run at (e.g. [4, 2, 1]; 1 is the scene
+as written and gives the compared rows) and ``order`` the order of accuracy in
+Δt the rows ``order`` are compared with.
 
 A quantity without a ``[checks.NAME]`` table is reported but not checked.
 Every check states why; a tolerance above 1 % must say why it is that large
@@ -49,8 +57,13 @@ KNOWN_CHECKS = (
     "history",
     "stress_history",
     "onset",
+    "motion",
+    "area",
+    "order",
+    "al_updates",
 )
-KINDS = ("static", "dynamic", "fracture")
+KINDS = ("static", "dynamic", "fracture", "motion")
+MOTION_REFERENCES = ("free", "slide", "rocking")  # the closed forms of verify.motion
 
 
 class ExpectationError(ValueError):
@@ -92,11 +105,19 @@ class Expectation:
     catches: tuple[str, ...] = ()
     fem_size: float | None = None
     fem_order: int = 2
+    # the FEM model is the scene turned by fem_turn degrees about fem_about: the state
+    # the engine is to come to rest in after a large rotation (verify.turn)
+    fem_turn: float = 0.0
+    fem_about: tuple[float, float] = (0.0, 0.0)
     checks: dict[str, Check] = field(default_factory=dict)
     offsets: dict[str, float] = field(default_factory=dict)
     closed_form: dict[str, float] = field(default_factory=dict)
     dda_closed_form: dict[str, float] = field(default_factory=dict)
     notes: dict[str, str] = field(default_factory=dict)  # why a quantity is not checked
+    # kind "motion" (verify.motion): the closed form, the time-step factors, the order
+    reference: str = ""
+    time_steps: tuple[int, ...] = (1,)
+    order: float | None = None
 
 
 def _check(path: Path, name: str, table: dict) -> Check:
@@ -115,6 +136,21 @@ def _check(path: Path, name: str, table: dict) -> Check:
     )
 
 
+def _check_motion(path: Path, raw: dict) -> None:
+    """A motion case names a known closed form and time-step factors that include 1."""
+    reference = raw.get("reference")
+    if reference not in MOTION_REFERENCES:
+        raise ExpectationError(
+            f"{path}: reference: {reference!r} is not one of {MOTION_REFERENCES}"
+        )
+    factors = raw.get("time_steps", [1])
+    if not all(isinstance(f, int) and f >= 1 for f in factors) or 1 not in factors:
+        raise ExpectationError(
+            f"{path}: time_steps: {factors!r}: positive whole factors of the scene's "
+            "time step, 1 among them"
+        )
+
+
 def load_expectation(path: Path) -> Expectation:
     """Read and check an expectation file."""
     try:
@@ -125,6 +161,8 @@ def load_expectation(path: Path) -> Expectation:
     if kind not in KINDS:
         raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")
     fem = raw.get("fem", {})
+    if kind == "motion":
+        _check_motion(path, raw)
     return Expectation(
         summary=str(raw.get("summary", "")),
         quick=bool(raw.get("quick", False)),
@@ -134,9 +172,14 @@ def load_expectation(path: Path) -> Expectation:
         catches=tuple(raw.get("catches", ())),
         fem_size=fem.get("size"),
         fem_order=int(fem.get("order", 2)),
+        fem_turn=float(fem.get("turn", 0.0)),
+        fem_about=tuple(float(x) for x in fem.get("about", (0.0, 0.0))),
         checks={name: _check(path, name, t) for name, t in raw.get("checks", {}).items()},
         offsets={k: float(v) for k, v in raw.get("offsets", {}).items()},
         closed_form={k: float(v) for k, v in raw.get("closed_form", {}).items()},
         dda_closed_form={k: float(v) for k, v in raw.get("dda_closed_form", {}).items()},
         notes={k: str(v).strip() for k, v in raw.get("notes", {}).items()},
+        reference=str(raw.get("reference", "")),
+        time_steps=tuple(int(f) for f in raw.get("time_steps", (1,))),
+        order=None if raw.get("order") is None else float(raw["order"]),
     )

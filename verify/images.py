@@ -4,6 +4,8 @@
   their constant stress and displacement beside the FEM field on its mesh, and
   the signed differences on a ± tolerance scale, rendered off screen with
   pyvista through EGL (:mod:`verify.field_pictures`).
+- A motion case (:func:`case_image`): the DDA against its closed form and
+  the errors against the time step, drawn with matplotlib.
 - A dynamic case (:func:`case_image`), the summary bar chart and the
   block-refinement convergence plot: curves, drawn with matplotlib
   (:mod:`verify.plots`).
@@ -16,7 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from verify.cases import CaseResult
-from verify.plots import history_picture, refinement_chart, summary_chart
+from verify.plots import history_picture, motion_picture, refinement_chart, summary_chart
 
 __all__ = ["case_image", "case_title", "refinement_chart", "summary_chart"]
 
@@ -26,6 +28,8 @@ def case_image(result: CaseResult, path: Path) -> Path:
     title = case_title(result)
     if result.expectation.kind == "dynamic":
         return history_picture(result, title, path)
+    if result.expectation.kind == "motion":
+        return motion_picture(result, title, path)
     from verify.field_pictures import state_picture
 
     return state_picture(result, title, path)
@@ -41,6 +45,9 @@ def case_title(result: CaseResult) -> str:
             for n, f in onset.items()
         )
         title += f" (state before the break, factor {result.series['factor_before']:.4g})"
+    e = result.expectation
+    if e.fem_turn:
+        title += f"; compared at rest, the scene turned by {e.fem_turn:.4g}° about {e.fem_about}"
     if result.expectation.frame:
         title += f"; components along a frame at {result.expectation.frame:g}°"
     return title

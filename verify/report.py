@@ -57,17 +57,7 @@ def case_section(result: CaseResult, image: str | None) -> list[str]:
     """Markdown for one case: what it is, verdicts with reasons, numbers, picture."""
     e = result.expectation
     lines = [f"## {result.case.name}", "", e.summary, ""]
-    state = result.fem.state
-    lines += [
-        f"Kind: {e.kind}. DDA: {result.dda.summary.get('steps', '?')} steps, "
-        f"{result.seconds.get('dda', 0):.2f} s"
-        + (f", settled to {result.dda.settled:.1e}" if e.kind == "static" else "")
-        + f". FEM: P{e.fem_order}, {result.fem.basis.N} DOFs, {len(result.fem.contact)} contact "
-        f"points ({int(state.closed.sum())} closed, {int(state.slip.sum())} slipping), "
-        f"{result.fem.iterations} linear solve(s), {result.seconds.get('fem', 0):.2f} s."
-        + (f" Catches: {', '.join(e.catches)}." if e.catches else ""),
-        "",
-    ]
+    lines += [_kind_line(result), ""]
     verdicts = [
         [
             v.quantity,
@@ -105,12 +95,60 @@ def case_section(result: CaseResult, image: str | None) -> list[str]:
     return lines + [""]
 
 
+def _kind_line(result: CaseResult) -> str:
+    """How the case ran: DDA steps and seconds; the FEM side, or the motion study."""
+    e = result.expectation
+    line = (
+        f"Kind: {e.kind}. DDA: {result.dda.summary.get('steps', '?')} steps, "
+        f"{result.seconds.get('dda', 0):.2f} s"
+        + (f", settled to {result.dda.settled:.1e}" if e.kind == "static" else "")
+        + ". "
+    )
+    if result.fem is None:  # motion: the closed form at several time steps
+        study = result.series
+        errors = study["errors"]
+        line += f"Reference: closed form '{e.reference}'; largest |DDA − reference| at Δt = " + (
+            ", ".join(
+                f"{study['time_steps'][f]:g} s: ux {errors[f]['ux']:.2e}, uy {errors[f]['uy']:.2e},"
+                f" r {errors[f]['r']:.2e}"
+                for f in sorted(errors, reverse=True)
+            )
+        )
+        orders = ", ".join(f"{c} {p:.2f}" for c, p in study["orders"].items())
+        line += f"; observed order in Δt (two finest): {orders or 'none'}."
+    else:
+        state = result.fem.state
+        line += (
+            f"FEM: P{e.fem_order}, {result.fem.basis.N} DOFs, {len(result.fem.contact)} contact "
+            f"points ({int(state.closed.sum())} closed, {int(state.slip.sum())} slipping), "
+            f"{result.fem.iterations} linear solve(s), {result.seconds.get('fem', 0):.2f} s."
+        )
+    return line + (f" Catches: {', '.join(e.catches)}." if e.catches else "")
+
+
+def _motion_study(result: CaseResult) -> dict | None:
+    """report.json's ``dt_study`` of a motion case: Δt, errors per Δt, observed orders."""
+    if result.fem is not None:
+        return None
+    s = result.series
+    return {
+        "reference": result.expectation.reference,
+        "time_steps": [s["time_steps"][f] for f in sorted(s["errors"], reverse=True)],
+        "errors": [s["errors"][f] for f in sorted(s["errors"], reverse=True)],
+        "observed_order": s["orders"],
+        "expected_order": result.expectation.order,
+        "events": s["events"],
+    }
+
+
 def _shown(row, expectation) -> bool:
     """Rows listed in the report: checked ones, but only the worst of a history."""
     check = expectation.checks.get(row.quantity)
     if check is None or not check.applies_to(row.item, row.component):
         return False
-    return row.quantity not in ("history", "stress_history")
+    return (
+        row.quantity not in ("history", "stress_history", "motion", "stress") or "@" not in row.item
+    )
 
 
 def refinement_section(refinement) -> list[str]:
@@ -255,7 +293,8 @@ def write_json(
                 "kind": r.expectation.kind,
                 "catches": list(r.expectation.catches),
                 "dda_settled": r.dda.settled,
-                "fem_dofs": int(r.fem.basis.N),
+                "fem_dofs": None if r.fem is None else int(r.fem.basis.N),
+                "dt_study": _motion_study(r),
                 "verdicts": [
                     {
                         "quantity": v.quantity,

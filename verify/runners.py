@@ -26,12 +26,15 @@ import numpy as np
 
 import dda
 from dda import Result, Scene
+from verify.al_rate import al_update_rows
 from verify.compare import STRESS, VECTOR, Row, compare, tensor_in_frame, vector_in_frame
 from verify.dda_side import DdaSide
 from verify.dynamics import FemHistory, integrate
 from verify.expect import Expectation, ExpectationError
 from verify.fem import FemOptions, FemSolution, load_factor_at, solve_fem
 from verify.fracture import Onset, onset_factors
+from verify.motion import Track, free_block, motion_rows, with_time_step
+from verify.turn import turned_scene
 
 
 @dataclass
@@ -66,9 +69,13 @@ def run_static(
     """Final frame against the static FEM solution."""
     watch = Stopwatch()
     result = watch.run("dda", dda.simulate, scene)
-    fem = reference or watch.run("fem", solve_fem, scene, options)
-    side = DdaSide.from_result(result, scene)
-    return KindResult(side, fem, compare(side, fem, expectation), watch.seconds, fem)
+    at_rest = turned_scene(scene, expectation.fem_turn, expectation.fem_about)
+    fem = reference or watch.run("fem", solve_fem, at_rest, options)
+    side = DdaSide.from_result(result, scene, start=None if at_rest is scene else at_rest)
+    rows = compare(side, fem, expectation)
+    if "al_updates" in expectation.checks:
+        rows += watch.run("dda", al_update_rows, scene)
+    return KindResult(side, fem, rows, watch.seconds, fem)
 
 
 def run_dynamic(
@@ -208,4 +215,26 @@ def onset_rows(result: Result, scene: Scene, onset: Onset, expectation: Expectat
     return rows
 
 
-RUNNERS = {"static": run_static, "dynamic": run_dynamic, "fracture": run_fracture}
+def run_motion(
+    scene: Scene, expectation: Expectation, options: FemOptions, reference=None
+) -> KindResult:
+    """The scene at each of the expectation's time-step factors against the closed form
+    (:mod:`verify.motion`); no FEM side (``fem`` is None)."""
+    watch = Stopwatch()
+    name = scene.blocks[free_block(scene)].name
+    tracks, finest = {}, None
+    for factor in sorted(expectation.time_steps, reverse=True):
+        result = watch.run("dda", dda.simulate, with_time_step(scene, factor))
+        tracks[factor] = Track.of(result, name)
+        finest = result
+    rows, series = motion_rows(scene, expectation, tracks)
+    side = DdaSide.from_result(finest, scene)
+    return KindResult(side, None, rows, watch.seconds, None, series)
+
+
+RUNNERS = {
+    "static": run_static,
+    "dynamic": run_dynamic,
+    "fracture": run_fracture,
+    "motion": run_motion,
+}
