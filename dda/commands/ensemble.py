@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from dda.commands.cli import output_path
-from dda.commands.cluster_options import add_cluster_options, cluster_of, count
-from dda.commands.fos import EXIT_INPUT, add_fos_options, prepare
+from dda.commands.cluster_options import add_cluster_options, count
+from dda.commands.fos import EXIT_INPUT, add_fos_options, output_and_cluster, prepare
 
 BASE_COLUMNS = ("realisation", "seed")
 OUTCOME_COLUMNS = ("failed", "speed", "limit", "fos", "steps", "seconds", "host", "status")
@@ -48,7 +48,6 @@ def register(subparsers: Any) -> None:
 
 def ensemble_command(args: argparse.Namespace) -> int:
     """Run the realisations; return the exit code (0 done, 2 bad input, 130 interrupted)."""
-    from dda.io.output_paths import OutputError, check_output_dir
     from dda.stability.store import RowStore, scene_hash
 
     prepared = prepare(args, "ensemble", reduced=args.fos, edit=_ensemble_overrides(args))
@@ -60,16 +59,12 @@ def ensemble_command(args: argparse.Namespace) -> int:
         print(f"dda ensemble: {source}: ensemble.vary: the scene draws no value "
               "(add [[ensemble.vary]] tables, docs/scene.md)", file=sys.stderr)  # fmt: skip
         return EXIT_INPUT
-    outdir = args.outdir or Path("out") / f"ensemble_{Path(source).stem}"
-    try:
-        check_output_dir(outdir)
-    except OutputError as exc:
-        print(f"dda ensemble: -o {exc}", file=sys.stderr)
+    default = Path("out") / f"ensemble_{Path(source).stem}"
+    where = output_and_cluster(args, "ensemble", args.outdir or default)
+    if isinstance(where, str):
+        print(where, file=sys.stderr)
         return EXIT_INPUT
-    cluster = cluster_of(args, "ensemble")
-    if isinstance(cluster, str):
-        print(cluster, file=sys.stderr)
-        return EXIT_INPUT
+    outdir, cluster = where
     ensemble = scene.ensemble
     keys = [d.key for d in ensemble.vary]
     columns = (*BASE_COLUMNS, *keys, *OUTCOME_COLUMNS)

@@ -101,9 +101,21 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
     return raw, scene, criterion, str(path)
 
 
+def output_and_cluster(args: argparse.Namespace, command: str, outdir: Path):
+    """(output folder, cluster or None) for ``command``, or its one-line refusal: the
+    folder ``outdir`` must be writable, and the cluster options must be usable."""
+    from dda.io.output_paths import OutputError, check_output_dir
+
+    try:
+        check_output_dir(outdir)
+    except OutputError as exc:
+        return f"dda {command}: -o {exc}"
+    cluster = cluster_of(args, command)
+    return cluster if isinstance(cluster, str) else (outdir, cluster)
+
+
 def fos_command(args: argparse.Namespace) -> int:
     """Run the search; return the exit code (0 done, 2 bad input, 130 interrupted)."""
-    from dda.io.output_paths import OutputError, check_output_dir
     from dda.parallel import Workers
     from dda.stability.search import search
     from dda.stability.store import RowStore, scene_hash
@@ -113,16 +125,11 @@ def fos_command(args: argparse.Namespace) -> int:
         print(prepared, file=sys.stderr)
         return EXIT_INPUT
     raw, scene, criterion, source = prepared
-    outdir = args.outdir or Path("out") / f"fos_{Path(source).stem}"
-    try:
-        check_output_dir(outdir)
-    except OutputError as exc:
-        print(f"dda fos: -o {exc}", file=sys.stderr)
+    where = output_and_cluster(args, "fos", args.outdir or Path("out") / f"fos_{Path(source).stem}")
+    if isinstance(where, str):
+        print(where, file=sys.stderr)
         return EXIT_INPUT
-    cluster = cluster_of(args, "fos")
-    if isinstance(cluster, str):
-        print(cluster, file=sys.stderr)
-        return EXIT_INPUT
+    outdir, cluster = where
     store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
     runner = _Runner(raw, source, store, scene.units.velocity)
     fos = scene.fos
