@@ -15,6 +15,9 @@ class JointTable:
     The pair is of scene blocks (``BlockSet.origin``): a fragment of a block
     meets the other block of an interface through that interface's joint;
     two fragments of one block meet through their crack's joint.
+
+    ``factor`` (F, 1 unless a ``[[stages]]`` entry sets ``strength_factor``) divides the
+    strengths the contacts get: tan φ / F, c / F, T / F.
     """
 
     def __init__(
@@ -30,6 +33,7 @@ class JointTable:
         self.tan_friction = np.tan(np.radians(friction_angle))
         self.cohesion = np.asarray(cohesion, float)
         self.tensile = np.asarray(tensile, float)
+        self.factor = 1.0
         self.default = names.index("default")
         keys = (
             self._pair_keys(interface_ids[:, 0], interface_ids[:, 1])
@@ -64,9 +68,11 @@ class JointTable:
         return rows
 
     def properties(self, rows: np.ndarray, contact_length: np.ndarray) -> JointProperties:
-        """tan φ and the cohesion and tensile forces c·l, T·l of each contact."""
+        """tan φ / F and the cohesion and tensile forces c·l / F, T·l / F of each contact
+        (F = ``factor``; x / 1 is x to the bit)."""
+        f = self.factor
         return JointProperties(
-            friction=self.tan_friction[rows],
-            cohesion=self.cohesion[rows] * contact_length,
-            tensile=self.tensile[rows] * contact_length,
+            friction=self.tan_friction[rows] / f,
+            cohesion=self.cohesion[rows] * contact_length / f,
+            tensile=self.tensile[rows] * contact_length / f,
         )

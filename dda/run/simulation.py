@@ -25,7 +25,7 @@ from dda.run.environment import environment
 from dda.run.equilibrium_start import settle
 from dda.run.frames import make_frame, shifted
 from dda.run.measure import Probes
-from dda.run.stages import apply_due_stages
+from dda.run.stages import apply_due_stages, set_strengths
 from dda.scene import Scene
 from dda.scene.limits import check_run_size
 from dda.scene.local_frame import local_origin, translated
@@ -324,6 +324,8 @@ def run(
     if resume is not None:
         check_scene(resume, local)
         restore(state, resume)
+        if model.stages is not None and model.stages.changes_strengths:
+            set_strengths(state)
         start -= resume.wall_seconds
     elif not model.static and scene.analysis.start == "equilibrium":
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):

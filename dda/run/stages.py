@@ -1,4 +1,5 @@
-"""Staged excavation: at given times, remove blocks and install bolts; the run goes on.
+"""Staged excavation: at given times, remove blocks, install bolts and divide the
+strengths; the run goes on.
 
 A stage takes effect at the end of the step that reaches its time (the time
 loop shortens that step to end there exactly). Removing blocks makes a new
@@ -10,7 +11,11 @@ force: they are matched by their keys, which do not depend on rows). The
 energy of what was removed leaves the account (``summary["excavated_energy"]``).
 Then the stage's bolts are installed where their points are given, in the
 blocks the scene found for them (or, after a fracture, the fragment nearest
-to the point).
+to the point). A stage's ``strength_factor`` F divides the scene's joint strengths
+from then on (tan φ / F, c / F, T / F; :class:`dda.contact.joints.JointTable`), and
+with ``intact`` the breakable materials' Mohr–Coulomb strengths the same way; a later
+stage's F replaces it. A contact whose shear force exceeds its reduced bound is
+brought back to it by the contact law at the next step: it slips.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ import shapely
 
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
+from dda.fracture.effect import Strength
 from dda.fracture.fragments import replace_blocks
 from dda.scene.stage_plan import StagePlan
 
@@ -41,7 +47,31 @@ def apply_due_stages(run) -> None:
         if len(plan.bolts[k]):
             _install(run, plan, plan.bolts[k])
         run.stages_done += 1
+        if not np.isnan(plan.strength_factors[k]):
+            set_strengths(run)
         log.info("stage %d applied at t = %.6g", k + 1, run.time)
+
+
+def set_strengths(run) -> None:
+    """Give the run the strengths in force after its ``stages_done`` stages (also for a
+    run resumed from a checkpoint, whose model is rebuilt with the scene's own)."""
+    factor, intact = run.model.stages.strength_after(run.stages_done)
+    if run.model.contact is not None:
+        run.model.contact.joints.factor = factor
+    fracture = run.model.fracture
+    if fracture is not None:
+        given = Strength.from_scene(run.model.scene)
+        fracture.strength = _divided(given, factor) if intact else given
+    log.info("strengths divided by %g (intact rock: %s)", factor, "yes" if intact else "no")
+
+
+def _divided(strength: Strength, factor: float) -> Strength:
+    """c / F, atan(tan φ / F), T / F of every material (NaN, unbreakable, stays NaN)."""
+    return Strength(
+        cohesion=strength.cohesion / factor,
+        friction_angle=np.arctan(np.tan(strength.friction_angle) / factor),
+        tensile_strength=strength.tensile_strength / factor,
+    )
 
 
 def _remove(run, ids: np.ndarray) -> None:

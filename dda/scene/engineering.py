@@ -109,11 +109,14 @@ class Measure:
 
 @dataclass(frozen=True)
 class Stage:
-    """``[[stages]]``: at ``time``, remove blocks and install bolts."""
+    """``[[stages]]``: at ``time``, remove blocks, install bolts and (``strength_factor``)
+    divide the joints' strengths, with ``intact`` the breakable materials' too."""
 
     time: float
     remove: tuple[str, ...] = ()
     bolts: tuple[Bolt, ...] = ()
+    strength_factor: float | None = None  # F: tan φ / F, c / F, T / F from ``time`` on
+    intact: bool = False
 
 
 class _Geometry:
@@ -482,6 +485,8 @@ def _stages(
         "remove": lambda chk, value, key: chk.sequence(value, key),
         "polygon": Checker.simple_polygon,
         "bolts": lambda chk, value, key: chk.sequence(value, key),
+        "strength_factor": real(POSITIVE),
+        "intact": Checker.boolean,
     }
     stages: list[Stage] = []
     removed: dict[str, str] = {}  # block -> the stage key that removed it
@@ -495,8 +500,11 @@ def _stages(
         if analysis.duration is not None and time >= analysis.duration:
             chk.fail(f"{key}.time", f"{time:g} is not before the end of the run "
                      f"(analysis.duration = {analysis.duration:g})")  # fmt: skip
-        if not any(k in values for k in ("remove", "polygon", "bolts")):
-            chk.fail(key, "a stage removes blocks (remove, polygon) or adds bolts (bolts)")
+        if "intact" in values and "strength_factor" not in values:
+            chk.fail(f"{key}.intact", "needs strength_factor in the same stage")
+        if not any(k in values for k in ("remove", "polygon", "bolts", "strength_factor")):
+            chk.fail(key, "a stage removes blocks (remove, polygon), adds bolts (bolts) or "
+                     "divides the strengths (strength_factor)")  # fmt: skip
         remove = list(_named_blocks(chk, values.get("remove"), f"{key}.remove", geometry, groups))
         if "polygon" in values:
             inside = geometry.inside(values["polygon"])
@@ -516,7 +524,8 @@ def _stages(
                 if host in removed:
                     chk.fail(f"{key}.bolts[{k}].{end}", f"lies in block {host!r}, removed by "
                              f"{removed[host]}")  # fmt: skip
-        stages.append(Stage(time, tuple(remove), bolts))
+        factor = values.get("strength_factor")
+        stages.append(Stage(time, tuple(remove), bolts, factor, values.get("intact", False)))
     left = [n for n, f in zip(geometry.names, geometry.fixed, strict=True) if not f]
     if left and all(n in removed for n in left):
         chk.fail("stages", "the stages remove every free block: nothing would be left to move")

@@ -891,8 +891,6 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
     groups = _groups(chk, raw, names)
     units = _units(chk, raw)
     engineering = parse_engineering(chk, raw, blocks, groups, analysis, loads)
-    stages = engineering.get("stages", ())
-    last_stage = stages[-1].time if stages else None
     scene = Scene(
         title=title,
         analysis=analysis,
@@ -907,7 +905,7 @@ def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
         groups=groups,
         units=units,
         **engineering,
-        **parse_stability(chk, raw, written, blocks, groups, last_stage),
+        **parse_stability(chk, raw, written, blocks, groups),
     )
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene

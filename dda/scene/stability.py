@@ -124,17 +124,15 @@ def parse_stability(
     written: Mapping[str, Any],
     blocks: Sequence[Any],
     groups: Mapping[str, tuple[str, ...]],
-    last_stage: float | None,
 ) -> dict[str, Any]:
     """The Scene fields ``fos`` and ``ensemble``.
 
     ``raw`` is the scene with its blocks explicit, ``written`` the scene as written
-    (before a rock mass is cut: the keys ``[ensemble]`` draws refer to it);
-    ``last_stage`` the time of the last stage (a trial must run past it).
+    (before a rock mass is cut: the keys ``[ensemble]`` draws refer to it).
     """
     out: dict[str, Any] = {}
     if "fos" in raw:
-        out["fos"] = _fos(chk, raw["fos"], blocks, groups, last_stage)
+        out["fos"] = _fos(chk, raw["fos"], blocks, groups)
     if "ensemble" in raw:
         out["ensemble"] = _ensemble(chk, raw["ensemble"], written)
     return out
@@ -145,7 +143,6 @@ def _fos(
     value: object,
     blocks: Sequence[Any],
     groups: Mapping[str, tuple[str, ...]],
-    last_stage: float | None,
 ) -> FosSettings:
     values = checked_fields(chk, value, "fos", _FOS)
     settings = FosSettings(**{**values, "blocks": ()})
@@ -156,12 +153,6 @@ def _fos(
             "fos.tolerance",
             f"must be below upper - lower ({settings.upper - settings.lower:g}), "
             f"got {settings.tolerance:g}",
-        )
-    if settings.duration is not None and last_stage is not None and settings.duration <= last_stage:
-        chk.fail(
-            "fos.duration",
-            f"must exceed the time of the last stage ({last_stage:g}): a trial judges the "
-            f"state after it, got {settings.duration:g}",
         )
     watched = _watched(chk, values.get("blocks", ()), blocks, groups)
     return FosSettings(**{**values, "blocks": watched})

@@ -1,7 +1,8 @@
 """When a strength-reduction trial fails: its watched blocks do not come to rest.
 
-A trial runs the reduced scene for ``duration``; the last ``window`` of it, from T₀ to
-T, is judged by the mean speed of each watched block over it,
+A trial runs the reduced scene for ``duration`` from ``start`` (0, or for a scene
+with stages the end of its own run, where the reduction begins); the last ``window``
+of that, from T₀ to T, is judged by the mean speed of each watched block over it,
 
     s = max over blocks of ( |c(T) − c(T₀)| + |θ(T) − θ(T₀)| r ) / (T − T₀),
 
@@ -39,11 +40,18 @@ class Criterion:
     window: float  # fraction of the duration, at its end, that is judged
     velocity: float  # the speed limit
     blocks: tuple[str, ...] = ()  # watched blocks (empty: every free block)
+    start: float = 0.0  # when the strengths are divided (the end of a staged scene's run)
+
+    @property
+    def end(self) -> float:
+        """The end of the trial: ``start`` + ``duration``."""
+        return self.start + self.duration
 
     @property
     def judged_from(self) -> float:
-        """The time from which speeds count."""
-        return self.duration * (1.0 - self.window)
+        """The time from which speeds count: the last ``window`` of the part after
+        ``start``."""
+        return self.start + self.duration * (1.0 - self.window)
 
 
 def run_length(scene: Scene) -> float:
@@ -53,7 +61,8 @@ def run_length(scene: Scene) -> float:
 
 
 def criterion_of(scene: Scene) -> Criterion:
-    """The criterion of ``scene``'s ``[fos]`` table (defaults resolved).
+    """The criterion of ``scene``'s ``[fos]`` table (defaults resolved); for a scene with
+    ``[[stages]]`` it starts at the end of the scene's run (:mod:`dda.stability.trial`).
 
     Raises
     ------
@@ -80,7 +89,8 @@ def criterion_of(scene: Scene) -> Criterion:
                 "is required without gravity (the default limit is a fraction of |g|)",
             )
         velocity = fos.acceleration * g * duration
-    return Criterion(duration, fos.window, velocity, fos.blocks)
+    start = run_length(scene) if scene.stages else 0.0
+    return Criterion(duration, fos.window, velocity, fos.blocks, start)
 
 
 def block_radii(frame: Frame) -> np.ndarray:

@@ -1,11 +1,19 @@
 """One strength-reduction trial, runnable on any worker: load, reduce, run, judge.
 
 A :class:`Trial` carries the scene as a dict (and the file it came from, for messages
-and the files it names): workers read no file. The trial runs the reduced scene from
-its equilibrium start (``[analysis] start``: the scene's geometry carrying its loads at
-t = 0, so a model that stands at F starts at rest) for the criterion's duration,
-through the scene's stages, and judges it by :mod:`dda.stability.criterion`. A run
-that stops (``dda.SimulationError``) counts as failed.
+and the files it names): workers read no file. The scene runs as given first, then its
+strengths are divided by F:
+
+- without ``[[stages]]`` the reduced scene runs from its equilibrium start
+  (``[analysis] start``: the scene's geometry carrying its loads at t = 0, so a model
+  that stands at F starts at rest) for the criterion's duration: the scene as given
+  would stay at rest, so reducing from t = 0 is the same;
+- with stages the scene runs with its own strengths through its stages to the end of
+  its run, T_r, where one more stage divides them by F (``strength_factor``, times the
+  factor of the scene's own last one), and goes on for the criterion's duration.
+
+It is judged by :mod:`dda.stability.criterion` (the window lies after T_r). A run that
+stops (``dda.SimulationError``) counts as failed.
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ import time
 from dataclasses import dataclass
 
 import dda
+from dda.scene.engineering import Stage
 from dda.stability.criterion import SpeedWatch, criterion_of
 from dda.stability.strength_reduction import reduce_strengths
 
@@ -35,12 +44,21 @@ class Trial:
 
 
 def trial_scene(scene: dda.Scene, factor: float) -> dda.Scene:
-    """The scene a trial runs: strengths reduced, run for the criterion's duration and
-    every step seen by the criterion."""
+    """The scene a trial runs: strengths reduced (from t = 0, or for a scene with stages
+    by a stage at the end of its run), run to the criterion's end and every step seen
+    by the criterion."""
     criterion = criterion_of(scene)
-    reduced = reduce_strengths(scene, factor, scene.fos.intact)
+    intact = scene.fos.intact
+    if scene.stages:
+        own = [s for s in scene.stages if s.strength_factor is not None]
+        given = own[-1].strength_factor if own else 1.0  # a stage's F replaces the last
+        intact = intact or (own[-1].intact if own else False)
+        stage = Stage(criterion.start, strength_factor=factor * given, intact=intact)
+        reduced = dataclasses.replace(scene, stages=(*scene.stages, stage))
+    else:
+        reduced = reduce_strengths(scene, factor, intact)
     analysis = dataclasses.replace(
-        reduced.analysis, duration=criterion.duration, steps=None, save_every=1
+        reduced.analysis, duration=criterion.end, steps=None, save_every=1
     )
     return dataclasses.replace(reduced, analysis=analysis)
 
