@@ -3,6 +3,14 @@
 Dangling joint pieces (traces ending inside rock) close no ring, so they make
 no cut: every block edge lies on a region or excavation boundary or on a
 separating joint.
+
+Noding finds the crossings of the joint pieces. GEOS's union (snap rounding on a fine
+grid) does it for up to :data:`NODE_ALONG_SET` pieces, but grows about as n^1.8 in their
+number; above that the pieces are noded by ``shapely.node`` in the frame of the most
+numerous set, turned to lie along x. There the pieces of that set have thin bounding
+boxes, which overlap only their neighbours' (inclined parallel traces all overlap one
+another's, which makes noding quadratic), and the cut grows about as n^1.2 (one set
+of 8,000 traces at 30°: 0.9 s against 8.5 s; docs/rock_masses.md).
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ log = logging.getLogger(__name__)
 
 CLIP_MARGIN = 1e-3  # traces are clipped to the rock grown by this fraction of its size
 GRID = 1e-12  # precision grid of the noded joints, as a fraction of the rock size
+NODE_ALONG_SET = 2_000  # joint pieces from which the linework is noded along its densest set
 
 
 def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
@@ -32,12 +41,15 @@ def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
     grown = shapely.buffer(domain.rock, CLIP_MARGIN * domain.size, join_style="mitre")
     shapely.prepare(grown)
     clipped = shapely.intersection(traces.lines, grown)
-    clipped = clipped[~shapely.is_empty(clipped)]
+    kept = ~shapely.is_empty(clipped)
+    clipped, sources = clipped[kept], traces.source[kept]
     linework = np.concatenate([shapely.boundary(np.asarray(domain.parts, dtype=object)), clipped])
-    # snap rounding on a fine grid: nodes closer than the grid become one
     grid = 10.0 ** np.floor(np.log10(GRID * domain.size))  # decimal: round inputs stay put
-    noded = shapely.union_all(linework, grid_size=grid)
-    faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
+    if len(clipped) >= NODE_ALONG_SET:
+        faces = _faces_along(linework, _densest_direction(traces, sources), grid)
+    else:  # snap rounding on a fine grid: nodes closer than the grid become one
+        noded = shapely.union_all(linework, grid_size=grid)
+        faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
     inside = shapely.point_on_surface(faces)
     tree = shapely.STRtree(np.asarray(domain.parts, dtype=object))
     face_index, region_index = tree.query(inside, predicate="within")
@@ -48,3 +60,30 @@ def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
         "%d faces from %d joint pieces, %d inside the rock", len(faces), len(clipped), len(first)
     )
     return faces[face_index[first]], region_index[first]
+
+
+def _densest_direction(traces: Traces, sources: np.ndarray) -> float:
+    """The angle (rad) of the traces of the set with the most pieces."""
+    densest = int(np.argmax(np.bincount(sources)))
+    line = traces.lines[int(np.flatnonzero(traces.source == densest)[0])]
+    (x0, y0), (x1, y1) = shapely.get_coordinates(line)[[0, -1]]
+    return float(np.arctan2(y1 - y0, x1 - x0))
+
+
+def _faces_along(linework: np.ndarray, angle: float, grid: float) -> np.ndarray:
+    """Node and polygonize ``linework`` turned by −``angle`` (its densest set along x),
+    the faces turned back. Vertices are put on the ``grid`` before noding."""
+    c, s = np.cos(angle), np.sin(angle)
+    to_set = np.array([[c, -s], [s, c]])  # row vectors: xy @ to_set turns by -angle
+    parts = shapely.get_parts(linework)
+    lines = parts[shapely.get_dimensions(parts) == 1]  # no points of a tangent clip
+    as_lines = shapely.linestrings(shapely.get_coordinates(lines), indices=_owners(lines))
+    turned = shapely.transform(shapely.multilinestrings(as_lines), lambda xy: xy @ to_set)
+    noded = shapely.node(shapely.set_precision(turned, grid))
+    faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
+    return shapely.transform(faces, lambda xy: xy @ to_set.T)
+
+
+def _owners(lines: np.ndarray) -> np.ndarray:
+    """The index of the line each coordinate of ``shapely.get_coordinates(lines)`` is of."""
+    return np.repeat(np.arange(len(lines)), shapely.get_num_coordinates(lines))
