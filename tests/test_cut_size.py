@@ -94,10 +94,17 @@ def test_a_large_cut_says_so_before_it_starts(caplog, monkeypatch):
 
 
 def _blocks_by_position(raw: dict) -> np.ndarray:
-    """(n, 3): centroid x, y and area of every cut block, sorted by position."""
+    """(n, 5): centroid x, y, area, joint-tagged edges and the sum of their sources, of
+    every cut block, sorted by position."""
     blocks = cut_rock_mass(raw, "<t>")[0].blocks
     shapes = [shapely.Polygon(blocks.polygon(i)) for i in range(len(blocks))]
-    rows = np.array([[*s.centroid.coords[0], s.area] for s in shapes])
+    tags = np.split(blocks.edge_source, blocks.offsets[1:-1])
+    rows = np.array(
+        [
+            [*s.centroid.coords[0], s.area, np.sum(e >= 0), np.sum(e)]
+            for s, e in zip(shapes, tags, strict=True)
+        ]
+    )
     return rows[np.lexsort((rows[:, 1].round(6), rows[:, 0].round(6)))]
 
 
@@ -112,19 +119,24 @@ def _blocks_by_position(raw: dict) -> np.ndarray:
     ],
 )
 def test_a_large_cut_noded_along_its_densest_set_gives_the_same_blocks(monkeypatch, sets):
-    """The cut of many pieces (noded in the frame of the densest set) and the cut of few
-    (GEOS's snap-rounding union) give the same blocks: count, centroids and areas
-    within 1e-9 of the model size (squared for areas)."""
+    """The cut of many pieces (noded and tagged in the frame of the densest set) and the
+    cut of few (GEOS's snap-rounding union) give the same blocks: count, centroids and
+    areas within 1e-9 of the model size (squared for areas), and the same joint on every
+    edge."""
     import dda.scene.rockmass.cutting as cutting
+    import dda.scene.rockmass.edges as edges
 
     raw = shipped("rock_slope")
     raw["joint_sets"] = sets
     raw.pop("cutting")
-    monkeypatch.setattr(cutting, "NODE_ALONG_SET", 10**9)
+    for module in (cutting, edges):
+        monkeypatch.setattr(module, "LARGE", 10**9)
     union = _blocks_by_position(raw)
-    monkeypatch.setattr(cutting, "NODE_ALONG_SET", 0)
+    for module in (cutting, edges):
+        monkeypatch.setattr(module, "LARGE", 0)
     along = _blocks_by_position(raw)
     size = 70.0  # the slope's section is 70 m wide
     assert len(along) == len(union) > 100
     np.testing.assert_allclose(along[:, :2], union[:, :2], rtol=0, atol=1e-9 * size)
     np.testing.assert_allclose(along[:, 2], union[:, 2], rtol=0, atol=1e-9 * size**2)
+    np.testing.assert_array_equal(along[:, 3:], union[:, 3:])  # every edge's joint

@@ -21,13 +21,13 @@ import numpy as np
 import shapely
 
 from dda.scene.rockmass.domain import Domain
+from dda.scene.rockmass.set_frame import LARGE, densest_set, set_turn
 from dda.scene.rockmass.traces import Traces
 
 log = logging.getLogger(__name__)
 
 CLIP_MARGIN = 1e-3  # traces are clipped to the rock grown by this fraction of its size
 GRID = 1e-12  # precision grid of the noded joints, as a fraction of the rock size
-NODE_ALONG_SET = 2_000  # joint pieces from which the linework is noded along its densest set
 
 
 def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
@@ -45,8 +45,8 @@ def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
     clipped, sources = clipped[kept], traces.source[kept]
     linework = np.concatenate([shapely.boundary(np.asarray(domain.parts, dtype=object)), clipped])
     grid = 10.0 ** np.floor(np.log10(GRID * domain.size))  # decimal: round inputs stay put
-    if len(clipped) >= NODE_ALONG_SET:
-        faces = _faces_along(linework, _densest_direction(traces, sources), grid)
+    if len(clipped) >= LARGE:
+        faces = _faces_along(linework, set_turn(traces, densest_set(traces, sources)), grid)
     else:  # snap rounding on a fine grid: nodes closer than the grid become one
         noded = shapely.union_all(linework, grid_size=grid)
         faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
@@ -62,19 +62,9 @@ def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
     return faces[face_index[first]], region_index[first]
 
 
-def _densest_direction(traces: Traces, sources: np.ndarray) -> float:
-    """The angle (rad) of the traces of the set with the most pieces."""
-    densest = int(np.argmax(np.bincount(sources)))
-    line = traces.lines[int(np.flatnonzero(traces.source == densest)[0])]
-    (x0, y0), (x1, y1) = shapely.get_coordinates(line)[[0, -1]]
-    return float(np.arctan2(y1 - y0, x1 - x0))
-
-
-def _faces_along(linework: np.ndarray, angle: float, grid: float) -> np.ndarray:
-    """Node and polygonize ``linework`` turned by −``angle`` (its densest set along x),
-    the faces turned back. Vertices are put on the ``grid`` before noding."""
-    c, s = np.cos(angle), np.sin(angle)
-    to_set = np.array([[c, -s], [s, c]])  # row vectors: xy @ to_set turns by -angle
+def _faces_along(linework: np.ndarray, to_set: np.ndarray, grid: float) -> np.ndarray:
+    """Node and polygonize ``linework`` turned by ``to_set`` (row vectors: its densest set
+    along x), the faces turned back. Vertices are put on the ``grid`` before noding."""
     parts = shapely.get_parts(linework)
     lines = parts[shapely.get_dimensions(parts) == 1]  # no points of a tangent clip
     as_lines = shapely.linestrings(shapely.get_coordinates(lines), indices=_owners(lines))

@@ -13,6 +13,7 @@ import numpy as np
 import shapely
 
 from dda.geometry import next_vertex_index, owner_of_vertex, previous_vertex_index
+from dda.scene.rockmass.set_frame import LARGE, densest_set, set_turn
 from dda.scene.rockmass.traces import Traces
 
 SEGMENTS_ACROSS = 256  # trace pieces for the edge search, per rock size
@@ -59,13 +60,32 @@ def tag_edges(
         return source
     middle = 0.5 * (vertices + vertices[next_vertex_index(offsets)])
     low, high = vertices.min(axis=0) - tolerance, vertices.max(axis=0) + tolerance
-    pieces, owner = short_segments(traces, (*low, *high), SEGMENTS_ACROSS)
+    box = (*low, *high)
+    if len(traces.lines) >= LARGE:  # search in the frame of the densest set (set_frame)
+        pieces, owner, to_set = _pieces_in_set_frame(traces, box)
+        middle = middle @ to_set
+    else:
+        pieces, owner = short_segments(traces, box, SEGMENTS_ACROSS)
     tree = shapely.STRtree(pieces)
     edge, piece = tree.query_nearest(
         shapely.points(middle), max_distance=tolerance, all_matches=False
     )
     source[edge] = owner[piece]
     return source
+
+
+def _pieces_in_set_frame(traces: Traces, box: tuple[float, float, float, float]):
+    """(pieces, their sources, R): the traces inside ``box`` turned by R into the frame
+    where the densest set lies along x; that set's traces whole (their boxes are thin
+    there), the others' as short segments."""
+    k = densest_set(traces)
+    to_set = set_turn(traces, k)
+    along = traces.source == k
+    whole = shapely.clip_by_rect(traces.lines[along], *box)
+    others = Traces(traces.lines[~along], traces.source[~along], traces.names, traces.joints)
+    short, short_owner = short_segments(others, box, SEGMENTS_ACROSS)
+    pieces = shapely.transform(np.concatenate([whole, short]), lambda xy: xy @ to_set)
+    return pieces, np.concatenate([traces.source[along], short_owner]), to_set
 
 
 def short_segments(
