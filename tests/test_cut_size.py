@@ -125,14 +125,15 @@ def test_a_large_cut_noded_along_its_densest_set_gives_the_same_blocks(monkeypat
     edge."""
     import dda.scene.rockmass.cutting as cutting
     import dda.scene.rockmass.edges as edges
+    import dda.scene.rockmass.expand as expand
 
     raw = shipped("rock_slope")
     raw["joint_sets"] = sets
     raw.pop("cutting")
-    for module in (cutting, edges):
+    for module in (cutting, edges, expand):
         monkeypatch.setattr(module, "LARGE", 10**9)
     union = _blocks_by_position(raw)
-    for module in (cutting, edges):
+    for module in (cutting, edges, expand):
         monkeypatch.setattr(module, "LARGE", 0)
     along = _blocks_by_position(raw)
     size = 70.0  # the slope's section is 70 m wide

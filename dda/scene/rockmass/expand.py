@@ -33,6 +33,7 @@ from dda.scene.rockmass.holes import split_holes
 from dda.scene.rockmass.merging import merge_small
 from dda.scene.rockmass.parse import parse_rock_mass
 from dda.scene.rockmass.selection import check_names, select_blocks
+from dda.scene.rockmass.set_frame import LARGE, densest_set, set_turn
 from dda.scene.rockmass.spec import RockMass, Selector
 from dda.scene.rockmass.traces import Traces, build_traces
 
@@ -116,7 +117,8 @@ def _faces(
     min_area = opts.min_block_area
     if min_area is None:
         min_area = DEFAULT_MIN_AREA * domain.rock.area
-    faces, region = merge_small(faces, region, min_area, opts.small_blocks, source)
+    turn = set_turn(traces, densest_set(traces)) if len(traces.lines) >= LARGE else None
+    faces, region = merge_small(faces, region, min_area, opts.small_blocks, source, turn)
     faces, region = split_holes(faces, region, opts.holes, source)
     bad = ~shapely.is_valid(faces) | (shapely.get_type_id(faces) != 3)
     if bad.any():

@@ -21,9 +21,16 @@ MAX_ROUNDS = 20
 
 
 def merge_small(
-    faces: np.ndarray, region: np.ndarray, min_area: float, mode: str, source: str
+    faces: np.ndarray,
+    region: np.ndarray,
+    min_area: float,
+    mode: str,
+    source: str,
+    turn: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Merge (``mode="merge"``) or refuse (``"refuse"``) blocks below ``min_area``."""
+    """Merge (``mode="merge"``) or refuse (``"refuse"``) blocks below ``min_area``;
+    ``turn``: the frame the neighbour search runs in (``xy @ turn``; a large cut's
+    densest-set frame, :mod:`dda.scene.rockmass.set_frame`), default as given."""
     for _ in range(MAX_ROUNDS):
         area = shapely.area(faces)
         small = np.flatnonzero(area < min_area)
@@ -31,7 +38,7 @@ def merge_small(
             return faces, region
         if mode == "refuse":
             _refuse(faces, area, small, min_area, source)
-        target = _best_neighbours(faces, region, small, min_area, source)
+        target = _best_neighbours(faces, region, small, min_area, source, turn)
         faces, region = _union_groups(faces, region, small, target)
         log.info("merged %d block(s) smaller than %g", len(small), min_area)
     raise SceneError(source, "cutting.min_block_area", "blocks still too small after merging")
@@ -52,11 +59,19 @@ def _refuse(
 
 
 def _best_neighbours(
-    faces: np.ndarray, region: np.ndarray, small: np.ndarray, min_area: float, source: str
+    faces: np.ndarray,
+    region: np.ndarray,
+    small: np.ndarray,
+    min_area: float,
+    source: str,
+    turn: np.ndarray | None = None,
 ) -> np.ndarray:
-    """For each small face, the neighbour sharing the longest edge (same region first)."""
-    tree = shapely.STRtree(faces)
-    rows, other = tree.query(faces[small], predicate="intersects")
+    """For each small face, the neighbour sharing the longest edge (same region first);
+    the candidates are searched in the frame ``turn`` (rotation keeps shared edges
+    shared: both faces' copies of a vertex turn alike)."""
+    searched = faces if turn is None else shapely.transform(faces, lambda xy: xy @ turn)
+    tree = shapely.STRtree(searched)
+    rows, other = tree.query(searched[small], predicate="intersects")
     mine = small[rows]
     keep = mine != other
     rows, mine, other = rows[keep], mine[keep], other[keep]

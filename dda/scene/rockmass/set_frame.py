@@ -4,7 +4,8 @@ Spatial indexes (GEOS's noder, shapely's STRtree) bound each line by its box alo
 and y. Inclined parallel traces then have boxes that all overlap one another's, and
 every search among them grows as the square of their number; turned into the frame
 where the most numerous set lies along x, its traces have thin boxes that overlap only
-their neighbours'. Large cuts node and tag in that frame (:data:`LARGE`).
+their neighbours'. Large cuts (:data:`LARGE`) node the joints, find the neighbours of
+small blocks and tag block edges in that frame.
 """
 
 from __future__ import annotations
