@@ -103,3 +103,17 @@ def reflex_vertices(vertices: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     a = vertices - prv
     b = nxt - vertices
     return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0.0
+
+
+def power_of_two_centre(low: np.ndarray, high: np.ndarray, size: float) -> np.ndarray:
+    """The centre of the box [low, high] rounded to a multiple of 2^⌈log₂ size⌉.
+
+    Points in the box and that origin are then multiples of one power of two, so
+    ``xy - origin`` (and adding it back) is exact in floating point: work done in those
+    small local coordinates gives the input's digits back bit for bit. (0, 0) for a
+    size that is not positive and finite.
+    """
+    if not np.isfinite(size) or size <= 0.0:
+        return np.zeros(2)
+    step = 2.0 ** np.ceil(np.log2(size))
+    return np.round(0.5 * (low + high) / step) * step

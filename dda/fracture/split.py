@@ -26,6 +26,8 @@ import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
 from shapely.ops import split
 
+from dda.geometry import power_of_two_centre
+
 log = logging.getLogger(__name__)
 
 SNAP_RATIO = 1e-9  # snapping distance / block size
@@ -115,19 +117,11 @@ def split_polygon_detailed(
 
 
 def _local_origin(xy: np.ndarray) -> np.ndarray:
-    """A point near the polygon on a power-of-two grid at least as coarse as its size.
-
-    Vertices and origin are then multiples of the same power of two and
-    ``xy - origin`` is exact in floating point (and so is adding it back):
-    the cut is computed in small local coordinates, the parent's vertices
-    come back bit for bit.
-    """
+    """A point near the polygon on a power-of-two grid at least as coarse as its larger
+    side (:func:`dda.geometry.power_of_two_centre`): the cut is computed in small local
+    coordinates, and the parent's vertices come back bit for bit."""
     low, high = xy.min(axis=0), xy.max(axis=0)
-    size = float(np.max(high - low))
-    if not np.isfinite(size) or size <= 0.0:
-        return np.zeros(2)
-    step = 2.0 ** np.ceil(np.log2(size))
-    return np.round(0.5 * (low + high) / step) * step
+    return power_of_two_centre(low, high, float(np.max(high - low)))
 
 
 def _size(xy: np.ndarray) -> float:

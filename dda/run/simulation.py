@@ -322,7 +322,7 @@ def run(
     model = build(local)
     state = _Run(model)
     if resume is not None:
-        check_scene(resume, local)
+        check_scene(resume, scene)  # it compares the scene as the run holds it
         restore(state, resume)
         if model.stages is not None and model.stages.changes_strengths:
             set_strengths(state)

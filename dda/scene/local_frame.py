@@ -14,10 +14,11 @@ A scene near the origin is not moved (origin 0), and runs as before.
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
 import numpy as np
+
+from dda.geometry import power_of_two_centre
 
 FAR = 1.0  # a centre farther than FAR x the model's size from the origin is moved to it
 
@@ -43,8 +44,7 @@ def origin_of(points: np.ndarray) -> np.ndarray:
         return np.zeros(2)
     if np.hypot(*centre) <= FAR * size:
         return np.zeros(2)
-    grid = 2.0 ** math.ceil(math.log2(size)) if size > 0 else 1.0
-    return np.round(centre / grid) * grid + 0.0
+    return power_of_two_centre(low, high, size) + 0.0  # no -0.0
 
 
 def translated(scene: Any, origin: tuple[float, float]) -> Any:
