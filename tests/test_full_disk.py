@@ -47,7 +47,7 @@ def test_a_partial_append_is_cut_back_to_whole_rows(tmp_path, monkeypatch):
 
     import pytest
 
-    from dda.io import run_writer
+    from dda.io.atomic import append_whole
 
     path = tmp_path / "h.csv"
     path.write_text("head\n")
@@ -62,7 +62,7 @@ def test_a_partial_append_is_cut_back_to_whole_rows(tmp_path, monkeypatch):
 
     monkeypatch.setattr(os, "write", full_disk)
     with pytest.raises(OSError, match="No space left on device") as caught:
-        run_writer._append(fd, "1,2,3\n4,5,6\n", path)
+        append_whole(fd, "1,2,3\n4,5,6\n", path)
     monkeypatch.undo()
     os.close(fd)
     assert caught.value.filename == str(path) and path.read_text() == "head\n"

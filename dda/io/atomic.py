@@ -145,3 +145,15 @@ def naming(path: str | os.PathLike[str]) -> Iterator[None]:
         if exc.filename is None and exc.errno is not None:
             raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
         raise
+
+
+def append_whole(fd: int, text: str, path: str | os.PathLike[str]) -> None:
+    """Append ``text`` to the open file ``fd`` whole, or not at all (a full disk: the
+    file is cut back to its size before and the OSError names ``path``)."""
+    size = os.fstat(fd).st_size
+    with naming(path):
+        try:
+            write_fully(fd, text.encode("utf-8"))
+        except OSError:
+            os.ftruncate(fd, size)
+            raise

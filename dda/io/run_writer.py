@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from dda.io.atomic import TEMP_MARK, naming, write_fully, write_text
+from dda.io.atomic import TEMP_MARK, append_whole, naming, write_text
 from dda.io.images import render_frame
 from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
 from dda.io.run_folder import SUMMARY_NAME, RunFolder
@@ -139,7 +139,7 @@ class RunWriter:
         self.blocks_index.add(frame.time, blocks)
         self.contacts_index.add(frame.time, contacts)
         if step > self.last_step:
-            _append(self._history_fd, history_rows(frame), self.history_path)
+            append_whole(self._history_fd, history_rows(frame), self.history_path)
             self.frame_count += 1
         if frame.measured is not None and len(frame.measured.get("step", ())):
             self._write_points(frame.measured)
@@ -203,7 +203,7 @@ class RunWriter:
             if not self.points_path.is_file():
                 write_text(self.points_path, points_header(measured))
             self._points_fd = os.open(self.points_path, os.O_WRONLY | os.O_APPEND)
-        _append(self._points_fd, points_rows(measured), self.points_path)
+        append_whole(self._points_fd, points_rows(measured), self.points_path)
 
     def close(self) -> None:
         """Close ``history.csv`` and ``history_points.csv`` (all rows are written already)."""
@@ -274,18 +274,6 @@ def write_run(
         The summary as written.
     """
     return RunWriter(outdir, **options).finish(result, scene)
-
-
-def _append(fd: int, text: str, path: Path) -> None:
-    """Append ``text`` to the open file ``fd`` whole, or not at all (a full disk: the
-    file is cut back to its whole rows and the OSError names ``path``)."""
-    size = os.fstat(fd).st_size
-    with naming(path):
-        try:
-            write_fully(fd, text.encode("utf-8"))
-        except OSError:
-            os.ftruncate(fd, size)
-            raise
 
 
 def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:

@@ -14,11 +14,12 @@ import hashlib
 import io
 import json
 import math
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from dda.io.atomic import write_text
+from dda.io.atomic import append_whole, write_text
 
 HASH_COLUMN = "scene_hash"
 
@@ -47,10 +48,12 @@ class RowStore:
         return kept
 
     def append(self, row: Mapping[str, Any]) -> None:
-        """Write one finished row at once."""
-        with self.path.open("a", encoding="utf-8", newline="") as f:
-            f.write(self._line({**row, HASH_COLUMN: self.digest}) + "\n")
-            f.flush()
+        """Write one finished row at once, whole or not at all (a full disk)."""
+        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
+        try:
+            append_whole(fd, self._line({**row, HASH_COLUMN: self.digest}) + "\n", self.path)
+        finally:
+            os.close(fd)
 
     def _read(self) -> list[dict[str, str]]:
         if not self.path.is_file():
