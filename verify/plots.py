@@ -50,13 +50,7 @@ def history_picture(result: CaseResult, title: str, path: Path) -> Path:
             ax.axhspan(-check.tolerance, check.tolerance, color="#bbddbb", alpha=0.5, label="±tol")
         ax.set_ylabel("(DDA − FEM) / scale")
         ax.set_title(f"{quantity}: signed difference (dotted: not checked)", fontsize=10)
-    for ax in axes.ravel():
-        ax.set_xlabel("time (s)")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-    fig.suptitle(title, fontsize=12)
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
-    return save(fig, path, dpi=90)
+    return _finish(fig, axes, title, path)
 
 
 def motion_picture(result: CaseResult, title: str, path: Path) -> Path:
@@ -101,14 +95,7 @@ def motion_picture(result: CaseResult, title: str, path: Path) -> Path:
     ax.set_xlabel("time step Δt (s)")
     ax.set_ylabel("largest |DDA − closed form|")
     ax.set_title("convergence in Δt (no line: exact to round-off)", fontsize=10)
-    for ax in axes.ravel():
-        if ax is not axes[1, 1]:
-            ax.set_xlabel("time (s)")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-    fig.suptitle(title, fontsize=12)
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
-    return save(fig, path, dpi=90)
+    return _finish(fig, axes, title, path, keep_x_label=axes[1, 1])
 
 
 def summary_chart(results: list[CaseResult], path: Path) -> Path:
@@ -176,3 +163,15 @@ def refinement_chart(points, path: Path) -> Path:
     fig.suptitle("Block refinement: DDA blocks with locked joints against the FEM continuum")
     fig.tight_layout()
     return save(fig, path, dpi=100)
+
+
+def _finish(fig, axes, title: str, path, keep_x_label=None):
+    """Time on the x axes (but ``keep_x_label``'s), legends, grids and the title; saved."""
+    for ax in axes.ravel():
+        if ax is not keep_x_label:
+            ax.set_xlabel("time (s)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=12)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    return save(fig, path, dpi=90)
