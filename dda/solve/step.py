@@ -462,7 +462,7 @@ def solve_step(
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
-    rules = size_rules(BLOCK * int(np.count_nonzero(~blocks.fixed)))
+    rules = size_rules(BLOCK * int(np.count_nonzero(~blocks.fixed)), dynamic=not ctx.static)
     between_bounds = 1 if rules.bounds_every_solve else INNER_SOLVES
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None

@@ -29,6 +29,8 @@ def test_rock_mass_runs_to_the_end_within_every_check(name):
     result = run_checked(scene)
     assert result.summary["status"] == "finished"
     assert result.summary["cut_steps"] == 0
+    if name == "tunnel":  # measured 4.73 (1 solver thread) and 3.75 (2)
+        assert result.summary["newton_iterations_per_step"] <= 6.0
 
 
 def test_the_rock_slope_starts_without_cutting_the_time_step():
