@@ -8,7 +8,14 @@ import pytest
 import dda
 from verify.al_rate import predicted_solves
 from verify.cases import discover
-from verify.impact import deepest_vertex, drop_of, free_fall, mass_matrix, placed
+from verify.impact import (
+    deepest_vertex,
+    drop_of,
+    free_fall,
+    mass_matrix,
+    placed,
+    strain_frequency,
+)
 from verify.motion import (
     free_block,
     observed_order,
@@ -168,6 +175,9 @@ def test_drop_reference_refuses_what_would_take_energy_or_has_no_base():
     rough = replace(scene, joints={"default": replace(scene.joints["default"], friction_angle=30)})
     with pytest.raises(ExpectationError, match="frictionless"):
         drop_of(rough, block)
+    stiff = replace(scene, contact=replace(scene.contact, penalty=5e10))  # 10 E
+    with pytest.raises(ExpectationError, match="strain modes"):
+        drop_of(stiff, block)
     sunk = ((0.0, -0.1), *scene.blocks[block].vertices[1:])  # one corner in the base
     moved = replace(scene.blocks[block], vertices=sunk)
     with pytest.raises(ExpectationError, match="above a level fixed base"):
@@ -241,3 +251,36 @@ def test_drop_case_rebound_is_shis_update_and_converges_at_first_order(tmp_path)
     assert study["rebound_limit"] == pytest.approx(1.0, abs=2e-3)
     assert study["events"]["contact_time"] == pytest.approx(0.0630915, abs=1e-7)
     assert (tmp_path / "images" / "verify_drop.png").stat().st_size > 20_000
+
+
+def test_drop_limit_is_one_for_the_block_with_its_strain_modes():
+    """Δt → 0: the drop scene's block (translation v0 and strains ex, ey; the turn and
+    shear stay 0 by symmetry, no friction) on its two corner springs, integrated with
+    scipy from the first touch until it is in flight again, rebounds at 1 − 4e-8: the
+    strain modes (69 times as fast as the springs) give their energy back."""
+    from scipy.integrate import solve_ivp
+
+    scene = scene_of("drop")
+    block = free_block(scene)
+    drop = drop_of(scene, block)
+    assert strain_frequency(scene, block) == pytest.approx(np.sqrt(5e9 / 1.25 / 225), rel=1e-9)
+    assert strain_frequency(scene, block) / drop.omega == pytest.approx(69.28, abs=0.01)
+    g, h, p = drop.gravity, drop.height, drop.penalty
+    mass = mass_matrix(np.asarray(scene.blocks[block].vertices), 2700.0)[[1, 3, 4]][:, [1, 3, 4]]
+    c = 5e9 / (1 - 0.25**2) * np.array([[1.0, 0.25], [0.25, 1.0]])  # plane stress, S = 1
+    lever = np.array([1.0, 0.0, -0.5])  # a lower corner's uy from (v0, ex, ey)
+    inverse = np.linalg.inv(mass)
+
+    def rhs(_t, y):
+        q, v = y[:3], y[3:]
+        force = -np.concatenate([[0.0], c @ q[1:]]) - [drop.mass * g, 0.0, 0.0]
+        force = force + 2 * p * max(-(h + lever @ q), 0.0) * lever
+        return np.concatenate([v, inverse @ force])
+
+    start = [-h, 0.0, 0.0, -drop.speed, 0.0, 0.0]  # at the first touch
+    end = drop.time + 1.3 * drop.contact_time
+    sol = solve_ivp(rhs, (drop.time, end), start, method="DOP853", rtol=1e-11, atol=1e-14)
+    uy, vy = sol.y[0, -1], sol.y[3, -1]
+    assert h + lever @ sol.y[:3, -1] > 0.0  # in flight
+    e = np.sqrt(vy * vy + 2 * g * (uy + h)) / drop.speed
+    assert 1 - e == pytest.approx(0.0, abs=1e-6)
