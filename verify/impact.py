@@ -118,25 +118,34 @@ def drop_of(scene: Scene, block: int) -> Drop:
     lossy = any(j.friction_angle or j.cohesion for j in scene.joints.values())
     if lossy or scene.materials[b.material].damping:
         raise ExpectationError(f"{where}: frictionless joints and no material damping")
-    v = np.asarray(b.vertices, dtype=float)
-    tol = LEVEL * float(np.ptp(v, axis=0).max())
-    low = float(v[:, 1].min())
-    landing = v[v[:, 1] <= low + tol]
-    fixed = [np.asarray(f.vertices, dtype=float) for f in scene.blocks if f.fixed]
-    top = max((float(f[:, 1].max()) for f in fixed), default=np.inf)
-    edge = np.concatenate([f[f[:, 1] >= top - tol, 0] for f in fixed]) if fixed else np.zeros(0)
-    under = len(edge) and edge.min() < landing[:, 0].min() and landing[:, 0].max() < edge.max()
-    if not low > top or not under:
+    height, landing = landing_height(scene, block)
+    if not height > 0.0:
         raise ExpectationError(f"{where}: the block's lowest vertices above a level fixed base")
     penalty = scene.contact.penalty or 10.0 * max(m.young for m in scene.materials.values())
     g = -float(a.gravity[1])
-    drop = Drop(low - top, g, block_mass(scene, block), len(landing), float(penalty))
+    drop = Drop(height, g, block_mass(scene, block), landing, float(penalty))
     if strain_frequency(scene, block) < STIFF_BLOCK * drop.omega:
         raise ExpectationError(
             f"{where}: a block whose strain modes are {STIFF_BLOCK:g} times as fast as its "
             f"contact springs (ω = {drop.omega:.4g} rad/s): only then is e = 1 the limit"
         )
     return drop
+
+
+def landing_height(scene: Scene, block: int) -> tuple[float, int]:
+    """(h, n): the height of the block's lowest vertices (n of them, level) above the
+    top of the fixed blocks, or (NaN, n) unless the top is a level edge under them."""
+    v = np.asarray(scene.blocks[block].vertices, dtype=float)
+    tol = LEVEL * float(np.ptp(v, axis=0).max())
+    low = float(v[:, 1].min())
+    landing = v[v[:, 1] <= low + tol]
+    fixed = [np.asarray(f.vertices, dtype=float) for f in scene.blocks if f.fixed]
+    if not fixed:
+        return float("nan"), len(landing)
+    top = max(float(f[:, 1].max()) for f in fixed)
+    edge = np.concatenate([f[f[:, 1] >= top - tol, 0] for f in fixed])
+    under = edge.min() < landing[:, 0].min() and landing[:, 0].max() < edge.max()
+    return (low - top if under else float("nan")), len(landing)
 
 
 def strain_frequency(scene: Scene, block: int) -> float:
