@@ -8,6 +8,14 @@ import pytest
 import dda
 from verify.al_rate import predicted_solves
 from verify.cases import discover
+from verify.impact import (
+    deepest_vertex,
+    drop_of,
+    free_fall,
+    mass_matrix,
+    placed,
+    strain_frequency,
+)
 from verify.motion import (
     free_block,
     observed_order,
@@ -122,13 +130,157 @@ def test_motion_case_reports_its_dt_study_and_draws_its_picture(tmp_path):
 
 def test_motion_expectations_are_checked_on_loading(tmp_path):
     from verify.expect import MOTION_REFERENCES, ExpectationError, load_expectation
-    from verify.motion import REFERENCES
+    from verify.runners import MOTION_REFERENCES as REFERENCES
 
     assert set(MOTION_REFERENCES) == set(REFERENCES)
     path = tmp_path / "x.expect.toml"
-    path.write_text('kind = "motion"\nreference = "drop"\n')
+    path.write_text('kind = "motion"\nreference = "bounce"\n')
     with pytest.raises(ExpectationError, match="reference"):
         load_expectation(path)
     path.write_text('kind = "motion"\nreference = "free"\ntime_steps = [4, 2]\n')
     with pytest.raises(ExpectationError, match="time_steps"):
         load_expectation(path)
+
+
+def test_drop_reference_is_the_rigid_block_on_its_springs():
+    scene = scene_of("drop")
+    drop = drop_of(scene, free_block(scene))
+    assert (drop.height, drop.landing, drop.penalty) == pytest.approx((0.01, 2, 5e6))
+    assert drop.mass == pytest.approx(2700.0)
+    assert drop.time == pytest.approx(np.sqrt(0.02 / 9.81), rel=1e-12)
+    assert drop.speed == pytest.approx(0.442944692, rel=1e-9)
+    assert drop.omega == pytest.approx(60.858062, rel=1e-7)
+    # y'' = -g - w^2 y on the springs (y < 0), from y = 0 at -v: out again at +v after
+    # (pi + 2 atan(g / (w v))) / w
+    w, v, g = drop.omega, drop.speed, 9.81
+    t = drop.contact_time
+    y = -g / w**2 * (1 - np.cos(w * t)) - v / w * np.sin(w * t)
+    speed = -g / w * np.sin(w * t) - v * np.cos(w * t)
+    assert y == pytest.approx(0.0, abs=1e-15)
+    assert speed == pytest.approx(v, rel=1e-12)  # e = 1
+    assert t == pytest.approx(0.0630915, abs=1e-7)
+    motion = free_fall(scene, free_block(scene), np.array([0.0, 0.04, 0.05]))
+    assert motion.valid.tolist() == [True, True, False]
+    assert motion.u[1] == pytest.approx([0.0, -0.5 * 9.81 * 0.04**2])
+    assert motion.energy_scale == pytest.approx(2700 * 9.81 * 0.01)
+
+
+def test_drop_reference_refuses_what_would_take_energy_or_has_no_base():
+    from dataclasses import replace
+
+    from verify.expect import ExpectationError
+
+    scene = scene_of("drop")
+    block = free_block(scene)
+    rough = replace(scene, joints={"default": replace(scene.joints["default"], friction_angle=30)})
+    with pytest.raises(ExpectationError, match="frictionless"):
+        drop_of(rough, block)
+    stiff = replace(scene, contact=replace(scene.contact, penalty=5e10))  # 10 E
+    with pytest.raises(ExpectationError, match="strain modes"):
+        drop_of(stiff, block)
+    sunk = ((0.0, -0.1), *scene.blocks[block].vertices[1:])  # one corner in the base
+    moved = replace(scene.blocks[block], vertices=sunk)
+    with pytest.raises(ExpectationError, match="above a level fixed base"):
+        drop_of(replace(scene, blocks=(scene.blocks[0], moved)), block)
+
+
+def test_overlap_reference_measures_the_drawn_overlap():
+    from dataclasses import replace
+
+    from verify.expect import ExpectationError
+
+    scene = scene_of("overlap")
+    block = free_block(scene)
+    overlap = deepest_vertex(scene, block)
+    assert overlap.depth == pytest.approx(2e-5, rel=1e-9)
+    assert overlap.normal == pytest.approx([0.0, 1.0])
+    motion = placed(scene, block, np.array([0.0, 0.001, 0.002]))
+    assert motion.energy_scale == pytest.approx(0.5 * 2700 * (2e-5 / 1e-3) ** 2, rel=1e-9)
+    assert motion.valid.tolist() == [True, True, False]
+    # the corner a = 1/sqrt(2) under the centroid: g M^-1 g^T = 1/m + a^2 / (m/12) = 7/m,
+    # so the translation takes d/7 and the strain e_yy = -6 d / (7 a)
+    push = np.array(motion.events["push"])
+    assert push == pytest.approx(
+        [0.0, 2e-5 / 7, 0.0, 0.0, -6 * 2e-5 / (7 * np.sqrt(0.5)), 0.0], abs=1e-15
+    )
+    assert motion.u[1] == pytest.approx([0.0, 2e-5 / 7], abs=1e-15)
+    loaded = replace(scene, analysis=replace(scene.analysis, start="equilibrium"))
+    with pytest.raises(ExpectationError, match="unloaded"):
+        placed(loaded, block, np.array([0.0]))
+
+
+def test_mass_matrix_of_a_square_is_shis():
+    square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    m = mass_matrix(square, 1.0)
+    i = 2.0**4 / 12  # integral of x^2 (and of y^2) about the centroid
+    expected = np.diag([4.0, 4.0, 2 * i, i, i, i / 2])
+    assert m == pytest.approx(expected, abs=1e-12)
+
+
+def shi_rebound(height: float, g: float, mass: float, stiffness: float, dt: float) -> float:
+    """The rebound coefficient of a rigid block dropped from ``height`` onto a spring, in
+    Shi's scheme: each step D minimises ½ (2m/Δt²)(D − vΔt)² + m g D (+ ½ k (x + D)² while
+    x + D < 0, the contact decided at the step's end), then v ← 2D/Δt − v."""
+    inertia = 2.0 * mass / dt**2
+    x, v, touched = height, 0.0, False
+    while True:
+        d = v * dt - mass * g / inertia
+        if x + d < 0.0:
+            d = (inertia * v * dt - mass * g - stiffness * x) / (inertia + stiffness)
+        v, x = 2.0 * d / dt - v, x + d
+        touched |= x < 0.0
+        if touched and x > 0.0:
+            return float(np.sqrt(v * v + 2.0 * g * x) / np.sqrt(2.0 * g * height))
+
+
+def test_drop_case_rebound_is_shis_update_and_converges_at_first_order(tmp_path):
+    import json
+
+    from verify.cli import main
+
+    code = main(["drop", "-o", str(tmp_path), "--no-convergence", "--no-refinement"])
+    assert code == 0
+    study = json.loads((tmp_path / "report.json").read_text())["cases"][0]["dt_study"]
+    assert study["time_steps"] == pytest.approx([2.5e-3, 1.25e-3, 6.25e-4])
+    assert study["rebound"] == pytest.approx([0.81719, 0.90573, 0.95236], abs=1e-5)
+    # the loss is the integrator's: a rigid block on two springs (no strain modes)
+    # in Shi's scheme rebounds the same, to 5e-5
+    for dt, e in zip(study["time_steps"], study["rebound"], strict=True):
+        assert e == pytest.approx(shi_rebound(0.01, 9.81, 2700.0, 1e7, dt), abs=1e-4)
+    assert study["observed_order"]["e"] == pytest.approx(0.985, abs=0.01)
+    assert study["rebound_limit"] == pytest.approx(1.0, abs=2e-3)
+    assert study["events"]["contact_time"] == pytest.approx(0.0630915, abs=1e-7)
+    assert (tmp_path / "images" / "verify_drop.png").stat().st_size > 20_000
+
+
+def test_drop_limit_is_one_for_the_block_with_its_strain_modes():
+    """Δt → 0: the drop scene's block (translation v0 and strains ex, ey; the turn and
+    shear stay 0 by symmetry, no friction) on its two corner springs, integrated with
+    scipy from the first touch until it is in flight again, rebounds at 1 − 4e-8: the
+    strain modes (69 times as fast as the springs) give their energy back."""
+    from scipy.integrate import solve_ivp
+
+    scene = scene_of("drop")
+    block = free_block(scene)
+    drop = drop_of(scene, block)
+    assert strain_frequency(scene, block) == pytest.approx(np.sqrt(5e9 / 1.25 / 225), rel=1e-9)
+    assert strain_frequency(scene, block) / drop.omega == pytest.approx(69.28, abs=0.01)
+    g, h, p = drop.gravity, drop.height, drop.penalty
+    mass = mass_matrix(np.asarray(scene.blocks[block].vertices), 2700.0)[[1, 3, 4]][:, [1, 3, 4]]
+    c = 5e9 / (1 - 0.25**2) * np.array([[1.0, 0.25], [0.25, 1.0]])  # plane stress, S = 1
+    lever = np.array([1.0, 0.0, -0.5])  # a lower corner's uy from (v0, ex, ey)
+    inverse = np.linalg.inv(mass)
+
+    def rhs(_t, y):
+        q, v = y[:3], y[3:]
+        force = -np.concatenate([[0.0], c @ q[1:]]) - [drop.mass * g, 0.0, 0.0]
+        force = force + 2 * p * max(-(h + lever @ q), 0.0) * lever
+        return np.concatenate([v, inverse @ force])
+
+    start = [-h, 0.0, 0.0, -drop.speed, 0.0, 0.0]  # at the first touch
+    end = drop.time + 1.3 * drop.contact_time
+    sol = solve_ivp(rhs, (drop.time, end), start, method="DOP853", rtol=1e-11, atol=1e-14)
+    uy, vy = sol.y[0, -1], sol.y[3, -1]
+    assert h + lever @ sol.y[:3, -1] > 0.0  # in flight
+    e = np.sqrt(vy * vy + 2 * g * (uy + h)) / drop.speed
+    assert 1 - e == pytest.approx(0.0, abs=1e-6)

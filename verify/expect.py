@@ -29,7 +29,8 @@ its expectations live beside it::
     vertex = "..."
 
 A ``motion`` case (:mod:`verify.motion`) has no FEM side: ``reference`` names
-its closed form ("free", "slide", "rocking"), ``time_steps`` the
+its closed form ("free", "slide", "rocking"; "drop", "overlap" of
+:mod:`verify.impact`), ``time_steps`` the
 factors of the scene's time step it is run at (e.g. [4, 2, 1]; 1 is the scene
 as written and gives the compared rows) and ``order`` the order of accuracy in
 Δt the rows ``order`` are compared with.
@@ -61,9 +62,15 @@ KNOWN_CHECKS = (
     "area",
     "order",
     "al_updates",
+    "energy",
+    "impact_time",
+    "contact_time",
+    "impact_speed",
+    "rebound",
 )
 KINDS = ("static", "dynamic", "fracture", "motion")
-MOTION_REFERENCES = ("free", "slide", "rocking")  # the closed forms of verify.motion
+# the closed forms of verify.motion and verify.impact
+MOTION_REFERENCES = ("free", "slide", "rocking", "drop", "overlap")
 
 
 class ExpectationError(ValueError):

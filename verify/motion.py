@@ -25,6 +25,9 @@ here from the scene alone (``reference`` in the expectation file):
     θ'' = −(3 g / (4 R)) sin(α − θ), R the half-diagonal, α = atan(b/h), θ the
     tilt (θ0 at t = 0), integrated with scipy (rtol 1e-11) up to θ = 0. Rows
     before the impact only.
+``drop``, ``overlap``
+    a block dropped onto a level base, a block drawn overlapping its base
+    (:mod:`verify.impact`, with their rows of the impact and the rebound).
 
 Rows ``motion`` (every saved frame of the finest run: the centroid displacement
 ux, uy in the case's frame and the rotation r measured from the vertices — the
@@ -35,7 +38,9 @@ block's stress against the stress its vertices imply, :func:`stress_rows`) and
 ``order`` (the
 observed order of accuracy in Δt of each component, log(e(f Δt)/e(Δt))/log f
 between the two finest runs, e the largest |DDA − reference| over the common
-frames; against the expectation's ``order`` when it states one).
+frames; against the expectation's ``order`` when it states one), and where the
+reference gives an energy scale ``energy`` (:func:`energy_rows`: the energy the
+run created, from its energy record, at each time step).
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import polar
 
 from dda import Result, Scene
+from dda.result import OPEN
 from verify.compare import STRESS, Row, vector_in_frame
 from verify.expect import Expectation, ExpectationError
 from verify.geometry import polygon_centroid
@@ -61,6 +67,8 @@ class Motion:
     r: np.ndarray  # (t,) rotation
     valid: np.ndarray  # (t,) bool: the reference holds at that time
     events: dict  # named times (impact), for the report
+    # the energy rows' scale (rows ``energy``: E − E0 − W at every step); None: no rows
+    energy_scale: float | None = None
 
 
 def free_block(scene: Scene) -> int:
@@ -230,7 +238,8 @@ def turned_stress(stress: np.ndarray, angle: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Track:
-    """One block through one run: times, centroid displacement, rotation, area."""
+    """One block through one run: times, centroid displacement, rotation, area, and the
+    run's contact and energy record."""
 
     times: np.ndarray
     u: np.ndarray
@@ -238,13 +247,18 @@ class Track:
     area: np.ndarray
     stress: np.ndarray  # (t, 3)
     strain: np.ndarray  # (t, 3) V − I from the vertices, current axes
+    velocity: np.ndarray  # (t, 3) vx, vy, ω
+    closed: np.ndarray  # (t,) bool: a contact of the block is closed in that frame
+    step_times: np.ndarray  # (s,) the end of every step of the run
+    step_closed: np.ndarray  # (s,) bool: the step ended with a closed contact
+    energy_gain: float  # largest E − E0 − W over the run's steps (NaN: no record)
 
     @classmethod
     def of(cls, result: Result, name: str) -> Track:
         """The block called ``name`` in every saved frame of ``result``."""
         first = result.frames[0]
         v0 = first.vertices[first.block(name)]
-        times, u, r, area, stress, strain = [], [], [], [], [], []
+        times, u, r, area, stress, strain, velocity, closed = ([] for _ in range(8))
         for f in result.frames:
             k = f.block(name)
             times.append(f.time)
@@ -254,8 +268,24 @@ class Track:
             strain.append(e)
             area.append(f.areas[k])
             stress.append(f.stresses[k])
-        arrays = (times, u, r, area, stress, strain)
-        return cls(*(np.array(a) for a in arrays))
+            velocity.append(f.velocities[k])
+            c = f.contacts
+            closed.append(bool(np.any(((c.block_a == k) | (c.block_b == k)) & (c.state != OPEN))))
+        arrays = (times, u, r, area, stress, strain, velocity, closed)
+        return cls(*(np.array(a) for a in arrays), *run_record(result))
+
+
+def run_record(result: Result) -> tuple[np.ndarray, np.ndarray, float]:
+    """From ``result.history``: the end of every step, whether it ended with a closed
+    contact (its largest penetration > 0), and the largest T + V + U + C − E0 − W
+    over the steps (dda.run.energy; E0 the summary's ``initial_energy``)."""
+    h = result.history
+    times = np.asarray(h.get("time", ()), dtype=float)
+    if not len(times):
+        return times, np.zeros(0, bool), float("nan")
+    closed = np.asarray(h["max_penetration"]) > 0.0
+    excess = np.asarray(h["total_energy"]) - np.asarray(h["external_work"])
+    return times, closed, float(np.max(excess) - result.summary["initial_energy"])
 
 
 def errors_at(track: Track, reference, frame: float, times: np.ndarray) -> dict[str, float]:
@@ -298,17 +328,37 @@ def stress_rows(scene: Scene, block: int, track: Track) -> list[Row]:
     ]
 
 
+def energy_rows(scene: Scene, name: str, tracks: dict[int, Track], scale: float) -> list[Row]:
+    """Rows ``energy``, one per time step: the largest T + V + U + C − E0 − W over the
+    run's steps where it is positive (energy the run created; 0 where it only
+    dissipated), over ``scale``."""
+    return [
+        Row(
+            "energy",
+            name,
+            f"gain@{factor * scene.analysis.time_step:g}",
+            max(track.energy_gain, 0.0) if np.isfinite(track.energy_gain) else float("nan"),
+            0.0,
+            scale,
+        )
+        for factor, track in sorted(tracks.items())
+    ]
+
+
 def motion_rows(
-    scene: Scene, expectation: Expectation, tracks: dict[int, Track]
+    scene: Scene, expectation: Expectation, tracks: dict[int, Track], references=None
 ) -> tuple[list[Row], dict]:
-    """Rows ``motion``, ``area`` and ``order`` (module notes) and the study's series."""
+    """Rows ``motion``, ``area``, ``order`` and, where the reference gives their scale,
+    ``energy`` (module notes) and the study's series. ``references``: name → closed
+    form (default :data:`REFERENCES`)."""
+    references = REFERENCES if references is None else references
     block = free_block(scene)
     name = scene.blocks[block].name
     try:
-        function = REFERENCES[expectation.reference]
+        function = references[expectation.reference]
     except KeyError:
         raise ExpectationError(
-            f"{expectation.reference!r} is not a motion reference ({', '.join(REFERENCES)})"
+            f"{expectation.reference!r} is not a motion reference ({', '.join(references)})"
         ) from None
 
     def reference(times: np.ndarray) -> Motion:
@@ -353,6 +403,8 @@ def motion_rows(
             p = observed_order(errors[coarse][component], errors[fine][component], coarse / fine)
             orders[component] = p
             rows.append(Row("order", name, component, p, expected, 1.0))
+    if ref.energy_scale is not None:
+        rows += energy_rows(scene, name, tracks, ref.energy_scale)
     rows = [row.with_offset(expectation.offsets) for row in rows]
     series = {
         "block": name,

@@ -84,12 +84,13 @@ def motion_picture(result: CaseResult, title: str, path: Path) -> Path:
     ax = axes[1, 1]
     steps = sorted(s["errors"])
     dts = np.array([s["time_steps"][f] for f in steps])
-    for component in ("ux", "uy", "r"):
+    labels = {"ux": "ux (m)", "uy": "uy (m)", "r": "r (rad)", "e": "1 − e (rebound)"}
+    for component in s["errors"][steps[0]] if steps else ():
         errors = np.array([s["errors"][f][component] for f in steps])
         if np.all(errors > 0):
-            unit = " (rad)" if component == "r" else " (m)"
             order = s["orders"].get(component, float("nan"))
-            ax.loglog(dts, errors, "o-", label=f"{component}{unit}, order {order:.2f}")
+            label = f"{labels.get(component, component)}, order {order:.2f}"
+            ax.loglog(dts, errors, "o-", label=label)
     if dts.size:
         ax.loglog(dts, dts / dts.max() * ax.get_ylim()[1] / 2, "k:", label="slope 1")
     ax.set_xlabel("time step Δt (s)")

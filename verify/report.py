@@ -108,9 +108,9 @@ def _kind_line(result: CaseResult) -> str:
         study = result.series
         errors = study["errors"]
         line += f"Reference: closed form '{e.reference}'; largest |DDA − reference| at Δt = " + (
-            ", ".join(
-                f"{study['time_steps'][f]:g} s: ux {errors[f]['ux']:.2e}, uy {errors[f]['uy']:.2e},"
-                f" r {errors[f]['r']:.2e}"
+            "; ".join(
+                f"{study['time_steps'][f]:g} s: "
+                + ", ".join(f"{c} {v:.2e}" for c, v in errors[f].items())
                 for f in sorted(errors, reverse=True)
             )
         )
@@ -138,6 +138,18 @@ def _motion_study(result: CaseResult) -> dict | None:
         "observed_order": s["orders"],
         "expected_order": result.expectation.order,
         "events": s["events"],
+        **_rebound(s),
+    }
+
+
+def _rebound(series: dict) -> dict:
+    """A drop's rebound coefficient per time step (as ``time_steps``) and its limit."""
+    if "rebound" not in series:
+        return {}
+    e = series["rebound"]["e"]
+    return {
+        "rebound": [e[f] for f in sorted(e, reverse=True)],
+        "rebound_limit": series["rebound"]["limit"],
     }
 
 

@@ -33,7 +33,9 @@ from verify.dynamics import FemHistory, integrate
 from verify.expect import Expectation, ExpectationError
 from verify.fem import FemOptions, FemSolution, load_factor_at, solve_fem
 from verify.fracture import Onset, onset_factors
-from verify.motion import Track, free_block, motion_rows, with_time_step
+from verify.impact import REFERENCES as IMPACT_REFERENCES
+from verify.impact import ROWS as IMPACT_ROWS
+from verify.motion import REFERENCES, Track, free_block, motion_rows, with_time_step
 from verify.turn import turned_scene
 
 
@@ -219,7 +221,7 @@ def run_motion(
     scene: Scene, expectation: Expectation, options: FemOptions, reference=None
 ) -> KindResult:
     """The scene at each of the expectation's time-step factors against the closed form
-    (:mod:`verify.motion`); no FEM side (``fem`` is None)."""
+    (:mod:`verify.motion`, :mod:`verify.impact`); no FEM side (``fem`` is None)."""
     watch = Stopwatch()
     name = scene.blocks[free_block(scene)].name
     tracks, finest = {}, None
@@ -227,10 +229,16 @@ def run_motion(
         result = watch.run("dda", dda.simulate, with_time_step(scene, factor))
         tracks[factor] = Track.of(result, name)
         finest = result
-    rows, series = motion_rows(scene, expectation, tracks)
+    rows, series = motion_rows(scene, expectation, tracks, MOTION_REFERENCES)
+    more = IMPACT_ROWS.get(expectation.reference)
+    if more is not None:
+        rows += more(scene, expectation, tracks, series)
     side = DdaSide.from_result(finest, scene)
     return KindResult(side, None, rows, watch.seconds, None, series)
 
+
+# the closed forms of kind "motion": verify.motion's and verify.impact's
+MOTION_REFERENCES = {**REFERENCES, **IMPACT_REFERENCES}
 
 RUNNERS = {
     "static": run_static,
