@@ -26,7 +26,7 @@ import logging
 import math
 import re
 import tomllib
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -255,7 +255,12 @@ class Scene:
 # --------------------------------------------------------------------------- entry
 
 
-def load_scene(scene: str | Path | Mapping[str, Any], source: str | None = None) -> Scene:
+def load_scene(
+    scene: str | Path | Mapping[str, Any],
+    source: str | None = None,
+    *,
+    progress: Callable[[float, dict], None] | None = None,
+) -> Scene:
     """Load and validate a scene.
 
     Parameters
@@ -266,6 +271,9 @@ def load_scene(scene: str | Path | Mapping[str, Any], source: str | None = None)
     source
         For a dict: the file it was read from (messages name it, and files the
         scene names are found beside it), e.g. a scene file changed in memory.
+    progress
+        ``progress(fraction, info)``, called as a rock-mass scene is cut into blocks
+        (:mod:`dda.scene.rockmass.progress`); never for a scene of explicit blocks.
 
     Returns
     -------
@@ -279,7 +287,8 @@ def load_scene(scene: str | Path | Mapping[str, Any], source: str | None = None)
         invalid entry (a dotted key such as ``materials.rock.poisson``).
     """
     raw, read_from = _read_raw(scene)
-    return _build_scene(raw, source if source and isinstance(scene, Mapping) else read_from)
+    source = source if source and isinstance(scene, Mapping) else read_from
+    return _build_scene(raw, source, progress)
 
 
 def read_scene_file(path: str | Path) -> dict[str, Any]:
@@ -855,7 +864,9 @@ def _groups(
 # --------------------------------------------------------------------------- scene
 
 
-def _expand_rock_mass(raw: Mapping[str, Any], source: str) -> Mapping[str, Any]:
+def _expand_rock_mass(
+    raw: Mapping[str, Any], source: str, progress: Callable[[float, dict], None] | None
+) -> Mapping[str, Any]:
     """Hand rock-mass scenes to :mod:`dda.scene.rockmass`, which makes blocks explicit.
 
     The rock-mass module consumes its own keys (and may accept more than the
@@ -868,14 +879,18 @@ def _expand_rock_mass(raw: Mapping[str, Any], source: str) -> Mapping[str, Any]:
     except ImportError as exc:
         raise SceneError(source, "regions", "rock-mass scenes need dda.scene.rockmass") from exc
     logger.debug("expanding rock-mass scene %s", source)
-    return expand_rock_mass(raw, source)
+    return expand_rock_mass(raw, source, progress)
 
 
-def _build_scene(raw: Mapping[str, Any], source: str) -> Scene:
+def _build_scene(
+    raw: Mapping[str, Any],
+    source: str,
+    progress: Callable[[float, dict], None] | None = None,
+) -> Scene:
     """Validate a raw nested mapping section by section into a Scene."""
     chk = Checker(source)
     written = raw
-    raw = chk.table(_expand_rock_mass(raw, source), "", _TOP_KEYS)
+    raw = chk.table(_expand_rock_mass(raw, source, progress), "", _TOP_KEYS)
     title = chk.text(raw.get("title", ""), "title")
     analysis = _analysis(chk, raw)
     contact = _contact(chk, raw)
