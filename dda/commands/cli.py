@@ -300,7 +300,7 @@ def load_with_progress(path: Path, quiet: bool = False):
     runs (:mod:`dda.run.cut_bar`; none with ``quiet``)."""
     from dda.run.cut_bar import CutBar
 
-    with CutBar(Path(path).name, quiet=quiet) as bar:
+    with CutBar(path.name, quiet=quiet) as bar:
         scene = dda.load_scene(path, progress=bar)
         bar.finish()
     return scene
