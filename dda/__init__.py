@@ -6,6 +6,7 @@ Mohr-Coulomb block fracturing of Lin, Amadei, Sture & Jung (1994).
 """
 
 from importlib import metadata
+from pathlib import Path
 
 from dda.errors import SceneError, SimulationError
 from dda.result import Contacts, FractureEvent, Frame, Result
@@ -18,11 +19,18 @@ except metadata.PackageNotFoundError:  # a source tree that was never installed
 
 
 def simulate(scene, progress: bool = False, **kwargs) -> Result:
-    """Run a scene (``Scene``, path, TOML text or dict); see :func:`dda.run.simulation.run`."""
+    """Run a scene (``Scene``, path, TOML text or dict); see :func:`dda.run.simulation.run`.
+    With ``progress=True`` a long rock-mass cut shows a bar too (:mod:`dda.run.cut_bar`)."""
+    from dda.run.cut_bar import CutBar
     from dda.run.simulation import run
 
     if not isinstance(scene, Scene):
-        scene = load_scene(scene)
+        if progress is True:
+            with CutBar(scene.name if isinstance(scene, Path) else "scene") as bar:
+                scene = load_scene(scene, progress=bar)
+                bar.finish()
+        else:
+            scene = load_scene(scene)
     return run(scene, progress=progress, **kwargs)
 
 

@@ -610,7 +610,7 @@ def test_groups_are_stored():
 def test_rock_mass_keys_are_expanded(monkeypatch):
     calls = []
 
-    def expand_rock_mass(raw, source):
+    def expand_rock_mass(raw, source, progress=None):
         calls.append(source)
         out = {k: v for k, v in raw.items() if k not in ("regions", "joint_sets", "fix")}
         out["blocks"] = [{"name": "r1", "material": "soft", "vertices": square(0.0, 0.0)}]
@@ -641,7 +641,9 @@ def test_rock_mass_scene_without_the_module(monkeypatch):
 
 def test_rock_mass_typo_after_expansion_is_refused(monkeypatch):
     module = types.ModuleType("dda.scene.rockmass")
-    module.expand_rock_mass = lambda raw, source: {k: v for k, v in raw.items() if k != "regions"}
+    module.expand_rock_mass = lambda raw, source, progress=None: {
+        k: v for k, v in raw.items() if k != "regions"
+    }
     monkeypatch.setitem(sys.modules, "dda.scene.rockmass", module)
     raw = full()
     raw["regions"] = []

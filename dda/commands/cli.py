@@ -280,7 +280,7 @@ def _run_scene(args: argparse.Namespace):
     """The scene with the command line's overrides, checked for its size."""
     from dda.scene.limits import check_run_size
 
-    scene = dda.load_scene(scene_source(args.case))
+    scene = load_with_progress(scene_source(args.case), args.quiet)
     overrides = {
         "save_every": args.save_every,
         "checkpoint_every": args.checkpoint_every,
@@ -292,6 +292,17 @@ def _run_scene(args: argparse.Namespace):
         scene = dataclasses.replace(scene, analysis=analysis)
     check_run_size(scene)
     _check_output_size(scene, args)
+    return scene
+
+
+def load_with_progress(path: Path, quiet: bool = False):
+    """``dda.load_scene(path)``, with a progress bar on stderr while a long rock-mass cut
+    runs (:mod:`dda.run.cut_bar`; none with ``quiet``)."""
+    from dda.run.cut_bar import CutBar
+
+    with CutBar(path.name, quiet=quiet) as bar:
+        scene = dda.load_scene(path, progress=bar)
+        bar.finish()
     return scene
 
 

@@ -21,6 +21,7 @@ import numpy as np
 import shapely
 
 from dda.scene.rockmass.domain import Domain
+from dda.scene.rockmass.progress import CutProgress
 from dda.scene.rockmass.set_frame import LARGE, densest_set, set_turn
 from dda.scene.rockmass.traces import Traces
 
@@ -30,8 +31,11 @@ CLIP_MARGIN = 1e-3  # traces are clipped to the rock grown by this fraction of i
 GRID = 1e-12  # precision grid of the noded joints, as a fraction of the rock size
 
 
-def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
-    """Cut the rock by the joint traces.
+def cut_faces(
+    domain: Domain, traces: Traces, report: CutProgress | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Cut the rock by the joint traces (stages "clipping", "noding", "polygonising" told
+    to ``report``).
 
     Returns
     -------
@@ -40,15 +44,19 @@ def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
     """
     grown = shapely.buffer(domain.rock, CLIP_MARGIN * domain.size, join_style="mitre")
     shapely.prepare(grown)
-    clipped = shapely.intersection(traces.lines, grown)
+    report = report or CutProgress(None, 0)
+    chunks = report.chunks("clipping", len(traces.lines))
+    clipped = np.concatenate([shapely.intersection(traces.lines[c], grown) for c in chunks])
+    report.done("clipping")
     kept = ~shapely.is_empty(clipped)
     clipped, sources = clipped[kept], traces.source[kept]
     linework = np.concatenate([shapely.boundary(np.asarray(domain.parts, dtype=object)), clipped])
     grid = 10.0 ** np.floor(np.log10(GRID * domain.size))  # decimal: round inputs stay put
     if len(clipped) >= LARGE:
-        faces = _faces_along(linework, set_turn(traces, densest_set(traces, sources)), grid)
+        faces = _faces_along(linework, set_turn(traces, densest_set(traces, sources)), grid, report)
     else:  # snap rounding on a fine grid: nodes closer than the grid become one
         noded = shapely.union_all(linework, grid_size=grid)
+        report.done("noding")
         faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
     inside = shapely.point_on_surface(faces)
     tree = shapely.STRtree(np.asarray(domain.parts, dtype=object))
@@ -56,13 +64,16 @@ def cut_faces(domain: Domain, traces: Traces) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(face_index, kind="stable")
     face_index, region_index = face_index[order], region_index[order]
     first = np.unique(face_index, return_index=True)[1]
+    report.done("polygonising")
     log.debug(
         "%d faces from %d joint pieces, %d inside the rock", len(faces), len(clipped), len(first)
     )
     return faces[face_index[first]], region_index[first]
 
 
-def _faces_along(linework: np.ndarray, to_set: np.ndarray, grid: float) -> np.ndarray:
+def _faces_along(
+    linework: np.ndarray, to_set: np.ndarray, grid: float, report: CutProgress
+) -> np.ndarray:
     """Node and polygonize ``linework`` turned by ``to_set`` (row vectors: its densest set
     along x), the faces turned back. Vertices are put on the ``grid`` before noding."""
     parts = shapely.get_parts(linework)
@@ -70,6 +81,7 @@ def _faces_along(linework: np.ndarray, to_set: np.ndarray, grid: float) -> np.nd
     as_lines = shapely.linestrings(shapely.get_coordinates(lines), indices=_owners(lines))
     turned = shapely.transform(shapely.multilinestrings(as_lines), lambda xy: xy @ to_set)
     noded = shapely.node(shapely.set_precision(turned, grid))
+    report.done("noding")
     faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
     return shapely.transform(faces, lambda xy: xy @ to_set.T)
 

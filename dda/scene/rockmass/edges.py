@@ -13,6 +13,7 @@ import numpy as np
 import shapely
 
 from dda.geometry import next_vertex_index, owner_of_vertex, previous_vertex_index
+from dda.scene.rockmass.progress import CutProgress
 from dda.scene.rockmass.set_frame import LARGE, densest_set, set_turn
 from dda.scene.rockmass.traces import Traces
 
@@ -52,9 +53,14 @@ def pack_faces(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def tag_edges(
-    vertices: np.ndarray, offsets: np.ndarray, traces: Traces, tolerance: float
+    vertices: np.ndarray,
+    offsets: np.ndarray,
+    traces: Traces,
+    tolerance: float,
+    report: CutProgress | None = None,
 ) -> np.ndarray:
-    """Source of every edge: the trace within ``tolerance`` of its midpoint, else -1."""
+    """Source of every edge: the trace within ``tolerance`` of its midpoint, else -1
+    (the edges searched in chunks, each told to ``report`` as stage "tagging")."""
     source = np.full(len(vertices), -1, dtype=np.int64)
     if len(traces.lines) == 0 or len(vertices) == 0:
         return source
@@ -67,10 +73,10 @@ def tag_edges(
     else:
         pieces, owner = short_segments(traces, box, SEGMENTS_ACROSS)
     tree = shapely.STRtree(pieces)
-    edge, piece = tree.query_nearest(
-        shapely.points(middle), max_distance=tolerance, all_matches=False
-    )
-    source[edge] = owner[piece]
+    points = shapely.points(middle)
+    for chunk in (report or CutProgress(None, 0)).chunks("tagging", len(points)):
+        edge, piece = tree.query_nearest(points[chunk], max_distance=tolerance, all_matches=False)
+        source[chunk.start + edge] = owner[piece]
     return source
 
 

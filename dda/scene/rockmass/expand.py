@@ -32,6 +32,7 @@ from dda.scene.rockmass.estimate import check_block_count
 from dda.scene.rockmass.holes import split_holes
 from dda.scene.rockmass.merging import merge_small
 from dda.scene.rockmass.parse import parse_rock_mass
+from dda.scene.rockmass.progress import CutProgress, Progress
 from dda.scene.rockmass.selection import check_names, select_blocks
 from dda.scene.rockmass.set_frame import LARGE, densest_set, set_turn
 from dda.scene.rockmass.spec import RockMass, Selector
@@ -66,7 +67,7 @@ class CutRockMass:
         return [self.traces.joints[s] if s >= 0 else "" for s in self.blocks.sources(i)]
 
 
-def expand_rock_mass(raw: Mapping[str, Any], source: str) -> dict:
+def expand_rock_mass(raw: Mapping[str, Any], source: str, progress: Progress | None = None) -> dict:
     """Cut the rock mass of a raw scene and return the explicit-block raw scene.
 
     Parameters
@@ -77,6 +78,12 @@ def expand_rock_mass(raw: Mapping[str, Any], source: str) -> dict:
         ``cutting``).
     source
         Where the scene came from, for error messages.
+    progress
+        ``progress(fraction, info)``, called as the cut goes, from 0 to exactly 1,
+        ``info = {"stage": ..., "blocks": estimate}``
+        (:mod:`dda.scene.rockmass.progress`); not called when the scene is refused
+        before cutting. Without it a cut of more than :data:`LARGE_CUT` estimated
+        blocks logs a warning before it starts (with it, an info message).
 
     Returns
     -------
@@ -90,29 +97,39 @@ def expand_rock_mass(raw: Mapping[str, Any], source: str) -> dict:
     SceneError
         Naming the offending key, e.g. ``joint_sets[1].spacing``.
     """
-    return cut_rock_mass(raw, source)[1]
+    return cut_rock_mass(raw, source, progress)[1]
 
 
-def cut_rock_mass(raw: Mapping[str, Any], source: str) -> tuple[CutRockMass, dict]:
+def cut_rock_mass(
+    raw: Mapping[str, Any], source: str, progress: Progress | None = None
+) -> tuple[CutRockMass, dict]:
     """Like :func:`expand_rock_mass`, also returning the :class:`CutRockMass`."""
     mass = parse_rock_mass(raw, source)
     domain = build_domain(mass, source)
     estimate = check_block_count(mass, domain, source)
-    if estimate > LARGE_CUT:
-        log.warning("%s: cutting about %s blocks; this may take a minute", source, f"{estimate:,}")
+    if estimate > LARGE_CUT:  # a warning, unless the caller shows the progress itself
+        level = logging.WARNING if progress is None else logging.INFO
+        log.log(
+            level, "%s: cutting about %s blocks; this may take a minute", source, f"{estimate:,}"
+        )
+    report = CutProgress(progress, estimate)
     traces = build_traces(mass, domain.bounds, source)
-    faces, region = _faces(mass, domain, traces, source)
-    cut = _name_and_tag(mass, domain, traces, faces, region, source)
-    out = _explicit_scene(raw, cut, source)
+    report.plan(traces=len(traces.lines))
+    report.done("traces")
+    faces, region = _faces(mass, domain, traces, source, report)
+    cut = _name_and_tag(mass, domain, traces, faces, region, source, report)
+    report.done("selecting")
+    out = _explicit_scene(raw, cut, source, report)
+    report.done("tables")
     log.info("%s: cut %d blocks (%d fixed)", source, len(cut.names), int(cut.fixed.sum()))
     return cut, out
 
 
 def _faces(
-    mass: RockMass, domain: Domain, traces: Traces, source: str
+    mass: RockMass, domain: Domain, traces: Traces, source: str, report: CutProgress
 ) -> tuple[np.ndarray, np.ndarray]:
     opts = mass.options
-    faces, region = cut_faces(domain, traces)
+    faces, region = cut_faces(domain, traces, report)
     faces, region = split_holes(faces, region, opts.holes, source)
     min_area = opts.min_block_area
     if min_area is None:
@@ -123,6 +140,7 @@ def _faces(
     bad = ~shapely.is_valid(faces) | (shapely.get_type_id(faces) != 3)
     if bad.any():
         raise SceneError(source, "cutting", f"{int(bad.sum())} cut block(s) are not valid polygons")
+    report.done("merging")
     return faces, region
 
 
@@ -133,6 +151,7 @@ def _name_and_tag(
     faces: np.ndarray,
     region: np.ndarray,
     source: str,
+    report: CutProgress,
 ) -> CutRockMass:
     vertices, offsets = pack_faces(faces)
     centroid = polygon_moments(vertices, offsets)["centroid"]
@@ -140,12 +159,13 @@ def _name_and_tag(
     vertices, offsets = pack_faces(faces[order])
     region = region[order]
     size = domain.size
-    tags = tag_edges(vertices, offsets, traces, TAG_TOLERANCE * size)
+    tags = tag_edges(vertices, offsets, traces, TAG_TOLERANCE * size, report)
     blocks = drop_collinear(PackedBlocks(vertices, offsets, tags), COLLINEAR * size)
     prefix = mass.options.name_prefix
     names = [f"{prefix}{i + 1}" for i in range(len(order))]
     materials = [domain.materials[r] for r in region]
     cut = CutRockMass(names, materials, blocks, np.zeros(len(names), bool), traces, domain)
+    report.done("tagging")
     return _select(mass, cut, centroid[order], source)
 
 
@@ -178,7 +198,9 @@ def _select(mass: RockMass, cut: CutRockMass, centroid: np.ndarray, source: str)
     return CutRockMass(cut.names, cut.materials, b, fixed, cut.traces, cut.domain, groups)
 
 
-def _explicit_scene(raw: Mapping[str, Any], cut: CutRockMass, source: str) -> dict:
+def _explicit_scene(
+    raw: Mapping[str, Any], cut: CutRockMass, source: str, report: CutProgress
+) -> dict:
     out = {k: v for k, v in raw.items() if k not in ROCK_MASS_KEYS}
     written = list(raw.get("blocks", []))
     known = {str(b.get("name")) for b in written if isinstance(b, Mapping)}
@@ -189,7 +211,9 @@ def _explicit_scene(raw: Mapping[str, Any], cut: CutRockMass, source: str) -> di
             "cutting.name_prefix",
             f"cut block name {sorted(clash)[0]!r} is also a [[blocks]] name; change the prefix",
         )
-    out["blocks"] = written + [_block_table(cut, i) for i in range(len(cut.names))]
+    out["blocks"] = written
+    for chunk in report.chunks("tables", len(cut.names)):
+        out["blocks"] += [_block_table(cut, i) for i in range(chunk.start, chunk.stop)]
     known.update(cut.names)
     for name, members in cut.groups.items():
         check_names(f"groups.{name}", tuple(members), known, source)
