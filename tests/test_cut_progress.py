@@ -142,3 +142,21 @@ def test_dda_run_shows_the_cut_of_its_scene_unless_quiet(
         percents = [p for _, _, p, _ in lines]
         assert len(lines) >= 5 and percents == sorted(percents)
         assert lines[-1][2:] == (100.0, "done")
+
+
+def test_dda_fos_and_ensemble_show_the_cut_of_their_scene(scene_file, capsys, monkeypatch):
+    """They load the scene once before their trials (dda.commands.fos.prepare)."""
+    import argparse
+
+    from dda.commands.fos import OVERRIDES, prepare
+
+    monkeypatch.setattr(cut_bar, "LONG_CUT", 2_000)
+    args = argparse.Namespace(
+        scene=scene_file, blocks=None, intact=False, **dict.fromkeys(OVERRIDES)
+    )
+    prepared = prepare(args, "fos", reduced=False)
+    assert not isinstance(prepared, str), prepared
+    assert len(prepared[1].blocks) == 2351
+    lines = bar_lines(capsys.readouterr().err)
+    assert {(name, blocks) for name, blocks, _, _ in lines} == {("crossed.toml", 2346)}
+    assert lines[-1][2:] == (100.0, "done")

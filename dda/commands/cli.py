@@ -295,15 +295,16 @@ def _run_scene(args: argparse.Namespace):
     return scene
 
 
-def load_with_progress(path: Path, quiet: bool = False):
-    """``dda.load_scene(path)``, with a progress bar on stderr while a long rock-mass cut
-    runs (:mod:`dda.run.cut_bar`; none with ``quiet``)."""
+def load_with_progress(scene, quiet: bool = False, source: str | None = None):
+    """``dda.load_scene(scene, source)``, with a progress bar on stderr while a long
+    rock-mass cut runs (:mod:`dda.run.cut_bar`; none with ``quiet``). ``scene``: a path,
+    or a scene read into a dict from the file ``source``."""
     from dda.run.cut_bar import CutBar
 
-    with CutBar(path.name, quiet=quiet) as bar:
-        scene = dda.load_scene(path, progress=bar)
+    with CutBar(Path(source or scene).name, quiet=quiet) as bar:
+        loaded = dda.load_scene(scene, source, progress=bar)
         bar.finish()
-    return scene
+    return loaded
 
 
 def scene_source(case: Path):

@@ -82,7 +82,7 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
     ``reduced``: the strengths will be reduced (something must be reducible); ``edit``:
     more overrides, ``edit(raw)`` in place."""
     import dda
-    from dda.commands.cli import scene_source
+    from dda.commands.cli import load_with_progress, scene_source
     from dda.scene import read_scene_file
     from dda.stability.criterion import criterion_of
     from dda.stability.fos import check_reducible
@@ -92,7 +92,7 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
         raw = with_overrides(read_scene_file(path), args)
         if edit is not None:
             edit(raw)
-        scene = dda.load_scene(raw, str(path))
+        scene = load_with_progress(raw, source=str(path))  # a bar while a long cut runs
         criterion = criterion_of(scene)
         if reduced:
             check_reducible(scene)
