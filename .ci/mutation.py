@@ -76,7 +76,9 @@ TESTS = {
     "dda/solve/integrator.py": _MOTION,
     "dda/solve/update.py": _MOTION,
     "dda/kinematics.py": _MOTION + _EFFECTS,
-    "dda/solve/assembly.py": ["tests/test_assembly.py"],
+    # the springs between two blocks (rock bolts) are assembled here too
+    "dda/solve/assembly.py": ["tests/test_assembly.py", "tests/test_bolts.py"],
+    "dda/effects/pair_springs.py": _EFFECTS + ["tests/test_bolts.py", _CASE.format("bolted_block")],
     "dda/effects/bolts.py": _EFFECTS + ["tests/test_bolts.py", _CASE.format("bolted_block")],
     "dda/effects/seismic.py": _EFFECTS + ["tests/test_seismic.py", _CASE.format("seismic_slope")],
     "dda/effects/water.py": _EFFECTS + ["tests/test_water.py", _CASE.format("wet_slope")],
