@@ -220,6 +220,19 @@ def test_slots_are_found_and_missing_blocks_are_not_covered(monkeypatch, compile
     assert pattern.covers(fixed, a, b, active=joined)
 
 
+def test_a_contact_on_the_first_block_row_counts_in_covers_and_lands():
+    """A contact between blocks K does not join is neither covered nor landed, also
+    when one of its blocks is the first block row of K (row 0)."""
+    fixed = np.zeros(3, bool)
+    a, b = np.array([1, 2, 0]), np.array([2, 0, 1])
+    pattern = BlockPattern(fixed, a, b, active=np.array([True, False, False]))
+    assert pattern.block_of_row.tolist() == [0, 1, 2]  # K joins blocks 1 and 2 only
+    assert pattern.landed.tolist() == [True, False, False]
+    assert pattern.covers(fixed, a[:1], b[:1])
+    assert not pattern.covers(fixed, a[1:2], b[1:2])
+    assert not pattern.covers(fixed, a[2:], b[2:])
+
+
 def test_unique_pairs_are_the_distinct_rows_sorted():
     pairs = np.random.default_rng(15).integers(0, 40, size=(500, 2))
     np.testing.assert_array_equal(assembly._unique_pairs(pairs, 40), np.unique(pairs, axis=0))

@@ -10,6 +10,7 @@ import pytest
 
 from dda.contact.contact_set import ContactSet
 from dda.contact.law import (
+    UNBOUNDED,
     BoundIteration,
     ContactLaw,
     JointProperties,
@@ -107,6 +108,28 @@ def test_bonds_break_at_the_tensile_strength_only_once_the_forces_agree():
     assert outcome.broken == 2 and not outcome.settled
     assert not contacts.intact.any()
     assert contact_terms(contacts, joint, law, np.zeros(2)).tension.tolist() == [0.0, 0.0]
+
+
+def test_an_open_bond_without_tensile_strength_keeps_its_cohesion():
+    """A contact bonded by cohesion alone (T = 0) that opens is not pulled to a
+    tensile strength: its bond stays (it recloses with c l in its friction bound)."""
+    contacts = contact_set(1)
+    joint = joints(1, tan_phi=0.5, cohesion=1e3, tensile=0.0)
+    law = ContactLaw(augmented=False, tolerance=1e-6, shear_ratio=0.4, friction=True)
+    terms = contact_terms(contacts, joint, law, friction_bound(contacts, joint, np.zeros(1)))
+    outcome = update(contacts, terms, np.array([-1e-4]), np.zeros(1), None, joint, law)
+    assert outcome.settled and outcome.broken == 0
+    assert contacts.intact.tolist() == [True]
+
+
+def test_the_first_bounds_after_the_guess_are_the_target():
+    """While a bound is the first guess (UNBOUNDED) the iteration takes G(b) as it is:
+    mixed with 1e300, the bounds would cancel to 0."""
+    bounds = BoundIteration(np.full(3, UNBOUNDED))
+    assert bounds.guessing
+    target = np.array([10.0, 0.0, 250.0])
+    bounds.advance(target)
+    assert bounds.bound.tolist() == target.tolist() and not bounds.guessing
 
 
 def test_the_bounds_iteration_settles_a_swinging_linear_map_in_a_few_steps():

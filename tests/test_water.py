@@ -34,6 +34,20 @@ def test_a_submerged_block_is_buoyed_by_the_weight_of_the_water_it_displaces():
     np.testing.assert_allclose(forces[0, :3], [0.0, GAMMA * 2.0, 0.0], atol=1e-9 * GAMMA)
 
 
+def test_a_kink_of_the_table_above_a_submerged_block_pushes_it_sideways():
+    """p = γ (h(x) − y) over the whole block: F = −∫∫ ∇p dA = (−γ ∫∫ h′ dA, γ A), with
+    h′ = 1/6 left of x = 1 and −1/4 right of it: exact only when the edges are split at
+    the kink (a tilted block: on a rectangle the errors of opposite edges cancel)."""
+    vertices = rotated(rectangle(0, 0, 2, 1), 17.0)
+    forces, _ = water_forces(vertices, [[-5.0, 3.0], [1.0, 4.0], [5.0, 3.0]])
+    block = shapely.Polygon(vertices)
+    left = block.intersection(shapely.box(-9, -9, 1, 9)).area
+    slope_integral = left / 6.0 - (block.area - left) / 4.0
+    np.testing.assert_allclose(
+        forces[0, :2], [-GAMMA * slope_integral, GAMMA * block.area], rtol=1e-12
+    )
+
+
 def test_a_floating_block_is_buoyed_by_its_submerged_area_at_its_centroid():
     """Level water at y = 0.4 through a tilted block: F = γ A_sub upward, acting through
     the centroid of the submerged part (its moment about the block's centroid)."""
