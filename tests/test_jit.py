@@ -36,6 +36,16 @@ def test_a_small_run_imports_neither_numba_nor_pardiso():
     assert out.stdout.split() == ["False", "False"]
 
 
+def test_a_small_run_that_starts_in_contact_imports_no_numba():
+    """The sliding block starts loaded (equilibrium start): the contact rows of its first
+    frame come from numpy as its steps' do, not from kernels loaded for that one frame."""
+    code = (
+        "import sys, dda; dda.simulate('cases/sliding_block.toml'); print('numba' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False"]
+
+
 @needs_numba
 def test_a_kernel_binds_the_compiled_helpers_it_calls():
     """The rows kernel calls the helper ``_project``: compiling it compiles the helper."""

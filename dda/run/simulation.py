@@ -331,7 +331,8 @@ def run(
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
             _equilibrium_start(state)
     first = state.probes.take() if state.probes is not None and resume is None else None
-    frames = [_frame(state, first, origin)]
+    with run_work(len(scene.blocks), _expected_steps(model)):  # its contacts' rows: numpy
+        frames = [_frame(state, first, origin)]  # in a small run, as the steps compute them
     if on_frame and resume is None:
         on_frame(frames[0])
     if checkpoints is not None and checkpoints.at_start and resume is None:
