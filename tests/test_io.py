@@ -433,6 +433,17 @@ def test_io_does_not_import_pyvista_until_a_picture_is_made():
     assert out.stdout.strip() == "False", out.stderr
 
 
+def test_the_engine_imports_no_writer():
+    """``dda.simulate`` writes nothing: meshio (and rich, which it imports) stays unloaded."""
+    import subprocess
+    import sys
+
+    code = "import dda.run.simulation, sys; print('meshio' in sys.modules)"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.stdout.strip() == "False", out.stderr
+
+
 def test_colour_bar_labels_differ_even_for_a_nearly_constant_field():
     from dda.io.images import distinct_labels
 

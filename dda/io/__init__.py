@@ -1,30 +1,46 @@
 """Output of runs: VTU + PVD for ParaView, CSV/JSON tables, PNG pictures.
 
-The light parts (VTU, tables, the run writer) import meshio and numpy only;
-:mod:`dda.io.images` imports matplotlib only when a picture is made.
+The names below are loaded from their modules when first used (PEP 562), so that
+``import dda.io.atomic`` (the checkpoints) or ``dda.io.fields`` (the command line)
+does not import meshio; :mod:`dda.io.images` imports matplotlib only when a picture
+is made.
 """
 
-from dda.io.atomic import atomic_path, write_bytes, write_text
-from dda.io.images import render_frame, render_side_by_side
-from dda.io.pvd import PvdIndex, read_pvd
-from dda.io.run_writer import RunWriter, write_run
-from dda.io.tables import to_jsonable, write_history, write_summary
-from dda.io.vtu import read_frame, write_blocks_vtu, write_contacts_vtu
+from __future__ import annotations
 
-__all__ = [
-    "PvdIndex",
-    "RunWriter",
-    "atomic_path",
-    "read_frame",
-    "read_pvd",
-    "render_frame",
-    "render_side_by_side",
-    "to_jsonable",
-    "write_blocks_vtu",
-    "write_bytes",
-    "write_contacts_vtu",
-    "write_history",
-    "write_run",
-    "write_summary",
-    "write_text",
-]
+import importlib
+from typing import Any
+
+_MODULE_OF = {
+    "atomic_path": "atomic",
+    "write_bytes": "atomic",
+    "write_text": "atomic",
+    "render_frame": "images",
+    "render_side_by_side": "images",
+    "PvdIndex": "pvd",
+    "read_pvd": "pvd",
+    "RunWriter": "run_writer",
+    "write_run": "run_writer",
+    "to_jsonable": "tables",
+    "write_history": "tables",
+    "write_summary": "tables",
+    "read_frame": "vtu",
+    "write_blocks_vtu": "vtu",
+    "write_contacts_vtu": "vtu",
+}
+
+__all__ = sorted(_MODULE_OF, key=str.lower)
+
+
+def __getattr__(name: str) -> Any:
+    """``dda.io.NAME``: the name from its module, imported now."""
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module 'dda.io' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"dda.io.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_MODULE_OF})

@@ -26,7 +26,6 @@ from contextlib import contextmanager, nullcontext
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 from threadpoolctl import ThreadpoolController
 
@@ -75,7 +74,7 @@ class Factorisation:
         if self.size == 0:
             self._lu = None
             return
-        self._lu = spla.splu(
+        self._lu = _splu(
             matrix,
             permc_spec=permc_spec,
             diag_pivot_thresh=0.0,
@@ -313,10 +312,18 @@ def block_ordering(nfree: int, pairs: np.ndarray) -> np.ndarray:
     # a diagonally dominant matrix with the graph's pattern: SuperLU orders it without pivoting
     values = np.concatenate([np.full(2 * len(i), -1.0), np.full(nfree, 1.0 + 2.0 * len(i))])
     graph = sp.csc_matrix((values, (rows, cols)), shape=(nfree, nfree))
-    lu = spla.splu(
+    lu = _splu(
         graph, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
     )
     return np.asarray(lu.perm_c, dtype=np.int64)
+
+
+def _splu(matrix: sp.spmatrix, **options):
+    """SuperLU (``scipy.sparse.linalg.splu``), imported at the first use: a run of one or
+    two free blocks with a dense K never needs it."""
+    from scipy.sparse.linalg import splu
+
+    return splu(matrix, **options)
 
 
 def pcg(
