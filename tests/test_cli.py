@@ -191,6 +191,45 @@ def test_run_writes_all_outputs(case, capsys):
     assert "Block on a base" in capsys.readouterr().out
 
 
+# what a run imports (start-up: the libraries a run does not use stay unloaded)
+HEAVY = ("matplotlib", "pyvista", "vtk", "dask", "distributed", "skfem", "numba", "verify")
+IMPORTED = (
+    "import sys; from dda.commands.cli import main; watch = set(sys.argv[1].split(',')); "
+    "code = main(sys.argv[2:]); "
+    "print(code, *sorted({m.split('.')[0] for m in sys.modules} & watch))"
+)
+
+
+def imported_by_a_run(case: Path, *options: str) -> list[str]:
+    """``dda run CASE`` in a new interpreter: its exit code, then which of HEAVY it imported."""
+    argv = [",".join(HEAVY), "run", str(case), "-o", "result", "-q", *options]
+    out = subprocess.run([sys.executable, "-c", IMPORTED, *argv], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    return out.stdout.split()
+
+
+def test_a_run_without_a_picture_imports_no_plotting_or_cluster_library(case):
+    """Two blocks, six steps: no matplotlib, no VTK, no dask, no numba (too little work)."""
+    assert imported_by_a_run(case, "--no-picture") == ["0"]
+    assert not Path("result/final.png").exists() and Path("result/blocks.pvd").is_file()
+
+
+def test_a_run_draws_its_picture_with_matplotlib_alone(case):
+    assert imported_by_a_run(case) == ["0", "matplotlib"]
+    assert Path("result/final.png").stat().st_size > 1000
+
+
+def test_run_and_render_do_not_load_the_plugin_commands(monkeypatch):
+    def no_plugins(*args, **kwargs):
+        raise AssertionError("plugins loaded")
+
+    monkeypatch.setattr(cli, "load_plugins", no_plugins)
+    assert cli.main(["run", "--help"]) == 0
+    assert cli.main(["-v", "render", "--help"]) == 0
+    with pytest.raises(AssertionError, match="plugins loaded"):
+        cli.main(["fos", "--help"])
+
+
 def test_the_run_paragraph_tells_the_friction_dissipation_only_when_there_is_some():
     base = {"title": "t", "steps": 2, "time": 0.2, "wall_seconds": 1.0, "iterations": 9}
     quiet = cli.summary_paragraph({**base, "friction_dissipation": 0.0}, Path("out"))
