@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import gc
 import logging
 import shutil
 import sys
@@ -52,14 +53,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     Parameters
     ----------
     argv
-        Arguments without the program name; default ``sys.argv[1:]``.
+        Arguments without the program name; default ``sys.argv[1:]`` (the program
+        itself, which exits next: its objects are then frozen out of the cyclic garbage
+        collector, whose passes over them at exit cost 0.1-0.15 s).
 
     Returns
     -------
     int
         The exit code.
     """
-    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        return _main(list(sys.argv[1:] if argv is None else argv))
+    finally:
+        if argv is None:
+            gc.freeze()
+
+
+def _main(argv: list[str]) -> int:
     verbosity = _verbosity(argv)
     configure_logging(verbosity)
     parser = build_parser(plugins=_command_of(argv) not in BUILT_IN)
