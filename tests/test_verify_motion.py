@@ -284,3 +284,62 @@ def test_drop_limit_is_one_for_the_block_with_its_strain_modes():
     assert h + lever @ sol.y[:3, -1] > 0.0  # in flight
     e = np.sqrt(vy * vy + 2 * g * (uy + h)) / drop.speed
     assert 1 - e == pytest.approx(0.0, abs=1e-6)
+
+
+def test_newmark_reference_slides_the_block_by_newmarks_d_relative_to_the_base():
+    from verify.shaking import ground_displacement, newmark
+
+    scene = scene_of("shaken")
+    t = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
+    motion = newmark(scene, free_block(scene), t)
+    mu_g, a, t0 = 9.81 * np.tan(np.radians(20.0)), 0.6 * 9.81, 0.2
+    assert motion.events["stop"] == pytest.approx(a * t0 / mu_g, rel=1e-12)
+    assert motion.events["slide"] == pytest.approx(0.076340, abs=5e-7)
+    # the ground's exact integral of the pulse (its 1e-9 s ramp aside) minus the block's
+    ground = ground_displacement(np.array([[0.0, a], [t0, a], [t0 + 1e-9, 0.0]]), t)
+    exact = np.where(t <= t0, 0.5 * a * t**2, a * t0 * (t - t0 / 2))
+    assert ground == pytest.approx(exact, abs=1e-8)
+    assert motion.events["slide_at_end"] == pytest.approx(motion.events["slide"], abs=1e-8)
+    assert motion.u[:3, 0] == pytest.approx(0.5 * mu_g * t[:3] ** 2, rel=1e-12)
+    assert not motion.u[:, 1].any() and not motion.r.any()
+
+
+def test_water_force_is_gamma_area_normal_to_a_table_parallel_to_the_slope():
+    from verify.motion import applied_force
+    from verify.water import uniform_under_table, water_force
+
+    scene = scene_of("wet_slide")
+    block = free_block(scene)
+    up = np.array([-np.sin(np.radians(30.0)), np.cos(np.radians(30.0))])
+    lift = 9810.0 * 2.0 / np.cos(np.radians(30.0))  # γw A (−h′, 1), h′ = tan 30°
+    assert water_force(scene, block) == pytest.approx(lift * up, rel=1e-9)
+    assert uniform_under_table(scene, block)
+    a = 9.81 * np.sin(np.radians(30.0)) - np.tan(np.radians(25.0)) * (
+        9.81 * np.cos(np.radians(30.0)) - 9810.0 / (2700.0 * np.cos(np.radians(30.0)))
+    )
+    assert a == pytest.approx(2.8997, abs=1e-4)
+    motion = slide(scene, block, np.array([0.5]))
+    assert np.linalg.norm(motion.u[0]) == pytest.approx(0.5 * a * 0.25, rel=1e-9)
+    assert applied_force(scene_of("slide"), block)[0] == 0.0  # dry: the weight alone
+
+
+def test_a_partly_wet_block_has_no_slide_reference():
+    from dataclasses import replace
+
+    from verify.expect import ExpectationError
+
+    scene = scene_of("wet_slide")
+    low = replace(scene.water, table=((-20.0, 0.0), (20.0, 0.0)))
+    with pytest.raises(ExpectationError, match="water"):
+        slide(replace(scene, water=low), free_block(scene), np.array([0.1]))
+
+
+def test_bolt_reference_oscillates_about_f0_over_k_with_period_two_pi_root_m_over_k():
+    from verify.bolt import bolt
+
+    scene = scene_of("bolted")
+    motion = bolt(scene, free_block(scene), np.array([0.0, 0.25, 0.5, 1.0]))
+    assert motion.events["period"] == pytest.approx(1.0, rel=1e-12)
+    amplitude = 1000.0 / (2700.0 * (2 * np.pi) ** 2)
+    assert motion.u[:, 0] == pytest.approx([0.0, amplitude, 2 * amplitude, 0.0], abs=1e-15)
+    assert motion.energy_scale == pytest.approx(0.5 * 1000.0 * amplitude, rel=1e-12)

@@ -69,8 +69,8 @@ KNOWN_CHECKS = (
     "rebound",
 )
 KINDS = ("static", "dynamic", "fracture", "motion")
-# the closed forms of verify.motion and verify.impact
-MOTION_REFERENCES = ("free", "slide", "rocking", "drop", "overlap")
+# the closed forms of verify.motion, verify.impact, verify.shaking and verify.bolt
+MOTION_REFERENCES = ("free", "slide", "rocking", "drop", "overlap", "newmark", "bolt")
 
 
 class ExpectationError(ValueError):

@@ -12,7 +12,8 @@ here from the scene alone (``reference`` in the expectation file):
     revolution tests the exact rotation update).
 ``slide``
     one free block on a planar interface with a fixed block: with W the
-    block's weight plus its point loads, N = −W·n and T = W·t along the
+    block's weight plus its point loads plus the water table's force on it
+    (:mod:`verify.water`), N = −W·n and T = W·t along the
     interface (unit normal n out of the fixed block, tangent t),
     the block sticks while |T| ≤ tan φ N + c L and otherwise slides with
     a = (T − sign T · tan φ N) / m along t (the cohesion is lost once it
@@ -57,6 +58,7 @@ from verify.compare import STRESS, Row, vector_in_frame
 from verify.expect import Expectation, ExpectationError
 from verify.geometry import polygon_centroid
 from verify.interfaces import find_interfaces
+from verify.water import uniform_under_table, water_force
 
 
 @dataclass(frozen=True)
@@ -92,11 +94,13 @@ def _shoelace(v: np.ndarray) -> float:
 
 
 def applied_force(scene: Scene, block: int) -> np.ndarray:
-    """Weight plus the point loads on the block (loads without a history)."""
+    """Weight plus the point loads on the block (loads without a history) plus the
+    water table's force on it (:func:`verify.water.water_force`; constant while the
+    block stays wholly under one straight stretch of the table)."""
     b = scene.blocks[block]
     weight = block_mass(scene, block) * np.asarray(scene.analysis.gravity, dtype=float)
     loads = [np.asarray(load.force, dtype=float) for load in scene.loads if load.block == b.name]
-    return weight + sum(loads, np.zeros(2))
+    return weight + sum(loads, np.zeros(2)) + water_force(scene, block)
 
 
 def free_motion(scene: Scene, block: int, times: np.ndarray) -> Motion:
@@ -113,6 +117,11 @@ def slide(scene: Scene, block: int, times: np.ndarray) -> Motion:
     interfaces = [i for i in find_interfaces(scene) if block in i.pair]
     if len(interfaces) != 1 or any(scene.blocks[block].velocity):
         raise ExpectationError(f"{scene.source}: reference 'slide': one interface, at rest")
+    if not uniform_under_table(scene, block):
+        raise ExpectationError(
+            f"{scene.source}: reference 'slide': water: the block wholly under one straight "
+            "stretch of the table"
+        )
     interface = interfaces[0]
     coords = np.asarray(interface.line.coords if hasattr(interface.line, "coords") else [])
     if len(coords) < 2:

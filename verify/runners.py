@@ -27,6 +27,7 @@ import numpy as np
 import dda
 from dda import Result, Scene
 from verify.al_rate import al_update_rows
+from verify.bolt import REFERENCES as BOLT_REFERENCES
 from verify.compare import STRESS, VECTOR, Row, compare, tensor_in_frame, vector_in_frame
 from verify.dda_side import DdaSide
 from verify.dynamics import FemHistory, integrate
@@ -36,6 +37,7 @@ from verify.fracture import Onset, onset_factors
 from verify.impact import REFERENCES as IMPACT_REFERENCES
 from verify.impact import ROWS as IMPACT_ROWS
 from verify.motion import REFERENCES, Track, free_block, motion_rows, with_time_step
+from verify.shaking import REFERENCES as SHAKING_REFERENCES
 from verify.turn import turned_scene
 
 
@@ -237,8 +239,9 @@ def run_motion(
     return KindResult(side, None, rows, watch.seconds, None, series)
 
 
-# the closed forms of kind "motion": verify.motion's and verify.impact's
-MOTION_REFERENCES = {**REFERENCES, **IMPACT_REFERENCES}
+# the closed forms of kind "motion": verify.motion's, verify.impact's, verify.shaking's
+# and verify.bolt's
+MOTION_REFERENCES = {**REFERENCES, **IMPACT_REFERENCES, **SHAKING_REFERENCES, **BOLT_REFERENCES}
 
 RUNNERS = {
     "static": run_static,
