@@ -160,3 +160,23 @@ def test_why_an_elastic_block_sliding_on_friction_needs_damping():
         return max(abs(f.velocities[1, 2]) for f in dda.simulate(scene).frames[-200:])
 
     assert spin(0.0) > 100.0 * spin(0.2)
+
+
+@pytest.mark.parametrize("dt", [1e-3, pytest.param(1e-4, marks=pytest.mark.slow),
+                                pytest.param(2.5e-5, marks=pytest.mark.slow)])  # fmt: skip
+def test_the_mid_systems_chord_rules_keep_stick_slip_and_energy(dt, monkeypatch):
+    """The chord rules of dynamic steps in systems of 1,000-2,000 rows (a pass on new
+    friction bounds starts with a chord step, conjugated chord steps to 0.85 of ‖∇Π‖;
+    dda.solve.newton.MID_ROWS) forced on the incline: they change how a step spends its
+    solves, not what it converges to — the block at 0.95 stands within its settlement,
+    at 1.05 it slides as the closed form (1e-4 relative), and neither gains energy."""
+    import dda.solve.newton
+    from tests.stability.incline import largest_gain
+
+    monkeypatch.setattr(dda.solve.newton, "MID_ROWS", 0)  # every dynamic step: mid rules
+    stand = dda.simulate(incline_scene(0.95, dt, 0.5))
+    assert_stands(stand, settlement(0.95, 10.0))
+    slide = dda.simulate(incline_scene(1.05, dt, 1.0))
+    assert slide.summary["cut_steps"] == 0
+    assert abs(slid_error(slide, 1.05)) <= 1e-4
+    assert max(largest_gain(stand), largest_gain(slide)) <= 1e-3
