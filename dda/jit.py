@@ -95,9 +95,14 @@ def compiled(compiled_kernel: Kernel | None) -> bool:
 def run_work(blocks: int, steps: float) -> Iterator[bool]:
     """Within the block, kernels are used if ``blocks x steps`` reaches :data:`MIN_WORK`.
 
-    Yields whether they are.
+    Nested in another such block the larger work counts: a caller that stands for
+    a long run (the benchmark, which times 100 steps of runs that last thousands)
+    opens one around the run, and the run's own (smaller) figure does not turn the
+    kernels off. Yields whether they are used.
     """
-    token = _RUN_WORK.set(float(blocks) * float(steps))
+    outer = _RUN_WORK.get()
+    work = float(blocks) * float(steps)
+    token = _RUN_WORK.set(work if outer is None else max(outer, work))
     try:
         yield _RUN_WORK.get() >= MIN_WORK
     finally:

@@ -9,7 +9,7 @@ import pytest
 
 import dda
 from dda.bench.report import growth_exponent, table
-from dda.bench.run import WARM_UP_SIZE, WARM_UP_STEPS, Measurement, measure
+from dda.bench.run import WARM_UPS, Measurement, measure
 from dda.bench.scenes import wall_scene
 from dda.commands import bench as cli
 from dda.jit import MIN_WORK
@@ -75,8 +75,13 @@ def test_machine_line_names_the_solver_threads_and_mkl_reproducibility(monkeypat
 
 def test_warm_up_loads_the_compiled_kernels():
     """The benchmark's warm-up does enough work (blocks x steps) for the kernels to load,
-    so that a size's ms/step does not carry their one-off loading."""
-    assert (WARM_UP_SIZE**2 + 1) * WARM_UP_STEPS >= MIN_WORK
+    on a wall with sparse systems and one with dense ones (dda.solve.dense_system), so
+    that a size's ms/step does not carry their one-off loading."""
+    from dda.solve.dense_system import DENSE_ROWS
+
+    assert all((size**2 + 1) * steps >= MIN_WORK for size, steps in WARM_UPS)
+    assert 6 * min(size**2 for size, _ in WARM_UPS) <= DENSE_ROWS
+    assert 6 * max(size**2 for size, _ in WARM_UPS) > DENSE_ROWS
 
 
 def test_repeat_keeps_the_fastest_run(monkeypatch, capsys):

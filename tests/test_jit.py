@@ -26,6 +26,17 @@ def test_kernels_are_used_outside_a_run_and_in_runs_with_enough_work():
     assert not jit.compiled(None)
 
 
+@needs_numba
+def test_a_run_inside_a_block_of_more_work_uses_the_kernels():
+    """The benchmark times a few steps standing for a long run: the larger work counts."""
+    kernel = rows_module._rows_kernel
+    with jit.run_work(blocks=26, steps=10_000):
+        with jit.run_work(blocks=26, steps=100) as used:  # the run's own figure
+            assert used and jit.compiled(kernel)
+    with jit.run_work(blocks=26, steps=100):
+        assert not jit.compiled(kernel)
+
+
 def test_a_small_run_imports_neither_numba_nor_pardiso():
     """The paper's two blocks: the numpy path and a dense Cholesky (start-up as without them)."""
     code = (

@@ -19,15 +19,18 @@ from dataclasses import asdict, dataclass, field
 
 import dda
 from dda.bench.scenes import wall_scene
-from dda.jit import MIN_WORK, numba_enabled
+from dda.jit import numba_enabled, run_work
 from dda.solve.linsolve import new_pardiso_handle, pardiso_available
 
 log = logging.getLogger(__name__)
 
-# a 10 x 10 wall (101 blocks) for this many steps reaches dda.jit.MIN_WORK: the
-# kernels load (from numba's cache) in the warm-up, not in the measured run, and the
-# warm-up's peak memory stays below that of the runs that use them
-WARM_UP_SIZE, WARM_UP_STEPS = 10, 100
+# walls that reach dda.jit.MIN_WORK block-steps: a 10 x 10 wall (101 blocks, sparse
+# systems) and a 4 x 4 wall (17 blocks, dense systems, dda.solve.dense_system): the
+# kernels load (from numba's cache) in the warm-up, not in the measured run
+WARM_UPS = ((10, 100), (4, 600))
+# the measured run is timed as a step of a run this long: it uses the compiled kernels
+# as such a run does (dda.jit.run_work), whatever the steps timed
+LONG_RUN_STEPS = 10_000
 STAGES = ("contact_search", "assembly", "factorisation", "solve", "contact_law", "update", "output")
 
 
@@ -86,9 +89,11 @@ def measure(
     columns, rows : wall size (``rows`` defaults to ``columns``)
     method : "penalty" or "augmented-lagrangian"
     steps : time steps
-    warm_up : run a small wall first (imports; a 10 x 10 wall for 100 steps, enough
-        work for the compiled kernels to load, when the measured run uses them)
-        and load the PARDISO library when it is used
+    warm_up : run a small wall first (imports; walls with enough work for the compiled
+        kernels to load, :data:`WARM_UPS`) and load the PARDISO library when it
+        is used. The measured run uses the kernels at every size, as a run of
+        :data:`LONG_RUN_STEPS` does: ms/step is the cost of a step of a long run
+        (start-up is measured apart)
     """
     rows = columns if rows is None else rows
     return _measure(columns, rows, method, steps, warm_up)
@@ -96,9 +101,8 @@ def measure(
 
 def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) -> Measurement:
     if warm_up:
-        kernels = numba_enabled() and (columns * rows + 1) * steps >= MIN_WORK  # used
-        size, warm_steps = (WARM_UP_SIZE, WARM_UP_STEPS) if kernels else (2, 3)
-        dda.simulate(dda.load_scene(wall_scene(size, method=method, steps=warm_steps)))
+        for size, warm_steps in WARM_UPS if numba_enabled() else ((2, 3),):
+            dda.simulate(dda.load_scene(wall_scene(size, method=method, steps=warm_steps)))
         if pardiso_available():
             new_pardiso_handle()  # finding the MKL library is a one-off cost too
     scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps))
@@ -111,7 +115,8 @@ def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) ->
 
     status = "finished"
     try:
-        result = dda.simulate(scene, progress=note_first_step)
+        with run_work(columns * rows + 1, LONG_RUN_STEPS):  # the kernels of a long run
+            result = dda.simulate(scene, progress=note_first_step)
         summary = result.summary
     except dda.SimulationError as exc:
         status = f"failed: {exc}"

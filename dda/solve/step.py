@@ -39,6 +39,7 @@ from dda.solve.assembly import (
     reassemble,
     subtract_contact_forces,
 )
+from dda.solve.dense_system import DENSE_ROWS, DenseSystem
 from dda.solve.linsolve import ReusingSolver, block_ordering
 from dda.solve.low_rank import StepUpdates
 from dda.solve.newton import (
@@ -306,6 +307,7 @@ class _PieceSystem:
         self.couplings = couplings  # springs between blocks (rock bolts), constant in the step
         self.coupled = None if couplings is None else (couplings.block_i, couplings.block_j)
         self.pattern = self.k = self.keyed = self.assembled = self.updates = None
+        self.factorisations = 0  # its factorisations are counted by the cache's solver
 
     def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
         blocks, contacts, cache = self.blocks, self.contacts, self.cache
@@ -456,13 +458,28 @@ def solve_step(
     def neighbours():
         return pattern_neighbours(blocks, contacts, cm)
 
-    system = _PieceSystem(
-        cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
-    )
+    free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
+    if cache.solver.automatic and free_rows_count <= DENSE_ROWS:
+        with timer("assembly"):
+            system = DenseSystem(
+                blocks.fixed,
+                contacts.block_a,
+                contacts.block_b,
+                rows,
+                base_k,
+                base_f,
+                law.friction,
+                couplings,
+                timer,
+            )
+    else:
+        system = _PieceSystem(
+            cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
+        )
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
-    rules = size_rules(BLOCK * int(np.count_nonzero(~blocks.fixed)), dynamic=not ctx.static)
+    rules = size_rules(free_rows_count, dynamic=not ctx.static)
     between_bounds = 1 if rules.bounds_every_solve else INNER_SOLVES
     d = np.zeros((blocks.count, 6))
     solves, chords, converged, previous_g = 0, 0, False, None
@@ -530,7 +547,7 @@ def solve_step(
         contact_law.record(contacts, terms, g, s, law.friction_tolerance)
     closed = contacts.state != OPEN
     max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
-    made = cache.solver.factorisations - factorisations_before
+    made = cache.solver.factorisations - factorisations_before + system.factorisations
     pushed = None
     if converged and not ctx.static:
         overlap = pushed_overlap(contacts, rows, contacts.penetration, law.tolerance)

@@ -1,0 +1,224 @@
+"""A small step's linear systems held dense: K = K₀ + Gᵀ diag(k) G, Cholesky by LAPACK.
+
+Below :data:`DENSE_ROWS` unknowns a step's systems are cheaper held as dense
+matrices than on a sparse block pattern: the contacts' gradient rows over the
+free blocks' unknowns form one dense matrix per kind, G (m, 6 n_free), made
+once a step (the rows are fixed within it), and each Newton iteration's
+
+    K = K₀ + G_nᵀ diag(k_n) G_n + G_sᵀ diag(k_s) G_s + G_bᵀ diag(k_b) G_b,
+    F = F₀ − G_nᵀ N₀ − G_sᵀ T₀
+
+(normal and shear springs k and offsets N₀, T₀ of the contacts' pieces; k_b the
+springs between blocks, rock bolts) is a few numpy calls — F by two products
+with G; K by one weighted ``bincount`` of the contacts' 12 x 12 outer products
+[r_i r_j]ᵀ[r_i r_j] (made once a step) into K's entries, as each contact
+touches only its two blocks' 12 unknowns — factorised by dense
+Cholesky (``dpotrf``) and solved by back-substitution (``dpotrs``), with no
+pattern, ordering or scatter indices to keep. It has the interface of the
+sparse system in :mod:`dda.solve.step` (a :data:`dda.solve.newton.PieceSolver`,
+a chord solver and the contacts' force vector), and solves the same equations
+to round-off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import lapack, lu_factor, lu_solve
+
+from dda.effects.pair_springs import PairSprings
+from dda.jit import compiled, kernel
+
+# largest number of free unknowns held dense: a dense Cholesky costs n³/3 flops,
+# against the sparse factorisation's set-up (the same threshold as
+# dda.solve.linsolve.DENSE_MAX_SIZE, 40 blocks)
+DENSE_ROWS = 180
+
+
+def gradient_matrix(
+    position: np.ndarray,
+    block_i: np.ndarray,
+    block_j: np.ndarray,
+    row_i: np.ndarray,
+    row_j: np.ndarray,
+    free_count: int,
+) -> np.ndarray:
+    """G (m, 6 n_free): row c holds ``row_i[c]`` in the columns of block_i[c] and
+    ``row_j[c]`` in those of block_j[c]; fixed blocks (``position`` −1) have no columns."""
+    m = len(block_i)
+    g = np.zeros((m, free_count, 6))
+    for blocks, rows in ((block_i, row_i), (block_j, row_j)):
+        at = position[blocks]
+        moving = np.flatnonzero(at >= 0)
+        g[moving, at[moving]] += rows[moving]
+    return g.reshape(m, 6 * free_count)
+
+
+def contact_columns(position: np.ndarray, block_i: np.ndarray, block_j: np.ndarray) -> np.ndarray:
+    """(m, 12) the unknowns' columns of each contact's two blocks, −1 for a fixed block."""
+    offsets = np.arange(6)
+    columns = [
+        np.where(position[b][:, None] >= 0, 6 * position[b][:, None] + offsets, -1)
+        for b in (block_i, block_j)
+    ]
+    return np.concatenate(columns, axis=1)
+
+
+def outer_targets(columns: np.ndarray, size: int) -> np.ndarray:
+    """(m·144,) flat entries of K (``size`` x ``size``) of every contact's 12 x 12 outer
+    product; ``size²`` (one past K) where either column is a fixed block's."""
+    rows, cols = columns[:, :, None], columns[:, None, :]
+    flat = np.where((rows >= 0) & (cols >= 0), rows * size + cols, size * size)
+    return flat.ravel()
+
+
+def outer_products(rows: np.ndarray) -> np.ndarray:
+    """(m, 144) [r_i r_j]ᵀ[r_i r_j] of every contact's (12,) ``rows``, row-major."""
+    return (rows[:, :, None] * rows[:, None, :]).reshape(len(rows), 144)
+
+
+def _add_springs(k, columns, normal, kn, shear, ks):
+    """Compiled K += Σ kn r_n r_nᵀ + ks r_s r_sᵀ over the contacts' 12 columns (−1: none)."""
+    for c in range(columns.shape[0]):
+        for p in range(12):
+            row = columns[c, p]
+            if row < 0:
+                continue
+            an, as_ = kn[c] * normal[c, p], ks[c] * shear[c, p]
+            for q in range(12):
+                col = columns[c, q]
+                if col >= 0:
+                    k[row, col] += an * normal[c, q] + as_ * shear[c, q]
+
+
+_add_springs_kernel = kernel(_add_springs)
+
+
+class DenseFactor:
+    """K = L Lᵀ (``dpotrf``); an LU factorisation should round-off make K not
+    positive definite by LAPACK's test."""
+
+    def __init__(self, matrix: np.ndarray) -> None:
+        self._lu = None
+        self._lower, info = lapack.dpotrf(matrix, lower=1, clean=0, overwrite_a=0)
+        if info != 0:
+            self._lu = lu_factor(matrix, check_finite=False)
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """x with K x = b."""
+        if self._lu is not None:
+            return lu_solve(self._lu, rhs, check_finite=False)
+        return lapack.dpotrs(self._lower, rhs, lower=1)[0]
+
+
+class DenseSystem:
+    """The linear systems of one step, K(springs) D = F(offsets), held dense.
+
+    Parameters
+    ----------
+    fixed : (n,) bool, the blocks that do not move
+    block_a, block_b : (m,) the contacts' blocks
+    rows : the contacts' :class:`dda.contact.rows.ContactRows`
+    base_k, base_f : (n, 6, 6), (n, 6): K₀'s blocks and F₀ of the effects
+    friction : whether K holds the shear springs (else only their offsets enter F)
+    couplings : springs between blocks (rock bolts), or None
+    timer : a :class:`dda.solve.timing.StageTimer`
+    """
+
+    def __init__(
+        self,
+        fixed: np.ndarray,
+        block_a: np.ndarray,
+        block_b: np.ndarray,
+        rows,
+        base_k: np.ndarray,
+        base_f: np.ndarray,
+        friction: bool,
+        couplings: PairSprings | None,
+        timer,
+    ) -> None:
+        self.free = np.flatnonzero(~fixed)
+        position = np.full(len(fixed), -1, np.int64)
+        position[self.free] = np.arange(len(self.free))
+        count = len(self.free)
+        self.normal = gradient_matrix(
+            position, block_a, block_b, rows.normal_i, rows.normal_j, count
+        )
+        self.shear = gradient_matrix(position, block_a, block_b, rows.shear_i, rows.shear_j, count)
+        self.base = _block_diagonal(base_k[self.free])
+        self.size = 6 * count
+        self.columns = contact_columns(position, block_a, block_b)
+        self.normal_rows = np.concatenate([rows.normal_i, rows.normal_j], axis=1)
+        self.shear_rows = np.concatenate([rows.shear_i, rows.shear_j], axis=1)
+        if couplings is not None and len(couplings):
+            bolts = gradient_matrix(
+                position,
+                couplings.block_i,
+                couplings.block_j,
+                couplings.row_i,
+                couplings.row_j,
+                count,
+            )
+            self.base += (bolts.T * couplings.stiffness) @ bolts
+        self.forces = base_f[self.free].ravel()
+        self.friction, self.timer, self.shape = friction, timer, base_f.shape
+        self.factorisations = 0
+        self._factor: DenseFactor | None = None
+        self._springs: tuple[np.ndarray, np.ndarray] | None = None
+        self._outer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
+        """D (n, 6) minimising the quadratic of springs (kn, ks) and offsets (N₀, T₀)."""
+        if self._springs is None or not (
+            np.array_equal(kn, self._springs[0]) and np.array_equal(ks, self._springs[1])
+        ):
+            with self.timer("assembly"):
+                k = self._stiffness(kn, ks if self.friction else np.zeros_like(ks))
+            with self.timer("factorisation"):
+                self._factor = DenseFactor(k)
+            self._springs = (kn, ks)
+            self.factorisations += 1
+        with self.timer("assembly"):
+            rhs = self.forces - offset_n @ self.normal - offset_t @ self.shear
+        with self.timer("solve"):
+            return self._spread(self._factor.solve(rhs))
+
+    def _stiffness(self, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
+        """K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ (dense)."""
+        k = self.base.copy()
+        if compiled(_add_springs_kernel):
+            _add_springs_kernel(k, self.columns, self.normal_rows, kn, self.shear_rows, ks)
+            return k
+        if self._outer is None:  # the numpy twin: one weighted bincount
+            self._outer = (
+                outer_targets(self.columns, self.size),
+                outer_products(self.normal_rows),
+                outer_products(self.shear_rows),
+            )
+        targets, normal, shear = self._outer
+        weights = (kn[:, None] * normal + ks[:, None] * shear).ravel()
+        n = self.size
+        return k + np.bincount(targets, weights, n * n + 1)[: n * n].reshape(n, n)
+
+    def chord(self, residual: np.ndarray) -> np.ndarray | None:
+        """K_f⁻¹ r (n, 6) with the last factorisation K_f of this step, or None before one."""
+        if self._factor is None:
+            return None
+        with self.timer("solve"):
+            return self._spread(self._factor.solve(residual[self.free].ravel()))
+
+    def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
+        """Σ N ∇g + Σ F ∇s over the contacts, (n, 6) (0 on fixed blocks)."""
+        return self._spread(normal @ self.normal + shear @ self.shear)
+
+    def _spread(self, x: np.ndarray) -> np.ndarray:
+        out = np.zeros(self.shape)
+        out[self.free] = x.reshape(-1, 6)
+        return out
+
+
+def _block_diagonal(blocks: np.ndarray) -> np.ndarray:
+    """The (6n, 6n) matrix with the (n, 6, 6) ``blocks`` on its diagonal."""
+    n = len(blocks)
+    out = np.zeros((n, 6, n, 6))
+    out[np.arange(n), :, np.arange(n), :] = blocks
+    return out.reshape(6 * n, 6 * n)
