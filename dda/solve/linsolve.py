@@ -48,10 +48,12 @@ PCG_BUDGET = {"superlu": MAX_PCG_ITERATIONS, "pardiso": 3, "dense": 0}
 PARDISO_LARGE = 20_000  # rows from which the larger budget applies
 PCG_BUDGET_PARDISO_LARGE = 5
 REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
-# smaller systems: SuperLU. PARDISO factorises 4-5x faster from 600 rows up (10x10 wall:
-# 0.38 against 1.7 ms; tunnel case, 1200 rows: 0.45 against 2.5 ms) and solves as fast, but
-# analyses each new pattern; at 150 rows (5x5 wall) the two are even end to end.
-PARDISO_MIN_SIZE = 300
+# smaller systems: a dense Cholesky (below). PARDISO factorises 4-5x faster than SuperLU
+# from 600 rows up (10x10 wall: 0.38 against 1.7 ms; tunnel case, 1200 rows: 0.45 against
+# 2.5 ms) and solves as fast, but analyses each new pattern; at 294 rows (7x7 wall, 100
+# steps, one thread, six interleaved runs) the run takes 7.5-10.5 ms a step against
+# SuperLU's 9.2-12.2. SuperLU factorises where PARDISO is not installed (or DDA_SOLVER)
+PARDISO_MIN_SIZE = 241
 # up to this many rows: a dense Cholesky. 150 rows (5x5 wall): 0.07 ms against SuperLU's
 # 0.22-0.32 (its set-up dominates); 294 rows: 0.30 against 0.55-0.63, but each solve then
 # costs 0.045 against 0.029 and PCG on a kept factorisation no longer pays
