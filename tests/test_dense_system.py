@@ -18,11 +18,13 @@ CASES = "cases/{}.toml"
 
 
 class Rows:
-    """Random contact rows: the gradients the dense system reads."""
+    """Random contact rows: gaps at the step's start and their gradients."""
 
     def __init__(self, rng: np.random.Generator, m: int) -> None:
         self.normal_i, self.normal_j = rng.normal(size=(m, 6)), rng.normal(size=(m, 6))
         self.shear_i, self.shear_j = rng.normal(size=(m, 6)), rng.normal(size=(m, 6))
+        self.penetration = rng.normal(scale=0.05, size=m)
+        self.slip = rng.normal(scale=0.05, size=m)
 
 
 def random_system(seed: int, n: int = 9, m: int = 30):

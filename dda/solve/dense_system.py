@@ -27,6 +27,8 @@ from scipy.linalg import lapack, lu_factor, lu_solve
 
 from dda.effects.pair_springs import PairSprings
 from dda.jit import compiled, kernel
+from dda.solve import dense_newton
+from dda.solve.newton import NewtonResult
 
 # largest number of free unknowns held dense: a dense Cholesky costs n³/3 flops,
 # against the sparse factorisation's set-up (the same threshold as
@@ -165,6 +167,9 @@ class DenseSystem:
         self._factor: DenseFactor | None = None
         self._springs: tuple[np.ndarray, np.ndarray] | None = None
         self._outer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self.g0, self.s0 = rows.penetration, rows.slip
+        self._kernel_state: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._kernel_failed = False
 
     def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
         """D (n, 6) minimising the quadratic of springs (kn, ks) and offsets (N₀, T₀)."""
@@ -181,6 +186,59 @@ class DenseSystem:
             rhs = self.forces - offset_n @ self.normal - offset_t @ self.shear
         with self.timer("solve"):
             return self._spread(self._factor.solve(rhs))
+
+    def minimise(
+        self,
+        terms,
+        start: np.ndarray,
+        max_solves: int,
+        first_pieces=None,
+        max_steps: int | None = None,
+        rate: float = 0.5,
+        chord_first: bool = False,
+        start_gaps=None,
+        conjugate: bool = False,
+    ) -> NewtonResult | None:
+        """:func:`dda.solve.newton.minimise` of this step's potential in one compiled call
+        (:mod:`dda.solve.dense_newton`), or None where the kernels are not used (or K was
+        found not positive definite: the caller's numpy Newton, with its LU fallback)."""
+        if self._kernel_failed or not compiled(dense_newton.dense_minimise_kernel):
+            return None
+        if self._kernel_state is None:
+            m, n = len(self.g0), self.size
+            self._kernel_state = (np.zeros((n, n)), np.full((2, m), np.nan), np.zeros(2, np.int64))
+        lower, springs, state = self._kernel_state
+        x = np.ascontiguousarray(start[self.free].ravel())
+        if start_gaps is None:
+            start_gaps = (self.g0 + self.normal @ x, self.s0 + self.shear @ x)
+        first = first_pieces is not None
+        none = np.zeros(len(self.g0), np.int8)
+        normal_piece, shear_piece = first_pieces if first else (none, none)
+        t = terms
+        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
+        made = int(state[dense_newton.FACTORISATIONS])
+        try:
+            out = dense_newton.dense_minimise_kernel(
+                self.base, self.forces, self.normal, self.shear, self.columns,
+                self.normal_rows, self.shear_rows, self.g0, self.s0,
+                *(np.ascontiguousarray(a, np.float64) for a in data), self.friction,
+                x, *(np.ascontiguousarray(a, np.float64) for a in start_gaps),
+                np.ascontiguousarray(normal_piece, np.int8),
+                np.ascontiguousarray(shear_piece, np.int8), first,
+                int(max_solves), -1 if max_steps is None else int(max_steps), float(rate),
+                bool(chord_first), bool(conjugate), lower, springs, state,
+            )  # fmt: skip
+        except np.linalg.LinAlgError:  # K not positive definite by round-off
+            self.factorisations += int(state[dense_newton.FACTORISATIONS]) - made
+            self._kernel_state = None
+            self._kernel_failed = True
+            return None
+        self.factorisations += int(state[dense_newton.FACTORISATIONS]) - made
+        d, g, s, solves, chords, converged, chord_next, finite = out
+        full = self._spread(d)
+        if not finite:
+            return NewtonResult(full, solves, False, chords)
+        return NewtonResult(full, solves, converged, chords, chord_next, (g, s))
 
     def _stiffness(self, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ (dense)."""

@@ -502,22 +502,21 @@ def solve_step(
         inner = None
         if law.friction:
             inner = GUESSED_BOUND_SOLVES if bounds.guessing else between_bounds
-        newton = minimise(
-            quadratic,
-            geometry,
-            terms,
-            system,
-            system.contact_vector,
-            d,
-            budget - solves,
-            guess,
-            chord=system.chord,
-            max_steps=inner,
-            rate=rules.rate,
-            chord_first=rules.chord_first and goes_on and chords < budget,
-            start_gaps=gaps,
-            conjugate=rules.conjugate,
-        )
+        rule = {
+            "max_steps": inner,
+            "rate": rules.rate,
+            "chord_first": rules.chord_first and goes_on and chords < budget,
+            "start_gaps": gaps,
+            "conjugate": rules.conjugate,
+        }
+        newton = None
+        if isinstance(system, DenseSystem):  # one compiled call where kernels are used
+            newton = system.minimise(terms, d, budget - solves, guess, **rule)
+        if newton is None:
+            newton = minimise(
+                quadratic, geometry, terms, system, system.contact_vector, d,
+                budget - solves, guess, chord=system.chord, **rule,
+            )  # fmt: skip
         gaps = newton.gaps
         goes_on = newton.converged or newton.chord_next
         solves += newton.solves
