@@ -217,17 +217,19 @@ class DenseSystem:
         t = terms
         data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
         made = int(state[dense_newton.FACTORISATIONS])
-        try:
-            out = dense_newton.dense_minimise_kernel(
-                self.base, self.forces, self.normal, self.shear, self.columns,
-                self.normal_rows, self.shear_rows, self.g0, self.s0,
-                *(np.ascontiguousarray(a, np.float64) for a in data), self.friction,
-                x, *(np.ascontiguousarray(a, np.float64) for a in start_gaps),
-                np.ascontiguousarray(normal_piece, np.int8),
-                np.ascontiguousarray(shear_piece, np.int8), first,
-                int(max_solves), -1 if max_steps is None else int(max_steps), float(rate),
-                bool(chord_first), bool(conjugate), lower, springs, state,
-            )  # fmt: skip
+        arguments = (
+            self.base, self.forces, self.normal, self.shear, self.columns,
+            self.normal_rows, self.shear_rows, self.g0, self.s0,
+            *(np.ascontiguousarray(a, np.float64) for a in data), self.friction,
+            x, *(np.ascontiguousarray(a, np.float64) for a in start_gaps),
+            np.ascontiguousarray(normal_piece, np.int8),
+            np.ascontiguousarray(shear_piece, np.int8), first,
+            int(max_solves), -1 if max_steps is None else int(max_steps), float(rate),
+            bool(chord_first), bool(conjugate), lower, springs, state,
+        )  # fmt: skip
+        try:  # K, its factorisations and solves in one call: the "solve" stage
+            with self.timer("solve"):
+                out = dense_newton.dense_minimise_kernel(*arguments)
         except np.linalg.LinAlgError:  # K not positive definite by round-off
             self.factorisations += int(state[dense_newton.FACTORISATIONS]) - made
             self._kernel_state = None
