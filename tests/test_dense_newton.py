@@ -11,9 +11,9 @@ import dda
 from dda import jit
 from dda.bench.scenes import wall_scene
 from dda.contact.potential import ContactTerms
-from dda.solve import dense_system
+from dda.solve import dense_newton, dense_system
 from dda.solve.dense_system import DenseSystem
-from dda.solve.newton import BlockQuadratic, ContactGeometry, minimise
+from dda.solve.newton import BlockQuadratic, ContactGeometry, minimise, potential
 from dda.solve.timing import StageTimer
 from tests.test_dense_system import Rows
 
@@ -104,3 +104,34 @@ def test_a_run_with_the_kernel_is_the_numpy_run(monkeypatch, method):
     np.testing.assert_allclose(compiled, oracle, rtol=0, atol=1e-9)
     for count in ("iterations", "factorisations", "newton_iterations"):
         assert compiled_summary.get(count) == oracle_summary.get(count)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_potential_is_the_numpy_one(seed):
+    """Π at random steps D (contacts elastic and at their limit, stuck and slipping, ps = 0
+    for some): the compiled value to rounding, and the same better start."""
+    fixed, a, b, rows, base_k, base_f, terms = random_problem(seed)
+    no_shear = np.random.default_rng(seed).uniform(size=len(a)) > 0.8
+    terms = dataclasses.replace(terms, shear_penalty=np.where(no_shear, 0.0, terms.shear_penalty))
+    system = DenseSystem(fixed, a, b, rows, base_k, base_f, True, None, StageTimer())
+    geometry = ContactGeometry(rows, a, b)
+    quadratic = BlockQuadratic(base_k, base_f, ~fixed)
+    rng = np.random.default_rng(10 + seed)
+    steps = [
+        np.where(fixed[:, None], 0.0, rng.normal(scale=0.1, size=base_f.shape)) for _ in (0, 1)
+    ]
+    with jit.run_work(1, 1e9):
+        for d in steps:
+            x = np.ascontiguousarray(d[~fixed].ravel())
+            arrays = (terms.normal_base, terms.penalty, terms.tension, terms.shear_base)
+            arrays += (terms.shear_penalty, terms.bound)
+            value = dense_newton.potential_kernel(
+                system.base, system.forces, system.normal, system.shear, system.g0, system.s0,
+                *arrays, x,
+            )  # fmt: skip
+            expected = potential(quadratic, geometry, terms, d)
+            assert value == pytest.approx(expected, rel=1e-12, abs=1e-12)
+        chosen = system.better_start(terms, steps)
+    assert (
+        chosen is steps[int(np.argmin([potential(quadratic, geometry, terms, d) for d in steps]))]
+    )

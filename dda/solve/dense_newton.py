@@ -223,9 +223,32 @@ def _dense_minimise(
     return d, g, s, solves, chords, False, have_gradient, True
 
 
+def _potential(
+    base, forces, normal_matrix, shear_matrix, g0, s0, lam_n, p, tension, lam_t, ps, bound, d
+):
+    """Π(D) = ½ DᵀK₀D − F₀ᵀD + Σ φn(g) + Σ φt(s) (:func:`dda.solve.newton.potential`; φn,
+    φt of :meth:`dda.contact.potential.ContactTerms.energy`)."""
+    value = d @ (0.5 * (base @ d) - forces)
+    g, s = g0 + normal_matrix @ d, s0 + shear_matrix @ d
+    for c in range(g.shape[0]):
+        trial = lam_n[c] + p[c] * g[c]
+        force = max(trial, -tension[c])
+        value += (force * force - lam_n[c] * lam_n[c]) / (2.0 * p[c])
+        if trial < -tension[c]:
+            value -= tension[c] * (trial + tension[c]) / p[c]
+        if ps[c] > 0.0:
+            shear_trial = lam_t[c] + ps[c] * s[c]
+            friction = min(max(shear_trial, -bound[c]), bound[c])
+            excess = max(abs(shear_trial) - bound[c], 0.0)
+            value += (friction * friction - lam_t[c] * lam_t[c]) / (2.0 * ps[c])
+            value += bound[c] * excess / ps[c]
+    return value
+
+
 _pieces = kernel(_pieces) or _pieces  # the compiled kernel calls compiled twins
 _same_pieces = kernel(_same_pieces) or _same_pieces
 _factorise = kernel(_factorise) or _factorise
 _cholesky_solve = kernel(_cholesky_solve) or _cholesky_solve
 _residual = kernel(_residual) or _residual
 dense_minimise_kernel = kernel(_dense_minimise)
+potential_kernel = kernel(_potential)

@@ -242,6 +242,23 @@ class DenseSystem:
             return NewtonResult(full, solves, False, chords)
         return NewtonResult(full, solves, converged, chords, chord_next, (g, s))
 
+    def better_start(self, terms, candidates: list[np.ndarray]) -> np.ndarray | None:
+        """:func:`dda.solve.newton.better_start` by the compiled Π, or None where the
+        kernels are not used."""
+        if not compiled(dense_newton.potential_kernel):
+            return None
+        t = terms
+        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
+        data = tuple(np.ascontiguousarray(a, np.float64) for a in data)
+        matrices = (self.base, self.forces, self.normal, self.shear, self.g0, self.s0)
+        values = [
+            dense_newton.potential_kernel(
+                *matrices, *data, np.ascontiguousarray(d[self.free].ravel())
+            )
+            for d in candidates
+        ]
+        return candidates[int(np.argmin(values))]
+
     def _stiffness(self, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ (dense)."""
         k = self.base.copy()

@@ -496,7 +496,11 @@ def solve_step(
         guess = None
         if solves == 0:
             if not ctx.static:
-                d = better_start(quadratic, geometry, terms, [d, _constant_velocity(blocks, ctx)])
+                candidates = [d, _constant_velocity(blocks, ctx)]
+                start = None
+                if isinstance(system, DenseSystem):  # by the compiled Π where kernels are used
+                    start = system.better_start(terms, candidates)
+                d = better_start(quadratic, geometry, terms, candidates) if start is None else start
             gaps = geometry.at(d)
             guess = _remembered_pieces(contacts, terms, *gaps)
         inner = None
