@@ -4,12 +4,12 @@ Every kernel made with :func:`kernel` has a vectorised numpy twin at its call
 site. numba is a dependency of the default install, but it is imported only
 when a kernel is first called: compiling a kernel (once per installation;
 numba caches the machine code on disk, ``cache=True``) or loading it from
-that cache costs time and memory that a small run never earns back (about
-0.6 s and 120 MiB for the 19 kernels; the numpy twins are 1-4 ms per step
-slower on walls of 10-100 blocks). Call sites therefore ask
-:func:`compiled`, which says yes outside a run and, inside one, when the
-run's expected work (blocks x steps, :func:`run_work`) reaches
-:data:`MIN_WORK`.
+that cache costs time and memory that a short run never earns back (about
+0.5 s and 120 MiB; the numpy twins are 1.5-3 ms per step slower on models
+of 2-100 blocks, whatever their size: the twins' cost there is numpy's per
+call). Call sites therefore ask :func:`compiled`, which says yes outside a
+run and, inside one (:func:`run_work`), when the run's expected steps reach
+:data:`MIN_STEPS` or its work (blocks x steps) :data:`MIN_WORK`.
 
 ``DDA_NO_NUMBA=1`` turns the kernels off altogether (the tests compare both
 paths with it); without numba installed the numpy twins run.
@@ -27,11 +27,18 @@ from typing import Any
 
 log = logging.getLogger(__name__)
 
-# block-steps from which a run uses the kernels: loading them costs ~0.6 s, and they
+# block-steps from which a run uses the kernels: loading them costs ~0.5 s, and they
 # save ~1-4 ms per step on 10-100 blocks (break-even after 150-500 steps there)
 MIN_WORK = 10_000
+# ... and steps, whatever the blocks: whole `dda run` processes, CPU s, numpy twins against
+# kernels (loading included), two runs each: the six-block stack, 1,000 steps, 6.7-7.0
+# against 3.9-5.2; the paper's two blocks stretched to 1,500 steps 6.3-7.2 against
+# 4.8-5.0 (about 1.5 ms a step saved); at its own 315 steps 1.6-2.3 against 2.4-2.8,
+# and the sliding block's 100 steps 1.2-1.3 against 1.8
+MIN_STEPS = 500
 
-_RUN_WORK: ContextVar[float | None] = ContextVar("dda_run_work", default=None)
+# (work, steps) of the run being made, None outside a run
+_RUN_WORK: ContextVar[tuple[float, float] | None] = ContextVar("dda_run_work", default=None)
 
 
 def numba_enabled() -> bool:
@@ -83,27 +90,33 @@ def compiled(compiled_kernel: Kernel | None) -> bool:
     """Whether a call site should use ``compiled_kernel`` rather than its numpy twin.
 
     False without the kernel; outside a run True; inside a run (:func:`run_work`)
-    True when the run's work reaches :data:`MIN_WORK`.
+    True when the run's steps reach :data:`MIN_STEPS` or its work :data:`MIN_WORK`.
     """
     if compiled_kernel is None:
         return False
-    work = _RUN_WORK.get()
-    return work is None or work >= MIN_WORK
+    return _kernels_pay(_RUN_WORK.get())
+
+
+def _kernels_pay(run: tuple[float, float] | None) -> bool:
+    return run is None or run[0] >= MIN_WORK or run[1] >= MIN_STEPS
 
 
 @contextmanager
 def run_work(blocks: int, steps: float) -> Iterator[bool]:
-    """Within the block, kernels are used if ``blocks x steps`` reaches :data:`MIN_WORK`.
+    """Within the block, kernels are used if ``steps`` reach :data:`MIN_STEPS` or
+    ``blocks x steps`` reaches :data:`MIN_WORK`.
 
-    Nested in another such block the larger work counts: a caller that stands for
+    Nested in another such block the larger figures count: a caller that stands for
     a long run (the benchmark, which times 100 steps of runs that last thousands)
-    opens one around the run, and the run's own (smaller) figure does not turn the
+    opens one around the run, and the run's own (smaller) figures do not turn the
     kernels off. Yields whether they are used.
     """
     outer = _RUN_WORK.get()
-    work = float(blocks) * float(steps)
-    token = _RUN_WORK.set(work if outer is None else max(outer, work))
+    run = (float(blocks) * float(steps), float(steps))
+    if outer is not None:
+        run = (max(outer[0], run[0]), max(outer[1], run[1]))
+    token = _RUN_WORK.set(run)
     try:
-        yield _RUN_WORK.get() >= MIN_WORK
+        yield _kernels_pay(run)
     finally:
         _RUN_WORK.reset(token)
