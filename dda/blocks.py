@@ -82,7 +82,13 @@ class BlockSet:
 
     @property
     def vertex_owner(self) -> np.ndarray:
-        return owner_of_vertex(self.offsets)
+        """(NV,) the block of every vertex; kept while ``offsets`` is the same array (a
+        BlockSet gets new offsets, never edits them, when blocks appear)."""
+        kept = self.__dict__.get("_vertex_owner")
+        if kept is None or kept[0] is not self.offsets:
+            kept = (self.offsets, owner_of_vertex(self.offsets))
+            self.__dict__["_vertex_owner"] = kept
+        return kept[1]
 
     def update_moments(self) -> None:
         """Recompute area, centroid and second moments from the vertices."""
