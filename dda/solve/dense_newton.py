@@ -54,20 +54,26 @@ def _same_pieces(ps, bound, normal, shear, other_normal, other_shear):
     return True
 
 
-def _factorise(base, columns, normal_rows, shear_rows, kn, ks, lower):
-    """``lower`` = L of K = K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ = L Lᵀ (raises if K is not
-    positive definite by LAPACK's test)."""
-    k = base.copy()
+def _add_springs(k, columns, normal, kn, shear, ks):
+    """K += Σ kn r_n r_nᵀ + ks r_s r_sᵀ over the contacts' 12 columns (−1: a fixed
+    block's, left out)."""
     for c in range(columns.shape[0]):
         for a in range(12):
             row = columns[c, a]
             if row < 0:
                 continue
-            an, as_ = kn[c] * normal_rows[c, a], ks[c] * shear_rows[c, a]
+            an, as_ = kn[c] * normal[c, a], ks[c] * shear[c, a]
             for b in range(12):
                 col = columns[c, b]
                 if col >= 0:
-                    k[row, col] += an * normal_rows[c, b] + as_ * shear_rows[c, b]
+                    k[row, col] += an * normal[c, b] + as_ * shear[c, b]
+
+
+def _factorise(base, columns, normal_rows, shear_rows, kn, ks, lower):
+    """``lower`` = L of K = K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ = L Lᵀ (raises if K is not
+    positive definite by LAPACK's test)."""
+    k = base.copy()
+    _add_springs(k, columns, normal_rows, kn, shear_rows, ks)
     lower[:, :] = np.linalg.cholesky(k)
 
 
@@ -245,7 +251,9 @@ def _potential(
     return value
 
 
-_pieces = kernel(_pieces) or _pieces  # the compiled kernel calls compiled twins
+add_springs_kernel = kernel(_add_springs)  # also the dense systems' own assembly
+_add_springs = add_springs_kernel or _add_springs  # the compiled kernels call compiled twins
+_pieces = kernel(_pieces) or _pieces
 _same_pieces = kernel(_same_pieces) or _same_pieces
 _factorise = kernel(_factorise) or _factorise
 _cholesky_solve = kernel(_cholesky_solve) or _cholesky_solve

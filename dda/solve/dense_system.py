@@ -26,7 +26,7 @@ import numpy as np
 from scipy.linalg import lapack, lu_factor, lu_solve
 
 from dda.effects.pair_springs import PairSprings
-from dda.jit import compiled, kernel
+from dda.jit import compiled
 from dda.solve import dense_newton
 from dda.solve.newton import NewtonResult
 
@@ -76,23 +76,6 @@ def outer_targets(columns: np.ndarray, size: int) -> np.ndarray:
 def outer_products(rows: np.ndarray) -> np.ndarray:
     """(m, 144) [r_i r_j]ᵀ[r_i r_j] of every contact's (12,) ``rows``, row-major."""
     return (rows[:, :, None] * rows[:, None, :]).reshape(len(rows), 144)
-
-
-def _add_springs(k, columns, normal, kn, shear, ks):
-    """Compiled K += Σ kn r_n r_nᵀ + ks r_s r_sᵀ over the contacts' 12 columns (−1: none)."""
-    for c in range(columns.shape[0]):
-        for p in range(12):
-            row = columns[c, p]
-            if row < 0:
-                continue
-            an, as_ = kn[c] * normal[c, p], ks[c] * shear[c, p]
-            for q in range(12):
-                col = columns[c, q]
-                if col >= 0:
-                    k[row, col] += an * normal[c, q] + as_ * shear[c, q]
-
-
-_add_springs_kernel = kernel(_add_springs)
 
 
 class DenseFactor:
@@ -262,8 +245,10 @@ class DenseSystem:
     def _stiffness(self, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ (dense)."""
         k = self.base.copy()
-        if compiled(_add_springs_kernel):
-            _add_springs_kernel(k, self.columns, self.normal_rows, kn, self.shear_rows, ks)
+        if compiled(dense_newton.add_springs_kernel):
+            dense_newton.add_springs_kernel(
+                k, self.columns, self.normal_rows, kn, self.shear_rows, ks
+            )
             return k
         if self._outer is None:  # the numpy twin: one weighted bincount
             self._outer = (
