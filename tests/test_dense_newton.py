@@ -135,3 +135,16 @@ def test_the_compiled_potential_is_the_numpy_one(seed):
     assert (
         chosen is steps[int(np.argmin([potential(quadratic, geometry, terms, d) for d in steps]))]
     )
+
+
+def test_a_k_not_positive_definite_falls_back_to_the_numpy_newton():
+    """LAPACK's Cholesky refuses K: the kernel gives the pass back (None) and stays out of
+    the rest of the step, whose numpy Newton factorises K by LU."""
+    fixed, a, b, rows, base_k, base_f, terms = random_problem(0)
+    indefinite = base_k - 50.0 * np.eye(6)
+    system = DenseSystem(fixed, a, b, rows, indefinite, base_f, True, None, StageTimer())
+    with jit.run_work(1, 1e9):
+        assert system.minimise(terms, np.zeros_like(base_f), 5) is None
+        assert system.minimise(terms, np.zeros_like(base_f), 5) is None
+    d = system(terms.penalty, terms.shear_penalty, terms.normal_base, terms.shear_base)
+    assert np.all(np.isfinite(d)) and system.factorisations == 1
