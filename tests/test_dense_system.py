@@ -125,3 +125,14 @@ def test_a_run_with_dense_systems_is_the_sparse_run(monkeypatch, name):
 def test_the_threshold_is_below_where_dense_stops_paying():
     """Dense Cholesky costs n³/3: the threshold stays where it was measured to pay."""
     assert 150 <= dense_system.DENSE_ROWS <= 240
+
+
+@pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
+def test_the_compiled_set_up_is_the_numpy_one():
+    fixed, a, b, rows, base_k, *_ = random_system(11)
+    position = np.where(fixed, -1, np.cumsum(~fixed) - 1).astype(np.int64)
+    gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
+    numpy_made = dense_system._set_up(position, a, b, *gradients, base_k[~fixed])
+    made = dense_system._set_up_kernel(position, a, b, *gradients, base_k[~fixed])
+    for mine, theirs in zip(made, numpy_made, strict=True):
+        np.testing.assert_array_equal(mine, theirs)

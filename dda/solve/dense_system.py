@@ -26,7 +26,7 @@ import numpy as np
 from scipy.linalg import lapack, lu_factor, lu_solve
 
 from dda.effects.pair_springs import PairSprings
-from dda.jit import compiled
+from dda.jit import compiled, kernel
 from dda.solve import dense_newton
 from dda.solve.newton import NewtonResult
 
@@ -78,6 +78,48 @@ def outer_products(rows: np.ndarray) -> np.ndarray:
     return (rows[:, :, None] * rows[:, None, :]).reshape(len(rows), 144)
 
 
+def _set_up(position, block_a, block_b, normal_i, normal_j, shear_i, shear_j, base_free):
+    """G_n, G_s (m, 6 n_free), the contacts' columns (m, 12), their rows [r_i r_j] (m, 12)
+    normal and shear, and K₀ (6 n_free, 6 n_free) block-diagonal (numpy)."""
+    count = len(base_free)
+    normal = gradient_matrix(position, block_a, block_b, normal_i, normal_j, count)
+    shear = gradient_matrix(position, block_a, block_b, shear_i, shear_j, count)
+    columns = contact_columns(position, block_a, block_b)
+    normal_rows = np.concatenate([normal_i, normal_j], axis=1)
+    shear_rows = np.concatenate([shear_i, shear_j], axis=1)
+    return normal, shear, columns, normal_rows, shear_rows, _block_diagonal(base_free)
+
+
+def _set_up_compiled(position, block_a, block_b, normal_i, normal_j, shear_i, shear_j, base_free):
+    """Compiled :func:`_set_up`: one pass over the contacts and the blocks."""
+    m, size = block_a.shape[0], 6 * base_free.shape[0]
+    normal, shear = np.zeros((m, size)), np.zeros((m, size))
+    columns = np.full((m, 12), -1, np.int64)
+    normal_rows, shear_rows = np.empty((m, 12)), np.empty((m, 12))
+    for c in range(m):
+        for r in range(6):
+            normal_rows[c, r], normal_rows[c, 6 + r] = normal_i[c, r], normal_j[c, r]
+            shear_rows[c, r], shear_rows[c, 6 + r] = shear_i[c, r], shear_j[c, r]
+        for side in range(2):
+            at = position[block_a[c]] if side == 0 else position[block_b[c]]
+            if at < 0:
+                continue
+            for r in range(6):
+                column = 6 * at + r
+                columns[c, 6 * side + r] = column
+                normal[c, column] += normal_rows[c, 6 * side + r]
+                shear[c, column] += shear_rows[c, 6 * side + r]
+    base = np.zeros((size, size))
+    for i in range(base_free.shape[0]):
+        for r in range(6):
+            for q in range(6):
+                base[6 * i + r, 6 * i + q] = base_free[i, r, q]
+    return normal, shear, columns, normal_rows, shear_rows, base
+
+
+_set_up_kernel = kernel(_set_up_compiled)
+
+
 class DenseFactor:
     """K = L Lᵀ (``dpotrf``); an LU factorisation should round-off make K not
     positive definite by LAPACK's test."""
@@ -125,15 +167,20 @@ class DenseSystem:
         position = np.full(len(fixed), -1, np.int64)
         position[self.free] = np.arange(len(self.free))
         count = len(self.free)
-        self.normal = gradient_matrix(
-            position, block_a, block_b, rows.normal_i, rows.normal_j, count
-        )
-        self.shear = gradient_matrix(position, block_a, block_b, rows.shear_i, rows.shear_j, count)
-        self.base = _block_diagonal(base_k[self.free])
+        gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
+        if compiled(_set_up_kernel):
+            made = _set_up_kernel(
+                position,
+                np.asarray(block_a, np.int64),
+                np.asarray(block_b, np.int64),
+                *(np.ascontiguousarray(x, np.float64) for x in gradients),
+                np.ascontiguousarray(base_k[self.free], np.float64),
+            )
+        else:
+            made = _set_up(position, block_a, block_b, *gradients, base_k[self.free])
+        self.normal, self.shear, self.columns, self.normal_rows, self.shear_rows = made[:5]
+        self.base = made[5]
         self.size = 6 * count
-        self.columns = contact_columns(position, block_a, block_b)
-        self.normal_rows = np.concatenate([rows.normal_i, rows.normal_j], axis=1)
-        self.shear_rows = np.concatenate([rows.shear_i, rows.shear_j], axis=1)
         if couplings is not None and len(couplings):
             bolts = gradient_matrix(
                 position,
