@@ -370,6 +370,15 @@ class _PieceSystem:
             x = self.cache.solver.solve_kept(rhs, self.pattern.key)
         return None if x is None else self.pattern.from_matrix_order(x, self.blocks.count)
 
+    def minimise(self, *args, **kwargs) -> None:
+        """None: a pass on the sparse systems is :func:`dda.solve.newton.minimise`'s (the
+        dense systems' is one compiled call, :meth:`DenseSystem.minimise`)."""
+        return None
+
+    def better_start(self, terms, candidates) -> None:
+        """None: :func:`dda.solve.newton.better_start` chooses the start."""
+        return None
+
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
         out = np.zeros_like(self.base_f)
@@ -459,19 +468,12 @@ def solve_step(
         return pattern_neighbours(blocks, contacts, cm)
 
     free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
-    if cache.solver.automatic and free_rows_count <= DENSE_ROWS:
+    if cache.solver.automatic and free_rows_count <= DENSE_ROWS:  # small: held dense
         with timer("assembly"):
             system = DenseSystem(
-                blocks.fixed,
-                contacts.block_a,
-                contacts.block_b,
-                rows,
-                base_k,
-                base_f,
-                law.friction,
-                couplings,
-                timer,
-            )
+                blocks.fixed, contacts.block_a, contacts.block_b, rows, base_k, base_f,
+                law.friction, couplings, timer,
+            )  # fmt: skip
     else:
         system = _PieceSystem(
             cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
@@ -497,9 +499,7 @@ def solve_step(
         if solves == 0:
             if not ctx.static:
                 candidates = [d, _constant_velocity(blocks, ctx)]
-                start = None
-                if isinstance(system, DenseSystem):  # by the compiled Π where kernels are used
-                    start = system.better_start(terms, candidates)
+                start = system.better_start(terms, candidates)  # compiled, or None
                 d = better_start(quadratic, geometry, terms, candidates) if start is None else start
             gaps = geometry.at(d)
             guess = _remembered_pieces(contacts, terms, *gaps)
@@ -513,9 +513,7 @@ def solve_step(
             "start_gaps": gaps,
             "conjugate": rules.conjugate,
         }
-        newton = None
-        if isinstance(system, DenseSystem):  # one compiled call where kernels are used
-            newton = system.minimise(terms, d, budget - solves, guess, **rule)
+        newton = system.minimise(terms, d, budget - solves, guess, **rule)  # compiled, or None
         if newton is None:
             newton = minimise(
                 quadratic, geometry, terms, system, system.contact_vector, d,
