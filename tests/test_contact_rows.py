@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -67,7 +69,7 @@ def test_rows_are_the_derivatives_of_the_distance():
         d = rng.normal(size=(2, 6)) * eps
         owner = blocks.vertex_owner
         moved = move_points(blocks.vertices, blocks.centroid[owner], d[owner], False)
-        trial = BlockSet(**{**blocks.__dict__, "vertices": moved, "centroid": None})
+        trial = dataclasses.replace(blocks, vertices=moved, centroid=None)
         exact = edge_geometry(trial, contacts.vertex, contacts.edge)[0][0]
         linear = rows.penetration[0] + rows.normal_i[0] @ d[1] + rows.normal_j[0] @ d[0]
         assert exact == pytest.approx(linear, abs=1e-12)
