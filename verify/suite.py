@@ -13,6 +13,7 @@ import numpy as np
 
 from verify.cases import CaseError, CaseResult, discover, run_case
 from verify.convergence import ConvergencePoint, convergence_study
+from verify.drawing import draw
 from verify.refinement import Finding, RefinementPoint, findings, refinement_study
 from verify.report import write_json, write_markdown
 
@@ -127,17 +128,22 @@ def run_suite(
     if images:
         from verify.images import case_image, refinement_chart, summary_chart
 
+        folder = outdir / "images"
+        jobs = []  # (path, job): the pictures are drawn in two processes (verify.drawing)
         if refined:
-            path = outdir / "images" / "verify_refinement.png"
-            output.files.append(refinement_chart(refined.points, path))
-
+            path = folder / "verify_refinement.png"
+            jobs.append((path, partial(refinement_chart, refined.points, path)))
         for r in results:
-            path = case_image(r, outdir / "images" / f"verify_{r.case.name}.png")
+            path = folder / f"verify_{r.case.name}.png"
+            jobs.append((path, partial(case_image, r, path)))
             pictures[r.case.name] = f"images/{path.name}"
-            output.files.append(path)
         if results:
-            output.files.append(summary_chart(results, outdir / "images" / "verify_summary.png"))
+            path = folder / "verify_summary.png"
+            jobs.append((path, partial(summary_chart, results, path)))
             summary = "images/verify_summary.png"
+        folder.mkdir(parents=True, exist_ok=True)
+        draw([job for _, job in jobs])
+        output.files += [path for path, _ in jobs]
     output.files.append(
         write_markdown(results, outdir / "report.md", pictures, points, summary, refined, errors)
     )
