@@ -70,6 +70,8 @@ KNOWN_CHECKS = (
     "rebound",
     "momentum",
     "overlap",
+    "ground",
+    "dissipation",
 )
 KINDS = ("static", "dynamic", "fracture", "motion")
 # the closed forms of verify.motion, verify.impact, verify.shaking and verify.bolt, and
@@ -84,6 +86,7 @@ MOTION_REFERENCES = (
     "newmark_record",
     "bolt",
     "momentum",
+    "kinked_table",
 )
 
 

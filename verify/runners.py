@@ -37,9 +37,18 @@ from verify.fem import FemOptions, FemSolution, load_factor_at, solve_fem
 from verify.fracture import Onset, onset_factors
 from verify.impact import REFERENCES as IMPACT_REFERENCES
 from verify.impact import ROWS as IMPACT_ROWS
-from verify.motion import REFERENCES, Track, free_block, motion_rows, with_time_step
+from verify.motion import (
+    REFERENCES,
+    Track,
+    dissipation_rows,
+    free_block,
+    motion_rows,
+    with_time_step,
+)
 from verify.shaking import REFERENCES as SHAKING_REFERENCES
+from verify.shaking import RUN_ROWS as SHAKING_RUN_ROWS
 from verify.turn import turned_scene
+from verify.water import REFERENCES as WATER_REFERENCES
 
 
 @dataclass
@@ -245,13 +254,24 @@ def run_motion(
     more = IMPACT_ROWS.get(expectation.reference)
     if more is not None:
         rows += more(scene, expectation, tracks, series)
+    whole = RUN_ROWS.get(expectation.reference)
+    if whole is not None:  # rows of the finest run beside the free block's
+        rows += [row.with_offset(expectation.offsets) for row in whole(scene, finest)]
     side = DdaSide.from_result(finest, scene)
     return KindResult(side, None, rows, watch.seconds, None, series)
 
 
 # the closed forms of kind "motion": verify.motion's, verify.impact's, verify.shaking's
 # and verify.bolt's
-MOTION_REFERENCES = {**REFERENCES, **IMPACT_REFERENCES, **SHAKING_REFERENCES, **BOLT_REFERENCES}
+MOTION_REFERENCES = {
+    **REFERENCES,
+    **IMPACT_REFERENCES,
+    **SHAKING_REFERENCES,
+    **BOLT_REFERENCES,
+    **WATER_REFERENCES,
+}
+# rows of a motion reference from the finest run as a whole (beside the free block's)
+RUN_ROWS = {**SHAKING_RUN_ROWS, "slide": dissipation_rows}
 # the motion references of many blocks (rows from the whole run, verify.collisions)
 SYSTEM_REFERENCES = {"momentum": momentum_rows}
 

@@ -26,6 +26,10 @@ it slides at μ g towards the ground's velocity while its own differs. Within a
 segment of the record a_g is linear, so the slip starts where a_g = ±μ g (a
 linear root) and stops where the relative velocity w = v_g − v_b, a quadratic
 in τ, returns to 0 (:func:`sliding_phases`: each root exact, no time step).
+
+Both references add rows ``ground`` (:func:`ground_rows`): the moving base's
+displacement and velocity as the engine reports them in every saved frame,
+against the exact integrals of the record.
 """
 
 from __future__ import annotations
@@ -34,7 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dda import Scene
+from dda import Result, Scene
+from verify.compare import Row
 from verify.expect import ExpectationError
 from verify.interfaces import find_interfaces
 from verify.motion import Motion
@@ -264,4 +269,30 @@ def newmark_record(scene: Scene, block: int, times: np.ndarray) -> Motion:
     return Motion(u, np.zeros(len(t)), np.ones(len(t), bool), events)
 
 
+def ground_rows(scene: Scene, result: Result) -> list[Row]:
+    """Rows ``ground``: every moving base's displacement and velocity as the engine reports
+    them in each saved frame (ux, uy, vx, vy) against the exact integrals of the record
+    (the ground at rest before it, its last velocity after it); scales the largest
+    ground displacement and speed over the frames."""
+    s = scene.seismic
+    rows = np.asarray(s.record, dtype=float)
+    record = np.column_stack([rows[:, 0], s.scale * rows[:, 1:3]])
+    times = np.array([f.time for f in result.frames])
+    u = np.column_stack([ground_displacement(record[:, [0, 1 + m]], times) for m in range(2)])
+    v = np.array([[ground_velocity(record[:, [0, 1 + m]], t) for m in range(2)] for t in times])
+    u_scale = float(np.abs(u).max()) or 1.0
+    v_scale = float(np.abs(v).max()) or 1.0
+    out = []
+    for name in s.blocks:
+        for k, f in enumerate(result.frames):
+            j, item = f.block(name), f"{name}@{times[k]:.6g}"
+            du, dv = f.displacements[j], f.velocities[j, :2]
+            for m, c in enumerate(("x", "y")):
+                out.append(Row("ground", item, f"u{c}", float(du[m]), float(u[k, m]), u_scale))
+                out.append(Row("ground", item, f"v{c}", float(dv[m]), float(v[k, m]), v_scale))
+    return out
+
+
 REFERENCES = {"newmark": newmark, "newmark_record": newmark_record}
+# rows from the whole run beside the free block's (verify.runners.run_motion)
+RUN_ROWS = {"newmark": ground_rows, "newmark_record": ground_rows}
