@@ -1,12 +1,12 @@
-"""Draw the suite's pictures, in two processes where the platform can fork.
+"""Draw the suite's pictures in forked child processes, beside the work that goes on.
 
 The pictures are independent files, each a few tenths of a second to a second
-of CPU (VTK renders, matplotlib's text layout, PNG encoding): on a machine with
-two cores or more, a forked child draws every other picture while this process
-draws the rest, which halves the wall time of the pictures of ``dda verify
---quick``. The child inherits the results (nothing is pickled) and only writes
-files; its paths are known in advance. Without fork, or on one core, they are
-drawn here one after the other.
+of CPU (VTK renders, matplotlib's text layout, PNG encoding). A
+:class:`Painter` hands each batch of drawing jobs to a forked child (it inherits
+the results: nothing is pickled, and only writes files whose paths are known in
+advance) and returns at once, so the pictures of the first cases are drawn while
+the suite runs the others, and the rest while it runs its studies. Without fork
+(or on one core) the jobs run at once, one after the other, in this process.
 """
 
 from __future__ import annotations
@@ -34,19 +34,31 @@ def _draw(jobs: list[Job]) -> None:
         job()
 
 
-def draw(jobs: list[Job]) -> None:
-    """Run every job (each writes one picture); two processes when it pays.
+class Painter:
+    """Runs batches of drawing jobs in forked children; :meth:`wait` joins them."""
 
-    Raises RuntimeError when the child fails (its error is in the log).
-    """
-    if len(jobs) < 2 or _cores() < 2 or "fork" not in multiprocessing.get_all_start_methods():
-        _draw(jobs)
-        return
-    child = multiprocessing.get_context("fork").Process(target=_draw, args=(jobs[1::2],))
-    child.start()
-    try:
-        _draw(jobs[0::2])
-    finally:
-        child.join()
-    if child.exitcode != 0:
-        raise RuntimeError(f"drawing pictures failed in a child process (exit {child.exitcode})")
+    def __init__(self) -> None:
+        self.forks = _cores() >= 2 and "fork" in multiprocessing.get_all_start_methods()
+        self.children: list[multiprocessing.Process] = []
+
+    def submit(self, jobs: list[Job]) -> None:
+        """Draw ``jobs`` in a child process (or here and now without fork)."""
+        if not jobs:
+            return
+        if not self.forks:
+            _draw(jobs)
+            return
+        child = multiprocessing.get_context("fork").Process(target=_draw, args=(list(jobs),))
+        child.start()
+        self.children.append(child)
+
+    def wait(self) -> None:
+        """Wait for every child; RuntimeError when one failed (its error is in the log)."""
+        failed = []
+        for child in self.children:
+            child.join()
+            if child.exitcode != 0:
+                failed.append(child.exitcode)
+        self.children = []
+        if failed:
+            raise RuntimeError(f"drawing pictures failed in a child process (exit {failed[0]})")
