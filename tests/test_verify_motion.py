@@ -131,8 +131,9 @@ def test_motion_case_reports_its_dt_study_and_draws_its_picture(tmp_path):
 def test_motion_expectations_are_checked_on_loading(tmp_path):
     from verify.expect import MOTION_REFERENCES, ExpectationError, load_expectation
     from verify.runners import MOTION_REFERENCES as REFERENCES
+    from verify.runners import SYSTEM_REFERENCES
 
-    assert set(MOTION_REFERENCES) == set(REFERENCES)
+    assert set(MOTION_REFERENCES) == set(REFERENCES) | set(SYSTEM_REFERENCES)
     path = tmp_path / "x.expect.toml"
     path.write_text('kind = "motion"\nreference = "bounce"\n')
     with pytest.raises(ExpectationError, match="reference"):

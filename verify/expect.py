@@ -30,7 +30,8 @@ its expectations live beside it::
 
 A ``motion`` case (:mod:`verify.motion`) has no FEM side: ``reference`` names
 its closed form ("free", "slide", "rocking"; "drop", "overlap" of
-:mod:`verify.impact`), ``time_steps`` the
+:mod:`verify.impact`; "momentum": the conservation laws of many colliding blocks,
+:mod:`verify.collisions`, run at the scene's time step only), ``time_steps`` the
 factors of the scene's time step it is run at (e.g. [4, 2, 1]; 1 is the scene
 as written and gives the compared rows) and ``order`` the order of accuracy in
 Δt the rows ``order`` are compared with.
@@ -67,10 +68,26 @@ KNOWN_CHECKS = (
     "contact_time",
     "impact_speed",
     "rebound",
+    "momentum",
+    "overlap",
+    "ground",
+    "dissipation",
 )
 KINDS = ("static", "dynamic", "fracture", "motion")
-# the closed forms of verify.motion, verify.impact, verify.shaking and verify.bolt
-MOTION_REFERENCES = ("free", "slide", "rocking", "drop", "overlap", "newmark", "bolt")
+# the closed forms of verify.motion, verify.impact, verify.shaking and verify.bolt, and
+# the conservation laws of verify.collisions
+MOTION_REFERENCES = (
+    "free",
+    "slide",
+    "rocking",
+    "drop",
+    "overlap",
+    "newmark",
+    "newmark_record",
+    "bolt",
+    "momentum",
+    "kinked_table",
+)
 
 
 class ExpectationError(ValueError):

@@ -18,7 +18,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from verify.cases import CaseResult
-from verify.plots import history_picture, motion_picture, refinement_chart, summary_chart
+from verify.plots import (
+    history_picture,
+    momentum_picture,
+    motion_picture,
+    refinement_chart,
+    summary_chart,
+)
 
 __all__ = ["case_image", "case_title", "refinement_chart", "summary_chart"]
 
@@ -28,6 +34,8 @@ def case_image(result: CaseResult, path: Path) -> Path:
     title = case_title(result)
     if result.expectation.kind == "dynamic":
         return history_picture(result, title, path)
+    if result.expectation.reference == "momentum":
+        return momentum_picture(result, title, path)
     if result.expectation.kind == "motion":
         return motion_picture(result, title, path)
     from verify.field_pictures import state_picture

@@ -138,7 +138,23 @@ def slide(scene: Scene, block: int, times: np.ndarray) -> Motion:
     holds = abs(drive) <= bound + joint.cohesion * interface.length
     a = 0.0 if holds else (drive - np.sign(drive) * bound) / block_mass(scene, block)
     u = np.outer(0.5 * a * times**2, tangent)
-    return Motion(u, np.zeros(len(times)), np.ones(len(times), bool), {})
+    return Motion(u, np.zeros(len(times)), np.ones(len(times), bool), {"friction": bound})
+
+
+def dissipation_rows(scene: Scene, result: Result) -> list[Row]:
+    """Row ``dissipation`` (reference ``slide``): the friction work the run recorded
+    (``summary["friction_dissipation"]``) against tan φ N times the distance slid at
+    the end (0 where the block sticks); scale tan φ N times the larger of that
+    distance and ½ g t² (what gravity alone would move it)."""
+    block = free_block(scene)
+    end = float(result.frames[-1].time)
+    ref = slide(scene, block, np.array([end]))
+    friction = float(ref.events["friction"])
+    slid = float(np.linalg.norm(ref.u[-1]))
+    reach = max(slid, 0.5 * float(np.linalg.norm(scene.analysis.gravity)) * end**2)
+    work = float(result.summary.get("friction_dissipation", float("nan")))
+    name = scene.blocks[block].name
+    return [Row("dissipation", name, "friction", work, friction * slid, friction * reach or 1.0)]
 
 
 def rocking(scene: Scene, block: int, times: np.ndarray) -> Motion:

@@ -99,6 +99,33 @@ def motion_picture(result: CaseResult, title: str, path: Path) -> Path:
     return _finish(fig, axes, title, path, keep_x_label=axes[1, 1])
 
 
+def momentum_picture(result: CaseResult, title: str, path: Path) -> Path:
+    """A ``momentum`` case: the total momentum and the centre of mass of the DDA against
+    their conservation, and the largest overlap of two blocks."""
+    s = result.series
+    t = s["times"]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
+    ax = axes[0]
+    for m, c in enumerate(("px", "py")):
+        ax.plot(t, s["momentum"][:, m] - s["ref_momentum"][m], "o-", markersize=3, label=c)
+    ax.set_ylabel("Σ m v − P0 (N s)")
+    ax.set_title(f"total momentum, P0 = {s['ref_momentum']} N s", fontsize=10)
+    ax = axes[1]
+    for m, c in enumerate(("ux", "uy")):
+        ax.plot(t, 1e3 * s["ref_u"][:, m], "-", label=f"P0 t / M, {c}")
+        ax.plot(t, 1e3 * s["dda_u"][:, m], "o", markersize=3, label=f"DDA {c}")
+    ax.set_ylabel("displacement (mm)")
+    ax.set_title("centre of mass", fontsize=10)
+    ax = axes[2]
+    ax.plot(t, s["overlap"], "o-", markersize=3, label="DDA")
+    check = result.expectation.checks.get("overlap")
+    if check:
+        ax.axhline(check.tolerance, color="r", linestyle=":", label="tolerance")
+    ax.set_ylabel("overlap area / smaller block's area")
+    ax.set_title("largest overlap of two blocks", fontsize=10)
+    return _finish(fig, axes, title, path)
+
+
 def summary_chart(results: list[CaseResult], path: Path) -> Path:
     """Largest error over its tolerance, per case and checked quantity (1: the limit)."""
     quantities = sorted({v.quantity for r in results for v in r.verdicts})

@@ -28,6 +28,7 @@ import dda
 from dda import Result, Scene
 from verify.al_rate import al_update_rows
 from verify.bolt import REFERENCES as BOLT_REFERENCES
+from verify.collisions import momentum_rows
 from verify.compare import STRESS, VECTOR, Row, compare, tensor_in_frame, vector_in_frame
 from verify.dda_side import DdaSide
 from verify.dynamics import FemHistory, integrate
@@ -36,9 +37,18 @@ from verify.fem import FemOptions, FemSolution, load_factor_at, solve_fem
 from verify.fracture import Onset, onset_factors
 from verify.impact import REFERENCES as IMPACT_REFERENCES
 from verify.impact import ROWS as IMPACT_ROWS
-from verify.motion import REFERENCES, Track, free_block, motion_rows, with_time_step
+from verify.motion import (
+    REFERENCES,
+    Track,
+    dissipation_rows,
+    free_block,
+    motion_rows,
+    with_time_step,
+)
 from verify.shaking import REFERENCES as SHAKING_REFERENCES
+from verify.shaking import RUN_ROWS as SHAKING_RUN_ROWS
 from verify.turn import turned_scene
+from verify.water import REFERENCES as WATER_REFERENCES
 
 
 @dataclass
@@ -223,8 +233,17 @@ def run_motion(
     scene: Scene, expectation: Expectation, options: FemOptions, reference=None
 ) -> KindResult:
     """The scene at each of the expectation's time-step factors against the closed form
-    (:mod:`verify.motion`, :mod:`verify.impact`); no FEM side (``fem`` is None)."""
+    (:mod:`verify.motion`, :mod:`verify.impact`); no FEM side (``fem`` is None).
+    Reference ``momentum``: the scene as written against the conservation laws of
+    :mod:`verify.collisions`."""
     watch = Stopwatch()
+    system = SYSTEM_REFERENCES.get(expectation.reference)
+    if system is not None:  # many blocks: conservation laws, at the scene's Δt only
+        result = watch.run("dda", dda.simulate, scene)
+        rows, series = system(scene, result)
+        rows = [row.with_offset(expectation.offsets) for row in rows]
+        side = DdaSide.from_result(result, scene)
+        return KindResult(side, None, rows, watch.seconds, None, series)
     name = scene.blocks[free_block(scene)].name
     tracks, finest = {}, None
     for factor in sorted(expectation.time_steps, reverse=True):
@@ -235,13 +254,26 @@ def run_motion(
     more = IMPACT_ROWS.get(expectation.reference)
     if more is not None:
         rows += more(scene, expectation, tracks, series)
+    whole = RUN_ROWS.get(expectation.reference)
+    if whole is not None:  # rows of the finest run beside the free block's
+        rows += [row.with_offset(expectation.offsets) for row in whole(scene, finest)]
     side = DdaSide.from_result(finest, scene)
     return KindResult(side, None, rows, watch.seconds, None, series)
 
 
 # the closed forms of kind "motion": verify.motion's, verify.impact's, verify.shaking's
 # and verify.bolt's
-MOTION_REFERENCES = {**REFERENCES, **IMPACT_REFERENCES, **SHAKING_REFERENCES, **BOLT_REFERENCES}
+MOTION_REFERENCES = {
+    **REFERENCES,
+    **IMPACT_REFERENCES,
+    **SHAKING_REFERENCES,
+    **BOLT_REFERENCES,
+    **WATER_REFERENCES,
+}
+# rows of a motion reference from the finest run as a whole (beside the free block's)
+RUN_ROWS = {**SHAKING_RUN_ROWS, "slide": dissipation_rows}
+# the motion references of many blocks (rows from the whole run, verify.collisions)
+SYSTEM_REFERENCES = {"momentum": momentum_rows}
 
 RUNNERS = {
     "static": run_static,

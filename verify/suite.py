@@ -13,10 +13,15 @@ import numpy as np
 
 from verify.cases import CaseError, CaseResult, discover, run_case
 from verify.convergence import ConvergencePoint, convergence_study
+from verify.drawing import Painter
 from verify.refinement import Finding, RefinementPoint, findings, refinement_study
 from verify.report import write_json, write_markdown
 
 log = logging.getLogger(__name__)
+
+
+# the case pictures a forked child draws while the suite goes on (verify.drawing)
+PICTURES_PER_CHILD = 5
 
 
 class OutputError(Exception):
@@ -106,12 +111,28 @@ def run_suite(
         outdir = Path(outdir)
         check_output(outdir)
     tell = progress or log.info
+    drawing = outdir is not None and images
+    folder = None if outdir is None else outdir / "images"
+    painter, pictures, batch, drawn = Painter(), {}, [], []
+    if drawing:
+        folder.mkdir(parents=True, exist_ok=True)
     results, errors = [], []
     for number, case in enumerate(cases, 1):
         tell(f"case {number}/{len(cases)}: {case.name}")
         result = guarded(case.name, errors, partial(run_case, case))
         if result is not None:
             results.append(result)
+            if drawing:
+                from verify.images import case_image
+
+                path = folder / f"verify_{case.name}.png"
+                batch.append(partial(case_image, result, path))
+                pictures[case.name] = f"images/{path.name}"
+                drawn.append(path)
+        if len(batch) == PICTURES_PER_CHILD:  # drawn while the next cases run
+            painter.submit(batch)
+            batch = []
+    painter.submit(batch)  # the last ones while the studies run (verify.drawing)
     points = []
     if convergence:
         tell("FEM convergence study")
@@ -123,21 +144,17 @@ def run_suite(
     output = SuiteOutput(results, points, refined, errors=errors)
     if outdir is None:
         return output
-    pictures, summary = {}, None
-    if images:
-        from verify.images import case_image, refinement_chart, summary_chart
+    summary = None
+    if drawing:
+        from verify.images import refinement_chart, summary_chart
 
         if refined:
-            path = outdir / "images" / "verify_refinement.png"
-            output.files.append(refinement_chart(refined.points, path))
-
-        for r in results:
-            path = case_image(r, outdir / "images" / f"verify_{r.case.name}.png")
-            pictures[r.case.name] = f"images/{path.name}"
-            output.files.append(path)
+            drawn.append(refinement_chart(refined.points, folder / "verify_refinement.png"))
         if results:
-            output.files.append(summary_chart(results, outdir / "images" / "verify_summary.png"))
+            drawn.append(summary_chart(results, folder / "verify_summary.png"))
             summary = "images/verify_summary.png"
+        painter.wait()
+        output.files += drawn
     output.files.append(
         write_markdown(results, outdir / "report.md", pictures, points, summary, refined, errors)
     )
