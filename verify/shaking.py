@@ -89,24 +89,29 @@ def pulse(scene: Scene) -> tuple[float, float, np.ndarray]:
     return amplitude, length, record
 
 
-def newmark(scene: Scene, block: int, times: np.ndarray) -> Motion:
-    """The block's motion on the shaken level base (module notes)."""
+def _level_base(scene: Scene, block: int, reference: str):
+    """(joint, g) of the block's one interface, with a moving base under it: the block at
+    rest, no loads, gravity straight down, the interface level; else ExpectationError."""
     interfaces = [i for i in find_interfaces(scene) if block in i.pair]
-    g = -float(scene.analysis.gravity[1])
     if (
         len(interfaces) != 1
         or scene.analysis.gravity[0] != 0.0
         or scene.loads
         or any(scene.blocks[block].velocity)
     ):
-        raise ExpectationError(f"{scene.source}: reference 'newmark': one interface, at rest")
+        raise ExpectationError(f"{scene.source}: reference '{reference}': one interface, at rest")
     other = [b for b in interfaces[0].pair if b != block][0]
     if scene.blocks[other].name not in scene.seismic.blocks:
-        raise ExpectationError(f"{scene.source}: reference 'newmark': the base must move")
+        raise ExpectationError(f"{scene.source}: reference '{reference}': the base must move")
     coords = np.asarray(interfaces[0].line.coords)
     if abs(coords[-1, 1] - coords[0, 1]) > 1e-12 * np.ptp(coords[:, 0]):
-        raise ExpectationError(f"{scene.source}: reference 'newmark': a level interface")
-    joint = interfaces[0].joint
+        raise ExpectationError(f"{scene.source}: reference '{reference}': a level interface")
+    return interfaces[0].joint, -float(scene.analysis.gravity[1])
+
+
+def newmark(scene: Scene, block: int, times: np.ndarray) -> Motion:
+    """The block's motion on the shaken level base (module notes)."""
+    joint, g = _level_base(scene, block, "newmark")
     mu_g = np.tan(np.radians(joint.friction_angle)) * g
     amplitude, length, record = pulse(scene)
     if joint.cohesion or abs(amplitude) <= mu_g:
@@ -239,25 +244,10 @@ def block_displacement(
 
 def newmark_record(scene: Scene, block: int, times: np.ndarray) -> Motion:
     """The block on the level base under any horizontal record (module notes)."""
-    interfaces = [i for i in find_interfaces(scene) if block in i.pair]
-    g = -float(scene.analysis.gravity[1])
-    if (
-        len(interfaces) != 1
-        or scene.analysis.gravity[0] != 0.0
-        or scene.loads
-        or any(scene.blocks[block].velocity)
-        or interfaces[0].joint.cohesion
-    ):
-        raise ExpectationError(
-            f"{scene.source}: reference 'newmark_record': one interface without cohesion, at rest"
-        )
-    other = [b for b in interfaces[0].pair if b != block][0]
-    if scene.blocks[other].name not in scene.seismic.blocks:
-        raise ExpectationError(f"{scene.source}: reference 'newmark_record': the base must move")
-    coords = np.asarray(interfaces[0].line.coords)
-    if abs(coords[-1, 1] - coords[0, 1]) > 1e-12 * np.ptp(coords[:, 0]):
-        raise ExpectationError(f"{scene.source}: reference 'newmark_record': a level interface")
-    mu_g = np.tan(np.radians(interfaces[0].joint.friction_angle)) * g
+    joint, g = _level_base(scene, block, "newmark_record")
+    if joint.cohesion:
+        raise ExpectationError(f"{scene.source}: reference 'newmark_record': no cohesion")
+    mu_g = np.tan(np.radians(joint.friction_angle)) * g
     record = _horizontal_record(scene)
     t = np.asarray(times, dtype=float)
     phases = sliding_phases(record, mu_g, float(t.max()))
