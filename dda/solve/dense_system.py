@@ -9,12 +9,14 @@ once a step (the rows are fixed within it), and each Newton iteration's
     F = F₀ − G_nᵀ N₀ − G_sᵀ T₀
 
 (normal and shear springs k and offsets N₀, T₀ of the contacts' pieces; k_b the
-springs between blocks, rock bolts) is a few numpy calls — F by two products
-with G; K by one weighted ``bincount`` of the contacts' 12 x 12 outer products
-[r_i r_j]ᵀ[r_i r_j] (made once a step) into K's entries, as each contact
-touches only its two blocks' 12 unknowns — factorised by dense
-Cholesky (``dpotrf``) and solved by back-substitution (``dpotrs``), with no
-pattern, ordering or scatter indices to keep. It has the interface of the
+springs between blocks, rock bolts) is a few calls — F by two products with
+G; K by scattering each contact's 12 x 12 outer product [r_i r_j]ᵀ[r_i r_j]
+into its two blocks' 12 unknowns (a compiled kernel; its numpy twin one
+weighted ``bincount``) — factorised by dense Cholesky
+(:class:`dda.solve.linsolve.DenseFactorisation`) whenever the springs change,
+with no pattern, ordering or scatter indices to keep. Where the kernels are
+used, a whole Newton pass on these systems is one call
+(:mod:`dda.solve.dense_newton`). It has the interface of the
 sparse system in :mod:`dda.solve.step` (a :data:`dda.solve.newton.PieceSolver`,
 a chord solver and the contacts' force vector), and solves the same equations
 to round-off.
@@ -23,16 +25,16 @@ to round-off.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import lapack, lu_factor, lu_solve
 
 from dda.effects.pair_springs import PairSprings
 from dda.jit import compiled, kernel
 from dda.solve import dense_newton
+from dda.solve.linsolve import DenseFactorisation
 from dda.solve.newton import NewtonResult
 
-# largest number of free unknowns held dense: a dense Cholesky costs n³/3 flops,
-# against the sparse factorisation's set-up (the same threshold as
-# dda.solve.linsolve.DENSE_MAX_SIZE, 40 blocks)
+# largest number of free unknowns held dense (30 blocks): a dense Cholesky costs n³/3
+# flops against the block pattern's set-up; CPU a step, interleaved runs: the 5x5 wall
+# (150 unknowns) 10-15 % less held dense, the 6x6 (210) even, the 8x8 (384) 1.9x more
 DENSE_ROWS = 180
 
 
@@ -120,23 +122,6 @@ def _set_up_compiled(position, block_a, block_b, normal_i, normal_j, shear_i, sh
 _set_up_kernel = kernel(_set_up_compiled)
 
 
-class DenseFactor:
-    """K = L Lᵀ (``dpotrf``); an LU factorisation should round-off make K not
-    positive definite by LAPACK's test."""
-
-    def __init__(self, matrix: np.ndarray) -> None:
-        self._lu = None
-        self._lower, info = lapack.dpotrf(matrix, lower=1, clean=0, overwrite_a=0)
-        if info != 0:
-            self._lu = lu_factor(matrix, check_finite=False)
-
-    def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """x with K x = b."""
-        if self._lu is not None:
-            return lu_solve(self._lu, rhs, check_finite=False)
-        return lapack.dpotrs(self._lower, rhs, lower=1)[0]
-
-
 class DenseSystem:
     """The linear systems of one step, K(springs) D = F(offsets), held dense.
 
@@ -194,7 +179,7 @@ class DenseSystem:
         self.forces = base_f[self.free].ravel()
         self.friction, self.timer, self.shape = friction, timer, base_f.shape
         self.factorisations = 0
-        self._factor: DenseFactor | None = None
+        self._factor: DenseFactorisation | None = None
         self._springs: tuple[np.ndarray, np.ndarray] | None = None
         self._outer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.g0, self.s0 = rows.penetration, rows.slip
@@ -209,7 +194,7 @@ class DenseSystem:
             with self.timer("assembly"):
                 k = self._stiffness(kn, ks if self.friction else np.zeros_like(ks))
             with self.timer("factorisation"):
-                self._factor = DenseFactor(k)
+                self._factor = DenseFactorisation(k)
             self._springs = (kn, ks)
             self.factorisations += 1
         with self.timer("assembly"):

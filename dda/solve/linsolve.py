@@ -48,16 +48,16 @@ PCG_BUDGET = {"superlu": MAX_PCG_ITERATIONS, "pardiso": 3, "dense": 0}
 PARDISO_LARGE = 20_000  # rows from which the larger budget applies
 PCG_BUDGET_PARDISO_LARGE = 5
 REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
-# smaller systems: a dense Cholesky (below). PARDISO factorises 4-5x faster than SuperLU
-# from 600 rows up (10x10 wall: 0.38 against 1.7 ms; tunnel case, 1200 rows: 0.45 against
-# 2.5 ms) and solves as fast, but analyses each new pattern; at 294 rows (7x7 wall, 100
-# steps, one thread, six interleaved runs) the run takes 7.5-10.5 ms a step against
-# SuperLU's 9.2-12.2. SuperLU factorises where PARDISO is not installed (or DDA_SOLVER)
-PARDISO_MIN_SIZE = 241
 # up to this many rows: a dense Cholesky. 150 rows (5x5 wall): 0.07 ms against SuperLU's
 # 0.22-0.32 (its set-up dominates); 294 rows: 0.30 against 0.55-0.63, but each solve then
 # costs 0.045 against 0.029 and PCG on a kept factorisation no longer pays
 DENSE_MAX_SIZE = 240
+# larger systems: PARDISO. It factorises 4-5x faster than SuperLU from 600 rows up (10x10
+# wall: 0.38 against 1.7 ms; tunnel case, 1200 rows: 0.45 against 2.5 ms) and solves as
+# fast, but analyses each new pattern; at 294 rows (7x7 wall, 100 steps, one thread, six
+# interleaved runs) the run takes 7.5-10.5 ms a step against SuperLU's 9.2-12.2. SuperLU
+# factorises where PARDISO is not installed (or DDA_SOLVER asks for it)
+PARDISO_MIN_SIZE = DENSE_MAX_SIZE + 1
 THREADS_VARIABLE = "DDA_THREADS"  # environment variable: threads of PARDISO's factorisation
 SOLVER_VARIABLE, SOLVER_CHOICES = "DDA_SOLVER", ("pardiso", "superlu")  # sparse solver
 
@@ -101,13 +101,15 @@ class DenseFactorisation:
     n³/3 flops and no sparse set-up: at 150 rows 0.07 ms against SuperLU's
     0.22-0.32 ms (:data:`DENSE_MAX_SIZE`). Should LAPACK find K not positive
     definite by round-off (a nearly singular K), SuperLU factorises it, as it
-    did before there was a dense path (``permc_spec`` is its ordering).
+    did before there was a dense path (``permc_spec`` is its ordering). ``matrix``
+    is sparse, or a dense array (the small steps' dense systems), left as it is.
     """
 
-    def __init__(self, matrix: sp.spmatrix, permc_spec: str = "NATURAL") -> None:
+    def __init__(self, matrix: sp.spmatrix | np.ndarray, permc_spec: str = "NATURAL") -> None:
         self.size = matrix.shape[0]
         self._fallback: Factorisation | None = None
-        self._lower, info = lapack.dpotrf(matrix.toarray(), lower=1, clean=0, overwrite_a=1)
+        dense = matrix.toarray() if sp.issparse(matrix) else np.array(matrix, dtype=float)
+        self._lower, info = lapack.dpotrf(dense, lower=1, clean=0, overwrite_a=1)
         if info != 0:
             log.debug("dense Cholesky failed (info %d): SuperLU factorises K", info)
             self._fallback = Factorisation(sp.csc_matrix(matrix), permc_spec)
