@@ -180,3 +180,38 @@ def test_the_mid_systems_chord_rules_keep_stick_slip_and_energy(dt, monkeypatch)
     assert slide.summary["cut_steps"] == 0
     assert abs(slid_error(slide, 1.05)) <= 1e-4
     assert max(largest_gain(stand), largest_gain(slide)) <= 1e-3
+
+
+@pytest.mark.parametrize("dt", [1e-3, pytest.param(1e-4, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("path", ["dense, compiled Newton", "block pattern, numpy Newton"])
+def test_both_solve_paths_of_a_small_model_keep_stick_slip_and_energy(path, dt, monkeypatch):
+    """The incline's systems (6 unknowns) are held dense and, with 500 steps or more, each
+    Newton pass is one compiled call (dda.solve.dense_newton): the rows above run that
+    path. The block pattern with the numpy Newton (DENSE_ROWS = 0) is the other path a
+    step can take: on both the block at 0.95 stands within its settlement, at 1.05 it
+    slides as the closed form (1e-4 relative), and neither gains energy."""
+    import dda.solve.step
+    from dda.solve.dense_system import DenseSystem
+    from tests.stability.incline import largest_gain
+
+    passes = []
+    compiled_pass = DenseSystem.minimise
+
+    def counted(self, *args, **kwargs):
+        result = compiled_pass(self, *args, **kwargs)
+        passes.append(result is not None)
+        return result
+
+    monkeypatch.setattr(DenseSystem, "minimise", counted)
+    if path == "block pattern, numpy Newton":
+        monkeypatch.setattr(dda.solve.step, "DENSE_ROWS", 0)
+    stand = dda.simulate(incline_scene(0.95, dt, 0.5))
+    slide = dda.simulate(incline_scene(1.05, dt, 1.0))
+    if path == "dense, compiled Newton":
+        assert passes and all(passes) == dda.jit.numba_enabled()
+    else:
+        assert not passes
+    assert_stands(stand, settlement(0.95, 10.0))
+    assert slide.summary["cut_steps"] == 0
+    assert abs(slid_error(slide, 1.05)) <= 1e-4
+    assert max(largest_gain(stand), largest_gain(slide)) <= 1e-3
