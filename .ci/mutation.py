@@ -51,6 +51,9 @@ MODULES = [
     "dda/solve/integrator.py",
     "dda/solve/update.py",
     "dda/solve/assembly.py",
+    "dda/solve/dense_system.py",
+    "dda/solve/dense_newton.py",
+    "dda/solve/line_step.py",
     "dda/kinematics.py",
     "dda/effects/base.py",
     "dda/effects/bolts.py",
@@ -78,6 +81,10 @@ TESTS = {
     "dda/kinematics.py": _MOTION + _EFFECTS,
     # the springs between two blocks (rock bolts) are assembled here too
     "dda/solve/assembly.py": ["tests/test_assembly.py", "tests/test_bolts.py"],
+    # the compiled Newton pieces against their numpy oracles
+    "dda/solve/dense_system.py": ["tests/test_dense_system.py", "tests/test_dense_newton.py"],
+    "dda/solve/dense_newton.py": ["tests/test_dense_newton.py"],
+    "dda/solve/line_step.py": ["tests/test_line_step.py"],
     "dda/effects/pair_springs.py": _EFFECTS + ["tests/test_bolts.py", _CASE.format("bolted_block")],
     "dda/effects/bolts.py": _EFFECTS + ["tests/test_bolts.py", _CASE.format("bolted_block")],
     "dda/effects/seismic.py": _EFFECTS + ["tests/test_seismic.py", _CASE.format("seismic_slope")],

@@ -46,6 +46,8 @@ from dda.contact.line_search import line_minimum
 from dda.contact.potential import ContactTerms
 from dda.contact.rows import ContactRows, gaps_after
 from dda.effects.pair_springs import PairSprings
+from dda.jit import compiled
+from dda.solve import line_step
 
 log = logging.getLogger(__name__)
 
@@ -210,6 +212,7 @@ def minimise(
     chord_first: bool = False,
     start_gaps: tuple[np.ndarray, np.ndarray] | None = None,
     conjugate: bool = False,
+    forces_from_rows: bool = False,
 ) -> NewtonResult:
     """Minimise Π from ``start`` with at most ``max_solves`` Newton iterations and
     at most ``max_steps`` iterations in all (Newton iterations and chord steps).
@@ -229,7 +232,13 @@ def minimise(
     still fits it). ``start_gaps``: (g, s) at ``start`` when the caller has them.
     ``conjugate``: successive chord steps are conjugated (:func:`_conjugated`).
     ``iterates``: a list to which every iterate D is appended (diagnostics).
+    ``forces_from_rows``: ``contact_vector`` is Σ N∇g + Σ F∇s over ``geometry``'s rows
+    and blocks, so that each line step may be the compiled one
+    (:mod:`dda.solve.line_step`, where the kernels are used and K₀ is block-diagonal).
     """
+    lines_compiled = (
+        forces_from_rows and quadratic.couplings is None and compiled(line_step.line_step_kernel)
+    )
     d = start
     g0, s0 = geometry.rows.penetration, geometry.rows.slip
     g, s = geometry.at(d) if start_gaps is None else start_gaps
@@ -266,22 +275,53 @@ def minimise(
                 return NewtonResult(target, solves, True, chords, gaps=at_target)
             direction, pieces = target - d, None
             rates = (at_target[0] - g, at_target[1] - s)
-        dg, ds = geometry.rates(direction) if rates is None else rates
-        kp = quadratic.product(direction)
-        a, c = quadratic.along(kd, direction, kp)
-        alpha, _ = line_minimum(terms, a, c, g, dg, s, ds)
-        # g, s and K₀D are linear in D: step them along the line with D
-        d, g, s, kd = d + alpha * direction, g + alpha * dg, s + alpha * ds, kd + alpha * kp
+        if lines_compiled:
+            d, g, s, kd, residual, size, scale, alpha = _compiled_line_step(
+                quadratic, geometry, terms, d, g, s, kd, direction, rates
+            )
+        else:
+            dg, ds = geometry.rates(direction) if rates is None else rates
+            kp = quadratic.product(direction)
+            a, c = quadratic.along(kd, direction, kp)
+            alpha, _ = line_minimum(terms, a, c, g, dg, s, ds)
+            # g, s and K₀D are linear in D: step them along the line with D
+            d, g, s, kd = d + alpha * direction, g + alpha * dg, s + alpha * ds, kd + alpha * kp
+            residual, scale = _residual(quadratic, terms, contact_vector, kd, g, s)
+            size = np.linalg.norm(residual)
         if iterates is not None:
             iterates.append(d)
-        residual, scale = _residual(quadratic, terms, contact_vector, kd, g, s)
-        size = np.linalg.norm(residual)
         if size <= RELATIVE_TOLERANCE * scale:
             return NewtonResult(d, solves, True, chords, gaps=(g, s))
         log.debug("Newton %d, chord %d: α = %.3g", solves, chords, alpha)
         shrunk = gradient is None or size <= rate * np.linalg.norm(gradient)
         gradient = residual if chord is not None and shrunk else None
     return NewtonResult(d, solves, False, chords, gradient is not None, (g, s))
+
+
+def _compiled_line_step(quadratic, geometry, terms, d, g, s, kd, direction, rates):
+    """:func:`dda.solve.line_step.line_step_kernel` from :func:`minimise`'s state:
+    (D, g, s, K₀D, ∇Π, ‖∇Π‖, scale, α)."""
+    rows, t = geometry.rows, terms
+    none = np.empty(0)
+    dg, ds = (none, none) if rates is None else rates
+    floats = (
+        rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j,
+        t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound,
+    )  # fmt: skip
+    floats = tuple(np.ascontiguousarray(x, np.float64) for x in floats)
+    out = line_step.line_step_kernel(
+        np.ascontiguousarray(quadratic.stiffness, np.float64),
+        np.ascontiguousarray(quadratic.forces, np.float64),
+        np.ascontiguousarray(quadratic.free, np.bool_),
+        *floats[:4],
+        np.asarray(geometry.block_a, np.int64),
+        np.asarray(geometry.block_b, np.int64),
+        *floats[4:],
+        float(quadratic.load_norm),
+        *(np.ascontiguousarray(x, np.float64) for x in (d, g, s, kd, direction, dg, ds)),
+        rates is not None,
+    )
+    return out
 
 
 def _conjugated(

@@ -517,7 +517,7 @@ def solve_step(
         if newton is None:
             newton = minimise(
                 quadratic, geometry, terms, system, system.contact_vector, d,
-                budget - solves, guess, chord=system.chord, **rule,
+                budget - solves, guess, chord=system.chord, forces_from_rows=True, **rule,
             )  # fmt: skip
         gaps = newton.gaps
         goes_on = newton.converged or newton.chord_next

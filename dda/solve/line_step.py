@@ -1,0 +1,86 @@
+"""One line step of the Newton minimisation on the sparse systems, in one compiled call.
+
+After each linear solve (a Newton iteration's target or a chord step's
+back-substitution) :func:`dda.solve.newton.minimise` goes along the direction
+ΔD to the exact minimum of Π on that line and measures the new gradient:
+
+    ∇g·ΔD, ∇s·ΔD (eqs. 9-13),   K₀ΔD,   a = ΔDᵀ(K₀D − F₀),   c = ΔDᵀK₀ΔD,
+    α = argmin Π(D + α ΔD) (:func:`dda.contact.line_search.line_minimum`),
+    D, g, s, K₀D += α (ΔD, ∇g·ΔD, ∇s·ΔD, K₀ΔD),
+    ∇Π = K₀D − F₀ + Σ N(g)∇g + Σ F(s)∇s on the free blocks,
+    ‖∇Π‖ and the scale ‖K₀D‖ + ‖Σ N∇g + Σ F∇s‖ + ‖F₀‖ it is measured against.
+
+In numpy that is about 40 calls, each over all blocks or contacts; on models
+of tens to thousands of blocks those calls, not the arithmetic, cost most of
+a step's time outside the solver (:func:`line_step_kernel`, one pass over
+the contacts and one over the blocks). It is used when the kernels are and K₀
+is block-diagonal (no rock bolts); the numpy lines in
+:func:`dda.solve.newton.minimise` are its oracle (tests/test_line_step.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.contact.line_search import _line_minimum_kernel
+from dda.jit import kernel
+
+
+def _line_step(
+    stiffness, forces, free, normal_i, normal_j, shear_i, shear_j, block_a, block_b,
+    lam_n, p, tension, lam_t, ps, bound, load_norm,
+    d, g, s, kd, direction, dg, ds, have_rates,
+):  # fmt: skip
+    """The line step of the module docstring from (D, g, s, K₀D) along ``direction``;
+    ``dg``, ``ds``: ∇g·ΔD, ∇s·ΔD when ``have_rates`` (else computed here).
+
+    Returns (D, g, s, K₀D, ∇Π, ‖∇Π‖, scale, α) — new arrays, the inputs unchanged.
+    """
+    n, m = d.shape[0], g.shape[0]
+    if not have_rates:
+        dg, ds = np.empty(m), np.empty(m)
+        for c in range(m):
+            a_, b_ = block_a[c], block_b[c]
+            normal_rate = shear_rate = 0.0
+            for r in range(6):
+                normal_rate += normal_i[c, r] * direction[a_, r] + normal_j[c, r] * direction[b_, r]
+                shear_rate += shear_i[c, r] * direction[a_, r] + shear_j[c, r] * direction[b_, r]
+            dg[c], ds[c] = normal_rate, shear_rate
+    kp = np.empty((n, 6))
+    slope = curvature = 0.0
+    for i in range(n):
+        for r in range(6):
+            total = 0.0
+            for q in range(6):
+                total += stiffness[i, r, q] * direction[i, q]
+            kp[i, r] = total
+            slope += direction[i, r] * (kd[i, r] - forces[i, r])
+            curvature += direction[i, r] * total
+    alpha, _ = _line_minimum_kernel(
+        lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, slope, curvature
+    )
+    d_new, kd_new = d + alpha * direction, kd + alpha * kp
+    g_new, s_new = g + alpha * dg, s + alpha * ds
+    contact = np.zeros((n, 6))
+    for c in range(m):
+        normal_force = max(lam_n[c] + p[c] * g_new[c], -tension[c])
+        shear_force = min(max(lam_t[c] + ps[c] * s_new[c], -bound[c]), bound[c])
+        a_, b_ = block_a[c], block_b[c]
+        for r in range(6):
+            contact[a_, r] += normal_force * normal_i[c, r] + shear_force * shear_i[c, r]
+            contact[b_, r] += normal_force * normal_j[c, r] + shear_force * shear_j[c, r]
+    residual = np.zeros((n, 6))
+    size = kd_size = contact_size = 0.0
+    for i in range(n):
+        if not free[i]:
+            continue
+        for r in range(6):
+            residual[i, r] = kd_new[i, r] - forces[i, r] + contact[i, r]
+            size += residual[i, r] * residual[i, r]
+            kd_size += kd_new[i, r] * kd_new[i, r]
+            contact_size += contact[i, r] * contact[i, r]
+    scale = np.sqrt(kd_size) + np.sqrt(contact_size) + load_norm
+    return d_new, g_new, s_new, kd_new, residual, np.sqrt(size), scale, alpha
+
+
+line_step_kernel = kernel(_line_step)
