@@ -309,7 +309,7 @@ def _compiled_line_step(quadratic, geometry, terms, d, g, s, kd, direction, rate
         t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound,
     )  # fmt: skip
     floats = tuple(np.ascontiguousarray(x, np.float64) for x in floats)
-    out = line_step.line_step_kernel(
+    return line_step.line_step_kernel(
         np.ascontiguousarray(quadratic.stiffness, np.float64),
         np.ascontiguousarray(quadratic.forces, np.float64),
         np.ascontiguousarray(quadratic.free, np.bool_),
@@ -321,7 +321,6 @@ def _compiled_line_step(quadratic, geometry, terms, d, g, s, kd, direction, rate
         *(np.ascontiguousarray(x, np.float64) for x in (d, g, s, kd, direction, dg, ds)),
         rates is not None,
     )
-    return out
 
 
 def _conjugated(
