@@ -12,8 +12,10 @@ back-substitution) :func:`dda.solve.newton.minimise` goes along the direction
 
 In numpy that is about 40 calls, each over all blocks or contacts; on models
 of tens to thousands of blocks those calls, not the arithmetic, cost most of
-a step's time outside the solver (:func:`line_step_kernel`, one pass over
-the contacts and one over the blocks). It is used when the kernels are and K₀
+a step's time outside the solver. :func:`line_step_kernel` does it in one
+call, with the compiled kernels the numpy path calls one by one: the gaps of
+:mod:`dda.contact.rows` (for the rates), the force sum of
+:mod:`dda.solve.assembly` and the line search. It is used when the kernels are and K₀
 is block-diagonal (no rock bolts); the numpy lines in
 :func:`dda.solve.newton.minimise` are its oracle (tests/test_line_step.py).
 """
@@ -23,7 +25,9 @@ from __future__ import annotations
 import numpy as np
 
 from dda.contact.line_search import _line_minimum_kernel
+from dda.contact.rows import _gaps_kernel
 from dda.jit import kernel
+from dda.solve.assembly import _subtract_pairs_kernel
 
 
 def _line_step(
@@ -37,15 +41,11 @@ def _line_step(
     Returns (D, g, s, K₀D, ∇Π, ‖∇Π‖, scale, α) — new arrays, the inputs unchanged.
     """
     n, m = d.shape[0], g.shape[0]
-    if not have_rates:
-        dg, ds = np.empty(m), np.empty(m)
-        for c in range(m):
-            a_, b_ = block_a[c], block_b[c]
-            normal_rate = shear_rate = 0.0
-            for r in range(6):
-                normal_rate += normal_i[c, r] * direction[a_, r] + normal_j[c, r] * direction[b_, r]
-                shear_rate += shear_i[c, r] * direction[a_, r] + shear_j[c, r] * direction[b_, r]
-            dg[c], ds[c] = normal_rate, shear_rate
+    if not have_rates:  # the gaps' linear part along the direction: gaps from zero
+        dg, ds = _gaps_kernel(
+            np.zeros(m), np.zeros(m), normal_i, normal_j, shear_i, shear_j, block_a, block_b,
+            direction,
+        )  # fmt: skip
     kp = np.empty((n, 6))
     slope = curvature = 0.0
     for i in range(n):
@@ -61,14 +61,14 @@ def _line_step(
     )
     d_new, kd_new = d + alpha * direction, kd + alpha * kp
     g_new, s_new = g + alpha * dg, s + alpha * ds
-    contact = np.zeros((n, 6))
+    minus_normal, minus_shear = np.empty(m), np.empty(m)  # −N(g), −F(s)
     for c in range(m):
-        normal_force = max(lam_n[c] + p[c] * g_new[c], -tension[c])
-        shear_force = min(max(lam_t[c] + ps[c] * s_new[c], -bound[c]), bound[c])
-        a_, b_ = block_a[c], block_b[c]
-        for r in range(6):
-            contact[a_, r] += normal_force * normal_i[c, r] + shear_force * shear_i[c, r]
-            contact[b_, r] += normal_force * normal_j[c, r] + shear_force * shear_j[c, r]
+        minus_normal[c] = -max(lam_n[c] + p[c] * g_new[c], -tension[c])
+        minus_shear[c] = -min(max(lam_t[c] + ps[c] * s_new[c], -bound[c]), bound[c])
+    contact = np.zeros((n, 6))  # Σ N∇g + Σ F∇s: the force sum with −N, −F subtracted
+    _subtract_pairs_kernel(
+        contact, block_a, block_b, normal_i, normal_j, shear_i, shear_j, minus_normal, minus_shear
+    )
     residual = np.zeros((n, 6))
     size = kd_size = contact_size = 0.0
     for i in range(n):
