@@ -73,12 +73,45 @@ class Kernel:
                 helper = namespace.get(name)
                 if isinstance(helper, Kernel):
                     namespace[name] = helper.dispatcher
+                elif isinstance(helper, Lapack):
+                    namespace[name] = helper.external()
             self._dispatcher = numba.njit(cache=True, nogil=True)(self.function)
             log.debug("numba kernel %s", self.function.__qualname__)
         return self._dispatcher
 
     def __call__(self, *args: Any) -> Any:
         return self.dispatcher(*args)
+
+
+class Lapack:
+    """A LAPACK routine (scipy's ``cython_lapack``) that kernels call by name.
+
+    Bound in a kernel's globals like a helper kernel: the routine's address is
+    registered with LLVM under ``dda_lapack_<name>`` and the kernel calls it as an
+    external function of ``arguments`` pointers (every LAPACK argument is passed by
+    address). Being resolved by symbol at load time, not baked in as an address, the
+    kernels that call it stay in numba's on-disk cache.
+    """
+
+    __slots__ = ("name", "arguments", "_external")
+
+    def __init__(self, name: str, arguments: int) -> None:
+        self.name, self.arguments = name, arguments
+        self._external = None
+
+    def external(self):
+        """The numba ``ExternalFunction`` (registers the symbol the first time)."""
+        if self._external is None:
+            import llvmlite.binding as llvm
+            from numba import types
+            from numba.extending import get_cython_function_address
+
+            symbol = f"dda_lapack_{self.name}"
+            address = get_cython_function_address("scipy.linalg.cython_lapack", self.name)
+            llvm.add_symbol(symbol, address)
+            pointers = [types.voidptr] * self.arguments
+            self._external = types.ExternalFunction(symbol, types.void(*pointers))
+        return self._external
 
 
 def kernel(function: Callable) -> Kernel | None:

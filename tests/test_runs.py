@@ -129,11 +129,17 @@ def test_checkpoints_leave_the_run_unchanged(tmp_path, superlu):
     assert plan.written == 4 and read_checkpoint(tmp_path / "c.npz").step == 28
 
 
-def test_a_checkpoint_holds_every_field_of_the_run_state(tmp_path):
+@pytest.mark.parametrize("systems", ["band", "sparse"])
+def test_a_checkpoint_holds_every_field_of_the_run_state(tmp_path, systems, monkeypatch):
     """Every attribute of the run (but the model) and every field of the block and
-    contact sets is saved, found by walking them: a new field needs no change."""
+    contact sets is saved, found by walking them: a new field needs no change. The
+    linear cache's state is saved too: the band systems' block numbering, and the
+    sparse systems' factorised matrix."""
     from dda.run import simulation
+    from dda.solve import band_system
 
+    if systems == "sparse":
+        monkeypatch.setattr(band_system, "BAND_WORK", 0.0)
     state = simulation._Run(dda.run.simulation.build(slope_scene(5)))
     simulation._advance(state)
     checkpoint = capture(state)
@@ -143,7 +149,10 @@ def test_a_checkpoint_holds_every_field_of_the_run_state(tmp_path):
         saved = {k.split("/")[2] for k in keys if k.startswith(prefix + "/")}
         assert saved == {f.name for f in dataclasses.fields(kind)}
     assert len(state.contacts) > 0 and "run/contacts/normal_multiplier" in checkpoint.arrays
-    assert "solver/factored/data" in checkpoint.arrays  # the linear cache's matrix
+    if systems == "sparse" or not dda.jit.numba_enabled():
+        assert "solver/factored/data" in checkpoint.arrays  # the linear cache's matrix
+    else:
+        assert "solver/cache/band/position" in checkpoint.arrays  # the band numbering
 
 
 def test_a_checkpoint_of_another_scene_or_version_is_refused(tmp_path):

@@ -54,6 +54,39 @@ def _same_pieces(ps, bound, normal, shear, other_normal, other_shear):
     return True
 
 
+def _springs(p, ps, friction, normal, shear, kn, ks):
+    """The springs of the pieces into ``kn``, ``ks``: p on the elastic normal piece,
+    ps on the stuck shear piece (with friction), else 0."""
+    for c in range(normal.shape[0]):
+        kn[c] = p[c] if normal[c] == 1 else 0.0
+        ks[c] = ps[c] if shear[c] == 0 and friction else 0.0
+
+
+def _same_springs(kn, ks, springs):
+    """True when (kn, ks) are the springs of the kept factorisation (``springs`` (2, m))."""
+    for c in range(kn.shape[0]):
+        if kn[c] != springs[0, c] or ks[c] != springs[1, c]:
+            return False
+    return True
+
+
+def _offsets(lam_n, p, tension, lam_t, ps, bound, g0, s0, normal, shear):
+    """(N₀, T₀) of the pieces: λn + p g₀ on the elastic normal piece, −T off it;
+    λt + ps s₀ stuck, ±b sliding."""
+    m = normal.shape[0]
+    offset_n, offset_t = np.empty(m), np.empty(m)
+    for c in range(m):
+        if normal[c] == 1:
+            offset_n[c] = lam_n[c] + p[c] * g0[c]
+        else:
+            offset_n[c] = -tension[c]
+        if shear[c] == 0:
+            offset_t[c] = lam_t[c] + ps[c] * s0[c]
+        else:
+            offset_t[c] = shear[c] * bound[c]
+    return offset_n, offset_t
+
+
 def _add_springs(k, columns, normal, kn, shear, ks):
     """K += Σ kn r_n r_nᵀ + ks r_s r_sᵀ over the contacts' 12 columns (−1: a fixed
     block's, left out)."""
@@ -166,30 +199,17 @@ def _dense_minimise(
             solves += 1
             if not have_pieces:
                 _pieces(lam_n, p, tension, lam_t, ps, bound, g, s, normal, shear)
-            for c in range(m):
-                kn[c] = p[c] if normal[c] == 1 else 0.0
-                ks[c] = ps[c] if shear[c] == 0 and friction else 0.0
-            same = state[HAS_FACTOR] == 1
-            for c in range(m):
-                if kn[c] != springs[0, c] or ks[c] != springs[1, c]:
-                    same = False
-            if not same:
+            _springs(p, ps, friction, normal, shear, kn, ks)
+            if not (state[HAS_FACTOR] == 1 and _same_springs(kn, ks, springs)):
                 state[HAS_FACTOR] = 0
                 _factorise(base, columns, normal_rows, shear_rows, kn, ks, lower)
                 springs[0, :] = kn
                 springs[1, :] = ks
                 state[HAS_FACTOR] = 1
                 state[FACTORISATIONS] += 1
-            offset_n, offset_t = np.empty(m), np.empty(m)
-            for c in range(m):
-                if normal[c] == 1:
-                    offset_n[c] = lam_n[c] + p[c] * g0[c]
-                else:
-                    offset_n[c] = -tension[c]
-                if shear[c] == 0:
-                    offset_t[c] = lam_t[c] + ps[c] * s0[c]
-                else:
-                    offset_t[c] = shear[c] * bound[c]
+            offset_n, offset_t = _offsets(
+                lam_n, p, tension, lam_t, ps, bound, g0, s0, normal, shear
+            )
             rhs = forces - offset_n @ normal_matrix - offset_t @ shear_matrix
             target = _cholesky_solve(lower, rhs)
             if not np.all(np.isfinite(target)):
@@ -236,6 +256,11 @@ def _potential(
     φt of :meth:`dda.contact.potential.ContactTerms.energy`)."""
     value = d @ (0.5 * (base @ d) - forces)
     g, s = g0 + normal_matrix @ d, s0 + shear_matrix @ d
+    return _add_contact_energy(value, lam_n, p, tension, lam_t, ps, bound, g, s)
+
+
+def _add_contact_energy(value, lam_n, p, tension, lam_t, ps, bound, g, s):
+    """``value`` + Σ φn(g) + Σ φt(s), added contact by contact."""
     for c in range(g.shape[0]):
         trial = lam_n[c] + p[c] * g[c]
         force = max(trial, -tension[c])
@@ -255,6 +280,10 @@ add_springs_kernel = kernel(_add_springs)  # also the dense systems' own assembl
 _add_springs = add_springs_kernel or _add_springs  # the compiled kernels call compiled twins
 _pieces = kernel(_pieces) or _pieces
 _same_pieces = kernel(_same_pieces) or _same_pieces
+_springs = kernel(_springs) or _springs
+_same_springs = kernel(_same_springs) or _same_springs
+_offsets = kernel(_offsets) or _offsets
+_add_contact_energy = kernel(_add_contact_energy) or _add_contact_energy
 _factorise = kernel(_factorise) or _factorise
 _cholesky_solve = kernel(_cholesky_solve) or _cholesky_solve
 _residual = kernel(_residual) or _residual

@@ -1,5 +1,10 @@
 """One time step: the minimiser of the step's incremental potential (:mod:`dda.solve.newton`).
 
+A step's linear systems take one of three forms by size: dense up to
+:data:`~dda.solve.dense_system.DENSE_ROWS` unknowns (:mod:`dda.solve.dense_system`),
+in band storage where the kernels are used and the band is narrow enough
+(:mod:`dda.solve.band_system`) — on both, where the kernels are used, a Newton pass
+is one compiled call — and otherwise on a sparse block pattern, as follows.
 K changes only when contact pieces or penalties change; between such
 changes every Newton iteration, augmentation (AL) or friction update re-uses
 K and only rebuilds F. Across steps, while the contact graph is the same, the block
@@ -39,6 +44,7 @@ from dda.solve.assembly import (
     reassemble,
     subtract_contact_forces,
 )
+from dda.solve.band_system import BandOrder, BandSystem, band_kernels, band_pays
 from dda.solve.dense_system import DENSE_ROWS, DenseSystem
 from dda.solve.linsolve import ReusingSolver, block_ordering
 from dda.solve.low_rank import StepUpdates
@@ -100,6 +106,7 @@ class LinearCache:
     pattern: BlockPattern | None = None
     solver: ReusingSolver = field(default_factory=ReusingSolver)
     coefficients: tuple[np.ndarray, np.ndarray] | None = None  # sorted contact keys, springs
+    band: BandOrder = field(default_factory=BandOrder)  # the band systems' block numbering
 
     def pattern_for(
         self,
@@ -386,6 +393,24 @@ class _PieceSystem:
         return out
 
 
+def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, fallback):
+    """The step's :class:`BandSystem` where it pays (mid-size, no rock bolts, the kernels
+    used, the band narrow enough: :mod:`dda.solve.band_system`), else None."""
+    free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
+    if not (cache.solver.automatic and couplings is None and band_pays(free_rows_count, 5)):
+        return None
+    if not band_kernels():
+        return None
+    with timer("assembly"):
+        numbering = cache.band.columns(blocks.fixed, contacts.block_a, contacts.block_b)
+        if not band_pays(free_rows_count, numbering[2]):
+            return None
+        return BandSystem(
+            blocks.fixed, contacts.block_a, contacts.block_b, rows, base_k, base_f,
+            law.friction, numbering, timer, fallback,
+        )  # fmt: skip
+
+
 def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
     """Friction bounds of the step's first solve, from the larger of each contact's
     normal force at the end of the last step and at this step's start geometry
@@ -468,6 +493,12 @@ def solve_step(
         return pattern_neighbours(blocks, contacts, cm)
 
     free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
+
+    def sparse_system():
+        return _PieceSystem(
+            cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
+        )
+
     if cache.solver.automatic and free_rows_count <= DENSE_ROWS:  # small: held dense
         with timer("assembly"):
             system = DenseSystem(
@@ -475,9 +506,10 @@ def solve_step(
                 law.friction, couplings, timer,
             )  # fmt: skip
     else:
-        system = _PieceSystem(
-            cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
+        system = _band_system(
+            cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, sparse_system
         )
+        system = system or sparse_system()
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations

@@ -1,0 +1,269 @@
+"""Compiled Newton on a mid-size step's potential, K in band storage: one kernel call a pass.
+
+The iteration of :mod:`dda.solve.dense_newton` (the same pieces, springs, offsets,
+exact line search, chord steps and convergence test) on systems too large to hold
+dense: the contacts' gradients are kept as twelve entries a contact (the columns of
+its two blocks' unknowns, ``columns``, and the rows r = [r_i r_j]), K₀ as its 6 × 6
+blocks, and
+
+    K = K₀ + Σ k_n r_n r_nᵀ + Σ k_s r_s r_sᵀ
+
+in LAPACK's lower band storage, AB[j, i − j] = K[i, j] for j ≤ i ≤ j + kd, factorised
+by ``dpbtrf`` (about n kd² flops) and solved by ``dpbtrs`` (4 n kd). The blocks are
+numbered so that every contact's two blocks lie close (:mod:`dda.solve.band_system`):
+kd is 6 × the largest distance in that numbering between two blocks in contact, plus 5.
+Products with G and Gᵀ are O(12 m), with K₀ O(36 n).
+
+The numpy :func:`dda.solve.newton.minimise` is its oracle (tests/test_band_newton.py):
+the two agree to rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.contact.line_search import _line_minimum_kernel
+from dda.jit import Lapack, kernel
+from dda.solve.dense_newton import (
+    FACTORISATIONS,
+    HAS_FACTOR,
+    _add_contact_energy,
+    _offsets,
+    _pieces,
+    _same_pieces,
+    _same_springs,
+    _springs,
+)
+from dda.solve.newton import RELATIVE_TOLERANCE
+
+# ``state[FAILED]`` = 1: LAPACK found K not positive definite (the caller's numpy Newton
+# takes the pass over)
+FAILED = 2
+
+_dpbtrf = Lapack("dpbtrf", 6)  # UPLO, N, KD, AB, LDAB, INFO
+_dpbtrs = Lapack("dpbtrs", 9)  # UPLO, N, KD, NRHS, AB, LDAB, B, LDB, INFO
+_LOWER = 76  # "L"
+
+
+def _along(columns, rows, x):
+    """r · x of each contact (Σ over its 12 entries; a column −1 is a fixed block's)."""
+    m = columns.shape[0]
+    out = np.zeros(m)
+    for c in range(m):
+        total = 0.0
+        for a in range(12):
+            column = columns[c, a]
+            if column >= 0:
+                total += rows[c, a] * x[column]
+        out[c] = total
+    return out
+
+
+def _gather(columns, normal_rows, normal, shear_rows, shear, size):
+    """Σ N r_n + Σ T r_s over the contacts, a vector of ``size`` unknowns."""
+    out = np.zeros(size)
+    for c in range(columns.shape[0]):
+        for a in range(12):
+            column = columns[c, a]
+            if column >= 0:
+                out[column] += normal[c] * normal_rows[c, a] + shear[c] * shear_rows[c, a]
+    return out
+
+
+def _block_product(blocks, x):
+    """K₀ x for K₀ block-diagonal with the (n, 6, 6) ``blocks``."""
+    out = np.empty(x.shape[0])
+    for b in range(blocks.shape[0]):
+        for r in range(6):
+            total = 0.0
+            for q in range(6):
+                total += blocks[b, r, q] * x[6 * b + q]
+            out[6 * b + r] = total
+    return out
+
+
+def _band_factorise(blocks, columns, normal_rows, shear_rows, kn, ks, band):
+    """``band`` = L of K = K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ = L Lᵀ in lower band
+    storage; returns LAPACK's INFO (0: done; > 0: K is not positive definite)."""
+    band[:, :] = 0.0
+    for b in range(blocks.shape[0]):
+        for q in range(6):
+            for r in range(q, 6):
+                band[6 * b + q, r - q] = blocks[b, r, q]
+    for c in range(columns.shape[0]):
+        for a in range(12):
+            row = columns[c, a]
+            if row < 0:
+                continue
+            an, as_ = kn[c] * normal_rows[c, a], ks[c] * shear_rows[c, a]
+            for e in range(12):
+                column = columns[c, e]
+                if 0 <= column <= row:
+                    band[column, row - column] += an * normal_rows[c, e] + as_ * shear_rows[c, e]
+    n, width = band.shape
+    numbers = np.array([n, width - 1, width, 0], np.int32)  # N, KD, LDAB, INFO
+    uplo = np.array([_LOWER], np.uint8)
+    _dpbtrf(
+        uplo.ctypes.data, numbers[0:].ctypes.data, numbers[1:].ctypes.data,
+        band.ctypes.data, numbers[2:].ctypes.data, numbers[3:].ctypes.data,
+    )  # fmt: skip
+    return numbers[3]
+
+
+def _band_solve(band, rhs):
+    """x with L Lᵀ x = rhs, L in lower band storage (``dpbtrs``)."""
+    n, width = band.shape
+    numbers = np.array([n, width - 1, 1, width, n, 0], np.int32)  # N, KD, NRHS, LDAB, LDB, INFO
+    uplo = np.array([_LOWER], np.uint8)
+    x = rhs.copy()
+    _dpbtrs(
+        uplo.ctypes.data, numbers[0:].ctypes.data, numbers[1:].ctypes.data,
+        numbers[2:].ctypes.data, band.ctypes.data, numbers[3:].ctypes.data, x.ctypes.data,
+        numbers[4:].ctypes.data, numbers[5:].ctypes.data,
+    )  # fmt: skip
+    return x
+
+
+def _residual(
+    forces, columns, normal_rows, shear_rows, lam_n, p, tension, lam_t, ps, bound, kd, g, s
+):
+    """(∇Π, ‖K₀D‖ + ‖contact forces‖ + ‖F₀‖) at the point whose K₀D, g, s are given."""
+    m = g.shape[0]
+    normal_force, shear_force = np.empty(m), np.empty(m)
+    for c in range(m):
+        normal_force[c] = max(lam_n[c] + p[c] * g[c], -tension[c])
+        shear_force[c] = min(max(lam_t[c] + ps[c] * s[c], -bound[c]), bound[c])
+    contact = _gather(columns, normal_rows, normal_force, shear_rows, shear_force, kd.shape[0])
+    residual = kd - forces + contact
+    scale = np.linalg.norm(kd) + np.linalg.norm(contact) + np.linalg.norm(forces)
+    return residual, scale
+
+
+def _band_minimise(
+    blocks, forces, columns, normal_rows, shear_rows,
+    g0, s0, lam_n, p, tension, lam_t, ps, bound, friction,
+    d, g, s, first_normal, first_shear, have_first,
+    max_solves, max_steps, rate, chord_first, conjugate,
+    band, springs, state,
+):  # fmt: skip
+    """Compiled :func:`dda.solve.newton.minimise` on band systems (module docstring).
+
+    ``d``, ``g``, ``s``: the start and its gaps (copied, not changed); ``band``,
+    ``springs`` (2, m), ``state``: the kept factorisation, the springs of its K and
+    :data:`HAS_FACTOR` / :data:`FACTORISATIONS` / :data:`FAILED` (updated in place).
+    ``max_steps`` < 0: no limit. Returns (D, g, s, Newton iterations, chord steps,
+    converged, chord_next, finite).
+    """
+    m, n = g.shape[0], d.shape[0]
+    d, g, s = d.copy(), g.copy(), s.copy()
+    kd = _block_product(blocks, d)
+    normal, shear = np.empty(m, np.int8), np.empty(m, np.int8)
+    other_normal, other_shear = np.empty(m, np.int8), np.empty(m, np.int8)
+    have_pieces = have_first
+    if have_first:
+        normal[:] = first_normal
+        shear[:] = first_shear
+    gradient = np.zeros(n)
+    have_gradient = False
+    if chord_first:
+        gradient, _ = _residual(
+            forces, columns, normal_rows, shear_rows, lam_n, p, tension, lam_t, ps, bound,
+            kd, g, s,
+        )  # fmt: skip
+        have_gradient = True
+    solves = chords = 0
+    last_direction, last_gradient, last_preconditioned = np.zeros(n), np.zeros(n), np.zeros(n)
+    have_last = False
+    kn, ks = np.empty(m), np.empty(m)
+    while solves < max_solves and (max_steps < 0 or solves + chords < max_steps):
+        if have_gradient and state[HAS_FACTOR] == 1:
+            preconditioned = _band_solve(band, gradient)
+            direction = -preconditioned
+            chords += 1
+            if conjugate and have_last:
+                scale = last_preconditioned @ last_gradient
+                if scale > 0.0:
+                    beta = max(0.0, (preconditioned @ (gradient - last_gradient)) / scale)
+                    conjugated = direction + beta * last_direction
+                    if gradient @ conjugated < 0.0:
+                        direction = conjugated
+            last_direction, last_gradient = direction, gradient
+            last_preconditioned, have_last = preconditioned, True
+            dg, ds = _along(columns, normal_rows, direction), _along(columns, shear_rows, direction)
+        else:
+            have_last = False
+            solves += 1
+            if not have_pieces:
+                _pieces(lam_n, p, tension, lam_t, ps, bound, g, s, normal, shear)
+            _springs(p, ps, friction, normal, shear, kn, ks)
+            if not (state[HAS_FACTOR] == 1 and _same_springs(kn, ks, springs)):
+                state[HAS_FACTOR] = 0
+                info = _band_factorise(blocks, columns, normal_rows, shear_rows, kn, ks, band)
+                if info != 0:
+                    state[FAILED] = 1
+                    return d, g, s, solves, chords, False, False, False
+                springs[0, :] = kn
+                springs[1, :] = ks
+                state[HAS_FACTOR] = 1
+                state[FACTORISATIONS] += 1
+            offset_n, offset_t = _offsets(
+                lam_n, p, tension, lam_t, ps, bound, g0, s0, normal, shear
+            )
+            rhs = forces - _gather(columns, normal_rows, offset_n, shear_rows, offset_t, n)
+            target = _band_solve(band, rhs)
+            if not np.all(np.isfinite(target)):
+                return target, g, s, solves, chords, False, False, False
+            g_target = g0 + _along(columns, normal_rows, target)
+            s_target = s0 + _along(columns, shear_rows, target)
+            _pieces(
+                lam_n, p, tension, lam_t, ps, bound, g_target, s_target, other_normal, other_shear
+            )
+            if _same_pieces(ps, bound, normal, shear, other_normal, other_shear):
+                return target, g_target, s_target, solves, chords, True, False, True
+            direction = target - d
+            have_pieces = False
+            dg, ds = g_target - g, s_target - s
+        kp = _block_product(blocks, direction)
+        a = direction @ (kd - forces)
+        curvature = direction @ kp
+        alpha, _ = _line_minimum_kernel(
+            lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, a, curvature
+        )
+        d = d + alpha * direction
+        g = g + alpha * dg
+        s = s + alpha * ds
+        kd = kd + alpha * kp
+        residual, scale = _residual(
+            forces, columns, normal_rows, shear_rows, lam_n, p, tension, lam_t, ps, bound,
+            kd, g, s,
+        )  # fmt: skip
+        size = np.linalg.norm(residual)
+        if size <= RELATIVE_TOLERANCE * scale:
+            return d, g, s, solves, chords, True, False, True
+        shrunk = (not have_gradient) or size <= rate * np.linalg.norm(gradient)
+        if shrunk:
+            gradient, have_gradient = residual, True
+        else:
+            have_gradient = False
+    return d, g, s, solves, chords, False, have_gradient, True
+
+
+def _potential(
+    blocks, forces, columns, normal_rows, shear_rows, g0, s0, lam_n, p, tension, lam_t, ps,
+    bound, d,
+):  # fmt: skip
+    """Π(D) = ½ DᵀK₀D − F₀ᵀD + Σ φn(g) + Σ φt(s) (:func:`dda.solve.newton.potential`)."""
+    value = d @ (0.5 * _block_product(blocks, d) - forces)
+    g = g0 + _along(columns, normal_rows, d)
+    s = s0 + _along(columns, shear_rows, d)
+    return _add_contact_energy(value, lam_n, p, tension, lam_t, ps, bound, g, s)
+
+
+_along = kernel(_along) or _along
+_gather = kernel(_gather) or _gather
+_block_product = kernel(_block_product) or _block_product
+_band_factorise = kernel(_band_factorise) or _band_factorise
+_band_solve = kernel(_band_solve) or _band_solve
+_residual = kernel(_residual) or _residual
+band_minimise_kernel = kernel(_band_minimise)
+potential_kernel = kernel(_potential)

@@ -1,0 +1,218 @@
+"""A mid-size step's linear systems in band storage, its Newton passes compiled.
+
+Above :data:`dda.solve.dense_system.DENSE_ROWS` unknowns a dense K costs n³/3 flops a
+factorisation; on the sparse block pattern each linear solve costs a few dozen
+Python and numpy calls. In between, with the blocks numbered so that blocks in
+contact lie close (reverse Cuthill–McKee on the graph of the blocks in contact),
+K is a band matrix of half-width kd = 6 × (the largest distance between two blocks
+in contact) + 5, factorised by LAPACK in about n kd² flops, and a whole Newton pass
+is one compiled call (:mod:`dda.solve.band_newton`). A step takes this path where
+the kernels are used, no rock bolt couples blocks, and the factorisation's n kd²
+stays within :data:`BAND_WORK` (measured, docs/benchmarks.md).
+
+The numbering is kept from step to step (:class:`BandOrder`) while the blocks are
+the same and it keeps kd within :data:`REORDER_GROWTH` of the kd it was made with.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.jit import compiled
+from dda.solve import band_newton
+from dda.solve.dense_system import contact_columns
+from dda.solve.newton import NewtonResult
+
+# largest n kd² of a band system (a factorisation's flops): above it the sparse path
+BAND_WORK = 1.5e7
+# a numbering is made again when the band it gives has grown past this factor of its own
+REORDER_GROWTH = 1.5
+
+
+def band_order(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:
+    """Position of each block in the band numbering (−1 for fixed blocks): reverse
+    Cuthill–McKee on the graph of the free blocks in contact."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    free = np.flatnonzero(~fixed)
+    rank = np.full(len(fixed), -1, np.int64)
+    rank[free] = np.arange(len(free))
+    i, j = rank[block_a], rank[block_b]
+    both = (i >= 0) & (j >= 0)
+    i, j = i[both], j[both]
+    n = len(free)
+    graph = coo_matrix(
+        (np.ones(2 * len(i) + n), (np.r_[i, j, np.arange(n)], np.r_[j, i, np.arange(n)])),
+        shape=(n, n),
+    ).tocsr()
+    order = reverse_cuthill_mckee(graph, symmetric_mode=True)
+    position = np.full(len(fixed), -1, np.int64)
+    position[free[order]] = np.arange(n)
+    return position
+
+
+def half_width(columns: np.ndarray) -> int:
+    """kd: the largest |row − column| of K's entries (the 6 × 6 blocks, the contacts')."""
+    big = np.iinfo(np.int64).max
+    low = np.where(columns >= 0, columns, big).min(axis=1, initial=big)
+    high = columns.max(axis=1, initial=-1)
+    moving = high >= 0
+    spread = (high[moving] - low[moving]).max(initial=0)
+    return int(max(spread, 5))
+
+
+class BandOrder:
+    """The band numbering kept between steps (module docstring)."""
+
+    def __init__(self) -> None:
+        self.position: np.ndarray | None = None
+        self._fixed: np.ndarray | None = None
+        self._made_width = 0
+
+    def columns(self, fixed, block_a, block_b) -> tuple[np.ndarray, np.ndarray, int]:
+        """(position of each block, the contacts' (m, 12) columns, kd) in the kept
+        numbering, or in a new one when the blocks changed or the band grew."""
+        if self.position is not None and np.array_equal(fixed, self._fixed):
+            columns = contact_columns(self.position, block_a, block_b)
+            width = half_width(columns)
+            if width <= REORDER_GROWTH * self._made_width:
+                return self.position, columns, width
+        self.position, self._fixed = band_order(fixed, block_a, block_b), fixed.copy()
+        columns = contact_columns(self.position, block_a, block_b)
+        self._made_width = half_width(columns)
+        return self.position, columns, self._made_width
+
+
+def band_pays(free_rows: int, width: int) -> bool:
+    """Whether a system of ``free_rows`` unknowns and half-width ``width`` is held in band."""
+    return free_rows * width * width <= BAND_WORK
+
+
+class BandSystem:
+    """One step's systems in band storage; :meth:`minimise` is one compiled call.
+
+    Built only where the band kernel is used (:func:`dda.jit.compiled`). Should LAPACK
+    find a K not positive definite (round-off), the pass and the rest of the step go to
+    the ``fallback`` system that ``make_fallback()`` returns (the sparse one), which
+    the numpy Newton drives.
+    """
+
+    def __init__(
+        self, fixed, block_a, block_b, rows, base_k, base_f, friction, numbering, timer,
+        make_fallback,
+    ) -> None:  # fmt: skip
+        position, self.columns, width = numbering
+        self.order = np.argsort(np.where(position >= 0, position, len(position)))
+        self.order = self.order[: int(np.count_nonzero(position >= 0))]
+        self.blocks = np.ascontiguousarray(base_k[self.order], np.float64)
+        self.forces = np.ascontiguousarray(base_f[self.order].ravel(), np.float64)
+        self.normal_rows = np.ascontiguousarray(np.concatenate([rows.normal_i, rows.normal_j], 1))
+        self.shear_rows = np.ascontiguousarray(np.concatenate([rows.shear_i, rows.shear_j], 1))
+        self.g0, self.s0 = rows.penetration, rows.slip
+        self.size, self.width = len(self.forces), width
+        self.friction, self.timer, self.shape = friction, timer, base_f.shape
+        self._make_fallback = make_fallback
+        self._fallback = None
+        self._own_factorisations = 0
+        m = len(self.g0)
+        self._state = (
+            np.zeros((self.size, width + 1)),
+            np.full((2, m), np.nan),
+            np.zeros(3, np.int64),
+        )
+
+    @property
+    def factorisations(self) -> int:
+        fallback = 0 if self._fallback is None else self._fallback.factorisations
+        return self._own_factorisations + fallback
+
+    def minimise(
+        self,
+        terms,
+        start: np.ndarray,
+        max_solves: int,
+        first_pieces=None,
+        max_steps: int | None = None,
+        rate: float = 0.5,
+        chord_first: bool = False,
+        start_gaps=None,
+        conjugate: bool = False,
+    ) -> NewtonResult | None:
+        """:func:`dda.solve.newton.minimise` in one compiled call, or None once LAPACK
+        found K not positive definite (the numpy Newton on the fallback system)."""
+        if self._fallback is not None:
+            return None
+        band, springs, state = self._state
+        x = np.ascontiguousarray(start[self.order].ravel(), np.float64)
+        if start_gaps is None:
+            start_gaps = self._gaps(x)
+        first = first_pieces is not None
+        none = np.zeros(len(self.g0), np.int8)
+        normal_piece, shear_piece = first_pieces if first else (none, none)
+        t = terms
+        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
+        made = int(state[band_newton.FACTORISATIONS])
+        arguments = (
+            self.blocks, self.forces, self.columns, self.normal_rows, self.shear_rows,
+            self.g0, self.s0, *(np.ascontiguousarray(a, np.float64) for a in data),
+            self.friction, x, *(np.ascontiguousarray(a, np.float64) for a in start_gaps),
+            np.ascontiguousarray(normal_piece, np.int8),
+            np.ascontiguousarray(shear_piece, np.int8), first,
+            int(max_solves), -1 if max_steps is None else int(max_steps), float(rate),
+            bool(chord_first), bool(conjugate), band, springs, state,
+        )  # fmt: skip
+        with self.timer("solve"):  # K, its factorisations and solves: the "solve" stage
+            out = band_newton.band_minimise_kernel(*arguments)
+        self._own_factorisations += int(state[band_newton.FACTORISATIONS]) - made
+        if state[band_newton.FAILED]:
+            self._fallback = self._make_fallback()
+            return None
+        d, g, s, solves, chords, converged, chord_next, finite = out
+        full = self._spread(d)
+        if not finite:
+            return NewtonResult(full, solves, False, chords)
+        return NewtonResult(full, solves, converged, chords, chord_next, (g, s))
+
+    def better_start(self, terms, candidates: list[np.ndarray]) -> np.ndarray:
+        """:func:`dda.solve.newton.better_start` by the compiled Π."""
+        t = terms
+        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
+        data = tuple(np.ascontiguousarray(a, np.float64) for a in data)
+        fixed = (self.blocks, self.forces, self.columns, self.normal_rows, self.shear_rows)
+        values = [
+            band_newton.potential_kernel(
+                *fixed, self.g0, self.s0, *data, np.ascontiguousarray(d[self.order].ravel())
+            )
+            for d in candidates
+        ]
+        return candidates[int(np.argmin(values))]
+
+    def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
+        """The fallback system's solve (the numpy Newton's, after a failed pass)."""
+        return self._fallback(kn, ks, offset_n, offset_t)
+
+    def chord(self, residual: np.ndarray) -> np.ndarray | None:
+        return None if self._fallback is None else self._fallback.chord(residual)
+
+    def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
+        return self._fallback.contact_vector(normal, shear)
+
+    def _gaps(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(g, s) at the unknowns ``x`` (band order)."""
+        padded = np.append(x, 0.0)  # column −1: a fixed block's, no motion
+        moved = padded[self.columns]
+        return (
+            self.g0 + np.sum(self.normal_rows * moved, axis=1),
+            self.s0 + np.sum(self.shear_rows * moved, axis=1),
+        )
+
+    def _spread(self, x: np.ndarray) -> np.ndarray:
+        out = np.zeros(self.shape)
+        out[self.order] = x.reshape(-1, 6)
+        return out
+
+
+def band_kernels() -> bool:
+    """Whether the band path's kernels are used in this run."""
+    return compiled(band_newton.band_minimise_kernel)
