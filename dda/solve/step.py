@@ -1,10 +1,11 @@
 """One time step: the minimiser of the step's incremental potential (:mod:`dda.solve.newton`).
 
-A step's linear systems take one of three forms by size: dense up to
-:data:`~dda.solve.dense_system.DENSE_ROWS` unknowns (:mod:`dda.solve.dense_system`),
-in band storage where the kernels are used and the band is narrow enough
-(:mod:`dda.solve.band_system`) — on both, where the kernels are used, a Newton pass
-is one compiled call — and otherwise on a sparse block pattern, as follows.
+A step's linear systems take one of three forms: in band storage where the kernels
+are used, no rock bolt couples blocks and the band is narrow enough
+(:mod:`dda.solve.band_system`; a Newton pass is one compiled call), else dense up to
+:data:`~dda.solve.dense_system.DENSE_ROWS` unknowns (:mod:`dda.solve.dense_system`;
+its pass compiled too where the kernels are used: the bolted models), else on a
+sparse block pattern, as follows.
 K changes only when contact pieces or penalties change; between such
 changes every Newton iteration, augmentation (AL) or friction update re-uses
 K and only rebuilds F. Across steps, while the contact graph is the same, the block
@@ -394,8 +395,8 @@ class _PieceSystem:
 
 
 def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, fallback):
-    """The step's :class:`BandSystem` where it pays (mid-size, no rock bolts, the kernels
-    used, the band narrow enough: :mod:`dda.solve.band_system`), else None."""
+    """The step's :class:`BandSystem` where it pays (the kernels used, no rock bolts, the
+    band narrow enough: :mod:`dda.solve.band_system`), else None."""
     free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
     if not (cache.solver.automatic and couplings is None and band_pays(free_rows_count, 5)):
         return None
@@ -499,17 +500,19 @@ def solve_step(
             cache, blocks, contacts, rows, base_k, base_f, law, neighbours, timer, couplings
         )
 
-    if cache.solver.automatic and free_rows_count <= DENSE_ROWS:  # small: held dense
+    def numpy_system():  # the systems of the numpy Newton: dense when small, else sparse
+        if not (cache.solver.automatic and free_rows_count <= DENSE_ROWS):
+            return sparse_system()
         with timer("assembly"):
-            system = DenseSystem(
+            return DenseSystem(
                 blocks.fixed, contacts.block_a, contacts.block_b, rows, base_k, base_f,
                 law.friction, couplings, timer,
             )  # fmt: skip
-    else:
-        system = _band_system(
-            cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, sparse_system
-        )
-        system = system or sparse_system()
+
+    system = _band_system(
+        cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, numpy_system
+    )
+    system = system or numpy_system()
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations

@@ -187,12 +187,12 @@ def test_the_mid_systems_chord_rules_keep_stick_slip_and_energy(dt, monkeypatch)
     "path", ["dense, compiled Newton", "band, compiled Newton", "block pattern, numpy Newton"]
 )
 def test_both_solve_paths_of_a_small_model_keep_stick_slip_and_energy(path, dt, monkeypatch):
-    """The incline's systems (6 unknowns) are held dense and, with 500 steps or more, each
-    Newton pass is one compiled call (dda.solve.dense_newton): the rows above run that
-    path. The band systems with their compiled Newton (dda.solve.band_newton; DENSE_ROWS
-    = 0) and the block pattern with the numpy Newton (band systems off too) are the other
-    paths a step can take: on each the block at 0.95 stands within its settlement, at 1.05
-    it slides as the closed form (1e-4 relative), and none gains energy."""
+    """With 500 steps or more the incline's systems (6 unknowns) are held in band storage,
+    each Newton pass one compiled call (dda.solve.band_newton): the rows above run that
+    path. Held dense with their compiled Newton (dda.solve.dense_newton; the path of a
+    bolted model) and on the block pattern with the numpy Newton are the other paths a
+    step can take: on each the block at 0.95 stands within its settlement, at 1.05 it
+    slides as the closed form (1e-4 relative), and none gains energy."""
     import dda.solve.band_system
     import dda.solve.step
     from dda.solve.band_system import BandSystem
@@ -208,10 +208,10 @@ def test_both_solve_paths_of_a_small_model_keep_stick_slip_and_energy(path, dt, 
             return result
 
         monkeypatch.setattr(system, "minimise", counted)
-    if path != "dense, compiled Newton":
-        monkeypatch.setattr(dda.solve.step, "DENSE_ROWS", 0)
-    if path == "block pattern, numpy Newton":
+    if path != "band, compiled Newton":
         monkeypatch.setattr(dda.solve.band_system, "BAND_WORK", 0.0)
+    if path == "block pattern, numpy Newton":
+        monkeypatch.setattr(dda.solve.step, "DENSE_ROWS", 0)
     stand = dda.simulate(incline_scene(0.95, dt, 0.5))
     slide = dda.simulate(incline_scene(1.05, dt, 1.0))
     numba = dda.jit.numba_enabled()
