@@ -52,7 +52,7 @@ MODULES = [
     "dda/solve/update.py",
     "dda/solve/assembly.py",
     "dda/solve/dense_system.py",
-    "dda/solve/dense_newton.py",
+    "dda/solve/contact_pieces.py",
     "dda/solve/line_step.py",
     "dda/solve/band_newton.py",
     "dda/solve/band_system.py",
@@ -84,8 +84,8 @@ TESTS = {
     # the springs between two blocks (rock bolts) are assembled here too
     "dda/solve/assembly.py": ["tests/test_assembly.py", "tests/test_bolts.py"],
     # the compiled Newton pieces against their numpy oracles
-    "dda/solve/dense_system.py": ["tests/test_dense_system.py", "tests/test_dense_newton.py"],
-    "dda/solve/dense_newton.py": ["tests/test_dense_newton.py"],
+    "dda/solve/dense_system.py": ["tests/test_dense_system.py"],
+    "dda/solve/contact_pieces.py": ["tests/test_band_newton.py"],
     "dda/solve/line_step.py": ["tests/test_line_step.py"],
     "dda/solve/band_newton.py": ["tests/test_band_newton.py"],
     "dda/solve/band_system.py": ["tests/test_band_newton.py"],

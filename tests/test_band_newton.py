@@ -9,22 +9,62 @@ import pytest
 
 from dda import jit
 from dda.bench.scenes import wall_scene
+from dda.contact.potential import ContactTerms
+from dda.effects.pair_springs import PairSprings
 from dda.solve import band_newton
 from dda.solve.band_system import BandOrder, BandSystem, band_order, half_width
 from dda.solve.dense_system import DenseSystem, contact_columns
 from dda.solve.newton import BlockQuadratic, ContactGeometry, minimise, potential
 from dda.solve.timing import StageTimer
-from tests.test_dense_newton import random_problem
+from tests.test_dense_system import Rows
 
 pytestmark = pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
 
 
-def band_twin(fixed, a, b, rows, base_k, base_f, make_fallback=None):
-    """The problem's BandSystem in the band numbering of its contacts."""
-    numbering = BandOrder().columns(fixed, a, b)
-    return BandSystem(
-        fixed, a, b, rows, base_k, base_f, True, numbering, StageTimer(), make_fallback
+def random_problem(seed: int, n: int = 8, m: int = 24):
+    """Blocks (two fixed) under loads, contacts with penalties, some tension, friction
+    bounds of which some are zero, some augmented (λn, λt ≠ 0)."""
+    rng = np.random.default_rng(seed)
+    fixed = np.zeros(n, bool)
+    fixed[[0, 3]] = True
+    a = rng.integers(0, n, m)
+    b = (a + rng.integers(1, n, m)) % n
+    base = rng.normal(size=(n, 6, 6))
+    base_k = np.einsum("nij,nkj->nik", base, base) + 2.0 * np.eye(6)
+    base_f = rng.normal(scale=3.0, size=(n, 6))
+    base_f[fixed] = 0.0
+    rows = Rows(rng, m)
+    penalty = rng.uniform(5.0, 50.0, m)
+    terms = ContactTerms(
+        normal_base=rng.uniform(0.0, 1.0, m) * (rng.uniform(size=m) > 0.5),
+        penalty=penalty,
+        tension=rng.uniform(0.0, 0.5, m) * (rng.uniform(size=m) > 0.7),
+        shear_base=rng.uniform(-0.2, 0.2, m),
+        shear_penalty=0.5 * penalty,
+        bound=rng.uniform(0.0, 1.5, m) * (rng.uniform(size=m) > 0.2),
     )
+    return fixed, a, b, rows, base_k, base_f, terms
+
+
+def random_bolts(seed: int, fixed: np.ndarray, count: int = 5) -> PairSprings:
+    """``count`` springs between random blocks (one end fixed for some)."""
+    rng = np.random.default_rng(100 + seed)
+    n = len(fixed)
+    i = rng.integers(0, n, count)
+    j = (i + rng.integers(1, n, count)) % n
+    rows = rng.normal(size=(2, count, 6))
+    return PairSprings(i, j, rows[0], rows[1], rng.uniform(1.0, 20.0, count))
+
+
+def band_twin(fixed, a, b, rows, base_k, base_f, make_fallback=None, couplings=None):
+    """The problem's BandSystem in the band numbering of its contacts (and bolts)."""
+    none = np.zeros(0, np.int64)
+    bolts = (none, none) if couplings is None else (couplings.block_i, couplings.block_j)
+    numbering = BandOrder().columns(fixed, a, b, *bolts)
+    return BandSystem(
+        fixed, a, b, rows, base_k, base_f, True, couplings, numbering, StageTimer(),
+        make_fallback,
+    )  # fmt: skip
 
 
 def test_a_chain_of_blocks_is_numbered_along_the_chain():
@@ -43,6 +83,7 @@ def test_a_chain_of_blocks_is_numbered_along_the_chain():
     assert half_width(contact_columns(given, a, b)) > 11
 
 
+@pytest.mark.parametrize("bolted", [False, True])
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize(
     "rule",
@@ -53,16 +94,18 @@ def test_a_chain_of_blocks_is_numbered_along_the_chain():
         {"rate": 0.99, "conjugate": True, "max_steps": 4},
     ],
 )
-def test_the_band_kernel_takes_the_numpy_iterations(seed, rule):
+def test_the_band_kernel_takes_the_numpy_iterations(seed, rule, bolted):
     """The same Newton iterations, chord steps, outcome, factorisations and minimiser (to
     rounding) as the numpy Newton on the dense systems, from D = 0 and, on lower friction
-    bounds, from the last pass's end with the kept factorisation (chord first)."""
+    bounds, from the last pass's end with the kept factorisation (chord first); with
+    and without springs between blocks (rock bolts) in K₀."""
     fixed, a, b, rows, base_k, base_f, terms = random_problem(seed, n=12, m=40)
+    bolts = random_bolts(seed, fixed) if bolted else None
     geometry = ContactGeometry(rows, a, b)
-    quadratic = BlockQuadratic(base_k, base_f, ~fixed)
+    quadratic = BlockQuadratic(base_k, base_f, ~fixed, bolts)
     start = np.zeros_like(base_f)
-    kernel_system = band_twin(fixed, a, b, rows, base_k, base_f)
-    numpy_system = DenseSystem(fixed, a, b, rows, base_k, base_f, True, None, StageTimer())
+    kernel_system = band_twin(fixed, a, b, rows, base_k, base_f, couplings=bolts)
+    numpy_system = DenseSystem(fixed, a, b, rows, base_k, base_f, True, bolts, StageTimer())
     for chord_first in (False, True):
         with jit.run_work(1, 1e9):
             compiled = kernel_system.minimise(terms, start, 12, chord_first=chord_first, **rule)
@@ -86,13 +129,15 @@ def test_the_band_kernel_takes_the_numpy_iterations(seed, rule):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_the_band_potential_is_the_numpy_one(seed):
-    """Π at random steps D: the compiled value to rounding, and the same better start."""
+    """Π at random steps D (contacts elastic and at their limit, stuck and slipping, ps = 0
+    for some; bolts): the compiled value to rounding, and the same better start."""
     fixed, a, b, rows, base_k, base_f, terms = random_problem(seed, n=12, m=40)
     no_shear = np.random.default_rng(seed).uniform(size=len(a)) > 0.8
     terms = dataclasses.replace(terms, shear_penalty=np.where(no_shear, 0.0, terms.shear_penalty))
-    system = band_twin(fixed, a, b, rows, base_k, base_f)
+    bolts = random_bolts(seed, fixed)
+    system = band_twin(fixed, a, b, rows, base_k, base_f, couplings=bolts)
     geometry = ContactGeometry(rows, a, b)
-    quadratic = BlockQuadratic(base_k, base_f, ~fixed)
+    quadratic = BlockQuadratic(base_k, base_f, ~fixed, bolts)
     rng = np.random.default_rng(10 + seed)
     steps = [
         np.where(fixed[:, None], 0.0, rng.normal(scale=0.1, size=base_f.shape)) for _ in (0, 1)
@@ -102,7 +147,7 @@ def test_the_band_potential_is_the_numpy_one(seed):
     with jit.run_work(1, 1e9):
         for d in steps:
             value = band_newton.potential_kernel(
-                system.blocks, system.forces, system.columns, system.normal_rows,
+                system.blocks, *system.bolts, system.forces, system.columns, system.normal_rows,
                 system.shear_rows, system.g0, system.s0, *arrays,
                 np.ascontiguousarray(d[system.order].ravel()),
             )  # fmt: skip
@@ -129,7 +174,8 @@ def test_a_k_not_positive_definite_goes_to_the_fallback_system():
     assert np.all(np.isfinite(d)) and system.factorisations == 1
 
 
-def test_a_run_on_band_systems_is_the_numpy_newtons_run(monkeypatch):
+@pytest.mark.parametrize("method", ["penalty", "augmented-lagrangian"])
+def test_a_run_on_band_systems_is_the_numpy_newtons_run(monkeypatch, method):
     """The 8 x 8 wall (384 unknowns) as a long run takes it, every step in band storage,
     against the numpy Newton on the same systems held dense: over the first 4 steps the
     same linear solves and factorisations and vertices to 1e-9 m; over 40 steps within
@@ -149,7 +195,7 @@ def test_a_run_on_band_systems_is_the_numpy_newtons_run(monkeypatch):
 
     def run(steps):
         with jit.run_work(65, 10_000):
-            result = dda.simulate(dda.load_scene(wall_scene(8, steps=steps)))
+            result = dda.simulate(dda.load_scene(wall_scene(8, method=method, steps=steps)))
         return np.concatenate(result.final.vertices), result.summary
 
     runs = [run(4), run(40)]

@@ -9,8 +9,7 @@ import pytest
 
 import dda
 import dda.solve.step as step_module
-from dda import jit
-from dda.solve import dense_system
+from dda.solve import band_system, dense_system
 from dda.solve.dense_system import DenseSystem
 from dda.solve.timing import StageTimer
 
@@ -62,15 +61,11 @@ def explicit_system(fixed, a, b, rows, base_k, base_f, springs, offsets):
     return k[np.ix_(free, free)], f[free]
 
 
-@pytest.mark.parametrize("compiled", [True, False])
-def test_dense_system_solves_the_assembled_equations(compiled):
+def test_dense_system_solves_the_assembled_equations():
     fixed, a, b, rows, base_k, base_f, springs, offsets = random_system(3)
     k, f = explicit_system(fixed, a, b, rows, base_k, base_f, springs, offsets)
     system = DenseSystem(fixed, a, b, rows, base_k, base_f, True, None, StageTimer())
-    if compiled and not jit.numba_enabled():
-        pytest.skip("numba is not in use")
-    with jit.run_work(1, 1e9 if compiled else 1):
-        d = system(springs[0], springs[1], offsets[0], offsets[1])
+    d = system(springs[0], springs[1], offsets[0], offsets[1])
     expected = np.linalg.solve(k, f)
     np.testing.assert_allclose(d[~fixed].ravel(), expected, rtol=1e-10, atol=1e-12)
     assert np.all(d[fixed] == 0.0)
@@ -110,7 +105,8 @@ def final_state(name: str) -> tuple[np.ndarray, np.ndarray, dict]:
 def test_a_run_with_dense_systems_is_the_sparse_run(monkeypatch, name):
     """Shipped cases of a few blocks (contacts opening, sliding; a bolt; water; the
     augmented Lagrangian): the dense systems give the sparse path's run, vertices to
-    1e-9 of the model's size."""
+    1e-9 of the model's size (band systems off: the paths of the numpy Newton)."""
+    monkeypatch.setattr(band_system, "BAND_WORK", 0.0)
     dense, dense_stress, dense_summary = final_state(name)
     monkeypatch.setattr(step_module, "DENSE_ROWS", 0)  # every system on its block pattern
     sparse, sparse_stress, sparse_summary = final_state(name)
@@ -125,14 +121,3 @@ def test_a_run_with_dense_systems_is_the_sparse_run(monkeypatch, name):
 def test_the_threshold_is_below_where_dense_stops_paying():
     """Dense Cholesky costs n³/3: the threshold stays where it was measured to pay."""
     assert 150 <= dense_system.DENSE_ROWS <= 240
-
-
-@pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
-def test_the_compiled_set_up_is_the_numpy_one():
-    fixed, a, b, rows, base_k, *_ = random_system(11)
-    position = np.where(fixed, -1, np.cumsum(~fixed) - 1).astype(np.int64)
-    gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
-    numpy_made = dense_system._set_up(position, a, b, *gradients, base_k[~fixed])
-    made = dense_system._set_up_kernel(position, a, b, *gradients, base_k[~fixed])
-    for mine, theirs in zip(made, numpy_made, strict=True):
-        np.testing.assert_array_equal(mine, theirs)

@@ -13,7 +13,7 @@ from dda.solve import band_system, line_step, newton
 from dda.solve.dense_system import DenseSystem
 from dda.solve.newton import BlockQuadratic, ContactGeometry, minimise
 from dda.solve.timing import StageTimer
-from tests.test_dense_newton import random_problem
+from tests.test_band_newton import random_problem
 
 pytestmark = pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
 

@@ -178,6 +178,33 @@ def test_the_solver_choice_is_pardiso_superlu_or_unset(monkeypatch):
     assert linsolve.solver_choice() == ""
 
 
+def test_dda_systems_sparse_puts_every_step_on_the_block_pattern(monkeypatch):
+    """DDA_SYSTEMS=sparse: a 3 x 3 wall with the kernels (band systems otherwise) takes
+    the sparse block pattern at every step; a misspelt value stops the run at once."""
+    import dda.solve.step as step
+    from dda.solve.band_system import BandSystem
+
+    made = {"band": 0, "sparse": 0}
+    for kind, system in (("band", BandSystem), ("sparse", step._PieceSystem)):
+        build = system.__init__
+
+        def counted(self, *args, _build=build, _kind=kind, **kwargs):
+            _build(self, *args, **kwargs)
+            made[_kind] += 1
+
+        monkeypatch.setattr(system, "__init__", counted)
+    monkeypatch.setenv("DDA_SYSTEMS", " Sparse ")
+    assert linsolve.systems_choice() == "sparse"
+    with dda.jit.run_work(10, 1e6):
+        dda.simulate(wall_scene(3, steps=5))
+    assert made == {"band": 0, "sparse": 5}
+    monkeypatch.setenv("DDA_SYSTEMS", "dense")
+    with pytest.raises(ValueError, match="DDA_SYSTEMS='dense'"):
+        dda.simulate(wall_scene(2, steps=1))
+    monkeypatch.delenv("DDA_SYSTEMS")
+    assert linsolve.systems_choice() == ""
+
+
 def test_pardiso_allows_more_pcg_iterations_on_large_systems(monkeypatch):
     """A factorisation grows faster with the size than a back-substitution: the
     budget is 3 PCG iterations below PARDISO_LARGE rows, 5 from there on."""

@@ -143,6 +143,27 @@ def test_motion_expectations_are_checked_on_loading(tmp_path):
         load_expectation(path)
 
 
+def test_a_case_runs_under_its_own_engine_settings(tmp_path, monkeypatch):
+    """``[environment]``: the engine's DDA_* variables, set while the case runs and
+    restored after; any other variable is refused on loading."""
+    import os
+
+    from verify.cases import engine_environment
+    from verify.expect import ExpectationError, load_expectation
+
+    path = tmp_path / "x.expect.toml"
+    path.write_text('quick = true\n[environment]\nPATH = "/tmp"\n')
+    with pytest.raises(ExpectationError, match="environment.PATH"):
+        load_expectation(path)
+    path.write_text('quick = true\n[environment]\nDDA_SYSTEMS = "sparse"\n')
+    assert load_expectation(path).environment == {"DDA_SYSTEMS": "sparse"}
+    monkeypatch.setenv("DDA_THREADS", "1")
+    monkeypatch.delenv("DDA_SYSTEMS", raising=False)
+    with engine_environment({"DDA_SYSTEMS": "sparse", "DDA_THREADS": "2"}):
+        assert (os.environ["DDA_SYSTEMS"], os.environ["DDA_THREADS"]) == ("sparse", "2")
+    assert "DDA_SYSTEMS" not in os.environ and os.environ["DDA_THREADS"] == "1"
+
+
 def test_drop_reference_is_the_rigid_block_on_its_springs():
     scene = scene_of("drop")
     drop = drop_of(scene, free_block(scene))

@@ -8,6 +8,9 @@ as package data (:mod:`dda.cases`), so an installed suite finds them too.
 from __future__ import annotations
 
 import logging
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from pathlib import Path
@@ -132,6 +135,21 @@ def fem_options(expectation: Expectation) -> FemOptions:
     return FemOptions(order=expectation.fem_order, size=expectation.fem_size)
 
 
+@contextmanager
+def engine_environment(variables: dict[str, str]) -> Iterator[None]:
+    """The case's ``DDA_*`` variables set while it runs, the previous values restored."""
+    before = {name: os.environ.get(name) for name in variables}
+    os.environ.update(variables)
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
 def run_case(case: Case, reference=None) -> CaseResult:
     """Run one case: DDA, FEM, comparison and verdicts.
 
@@ -140,7 +158,8 @@ def run_case(case: Case, reference=None) -> CaseResult:
     can be kept while the engine changes.
     """
     scene, expectation = case.load()
-    result = RUNNERS[expectation.kind](scene, expectation, fem_options(expectation), reference)
+    with engine_environment(expectation.environment):
+        result = RUNNERS[expectation.kind](scene, expectation, fem_options(expectation), reference)
     unknown = set(expectation.offsets) - {r.key for r in result.rows}
     if unknown:
         raise ExpectationError(

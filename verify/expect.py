@@ -9,6 +9,8 @@ its expectations live beside it::
     component = "syy"           # stress component shown in the picture
     frame = 0.0                 # degrees: components along a rotated frame
     catches = ["young_x0.97"]   # engine faults this case must catch (tests)
+    [environment]               # optional: the engine's DDA_* settings for this case
+    DDA_SYSTEMS = "sparse"      # (set while the case runs, restored after)
     [fem]
     size = 0.125                # element size (default: mesh.default_size)
     order = 2
@@ -142,6 +144,15 @@ class Expectation:
     reference: str = ""
     time_steps: tuple[int, ...] = (1,)
     order: float | None = None
+    environment: dict[str, str] = field(default_factory=dict)  # DDA_* variables of the run
+
+
+def _environment(path: Path, table: dict) -> dict[str, str]:
+    """The ``[environment]`` table: the engine's own ``DDA_*`` variables only."""
+    for name in table:
+        if not name.startswith("DDA_"):
+            raise ExpectationError(f"{path}: environment.{name}: only DDA_* variables")
+    return {name: str(value) for name, value in table.items()}
 
 
 def _check(path: Path, name: str, table: dict) -> Check:
@@ -206,4 +217,5 @@ def load_expectation(path: Path) -> Expectation:
         reference=str(raw.get("reference", "")),
         time_steps=tuple(int(f) for f in raw.get("time_steps", (1,))),
         order=None if raw.get("order") is None else float(raw["order"]),
+        environment=_environment(path, raw.get("environment", {})),
     )

@@ -80,11 +80,12 @@ def _main(argv: list[str]) -> int:
     if not hasattr(args, "func"):
         parser.print_help(sys.stderr)
         return EXIT_INPUT
-    from dda.solve.linsolve import solver_choice, solver_threads
+    from dda.solve.linsolve import solver_choice, solver_threads, systems_choice
 
     try:
         solver_threads()
         solver_choice()
+        systems_choice()
     except ValueError as exc:
         print(f"dda: {exc}", file=sys.stderr)
         return EXIT_INPUT

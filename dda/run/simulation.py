@@ -29,7 +29,12 @@ from dda.run.stages import apply_due_stages, set_strengths
 from dda.scene import Scene
 from dda.scene.limits import check_run_size
 from dda.scene.local_frame import local_origin, translated
-from dda.solve.linsolve import single_threaded_blas, solver_choice, solver_threads
+from dda.solve.linsolve import (
+    single_threaded_blas,
+    solver_choice,
+    solver_threads,
+    systems_choice,
+)
 from dda.solve.step import StepSolution, solve_step
 from dda.solve.timing import StageTimer
 from dda.solve.update import apply_step, vertex_displacements
@@ -314,8 +319,9 @@ def run(
     SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
     """
     start = wallclock.perf_counter()
-    solver_threads()  # a bad DDA_THREADS or DDA_SOLVER stops the run before it starts
+    solver_threads()  # a bad DDA_THREADS, DDA_SOLVER or DDA_SYSTEMS stops the run at once
     solver_choice()
+    systems_choice()
     check_run_size(scene)
     origin = local_origin(scene)  # far from (0, 0): compute about the model's centre
     local = translated(scene, origin)

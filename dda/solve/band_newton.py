@@ -1,21 +1,26 @@
-"""Compiled Newton on a mid-size step's potential, K in band storage: one kernel call a pass.
+"""Compiled Newton on a step's potential, K in band storage: one kernel call a pass.
 
-The iteration of :mod:`dda.solve.dense_newton` (the same pieces, springs, offsets,
-exact line search, chord steps and convergence test) on systems too large to hold
-dense: the contacts' gradients are kept as twelve entries a contact (the columns of
-its two blocks' unknowns, ``columns``, and the rows r = [r_i r_j]), K₀ as its 6 × 6
-blocks, and
+The iteration of :func:`dda.solve.newton.minimise` — the same pieces, springs and
+offsets (:mod:`dda.solve.contact_pieces`), the exact line search (the compiled twin
+of :func:`dda.contact.line_search.line_minimum`), chord steps with the kept
+factorisation while each leaves at most ``rate`` of ‖∇Π‖ (conjugated when asked), the
+same convergence test — in one call. The contacts' gradients are kept as twelve
+entries a contact (the columns of its two blocks' unknowns, ``columns``, and the
+rows r = [r_i r_j]), K₀ as its 6 × 6 blocks plus the springs between blocks (rock
+bolts, twelve entries each too), and
 
-    K = K₀ + Σ k_n r_n r_nᵀ + Σ k_s r_s r_sᵀ
+    K = K₀ + Σ k_n r_n r_nᵀ + Σ k_s r_s r_sᵀ,   K₀ = blockdiag + Σ k_b r_b r_bᵀ,
+    ∇Π(D) = K₀ D − F₀ + G_nᵀ N(g) + G_sᵀ F(s),   g = g₀ + G_n D,  s = s₀ + G_s D,
 
 in LAPACK's lower band storage, AB[j, i − j] = K[i, j] for j ≤ i ≤ j + kd, factorised
 by ``dpbtrf`` (about n kd² flops) and solved by ``dpbtrs`` (4 n kd). The blocks are
-numbered so that every contact's two blocks lie close (:mod:`dda.solve.band_system`):
-kd is 6 × the largest distance in that numbering between two blocks in contact, plus 5.
-Products with G and Gᵀ are O(12 m), with K₀ O(36 n).
+numbered so that every contact's (and bolt's) two blocks lie close
+(:mod:`dda.solve.band_system`): kd is 6 × the largest distance in that numbering
+between two blocks in contact, plus 5. Products with G and Gᵀ are O(12 m), with K₀
+O(36 n).
 
 The numpy :func:`dda.solve.newton.minimise` is its oracle (tests/test_band_newton.py):
-the two agree to rounding.
+the two agree to rounding (sums in another order).
 """
 
 from __future__ import annotations
@@ -24,9 +29,7 @@ import numpy as np
 
 from dda.contact.line_search import _line_minimum_kernel
 from dda.jit import Lapack, kernel
-from dda.solve.dense_newton import (
-    FACTORISATIONS,
-    HAS_FACTOR,
+from dda.solve.contact_pieces import (
     _add_contact_energy,
     _offsets,
     _pieces,
@@ -36,9 +39,10 @@ from dda.solve.dense_newton import (
 )
 from dda.solve.newton import RELATIVE_TOLERANCE
 
-# ``state[FAILED]`` = 1: LAPACK found K not positive definite (the caller's numpy Newton
-# takes the pass over)
-FAILED = 2
+# what the kernel's ``state`` array holds: whether ``band`` is a factorisation of the K of
+# ``springs``, the factorisations the kernel made, and 1 once LAPACK found a K not
+# positive definite (the caller's numpy Newton takes the pass over)
+HAS_FACTOR, FACTORISATIONS, FAILED = 0, 1, 2
 
 _dpbtrf = Lapack("dpbtrf", 6)  # UPLO, N, KD, AB, LDAB, INFO
 _dpbtrs = Lapack("dpbtrs", 9)  # UPLO, N, KD, NRHS, AB, LDAB, B, LDB, INFO
@@ -70,8 +74,8 @@ def _gather(columns, normal_rows, normal, shear_rows, shear, size):
     return out
 
 
-def _block_product(blocks, x):
-    """K₀ x for K₀ block-diagonal with the (n, 6, 6) ``blocks``."""
+def _base_product(blocks, bolt_columns, bolt_rows, bolt_k, x):
+    """K₀ x: the (n, 6, 6) diagonal ``blocks`` and the bolts' springs k_b r_b r_bᵀ."""
     out = np.empty(x.shape[0])
     for b in range(blocks.shape[0]):
         for r in range(6):
@@ -79,17 +83,17 @@ def _block_product(blocks, x):
             for q in range(6):
                 total += blocks[b, r, q] * x[6 * b + q]
             out[6 * b + r] = total
+    if bolt_k.shape[0]:
+        stretch = bolt_k * _along(bolt_columns, bolt_rows, x)
+        out += _gather(
+            bolt_columns, bolt_rows, stretch, bolt_rows, np.zeros_like(stretch), x.shape[0]
+        )
     return out
 
 
-def _band_factorise(blocks, columns, normal_rows, shear_rows, kn, ks, band):
-    """``band`` = L of K = K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ = L Lᵀ in lower band
-    storage; returns LAPACK's INFO (0: done; > 0: K is not positive definite)."""
-    band[:, :] = 0.0
-    for b in range(blocks.shape[0]):
-        for q in range(6):
-            for r in range(q, 6):
-                band[6 * b + q, r - q] = blocks[b, r, q]
+def _add_band_springs(band, columns, normal_rows, kn, shear_rows, ks):
+    """``band`` (lower band storage) += Σ kn r_n r_nᵀ + ks r_s r_sᵀ over the 12 columns
+    of each spring (−1: a fixed block's, left out)."""
     for c in range(columns.shape[0]):
         for a in range(12):
             row = columns[c, a]
@@ -100,6 +104,20 @@ def _band_factorise(blocks, columns, normal_rows, shear_rows, kn, ks, band):
                 column = columns[c, e]
                 if 0 <= column <= row:
                     band[column, row - column] += an * normal_rows[c, e] + as_ * shear_rows[c, e]
+
+
+def _band_factorise(
+    blocks, bolt_columns, bolt_rows, bolt_k, columns, normal_rows, shear_rows, kn, ks, band
+):
+    """``band`` = L of K = K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ = L Lᵀ in lower band
+    storage; returns LAPACK's INFO (0: done; > 0: K is not positive definite)."""
+    band[:, :] = 0.0
+    for b in range(blocks.shape[0]):
+        for q in range(6):
+            for r in range(q, 6):
+                band[6 * b + q, r - q] = blocks[b, r, q]
+    _add_band_springs(band, bolt_columns, bolt_rows, bolt_k, bolt_rows, np.zeros_like(bolt_k))
+    _add_band_springs(band, columns, normal_rows, kn, shear_rows, ks)
     n, width = band.shape
     numbers = np.array([n, width - 1, width, 0], np.int32)  # N, KD, LDAB, INFO
     uplo = np.array([_LOWER], np.uint8)
@@ -140,7 +158,7 @@ def _residual(
 
 
 def _band_minimise(
-    blocks, forces, columns, normal_rows, shear_rows,
+    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows,
     g0, s0, lam_n, p, tension, lam_t, ps, bound, friction,
     d, g, s, first_normal, first_shear, have_first,
     max_solves, max_steps, rate, chord_first, conjugate,
@@ -156,7 +174,7 @@ def _band_minimise(
     """
     m, n = g.shape[0], d.shape[0]
     d, g, s = d.copy(), g.copy(), s.copy()
-    kd = _block_product(blocks, d)
+    kd = _base_product(blocks, bolt_columns, bolt_rows, bolt_k, d)
     normal, shear = np.empty(m, np.int8), np.empty(m, np.int8)
     other_normal, other_shear = np.empty(m, np.int8), np.empty(m, np.int8)
     have_pieces = have_first
@@ -198,7 +216,10 @@ def _band_minimise(
             _springs(p, ps, friction, normal, shear, kn, ks)
             if not (state[HAS_FACTOR] == 1 and _same_springs(kn, ks, springs)):
                 state[HAS_FACTOR] = 0
-                info = _band_factorise(blocks, columns, normal_rows, shear_rows, kn, ks, band)
+                info = _band_factorise(
+                    blocks, bolt_columns, bolt_rows, bolt_k, columns, normal_rows, shear_rows,
+                    kn, ks, band,
+                )  # fmt: skip
                 if info != 0:
                     state[FAILED] = 1
                     return d, g, s, solves, chords, False, False, False
@@ -223,7 +244,7 @@ def _band_minimise(
             direction = target - d
             have_pieces = False
             dg, ds = g_target - g, s_target - s
-        kp = _block_product(blocks, direction)
+        kp = _base_product(blocks, bolt_columns, bolt_rows, bolt_k, direction)
         a = direction @ (kd - forces)
         curvature = direction @ kp
         alpha, _ = _line_minimum_kernel(
@@ -249,11 +270,11 @@ def _band_minimise(
 
 
 def _potential(
-    blocks, forces, columns, normal_rows, shear_rows, g0, s0, lam_n, p, tension, lam_t, ps,
-    bound, d,
+    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows,
+    g0, s0, lam_n, p, tension, lam_t, ps, bound, d,
 ):  # fmt: skip
     """Π(D) = ½ DᵀK₀D − F₀ᵀD + Σ φn(g) + Σ φt(s) (:func:`dda.solve.newton.potential`)."""
-    value = d @ (0.5 * _block_product(blocks, d) - forces)
+    value = d @ (0.5 * _base_product(blocks, bolt_columns, bolt_rows, bolt_k, d) - forces)
     g = g0 + _along(columns, normal_rows, d)
     s = s0 + _along(columns, shear_rows, d)
     return _add_contact_energy(value, lam_n, p, tension, lam_t, ps, bound, g, s)
@@ -261,7 +282,8 @@ def _potential(
 
 _along = kernel(_along) or _along
 _gather = kernel(_gather) or _gather
-_block_product = kernel(_block_product) or _block_product
+_base_product = kernel(_base_product) or _base_product
+_add_band_springs = kernel(_add_band_springs) or _add_band_springs
 _band_factorise = kernel(_band_factorise) or _band_factorise
 _band_solve = kernel(_band_solve) or _band_solve
 _residual = kernel(_residual) or _residual

@@ -1,14 +1,13 @@
-"""A mid-size step's linear systems in band storage, its Newton passes compiled.
+"""A step's linear systems in band storage, its Newton passes compiled.
 
-Above :data:`dda.solve.dense_system.DENSE_ROWS` unknowns a dense K costs n³/3 flops a
-factorisation; on the sparse block pattern each linear solve costs a few dozen
-Python and numpy calls. In between, with the blocks numbered so that blocks in
-contact lie close (reverse Cuthill–McKee on the graph of the blocks in contact),
-K is a band matrix of half-width kd = 6 × (the largest distance between two blocks
-in contact) + 5, factorised by LAPACK in about n kd² flops, and a whole Newton pass
-is one compiled call (:mod:`dda.solve.band_newton`). A step takes this path where
-the kernels are used, no rock bolt couples blocks, and the factorisation's n kd²
-stays within :data:`BAND_WORK` (measured, docs/benchmarks.md).
+On the sparse block pattern each linear solve costs a few dozen Python and numpy
+calls; a dense K costs n³/3 flops a factorisation. With the blocks numbered so that
+blocks in contact (or joined by a rock bolt) lie close — reverse Cuthill–McKee on
+their graph — K is a band matrix of half-width kd = 6 × (the largest distance
+between two such blocks) + 5, factorised by LAPACK in about n kd² flops, and a whole
+Newton pass is one compiled call (:mod:`dda.solve.band_newton`). A step takes this
+path where the kernels are used and the factorisation's n kd² stays within
+:data:`BAND_WORK` (measured, docs/benchmarks.md), whatever the model's size.
 
 The numbering is kept from step to step (:class:`BandOrder`) while the blocks are
 the same and it keeps kd within :data:`REORDER_GROWTH` of the kd it was made with.
@@ -31,7 +30,7 @@ REORDER_GROWTH = 1.5
 
 def band_order(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:
     """Position of each block in the band numbering (−1 for fixed blocks): reverse
-    Cuthill–McKee on the graph of the free blocks in contact."""
+    Cuthill–McKee on the graph of the free blocks paired in (block_a, block_b)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 
@@ -53,7 +52,8 @@ def band_order(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> n
 
 
 def half_width(columns: np.ndarray) -> int:
-    """kd: the largest |row − column| of K's entries (the 6 × 6 blocks, the contacts')."""
+    """kd: the largest |row − column| of K's entries (the 6 × 6 blocks, the springs' of
+    the (m, 12) ``columns``)."""
     big = np.iinfo(np.int64).max
     low = np.where(columns >= 0, columns, big).min(axis=1, initial=big)
     high = columns.max(axis=1, initial=-1)
@@ -70,18 +70,25 @@ class BandOrder:
         self._fixed: np.ndarray | None = None
         self._made_width = 0
 
-    def columns(self, fixed, block_a, block_b) -> tuple[np.ndarray, np.ndarray, int]:
-        """(position of each block, the contacts' (m, 12) columns, kd) in the kept
-        numbering, or in a new one when the blocks changed or the band grew."""
-        if self.position is not None and np.array_equal(fixed, self._fixed):
-            columns = contact_columns(self.position, block_a, block_b)
-            width = half_width(columns)
-            if width <= REORDER_GROWTH * self._made_width:
-                return self.position, columns, width
-        self.position, self._fixed = band_order(fixed, block_a, block_b), fixed.copy()
-        columns = contact_columns(self.position, block_a, block_b)
+    def columns(self, fixed, block_a, block_b, bolt_i, bolt_j):
+        """(position of each block, the contacts' (m, 12) and the bolts' (q, 12) columns,
+        kd) in the kept numbering, or in a new one when the blocks changed or the band
+        grew."""
+        if self.position is None or not np.array_equal(fixed, self._fixed):
+            self._renumber(fixed, block_a, block_b, bolt_i, bolt_j)
+        contacts = contact_columns(self.position, block_a, block_b)
+        bolts = contact_columns(self.position, bolt_i, bolt_j)
+        width = max(half_width(contacts), half_width(bolts))
+        if width > REORDER_GROWTH * self._made_width:
+            self._renumber(fixed, block_a, block_b, bolt_i, bolt_j)
+            return self.columns(fixed, block_a, block_b, bolt_i, bolt_j)
+        return self.position, contacts, bolts, width
+
+    def _renumber(self, fixed, block_a, block_b, bolt_i, bolt_j) -> None:
+        pairs = (np.concatenate([block_a, bolt_i]), np.concatenate([block_b, bolt_j]))
+        self.position, self._fixed = band_order(fixed, *pairs), fixed.copy()
+        columns = contact_columns(self.position, *pairs)
         self._made_width = half_width(columns)
-        return self.position, columns, self._made_width
 
 
 def band_pays(free_rows: int, width: int) -> bool:
@@ -92,17 +99,18 @@ def band_pays(free_rows: int, width: int) -> bool:
 class BandSystem:
     """One step's systems in band storage; :meth:`minimise` is one compiled call.
 
-    Built only where the band kernel is used (:func:`dda.jit.compiled`). Should LAPACK
-    find a K not positive definite (round-off), the pass and the rest of the step go to
-    the ``fallback`` system that ``make_fallback()`` returns (the sparse one), which
-    the numpy Newton drives.
+    Built only where the band kernel is used (:func:`dda.jit.compiled`). ``couplings``:
+    the springs between blocks (rock bolts), or None. Should LAPACK find a K not
+    positive definite (round-off), the pass and the rest of the step go to the
+    ``fallback`` system that ``make_fallback()`` returns (dense or sparse), which the
+    numpy Newton drives.
     """
 
     def __init__(
-        self, fixed, block_a, block_b, rows, base_k, base_f, friction, numbering, timer,
-        make_fallback,
+        self, fixed, block_a, block_b, rows, base_k, base_f, friction, couplings, numbering,
+        timer, make_fallback,
     ) -> None:  # fmt: skip
-        position, self.columns, width = numbering
+        position, self.columns, bolt_columns, width = numbering
         self.order = np.argsort(np.where(position >= 0, position, len(position)))
         self.order = self.order[: int(np.count_nonzero(position >= 0))]
         self.blocks = np.ascontiguousarray(base_k[self.order], np.float64)
@@ -110,6 +118,7 @@ class BandSystem:
         self.normal_rows = np.ascontiguousarray(np.concatenate([rows.normal_i, rows.normal_j], 1))
         self.shear_rows = np.ascontiguousarray(np.concatenate([rows.shear_i, rows.shear_j], 1))
         self.g0, self.s0 = rows.penetration, rows.slip
+        self.bolts = _bolts(couplings, bolt_columns)
         self.size, self.width = len(self.forces), width
         self.friction, self.timer, self.shape = friction, timer, base_f.shape
         self._make_fallback = make_fallback
@@ -154,7 +163,8 @@ class BandSystem:
         data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
         made = int(state[band_newton.FACTORISATIONS])
         arguments = (
-            self.blocks, self.forces, self.columns, self.normal_rows, self.shear_rows,
+            self.blocks, *self.bolts, self.forces, self.columns, self.normal_rows,
+            self.shear_rows,
             self.g0, self.s0, *(np.ascontiguousarray(a, np.float64) for a in data),
             self.friction, x, *(np.ascontiguousarray(a, np.float64) for a in start_gaps),
             np.ascontiguousarray(normal_piece, np.int8),
@@ -179,7 +189,10 @@ class BandSystem:
         t = terms
         data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
         data = tuple(np.ascontiguousarray(a, np.float64) for a in data)
-        fixed = (self.blocks, self.forces, self.columns, self.normal_rows, self.shear_rows)
+        fixed = (
+            self.blocks, *self.bolts, self.forces, self.columns, self.normal_rows,
+            self.shear_rows,
+        )  # fmt: skip
         values = [
             band_newton.potential_kernel(
                 *fixed, self.g0, self.s0, *data, np.ascontiguousarray(d[self.order].ravel())
@@ -211,6 +224,15 @@ class BandSystem:
         out = np.zeros(self.shape)
         out[self.order] = x.reshape(-1, 6)
         return out
+
+
+def _bolts(couplings, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bolts' (q, 12) columns, (q, 12) rows [r_i r_j] and (q,) stiffnesses."""
+    if couplings is None or not len(couplings):
+        return np.full((0, 12), -1, np.int64), np.zeros((0, 12)), np.zeros(0)
+    rows = np.concatenate([couplings.row_i, couplings.row_j], axis=1)
+    stiffness = np.asarray(couplings.stiffness, np.float64)
+    return columns, np.ascontiguousarray(rows, np.float64), stiffness
 
 
 def band_kernels() -> bool:

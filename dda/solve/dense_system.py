@@ -11,15 +11,15 @@ once a step (the rows are fixed within it), and each Newton iteration's
 (normal and shear springs k and offsets N₀, T₀ of the contacts' pieces; k_b the
 springs between blocks, rock bolts) is a few calls — F by two products with
 G; K by scattering each contact's 12 x 12 outer product [r_i r_j]ᵀ[r_i r_j]
-into its two blocks' 12 unknowns (a compiled kernel; its numpy twin one
-weighted ``bincount``) — factorised by dense Cholesky
+into its two blocks' 12 unknowns (one weighted ``bincount``) — factorised by dense Cholesky
 (:class:`dda.solve.linsolve.DenseFactorisation`) whenever the springs change,
-with no pattern, ordering or scatter indices to keep. Where the kernels are
-used, a whole Newton pass on these systems is one call
-(:mod:`dda.solve.dense_newton`). It has the interface of the
-sparse system in :mod:`dda.solve.step` (a :data:`dda.solve.newton.PieceSolver`,
-a chord solver and the contacts' force vector), and solves the same equations
-to round-off.
+with no pattern, ordering or scatter indices to keep. These are the systems of the
+numpy Newton on a small model (a run too short for the kernels; where the kernels
+are used a step's systems are in band storage, :mod:`dda.solve.band_system`, and
+these are the fallback should LAPACK's banded Cholesky refuse K). It has the
+interface of the sparse system in :mod:`dda.solve.step` (a
+:data:`dda.solve.newton.PieceSolver`, a chord solver and the contacts' force vector),
+and solves the same equations to round-off.
 """
 
 from __future__ import annotations
@@ -27,10 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from dda.effects.pair_springs import PairSprings
-from dda.jit import compiled, kernel
-from dda.solve import dense_newton
 from dda.solve.linsolve import DenseFactorisation
-from dda.solve.newton import NewtonResult
 
 # largest number of free unknowns held dense (30 blocks): a dense Cholesky costs n³/3
 # flops against the block pattern's set-up; CPU a step, interleaved runs: the 5x5 wall
@@ -92,36 +89,6 @@ def _set_up(position, block_a, block_b, normal_i, normal_j, shear_i, shear_j, ba
     return normal, shear, columns, normal_rows, shear_rows, _block_diagonal(base_free)
 
 
-def _set_up_compiled(position, block_a, block_b, normal_i, normal_j, shear_i, shear_j, base_free):
-    """Compiled :func:`_set_up`: one pass over the contacts and the blocks."""
-    m, size = block_a.shape[0], 6 * base_free.shape[0]
-    normal, shear = np.zeros((m, size)), np.zeros((m, size))
-    columns = np.full((m, 12), -1, np.int64)
-    normal_rows, shear_rows = np.empty((m, 12)), np.empty((m, 12))
-    for c in range(m):
-        for r in range(6):
-            normal_rows[c, r], normal_rows[c, 6 + r] = normal_i[c, r], normal_j[c, r]
-            shear_rows[c, r], shear_rows[c, 6 + r] = shear_i[c, r], shear_j[c, r]
-        for side in range(2):
-            at = position[block_a[c]] if side == 0 else position[block_b[c]]
-            if at < 0:
-                continue
-            for r in range(6):
-                column = 6 * at + r
-                columns[c, 6 * side + r] = column
-                normal[c, column] += normal_rows[c, 6 * side + r]
-                shear[c, column] += shear_rows[c, 6 * side + r]
-    base = np.zeros((size, size))
-    for i in range(base_free.shape[0]):
-        for r in range(6):
-            for q in range(6):
-                base[6 * i + r, 6 * i + q] = base_free[i, r, q]
-    return normal, shear, columns, normal_rows, shear_rows, base
-
-
-_set_up_kernel = kernel(_set_up_compiled)
-
-
 class DenseSystem:
     """The linear systems of one step, K(springs) D = F(offsets), held dense.
 
@@ -153,16 +120,7 @@ class DenseSystem:
         position[self.free] = np.arange(len(self.free))
         count = len(self.free)
         gradients = (rows.normal_i, rows.normal_j, rows.shear_i, rows.shear_j)
-        if compiled(_set_up_kernel):
-            made = _set_up_kernel(
-                position,
-                np.asarray(block_a, np.int64),
-                np.asarray(block_b, np.int64),
-                *(np.ascontiguousarray(x, np.float64) for x in gradients),
-                np.ascontiguousarray(base_k[self.free], np.float64),
-            )
-        else:
-            made = _set_up(position, block_a, block_b, *gradients, base_k[self.free])
+        made = _set_up(position, block_a, block_b, *gradients, base_k[self.free])
         self.normal, self.shear, self.columns, self.normal_rows, self.shear_rows = made[:5]
         self.base = made[5]
         self.size = 6 * count
@@ -183,8 +141,6 @@ class DenseSystem:
         self._springs: tuple[np.ndarray, np.ndarray] | None = None
         self._outer: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.g0, self.s0 = rows.penetration, rows.slip
-        self._kernel_state: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._kernel_failed = False
 
     def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
         """D (n, 6) minimising the quadratic of springs (kn, ks) and offsets (N₀, T₀)."""
@@ -202,87 +158,18 @@ class DenseSystem:
         with self.timer("solve"):
             return self._spread(self._factor.solve(rhs))
 
-    def minimise(
-        self,
-        terms,
-        start: np.ndarray,
-        max_solves: int,
-        first_pieces=None,
-        max_steps: int | None = None,
-        rate: float = 0.5,
-        chord_first: bool = False,
-        start_gaps=None,
-        conjugate: bool = False,
-    ) -> NewtonResult | None:
-        """:func:`dda.solve.newton.minimise` of this step's potential in one compiled call
-        (:mod:`dda.solve.dense_newton`), or None where the kernels are not used (or K was
-        found not positive definite: the caller's numpy Newton, with its LU fallback)."""
-        if self._kernel_failed or not compiled(dense_newton.dense_minimise_kernel):
-            return None
-        if self._kernel_state is None:
-            m, n = len(self.g0), self.size
-            self._kernel_state = (np.zeros((n, n)), np.full((2, m), np.nan), np.zeros(2, np.int64))
-        lower, springs, state = self._kernel_state
-        x = np.ascontiguousarray(start[self.free].ravel())
-        if start_gaps is None:
-            start_gaps = (self.g0 + self.normal @ x, self.s0 + self.shear @ x)
-        first = first_pieces is not None
-        none = np.zeros(len(self.g0), np.int8)
-        normal_piece, shear_piece = first_pieces if first else (none, none)
-        t = terms
-        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
-        made = int(state[dense_newton.FACTORISATIONS])
-        arguments = (
-            self.base, self.forces, self.normal, self.shear, self.columns,
-            self.normal_rows, self.shear_rows, self.g0, self.s0,
-            *(np.ascontiguousarray(a, np.float64) for a in data), self.friction,
-            x, *(np.ascontiguousarray(a, np.float64) for a in start_gaps),
-            np.ascontiguousarray(normal_piece, np.int8),
-            np.ascontiguousarray(shear_piece, np.int8), first,
-            int(max_solves), -1 if max_steps is None else int(max_steps), float(rate),
-            bool(chord_first), bool(conjugate), lower, springs, state,
-        )  # fmt: skip
-        try:  # K, its factorisations and solves in one call: the "solve" stage
-            with self.timer("solve"):
-                out = dense_newton.dense_minimise_kernel(*arguments)
-        except np.linalg.LinAlgError:  # K not positive definite by round-off
-            self.factorisations += int(state[dense_newton.FACTORISATIONS]) - made
-            self._kernel_state = None
-            self._kernel_failed = True
-            return None
-        self.factorisations += int(state[dense_newton.FACTORISATIONS]) - made
-        d, g, s, solves, chords, converged, chord_next, finite = out
-        full = self._spread(d)
-        if not finite:
-            return NewtonResult(full, solves, False, chords)
-        return NewtonResult(full, solves, converged, chords, chord_next, (g, s))
+    def minimise(self, *args, **kwargs) -> None:
+        """None: a pass on the dense systems is :func:`dda.solve.newton.minimise`'s."""
+        return None
 
-    def better_start(self, terms, candidates: list[np.ndarray]) -> np.ndarray | None:
-        """:func:`dda.solve.newton.better_start` by the compiled Π, or None where the
-        kernels are not used."""
-        if not compiled(dense_newton.potential_kernel):
-            return None
-        t = terms
-        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
-        data = tuple(np.ascontiguousarray(a, np.float64) for a in data)
-        matrices = (self.base, self.forces, self.normal, self.shear, self.g0, self.s0)
-        values = [
-            dense_newton.potential_kernel(
-                *matrices, *data, np.ascontiguousarray(d[self.free].ravel())
-            )
-            for d in candidates
-        ]
-        return candidates[int(np.argmin(values))]
+    def better_start(self, terms, candidates) -> None:
+        """None: :func:`dda.solve.newton.better_start` chooses the start."""
+        return None
 
     def _stiffness(self, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ (dense)."""
         k = self.base.copy()
-        if compiled(dense_newton.add_springs_kernel):
-            dense_newton.add_springs_kernel(
-                k, self.columns, self.normal_rows, kn, self.shear_rows, ks
-            )
-            return k
-        if self._outer is None:  # the numpy twin: one weighted bincount
+        if self._outer is None:  # one weighted bincount
             self._outer = (
                 outer_targets(self.columns, self.size),
                 outer_products(self.normal_rows),

@@ -60,6 +60,9 @@ DENSE_MAX_SIZE = 240
 PARDISO_MIN_SIZE = DENSE_MAX_SIZE + 1
 THREADS_VARIABLE = "DDA_THREADS"  # environment variable: threads of PARDISO's factorisation
 SOLVER_VARIABLE, SOLVER_CHOICES = "DDA_SOLVER", ("pardiso", "superlu")  # sparse solver
+# every step's systems on the sparse block pattern (the path of large models), whatever
+# the model's size: for checking that path on small models (dda verify's cradle_sparse)
+SYSTEMS_VARIABLE, SYSTEMS_CHOICES = "DDA_SYSTEMS", ("sparse",)
 
 
 class Factorisation:
@@ -293,6 +296,22 @@ def solver_choice() -> str:
     if text and text not in SOLVER_CHOICES:
         choices = " or ".join(SOLVER_CHOICES)
         raise ValueError(f"{SOLVER_VARIABLE}={text!r}: expected {choices} (or leave it unset)")
+    return text
+
+
+def systems_choice() -> str:
+    """``DDA_SYSTEMS`` (lower case, blanks stripped): "sparse" (every step's systems on
+    the sparse block pattern) or "" (not set: band, dense or sparse by the step's size
+    and whether the kernels are used, :mod:`dda.solve.step`).
+
+    Raises
+    ------
+    ValueError : any other value
+    """
+    text = os.environ.get(SYSTEMS_VARIABLE, "").strip().lower()
+    if text and text not in SYSTEMS_CHOICES:
+        choices = " or ".join(SYSTEMS_CHOICES)
+        raise ValueError(f"{SYSTEMS_VARIABLE}={text!r}: expected {choices} (or leave it unset)")
     return text
 
 

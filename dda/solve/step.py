@@ -1,11 +1,10 @@
 """One time step: the minimiser of the step's incremental potential (:mod:`dda.solve.newton`).
 
 A step's linear systems take one of three forms: in band storage where the kernels
-are used, no rock bolt couples blocks and the band is narrow enough
-(:mod:`dda.solve.band_system`; a Newton pass is one compiled call), else dense up to
-:data:`~dda.solve.dense_system.DENSE_ROWS` unknowns (:mod:`dda.solve.dense_system`;
-its pass compiled too where the kernels are used: the bolted models), else on a
-sparse block pattern, as follows.
+are used and the band is narrow enough (:mod:`dda.solve.band_system`; a Newton pass
+is one compiled call), else, for the numpy Newton, dense up to
+:data:`~dda.solve.dense_system.DENSE_ROWS` unknowns (:mod:`dda.solve.dense_system`),
+else on a sparse block pattern (every step, with ``DDA_SYSTEMS=sparse``), as follows.
 K changes only when contact pieces or penalties change; between such
 changes every Newton iteration, augmentation (AL) or friction update re-uses
 K and only rebuilds F. Across steps, while the contact graph is the same, the block
@@ -47,7 +46,7 @@ from dda.solve.assembly import (
 )
 from dda.solve.band_system import BandOrder, BandSystem, band_kernels, band_pays
 from dda.solve.dense_system import DENSE_ROWS, DenseSystem
-from dda.solve.linsolve import ReusingSolver, block_ordering
+from dda.solve.linsolve import ReusingSolver, block_ordering, systems_choice
 from dda.solve.low_rank import StepUpdates
 from dda.solve.newton import (
     BlockQuadratic,
@@ -395,20 +394,20 @@ class _PieceSystem:
 
 
 def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, fallback):
-    """The step's :class:`BandSystem` where it pays (the kernels used, no rock bolts, the
-    band narrow enough: :mod:`dda.solve.band_system`), else None."""
+    """The step's :class:`BandSystem` where it pays (the kernels used, the band narrow
+    enough: :mod:`dda.solve.band_system`), else None."""
     free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
-    if not (cache.solver.automatic and couplings is None and band_pays(free_rows_count, 5)):
+    if not (cache.solver.automatic and band_pays(free_rows_count, 5) and band_kernels()):
         return None
-    if not band_kernels():
-        return None
+    none = np.zeros(0, np.int64)
+    bolts = (none, none) if couplings is None else (couplings.block_i, couplings.block_j)
     with timer("assembly"):
-        numbering = cache.band.columns(blocks.fixed, contacts.block_a, contacts.block_b)
-        if not band_pays(free_rows_count, numbering[2]):
+        numbering = cache.band.columns(blocks.fixed, contacts.block_a, contacts.block_b, *bolts)
+        if not band_pays(free_rows_count, numbering[3]):
             return None
         return BandSystem(
             blocks.fixed, contacts.block_a, contacts.block_b, rows, base_k, base_f,
-            law.friction, numbering, timer, fallback,
+            law.friction, couplings, numbering, timer, fallback,
         )  # fmt: skip
 
 
@@ -509,10 +508,13 @@ def solve_step(
                 law.friction, couplings, timer,
             )  # fmt: skip
 
-    system = _band_system(
-        cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, numpy_system
-    )
-    system = system or numpy_system()
+    if systems_choice() == "sparse":  # DDA_SYSTEMS: the large models' path at every size
+        system = sparse_system()
+    else:
+        system = _band_system(
+            cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, numpy_system
+        )
+        system = system or numpy_system()
     quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
     geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations

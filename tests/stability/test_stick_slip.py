@@ -184,45 +184,38 @@ def test_the_mid_systems_chord_rules_keep_stick_slip_and_energy(dt, monkeypatch)
 
 @pytest.mark.parametrize("dt", [1e-3, pytest.param(1e-4, marks=pytest.mark.slow)])
 @pytest.mark.parametrize(
-    "path", ["dense, compiled Newton", "band, compiled Newton", "block pattern, numpy Newton"]
+    "path", ["band, compiled Newton", "dense, numpy Newton", "block pattern, numpy Newton"]
 )
-def test_both_solve_paths_of_a_small_model_keep_stick_slip_and_energy(path, dt, monkeypatch):
+def test_every_solve_path_of_a_small_model_keeps_stick_slip_and_energy(path, dt, monkeypatch):
     """With 500 steps or more the incline's systems (6 unknowns) are held in band storage,
     each Newton pass one compiled call (dda.solve.band_newton): the rows above run that
-    path. Held dense with their compiled Newton (dda.solve.dense_newton; the path of a
-    bolted model) and on the block pattern with the numpy Newton are the other paths a
-    step can take: on each the block at 0.95 stands within its settlement, at 1.05 it
-    slides as the closed form (1e-4 relative), and none gains energy."""
+    path. Held dense and on the block pattern, both with the numpy Newton, are the other
+    paths a step can take: on each the block at 0.95 stands within its settlement, at
+    1.05 it slides as the closed form (1e-4 relative), and none gains energy."""
     import dda.solve.band_system
     import dda.solve.step
     from dda.solve.band_system import BandSystem
-    from dda.solve.dense_system import DenseSystem
     from tests.stability.incline import largest_gain
 
-    passes = {DenseSystem: [], BandSystem: []}
-    for system in passes:
+    passes = []
+    compiled_pass = BandSystem.minimise
 
-        def counted(self, *args, _pass=system.minimise, _system=system, **kwargs):
-            result = _pass(self, *args, **kwargs)
-            passes[_system].append(result is not None)
-            return result
+    def counted(self, *args, **kwargs):
+        result = compiled_pass(self, *args, **kwargs)
+        passes.append(result is not None)
+        return result
 
-        monkeypatch.setattr(system, "minimise", counted)
+    monkeypatch.setattr(BandSystem, "minimise", counted)
     if path != "band, compiled Newton":
         monkeypatch.setattr(dda.solve.band_system, "BAND_WORK", 0.0)
     if path == "block pattern, numpy Newton":
         monkeypatch.setattr(dda.solve.step, "DENSE_ROWS", 0)
     stand = dda.simulate(incline_scene(0.95, dt, 0.5))
     slide = dda.simulate(incline_scene(1.05, dt, 1.0))
-    numba = dda.jit.numba_enabled()
-    if path == "dense, compiled Newton":
-        assert passes[DenseSystem] and all(passes[DenseSystem]) == numba
-        assert not passes[BandSystem]
-    elif path == "band, compiled Newton":
-        assert bool(passes[BandSystem]) == numba and all(passes[BandSystem])
-        assert not any(passes[DenseSystem])  # without numba: the numpy Newton, held dense
+    if path == "band, compiled Newton":
+        assert bool(passes) == dda.jit.numba_enabled() and all(passes)
     else:
-        assert not passes[DenseSystem] and not passes[BandSystem]
+        assert not passes
     assert_stands(stand, settlement(0.95, 10.0))
     assert slide.summary["cut_steps"] == 0
     assert abs(slid_error(slide, 1.05)) <= 1e-4
