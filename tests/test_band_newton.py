@@ -7,11 +7,12 @@ import dataclasses
 import numpy as np
 import pytest
 
+import dda
 from dda import jit
 from dda.bench.scenes import wall_scene
 from dda.contact.potential import ContactTerms
 from dda.effects.pair_springs import PairSprings
-from dda.solve import band_newton
+from dda.solve import band_newton, band_system
 from dda.solve.band_system import BandOrder, BandSystem, band_order, half_width
 from dda.solve.dense_system import DenseSystem, contact_columns
 from dda.solve.newton import BlockQuadratic, ContactGeometry, minimise, potential
@@ -217,3 +218,22 @@ def test_a_run_on_band_systems_is_the_numpy_newtons_run(monkeypatch, method):
         assert band_summary.get(count) == oracle_summary.get(count)
     np.testing.assert_allclose(runs[1][0], oracles[1][0], rtol=0, atol=1e-6)
     assert runs[1][1]["cut_steps"] == oracles[1][1]["cut_steps"] == 0
+
+
+def test_a_band_too_wide_to_pay_is_numbered_once(monkeypatch):
+    """The 20 x 20 wall (2,400 unknowns, kd 125: n kd² = 3.8e7 > BAND_WORK) runs on the
+    sparse systems; its band numbering is made at the first step and not again."""
+    numberings = []
+    made = band_system.band_order
+
+    def counted(*args):
+        numberings.append(1)
+        return made(*args)
+
+    monkeypatch.setattr(band_system, "band_order", counted)
+    built = []
+    monkeypatch.setattr(BandSystem, "__init__", lambda self, *a, **k: built.append(1))
+    with jit.run_work(401, 10_000):
+        result = dda.simulate(dda.load_scene(wall_scene(20, steps=3)))
+    assert result.summary["steps"] == 3
+    assert len(numberings) == 1 and not built

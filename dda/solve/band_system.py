@@ -84,6 +84,14 @@ class BandOrder:
             return self.columns(fixed, block_a, block_b, bolt_i, bolt_j)
         return self.position, contacts, bolts, width
 
+    def made_width(self, fixed: np.ndarray) -> int:
+        """kd of the kept numbering when it numbers these blocks, else 5 (a 6 × 6 block:
+        the narrowest band): a model whose numbering gave a band too wide to pay is not
+        numbered again at every step."""
+        if self.position is None or not np.array_equal(fixed, self._fixed):
+            return 5
+        return self._made_width
+
     def _renumber(self, fixed, block_a, block_b, bolt_i, bolt_j) -> None:
         pairs = (np.concatenate([block_a, bolt_i]), np.concatenate([block_b, bolt_j]))
         self.position, self._fixed = band_order(fixed, *pairs), fixed.copy()

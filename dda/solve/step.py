@@ -397,7 +397,8 @@ def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, 
     """The step's :class:`BandSystem` where it pays (the kernels used, the band narrow
     enough: :mod:`dda.solve.band_system`), else None."""
     free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
-    if not (cache.solver.automatic and band_pays(free_rows_count, 5) and band_kernels()):
+    narrowest = cache.band.made_width(blocks.fixed)
+    if not (cache.solver.automatic and band_pays(free_rows_count, narrowest) and band_kernels()):
         return None
     none = np.zeros(0, np.int64)
     bolts = (none, none) if couplings is None else (couplings.block_i, couplings.block_j)
