@@ -61,7 +61,7 @@ def band_twin(fixed, a, b, rows, base_k, base_f, make_fallback=None, couplings=N
     """The problem's BandSystem in the band numbering of its contacts (and bolts)."""
     none = np.zeros(0, np.int64)
     bolts = (none, none) if couplings is None else (couplings.block_i, couplings.block_j)
-    numbering = BandOrder().columns(fixed, a, b, *bolts)
+    numbering = BandOrder().numbering(fixed, a, b, *bolts)
     return BandSystem(
         fixed, a, b, rows, base_k, base_f, True, couplings, numbering, StageTimer(),
         make_fallback,

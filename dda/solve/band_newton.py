@@ -160,20 +160,26 @@ def _residual(
 def _band_minimise(
     blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows,
     g0, s0, lam_n, p, tension, lam_t, ps, bound, friction,
-    d, g, s, first_normal, first_shear, have_first,
+    d, g, s, have_gaps, first_normal, first_shear, have_first,
     max_solves, max_steps, rate, chord_first, conjugate,
     band, springs, state,
 ):  # fmt: skip
     """Compiled :func:`dda.solve.newton.minimise` on band systems (module docstring).
 
-    ``d``, ``g``, ``s``: the start and its gaps (copied, not changed); ``band``,
+    ``d``, ``g``, ``s``: the start and its gaps (copied, not changed; the gaps computed
+    here unless ``have_gaps``); ``band``,
     ``springs`` (2, m), ``state``: the kept factorisation, the springs of its K and
     :data:`HAS_FACTOR` / :data:`FACTORISATIONS` / :data:`FAILED` (updated in place).
     ``max_steps`` < 0: no limit. Returns (D, g, s, Newton iterations, chord steps,
     converged, chord_next, finite).
     """
-    m, n = g.shape[0], d.shape[0]
-    d, g, s = d.copy(), g.copy(), s.copy()
+    m, n = g0.shape[0], d.shape[0]
+    d = d.copy()
+    if have_gaps:
+        g, s = g.copy(), s.copy()
+    else:
+        g = g0 + _along(columns, normal_rows, d)
+        s = s0 + _along(columns, shear_rows, d)
     kd = _base_product(blocks, bolt_columns, bolt_rows, bolt_k, d)
     normal, shear = np.empty(m, np.int8), np.empty(m, np.int8)
     other_normal, other_shear = np.empty(m, np.int8), np.empty(m, np.int8)

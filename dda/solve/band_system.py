@@ -15,6 +15,8 @@ the same and it keeps kd within :data:`REORDER_GROWTH` of the kd it was made wit
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from dda.jit import compiled
@@ -28,12 +30,18 @@ BAND_WORK = 1.5e7
 REORDER_GROWTH = 1.5
 
 
-def band_order(fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray) -> np.ndarray:
+def band_order(
+    fixed: np.ndarray, block_a: np.ndarray, block_b: np.ndarray, *more: np.ndarray
+) -> np.ndarray:
     """Position of each block in the band numbering (−1 for fixed blocks): reverse
-    Cuthill–McKee on the graph of the free blocks paired in (block_a, block_b)."""
+    Cuthill–McKee on the graph of the free blocks paired in (block_a, block_b) and in
+    the further pairs (i, j) of ``more`` (bolts)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+    if more:
+        block_a = np.concatenate([block_a, *more[0::2]])
+        block_b = np.concatenate([block_b, *more[1::2]])
     free = np.flatnonzero(~fixed)
     rank = np.full(len(fixed), -1, np.int64)
     rank[free] = np.arange(len(free))
@@ -62,6 +70,16 @@ def half_width(columns: np.ndarray) -> int:
     return int(max(spread, 5))
 
 
+class Numbering(NamedTuple):
+    """A step's band numbering: each block's position (−1 fixed), the (m, 12) columns of
+    the contacts' and the (q, 12) of the bolts' unknowns, and the half-width kd."""
+
+    position: np.ndarray
+    contacts: np.ndarray
+    bolts: np.ndarray
+    width: int
+
+
 class BandOrder:
     """The band numbering kept between steps (module docstring)."""
 
@@ -70,33 +88,35 @@ class BandOrder:
         self._fixed: np.ndarray | None = None
         self._made_width = 0
 
-    def columns(self, fixed, block_a, block_b, bolt_i, bolt_j):
-        """(position of each block, the contacts' (m, 12) and the bolts' (q, 12) columns,
-        kd) in the kept numbering, or in a new one when the blocks changed or the band
-        grew."""
-        if self.position is None or not np.array_equal(fixed, self._fixed):
-            self._renumber(fixed, block_a, block_b, bolt_i, bolt_j)
-        contacts = contact_columns(self.position, block_a, block_b)
-        bolts = contact_columns(self.position, bolt_i, bolt_j)
-        width = max(half_width(contacts), half_width(bolts))
-        if width > REORDER_GROWTH * self._made_width:
-            self._renumber(fixed, block_a, block_b, bolt_i, bolt_j)
-            return self.columns(fixed, block_a, block_b, bolt_i, bolt_j)
-        return self.position, contacts, bolts, width
+    def numbering(self, fixed, block_a, block_b, bolt_i, bolt_j) -> Numbering:
+        """This step's :class:`Numbering` in the kept numbering, or in a new one when the
+        blocks changed or the band grew past :data:`REORDER_GROWTH` of its first kd."""
+        new = not self._numbers(fixed)
+        if new:
+            self._fixed = fixed.copy()
+            self.position = band_order(fixed, block_a, block_b, bolt_i, bolt_j)
+        made = self._in_order(block_a, block_b, bolt_i, bolt_j)
+        if not new and made.width > REORDER_GROWTH * self._made_width:
+            self.position = band_order(fixed, block_a, block_b, bolt_i, bolt_j)
+            made, new = self._in_order(block_a, block_b, bolt_i, bolt_j), True
+        if new:
+            self._made_width = made.width
+        return made
 
     def made_width(self, fixed: np.ndarray) -> int:
         """kd of the kept numbering when it numbers these blocks, else 5 (a 6 × 6 block:
         the narrowest band): a model whose numbering gave a band too wide to pay is not
         numbered again at every step."""
-        if self.position is None or not np.array_equal(fixed, self._fixed):
-            return 5
-        return self._made_width
+        return self._made_width if self._numbers(fixed) else 5
 
-    def _renumber(self, fixed, block_a, block_b, bolt_i, bolt_j) -> None:
-        pairs = (np.concatenate([block_a, bolt_i]), np.concatenate([block_b, bolt_j]))
-        self.position, self._fixed = band_order(fixed, *pairs), fixed.copy()
-        columns = contact_columns(self.position, *pairs)
-        self._made_width = half_width(columns)
+    def _numbers(self, fixed: np.ndarray) -> bool:
+        return self.position is not None and np.array_equal(fixed, self._fixed)
+
+    def _in_order(self, block_a, block_b, bolt_i, bolt_j) -> Numbering:
+        contacts = contact_columns(self.position, block_a, block_b)
+        bolts = contact_columns(self.position, bolt_i, bolt_j)
+        width = max(half_width(contacts), half_width(bolts))
+        return Numbering(self.position, contacts, bolts, width)
 
 
 def band_pays(free_rows: int, width: int) -> bool:
@@ -119,8 +139,8 @@ class BandSystem:
         timer, make_fallback,
     ) -> None:  # fmt: skip
         position, self.columns, bolt_columns, width = numbering
-        self.order = np.argsort(np.where(position >= 0, position, len(position)))
-        self.order = self.order[: int(np.count_nonzero(position >= 0))]
+        free = np.flatnonzero(position >= 0)
+        self.order = free[np.argsort(position[free])]  # the free blocks in band order
         self.blocks = np.ascontiguousarray(base_k[self.order], np.float64)
         self.forces = np.ascontiguousarray(base_f[self.order].ravel(), np.float64)
         self.normal_rows = np.ascontiguousarray(np.concatenate([rows.normal_i, rows.normal_j], 1))
@@ -162,19 +182,15 @@ class BandSystem:
             return None
         band, springs, state = self._state
         x = np.ascontiguousarray(start[self.order].ravel(), np.float64)
-        if start_gaps is None:
-            start_gaps = self._gaps(x)
+        have_gaps = start_gaps is not None
+        gaps = start_gaps if have_gaps else (self.g0, self.s0)  # else computed by the kernel
         first = first_pieces is not None
         none = np.zeros(len(self.g0), np.int8)
         normal_piece, shear_piece = first_pieces if first else (none, none)
-        t = terms
-        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
         made = int(state[band_newton.FACTORISATIONS])
         arguments = (
-            self.blocks, *self.bolts, self.forces, self.columns, self.normal_rows,
-            self.shear_rows,
-            self.g0, self.s0, *(np.ascontiguousarray(a, np.float64) for a in data),
-            self.friction, x, *(np.ascontiguousarray(a, np.float64) for a in start_gaps),
+            *self._fixed_arrays(), self.g0, self.s0, *_term_arrays(terms), self.friction,
+            x, *(np.ascontiguousarray(a, np.float64) for a in gaps), have_gaps,
             np.ascontiguousarray(normal_piece, np.int8),
             np.ascontiguousarray(shear_piece, np.int8), first,
             int(max_solves), -1 if max_steps is None else int(max_steps), float(rate),
@@ -194,17 +210,9 @@ class BandSystem:
 
     def better_start(self, terms, candidates: list[np.ndarray]) -> np.ndarray:
         """:func:`dda.solve.newton.better_start` by the compiled Π."""
-        t = terms
-        data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
-        data = tuple(np.ascontiguousarray(a, np.float64) for a in data)
-        fixed = (
-            self.blocks, *self.bolts, self.forces, self.columns, self.normal_rows,
-            self.shear_rows,
-        )  # fmt: skip
+        arrays = (*self._fixed_arrays(), self.g0, self.s0, *_term_arrays(terms))
         values = [
-            band_newton.potential_kernel(
-                *fixed, self.g0, self.s0, *data, np.ascontiguousarray(d[self.order].ravel())
-            )
+            band_newton.potential_kernel(*arrays, np.ascontiguousarray(d[self.order].ravel()))
             for d in candidates
         ]
         return candidates[int(np.argmin(values))]
@@ -219,19 +227,25 @@ class BandSystem:
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         return self._fallback.contact_vector(normal, shear)
 
-    def _gaps(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(g, s) at the unknowns ``x`` (band order)."""
-        padded = np.append(x, 0.0)  # column −1: a fixed block's, no motion
-        moved = padded[self.columns]
+    def _fixed_arrays(self) -> tuple:
+        """K₀'s blocks, the bolts, F₀ and the contacts' columns and rows: the kernels'
+        arguments that do not change within the step."""
         return (
-            self.g0 + np.sum(self.normal_rows * moved, axis=1),
-            self.s0 + np.sum(self.shear_rows * moved, axis=1),
-        )
+            self.blocks, *self.bolts, self.forces, self.columns, self.normal_rows,
+            self.shear_rows,
+        )  # fmt: skip
 
     def _spread(self, x: np.ndarray) -> np.ndarray:
         out = np.zeros(self.shape)
         out[self.order] = x.reshape(-1, 6)
         return out
+
+
+def _term_arrays(terms) -> tuple[np.ndarray, ...]:
+    """λn, p, T, λt, ps, b of the contact terms, contiguous float arrays for the kernels."""
+    t = terms
+    data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
+    return tuple(np.ascontiguousarray(a, np.float64) for a in data)
 
 
 def _bolts(couplings, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -28,6 +28,7 @@ import numpy as np
 
 from dda.effects.pair_springs import PairSprings
 from dda.solve.linsolve import DenseFactorisation
+from dda.solve.newton import NumpyPasses
 
 # largest number of free unknowns held dense (30 blocks): a dense Cholesky costs n³/3
 # flops against the block pattern's set-up; CPU a step, interleaved runs: the 5x5 wall
@@ -89,7 +90,7 @@ def _set_up(position, block_a, block_b, normal_i, normal_j, shear_i, shear_j, ba
     return normal, shear, columns, normal_rows, shear_rows, _block_diagonal(base_free)
 
 
-class DenseSystem:
+class DenseSystem(NumpyPasses):
     """The linear systems of one step, K(springs) D = F(offsets), held dense.
 
     Parameters
@@ -157,14 +158,6 @@ class DenseSystem:
             rhs = self.forces - offset_n @ self.normal - offset_t @ self.shear
         with self.timer("solve"):
             return self._spread(self._factor.solve(rhs))
-
-    def minimise(self, *args, **kwargs) -> None:
-        """None: a pass on the dense systems is :func:`dda.solve.newton.minimise`'s."""
-        return None
-
-    def better_start(self, terms, candidates) -> None:
-        """None: :func:`dda.solve.newton.better_start` chooses the start."""
-        return None
 
     def _stiffness(self, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ (dense)."""

@@ -298,6 +298,19 @@ def minimise(
     return NewtonResult(d, solves, False, chords, gradient is not None, (g, s))
 
 
+class NumpyPasses:
+    """Systems whose Newton passes are :func:`minimise`'s: no compiled pass, no compiled
+    start (the band systems' are, :class:`dda.solve.band_system.BandSystem`)."""
+
+    def minimise(self, *args, **kwargs) -> None:
+        """None: the caller runs :func:`minimise` on this system."""
+        return None
+
+    def better_start(self, terms, candidates) -> None:
+        """None: :func:`better_start` chooses the start."""
+        return None
+
+
 def _compiled_line_step(quadratic, geometry, terms, d, g, s, kd, direction, rates):
     """:func:`dda.solve.line_step.line_step_kernel` from :func:`minimise`'s state:
     (D, g, s, K₀D, ∇Π, ‖∇Π‖, scale, α)."""

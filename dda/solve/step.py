@@ -51,6 +51,7 @@ from dda.solve.low_rank import StepUpdates
 from dda.solve.newton import (
     BlockQuadratic,
     ContactGeometry,
+    NumpyPasses,
     better_start,
     minimise,
     size_rules,
@@ -296,7 +297,7 @@ def _solve(
     return pattern.from_matrix_order(x, blocks.count)
 
 
-class _PieceSystem:
+class _PieceSystem(NumpyPasses):
     """The linear system of one Newton iteration, K(springs) D = F(offsets), with reuse.
 
     K is re-assembled only when some contact spring changed (only those contacts
@@ -377,15 +378,6 @@ class _PieceSystem:
             x = self.cache.solver.solve_kept(rhs, self.pattern.key)
         return None if x is None else self.pattern.from_matrix_order(x, self.blocks.count)
 
-    def minimise(self, *args, **kwargs) -> None:
-        """None: a pass on the sparse systems is :func:`dda.solve.newton.minimise`'s (the
-        dense systems' is one compiled call, :meth:`DenseSystem.minimise`)."""
-        return None
-
-    def better_start(self, terms, candidates) -> None:
-        """None: :func:`dda.solve.newton.better_start` chooses the start."""
-        return None
-
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
         out = np.zeros_like(self.base_f)
@@ -403,8 +395,8 @@ def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, 
     none = np.zeros(0, np.int64)
     bolts = (none, none) if couplings is None else (couplings.block_i, couplings.block_j)
     with timer("assembly"):
-        numbering = cache.band.columns(blocks.fixed, contacts.block_a, contacts.block_b, *bolts)
-        if not band_pays(free_rows_count, numbering[3]):
+        numbering = cache.band.numbering(blocks.fixed, contacts.block_a, contacts.block_b, *bolts)
+        if not band_pays(free_rows_count, numbering.width):
             return None
         return BandSystem(
             blocks.fixed, contacts.block_a, contacts.block_b, rows, base_k, base_f,
