@@ -333,6 +333,32 @@ def test_corners_on_each_others_edges_pair_with_those_edges():
     assert np.all((along >= 0.0) & (along <= 1.0))
 
 
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_corner_that_slid_past_the_other_hands_the_contact_over(monkeypatch, compiled):
+    """Two blocks of a toppling stack (step 513 of the 20-block stack, offset 0.1 m): the
+    upper block's bottom-right corner B1 slid right past the lower block's top-right
+    corner A2 and lies 17 mm beyond it on the line of A's top edge; A2 lies on B's
+    bottom edge. Both pairings are tied (both ~0 deep), and the last step's pairing was
+    B1 on A's top edge. The pair is resolved with A2 on B's bottom edge, the edge it is
+    on: keeping the last pairing (which the pipeline then refuses as beyond its edge)
+    left the corner without a contact for a step; A2 entered B by 0.4 mm, was pushed
+    out as a fresh deep contact, and such corners fed the stack 0.16 of its energy."""
+    if not compiled:
+        monkeypatch.setattr(narrow, "_resolve_kernel", None)
+    a = [(0.04435, 0.26332), (1.00925, 0.00075), (1.14055, 0.48322), (0.17564, 0.7458)]
+    b = [(0.19288, 0.74284), (1.15734, 0.47864), (1.28945, 0.96088), (0.32499, 1.22509)]
+    blocks = build(dda.load_scene(scene([block("a", a), block("b", b)]))).blocks
+    search = 0.138  # the stack's search distance and vertex radius (its blocks move fast)
+    a2, a_top = blocks.offsets[0] + 2, blocks.offsets[0] + 2  # A2, and A's edge A2 -> A3
+    b1, b_bottom = blocks.offsets[1] + 1, blocks.offsets[1] + 0  # B1, and B's edge B0 -> B1
+    last = contact_keys(blocks, np.array([b1]), np.array([a_top]))
+    found = detect(blocks, np.array([[0, 1]]), search, search, 1.1e-3, last)
+    right = blocks.vertices[found.vertex, 0] > 1.0  # the pair at the right-hand corners
+    assert found.vertex[right].tolist() == [a2] and found.edge[right].tolist() == [b_bottom]
+    penetration, along, _ = edge_geometry(blocks, found.vertex[right], found.edge[right])
+    assert abs(penetration[0]) < 1e-4 and 0.0 <= along[0] <= 1.0
+
+
 def test_point_distances_compiled_equal_shapely(monkeypatch):
     """Distances to the boundary and to the block: the compiled loop against shapely, on a
     jittered wall and a concave U block, for points inside, outside, on edges and vertices."""
