@@ -12,6 +12,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from dda.geometry import owner_of_vertex, polygon_moments
+from dda.jit import compiled_in_run, kernel
 
 
 @dataclass
@@ -91,7 +92,15 @@ class BlockSet:
         return kept[1]
 
     def update_moments(self) -> None:
-        """Recompute area, centroid and second moments from the vertices."""
+        """Recompute area, centroid and second moments from the vertices
+        (:func:`dda.geometry.polygon_moments`; in a run with the kernels, its compiled
+        twin :func:`_moments`)."""
+        if compiled_in_run(moments_kernel):
+            moments = moments_kernel(
+                np.ascontiguousarray(self.vertices, np.float64), self.offsets.astype(np.int64)
+            )
+            self.area, self.centroid, self.ixx, self.iyy, self.ixy = moments
+            return
         m = polygon_moments(self.vertices, self.offsets)
         self.area, self.centroid = m["area"], m["centroid"]
         self.ixx, self.iyy, self.ixy = m["ixx"], m["iyy"], m["ixy"]
@@ -108,3 +117,36 @@ class BlockSet:
                 if isinstance(getattr(self, f.name), np.ndarray | list)
             },
         )
+
+
+def _moments(vertices, offsets):
+    """Compiled :func:`dda.geometry.polygon_moments`, polygon by polygon: the same edge
+    terms summed in vertex order, as its ``bincount`` sums them (the same numbers)."""
+    n = offsets.shape[0] - 1
+    area, centroid = np.empty(n), np.empty((n, 2))
+    ixx, iyy, ixy = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        first, last = offsets[i], offsets[i + 1]
+        rx, ry = vertices[first, 0], vertices[first, 1]
+        s = sx = sy = sxx = syy = sxy = 0.0
+        for k in range(first, last):
+            j = k + 1 if k + 1 < last else first
+            x0, y0 = vertices[k, 0] - rx, vertices[k, 1] - ry
+            x1, y1 = vertices[j, 0] - rx, vertices[j, 1] - ry
+            c = x0 * y1 - x1 * y0
+            s += c
+            sx += (x0 + x1) * c
+            sy += (y0 + y1) * c
+            sxx += (x0 * x0 + x0 * x1 + x1 * x1) * c
+            syy += (y0 * y0 + y0 * y1 + y1 * y1) * c
+            sxy += (x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c
+        s, sx, sy = s / 2.0, sx / 6.0, sy / 6.0
+        sxx, syy, sxy = sxx / 12.0, syy / 12.0, sxy / 24.0
+        cx, cy = (sx / s, sy / s) if s != 0.0 else (np.nan, np.nan)  # numpy's 0/0
+        area[i] = s
+        centroid[i, 0], centroid[i, 1] = cx + rx, cy + ry
+        ixx[i], iyy[i], ixy[i] = sxx - s * cx * cx, syy - s * cy * cy, sxy - s * cx * cy
+    return area, centroid, ixx, iyy, ixy
+
+
+moments_kernel = kernel(_moments)

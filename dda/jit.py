@@ -130,6 +130,13 @@ def compiled(compiled_kernel: Kernel | None) -> bool:
     return _kernels_pay(_RUN_WORK.get())
 
 
+def compiled_in_run(compiled_kernel: Kernel | None) -> bool:
+    """:func:`compiled` inside a run, False outside one: for helpers that building a
+    model or a scene also calls, which must not load numba for a run too small for it."""
+    run = _RUN_WORK.get()
+    return compiled_kernel is not None and run is not None and _kernels_pay(run)
+
+
 def _kernels_pay(run: tuple[float, float] | None) -> bool:
     return run is None or run[0] >= MIN_WORK or run[1] >= MIN_STEPS
 

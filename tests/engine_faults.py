@@ -320,8 +320,8 @@ def _stress_rotated_backwards(monkeypatch) -> None:
 def _pushout_in_velocity(monkeypatch) -> None:
     apply_step = simulation.apply_step
 
-    def counted(blocks, d, dt, elastic, static, exact_rotation, pushed=None, gamma=1.0):
-        apply_step(blocks, d, dt, elastic, static, exact_rotation, None, gamma)
+    def counted(blocks, d, dt, elastic, static, exact_rotation, pushed=None, gamma=1.0, **more):
+        apply_step(blocks, d, dt, elastic, static, exact_rotation, None, gamma, **more)
 
     monkeypatch.setattr(simulation, "apply_step", counted)
 

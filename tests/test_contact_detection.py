@@ -116,6 +116,7 @@ def test_a_run_with_kept_pairs_equals_one_without(monkeypatch):
     raw["analysis"].pop("duration", None)
     raw["analysis"]["steps"] = 15
     scene = dda.load_scene(raw)
+    monkeypatch.setenv("DDA_THREADS", "1")  # bit for bit: PARDISO's threads fixed
     # the step module bound to the real search before the spy: the spy counts the contact
     # search's own calls, not those of new block patterns (a test run alone would import
     # the step module lazily, inside the first simulate, and bind the spy)

@@ -134,3 +134,27 @@ def test_contact_energy_of_an_empty_set_is_zero():
     from dda.contact.contact_set import ContactSet
 
     assert contact_energy(ContactSet.empty(), 0.4, True) == 0.0
+
+
+@pytest.mark.skipif(not dda.jit.numba_enabled(), reason="numba is not in use")
+@pytest.mark.parametrize("case", ["cases/rock_slope.toml", "cases/stack.toml"])
+@pytest.mark.parametrize("with_gravity", [True, False])
+def test_compiled_block_energies_equal_the_numpy_terms(case, with_gravity):
+    """T, V and U in one compiled pass against kinetic_energy, gravity_potential and
+    elastic_energy, with random velocities and stresses (1e-12 relative)."""
+    from dda.run.energy import block_energies, gravity_potential
+
+    model = build(dda.load_scene(case))
+    blocks = model.blocks.copy()
+    rng = np.random.default_rng(7)
+    blocks.velocity = rng.normal(size=blocks.velocity.shape)
+    blocks.stress = rng.normal(scale=1e6, size=blocks.stress.shape)
+    density = model.material_density[blocks.material]
+    elasticity = model.elastic.block_elasticity(blocks)
+    gravity = np.array([0.3, -G]) if with_gravity else None
+    datum = blocks.vertices.min(axis=0)
+    kinetic, potential, elastic = block_energies(density, elasticity, blocks, gravity, datum)
+    assert kinetic == pytest.approx(kinetic_energy(density, blocks), rel=1e-12)
+    expected = gravity_potential(density, blocks, gravity, datum) if with_gravity else 0.0
+    assert potential == pytest.approx(expected, rel=1e-12)
+    assert elastic == pytest.approx(elastic_energy(elasticity, blocks), rel=1e-12)

@@ -27,6 +27,21 @@ def test_kernels_are_used_outside_a_run_and_in_runs_with_enough_work():
 
 
 @needs_numba
+def test_helpers_that_building_a_model_calls_use_their_kernels_only_inside_a_run():
+    """Polygon moments and the energy account are computed when a model is built too
+    (before any run's work is known): there they stay numpy, so that a small run does
+    not load numba for them."""
+    from dda.blocks import moments_kernel
+
+    assert jit.compiled(moments_kernel) and not jit.compiled_in_run(moments_kernel)
+    with jit.run_work(blocks=900, steps=100):
+        assert jit.compiled_in_run(moments_kernel)
+    with jit.run_work(blocks=2, steps=300):
+        assert not jit.compiled_in_run(moments_kernel)
+    assert not jit.compiled_in_run(None)
+
+
+@needs_numba
 def test_a_long_run_of_a_few_blocks_uses_the_kernels():
     """Their saving a step does not shrink with the blocks: 1,000 steps of six blocks pay
     for loading them (the stack: 3.9-5.2 s of CPU against 6.7-7.0 without)."""

@@ -24,7 +24,7 @@ linearisation of the contact distance within a step).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,6 +38,7 @@ from dda.effects.inertia import mass_matrices
 from dda.effects.loads import PointLoads
 from dda.effects.pair_springs import PairSprings
 from dda.effects.water import WaterPressure
+from dda.jit import compiled_in_run, kernel
 from dda.kinematics import displacement_matrices
 from dda.result import OPEN
 
@@ -60,7 +61,7 @@ class EnergyTerms:
         return self.kinetic + self.potential + self.elastic + self.contact + self.springs
 
     def as_dict(self) -> dict[str, float]:
-        return {**asdict(self), "total": self.total}
+        return {name: getattr(self, name) for name in TERMS} | {"total": self.total}
 
 
 def kinetic_energy(density: np.ndarray, blocks: BlockSet) -> float:
@@ -104,6 +105,85 @@ def elastic_energy(elasticity: np.ndarray, blocks: BlockSet) -> float:
     sigma = blocks.stress[free]
     strain = np.linalg.solve(elasticity[free], sigma[:, :, None])[:, :, 0]
     return float(0.5 * np.sum(blocks.area[free] * np.einsum("ni,ni->n", sigma, strain)))
+
+
+def block_energies(
+    density: np.ndarray,
+    elasticity: np.ndarray,
+    blocks: BlockSet,
+    gravity: np.ndarray | None,
+    datum: np.ndarray,
+) -> tuple[float, float, float]:
+    """(T, V, U) of :func:`kinetic_energy`, :func:`gravity_potential` and
+    :func:`elastic_energy` in one compiled pass over the blocks (V = 0 without
+    ``gravity``)."""
+    g = np.zeros(2) if gravity is None else np.asarray(gravity, float)
+    return block_energies_kernel(
+        np.ascontiguousarray(density, np.float64),
+        np.ascontiguousarray(elasticity, np.float64),
+        blocks.fixed,
+        blocks.area,
+        blocks.ixx,
+        blocks.iyy,
+        blocks.ixy,
+        blocks.density_ratio,
+        blocks.mass_area,
+        np.ascontiguousarray(blocks.centroid, np.float64),
+        np.ascontiguousarray(blocks.velocity, np.float64),
+        np.ascontiguousarray(blocks.stress, np.float64),
+        g,
+        np.asarray(datum, np.float64),
+    )
+
+
+def _block_energies(
+    density, elasticity, fixed, area, ixx, iyy, ixy, ratio, mass_area, centroid, velocity,
+    stress, gravity, datum,
+):  # fmt: skip
+    """Compiled (T, V, U): vᵀMv from the moments (the entries of
+    :func:`dda.effects.inertia.mass_matrices`), σᵀE⁻¹σ by Cramer's rule on the 3 × 3 E."""
+    kinetic = potential = elastic = 0.0
+    for i in range(fixed.shape[0]):
+        if fixed[i]:
+            continue
+        v = velocity[i]
+        a, b, c = ixx[i], iyy[i], ixy[i]
+        quadratic = (
+            area[i] * (v[0] * v[0] + v[1] * v[1])
+            + (a + b) * v[2] * v[2] + a * v[3] * v[3] + b * v[4] * v[4]
+            + 0.25 * (a + b) * v[5] * v[5]
+            + 2.0 * v[2] * (-c * v[3] + c * v[4] + 0.5 * (a - b) * v[5])
+            + c * v[5] * (v[3] + v[4])
+        )  # fmt: skip
+        kinetic += 0.5 * density[i] * ratio[i] * quadratic
+        height = (datum[0] - centroid[i, 0]) * gravity[0] + (datum[1] - centroid[i, 1]) * gravity[1]
+        potential += density[i] * mass_area[i] * height
+        e, s = elasticity[i], stress[i]
+        det = (
+            e[0, 0] * (e[1, 1] * e[2, 2] - e[1, 2] * e[2, 1])
+            - e[0, 1] * (e[1, 0] * e[2, 2] - e[1, 2] * e[2, 0])
+            + e[0, 2] * (e[1, 0] * e[2, 1] - e[1, 1] * e[2, 0])
+        )
+        x0 = (
+            s[0] * (e[1, 1] * e[2, 2] - e[1, 2] * e[2, 1])
+            - e[0, 1] * (s[1] * e[2, 2] - e[1, 2] * s[2])
+            + e[0, 2] * (s[1] * e[2, 1] - e[1, 1] * s[2])
+        ) / det
+        x1 = (
+            e[0, 0] * (s[1] * e[2, 2] - e[1, 2] * s[2])
+            - s[0] * (e[1, 0] * e[2, 2] - e[1, 2] * e[2, 0])
+            + e[0, 2] * (e[1, 0] * s[2] - s[1] * e[2, 0])
+        ) / det
+        x2 = (
+            e[0, 0] * (e[1, 1] * s[2] - s[1] * e[2, 1])
+            - e[0, 1] * (e[1, 0] * s[2] - s[1] * e[2, 0])
+            + s[0] * (e[1, 0] * e[2, 1] - e[1, 1] * e[2, 0])
+        ) / det
+        elastic += 0.5 * area[i] * (s[0] * x0 + s[1] * x1 + s[2] * x2)
+    return kinetic, potential, elastic
+
+
+block_energies_kernel = kernel(_block_energies)
 
 
 def contact_energy(contacts: ContactSet, shear_ratio: float, friction: bool) -> float:
@@ -214,13 +294,21 @@ class EnergyAccount:
     def measure(self, blocks: BlockSet, contacts: ContactSet) -> EnergyTerms:
         """The stored energies of ``blocks`` with ``contacts`` (after a step)."""
         density = self.density_table[blocks.material]
-        potential = 0.0
-        if self.gravity is not None:
-            potential = gravity_potential(density, blocks, self.gravity, self.datum)
+        elasticity = self.elastic.block_elasticity(blocks)
+        if compiled_in_run(block_energies_kernel):
+            kinetic, potential, elastic = block_energies(
+                density, elasticity, blocks, self.gravity, self.datum
+            )
+        else:
+            kinetic = kinetic_energy(density, blocks)
+            potential = 0.0
+            if self.gravity is not None:
+                potential = gravity_potential(density, blocks, self.gravity, self.datum)
+            elastic = elastic_energy(elasticity, blocks)
         return EnergyTerms(
-            kinetic=kinetic_energy(density, blocks),
+            kinetic=kinetic,
             potential=potential,
-            elastic=elastic_energy(self.elastic.block_elasticity(blocks), blocks),
+            elastic=elastic,
             contact=contact_energy(contacts, self.shear_ratio, self.friction),
             springs=spring_energy(self.springs) + (self.bolts.energy() if self.bolts else 0.0),
         )

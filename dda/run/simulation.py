@@ -128,7 +128,8 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
         return None, 0.25, "non-finite solution"
     if not solution.converged:
         return None, 0.5, "contacts did not settle"
-    moved = np.abs(vertex_displacements(run.blocks, solution.d, m.exact_rotation)).max(initial=0.0)
+    solution.moves = vertex_displacements(run.blocks, solution.d, m.exact_rotation)
+    moved = np.abs(solution.moves).max(initial=0.0)
     if moved > m.allowed_displacement * (1 + 1e-9):
         return None, max(0.1, 0.9 * m.allowed_displacement / moved), "displacement above g2"
     if m.contact is not None and reach.beyond(moved, run.reach, m.allowed_displacement):
@@ -231,6 +232,7 @@ def _advance(run: _Run) -> None:
             m.exact_rotation,
             solution.pushed,
             m.scene.analysis.newmark_gamma,
+            moves=solution.moves,
         )
         if m.ground is not None:  # the blocks that follow the ground move at its velocity
             m.ground.set_velocity(run.blocks, ctx.time)

@@ -72,6 +72,7 @@ class StepSolution:
     pushed: np.ndarray | None = None  # (n, 6) part of d that removed overlap found this step
     friction_dissipation: float = 0.0  # work of the friction forces against the slips
     moved: float = 0.0  # largest vertex displacement (m), once the step is accepted
+    moves: np.ndarray | None = None  # (NV, 2) each vertex's displacement, likewise
     # Newton iterations: assembled systems solved (the rest of ``iterations`` are chord
     # steps, back-substitutions with a kept factorisation)
     newton_iterations: int = 0

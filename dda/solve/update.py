@@ -39,6 +39,7 @@ def apply_step(
     exact_rotation: bool,
     pushed: np.ndarray | None = None,
     gamma: float = 1.0,
+    moves: np.ndarray | None = None,
 ) -> None:
     """Move the blocks by ``d`` (n, 6) in place.
 
@@ -47,12 +48,15 @@ def apply_step(
     ``pushed``: the part of D that removed overlap found this step
     (dda.contact.push_out), moved but left out of the velocity.
     Stress: σ += E ε, then rotated with the block when the rotation is exact.
+    ``moves``: the step's :func:`vertex_displacements`, when the caller has them.
     """
     old_centroid = blocks.centroid.copy()
     blocks.stress = blocks.stress + elastic.stress_increment(blocks, d)
     if exact_rotation:
         blocks.stress = rotate_stress(blocks.stress, d[:, 2])
-    blocks.vertices = blocks.vertices + vertex_displacements(blocks, d, exact_rotation)
+    if moves is None:
+        moves = vertex_displacements(blocks, d, exact_rotation)
+    blocks.vertices = blocks.vertices + moves
     blocks.update_moments()
     blocks.displacement = blocks.displacement + (blocks.centroid - old_centroid)
     blocks.rotation = blocks.rotation + d[:, 2]
