@@ -11,7 +11,12 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from dda.geometry import owner_of_vertex, polygon_moments
+from dda.geometry import (
+    next_vertex_index,
+    owner_of_vertex,
+    polygon_moments,
+    previous_vertex_index,
+)
 from dda.jit import compiled_in_run, kernel
 
 
@@ -85,10 +90,25 @@ class BlockSet:
     def vertex_owner(self) -> np.ndarray:
         """(NV,) the block of every vertex; kept while ``offsets`` is the same array (a
         BlockSet gets new offsets, never edits them, when blocks appear)."""
-        kept = self.__dict__.get("_vertex_owner")
+        return self._kept("_vertex_owner", owner_of_vertex)
+
+    @property
+    def next_vertex(self) -> np.ndarray:
+        """(NV,) the next vertex of every vertex in its polygon; kept like
+        :attr:`vertex_owner`."""
+        return self._kept("_next_vertex", next_vertex_index)
+
+    @property
+    def previous_vertex(self) -> np.ndarray:
+        """(NV,) the previous vertex of every vertex in its polygon; kept likewise."""
+        return self._kept("_previous_vertex", previous_vertex_index)
+
+    def _kept(self, name: str, make) -> np.ndarray:
+        kept = self.__dict__.get(name)
         if kept is None or kept[0] is not self.offsets:
-            kept = (self.offsets, owner_of_vertex(self.offsets))
-            self.__dict__["_vertex_owner"] = kept
+            kept = (self.offsets, make(self.offsets))
+            kept[1].flags.writeable = False  # shared by every caller
+            self.__dict__[name] = kept
         return kept[1]
 
     def update_moments(self) -> None:

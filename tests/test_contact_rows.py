@@ -128,7 +128,7 @@ def test_edge_geometry_gives_depth_parameter_and_segment_distance(monkeypatch, c
     vertex = rng.integers(0, len(blocks.vertices), 300)
     edge = rng.integers(0, len(blocks.vertices), 300)
     d, t, r = rows_module.edge_geometry(blocks, vertex, edge)
-    ends = blocks.vertices[rows_module.next_vertex_index(blocks.offsets)[edge]]
+    ends = blocks.vertices[blocks.next_vertex[edge]]
     segments = shapely.linestrings(np.stack([blocks.vertices[edge], ends], axis=1))
     expected = shapely.distance(shapely.points(blocks.vertices[vertex]), segments)
     np.testing.assert_allclose(r, expected, rtol=1e-12, atol=1e-12)

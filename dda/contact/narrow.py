@@ -37,8 +37,6 @@ from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
 from dda.contact.node import separated_pairs
 from dda.geometry import (
     expand_counts,
-    next_vertex_index,
-    previous_vertex_index,
     reflex_vertices,
 )
 from dda.jit import compiled, kernel
@@ -80,8 +78,8 @@ class VertexFans:
 
     def __init__(self, blocks: BlockSet) -> None:
         v = blocks.vertices
-        self.next = next_vertex_index(blocks.offsets)
-        self.prev = previous_vertex_index(blocks.offsets)
+        self.next = blocks.next_vertex
+        self.prev = blocks.previous_vertex
         if compiled(_fans_kernel):
             self.to_next, self.to_prev, self.reflex, self.shortest = _fans_kernel(
                 np.ascontiguousarray(v, dtype=np.float64), self.next, self.prev

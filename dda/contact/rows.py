@@ -17,7 +17,6 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
-from dda.geometry import next_vertex_index, previous_vertex_index
 from dda.jit import compiled, kernel
 from dda.kinematics import displacement_matrices
 
@@ -43,7 +42,7 @@ def edge_geometry(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
     """(d, t, r) of each vertex P1 and edge P2P3: penetration d = (P3-P2)×(P1-P2)/l,
     parameter t = (P1-P2)·(P3-P2)/l² and distance r = |P1 - P2 - clip(t, 0, 1)(P3-P2)|
     from the edge segment."""
-    nxt = next_vertex_index(blocks.offsets)
+    nxt = blocks.next_vertex
     if compiled(_edge_geometry_kernel):
         return _edge_geometry_kernel(
             np.ascontiguousarray(blocks.vertices, dtype=np.float64),
@@ -132,8 +131,8 @@ _gaps_kernel = kernel(_gaps)
 
 def contact_rows(blocks: BlockSet, contacts: ContactSet) -> ContactRows:
     """E, G, Es, Gs and the gaps of every contact at the current positions."""
-    offsets, v = blocks.offsets, blocks.vertices
-    nxt, prv = next_vertex_index(offsets), previous_vertex_index(offsets)
+    v = blocks.vertices
+    nxt, prv = blocks.next_vertex, blocks.previous_vertex
     if compiled(_rows_kernel):
         return _contact_rows_compiled(blocks, contacts, nxt, prv)
     i, j = contacts.block_a, contacts.block_b
