@@ -59,11 +59,14 @@ CASES = [
     (3, 0.6, 0.0, "penalty", 0.5),
     (10, 0.2, 30.0, "augmented-lagrangian", 1.0),
     (10, 0.2, 0.0, "penalty", 1.0),
+    # its corners slide past each other as it topples: a contact must pass from one
+    # corner to the other (dda.contact.narrow); when it did not, the 20-block stack
+    # gained 0.16 E₀ (measured gain now 2.2e-5 E₀)
+    (20, 0.1, 0.0, "augmented-lagrangian", 1.5),
 ]
 SLOW = [
     (10, 0.2, 0.0, "augmented-lagrangian", 1.0),
     (10, 0.2, 30.0, "penalty", 1.0),
-    (20, 0.1, 0.0, "augmented-lagrangian", 1.5),
     (20, 0.1, 30.0, "penalty", 1.5),
 ]
 
