@@ -84,6 +84,25 @@ def test_a_chain_of_blocks_is_numbered_along_the_chain():
     assert half_width(contact_columns(given, a, b)) > 11
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_compiled_columns_and_width_equal_numpy(seed, monkeypatch):
+    """The band numbering's columns and half-width in one compiled pass against
+    contact_columns and half_width, on random pairs with fixed blocks (and none)."""
+    rng = np.random.default_rng(seed)
+    fixed = rng.random(40) < 0.2
+    a, b = rng.integers(0, 40, 150), rng.integers(0, 40, 150)
+    none = np.zeros(0, np.int64)
+    order = BandOrder()
+    compiled = order.numbering(fixed, a, b, a[:5], b[:5])
+    empty = order.numbering(fixed, a[:0], b[:0], none, none)
+    monkeypatch.setattr(band_system, "_columns_kernel", None)
+    reference = order.numbering(fixed, a, b, a[:5], b[:5])
+    np.testing.assert_array_equal(compiled.contacts, reference.contacts)
+    np.testing.assert_array_equal(compiled.bolts, reference.bolts)
+    assert compiled.width == reference.width > 5
+    assert empty.width == 5 and empty.contacts.shape == (0, 12)
+
+
 @pytest.mark.parametrize("bolted", [False, True])
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize(

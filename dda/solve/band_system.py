@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from dda.jit import compiled
+from dda.jit import compiled, kernel
 from dda.solve import band_newton
 from dda.solve.dense_system import contact_columns
 from dda.solve.newton import NewtonResult
@@ -113,10 +113,42 @@ class BandOrder:
         return self.position is not None and np.array_equal(fixed, self._fixed)
 
     def _in_order(self, block_a, block_b, bolt_i, bolt_j) -> Numbering:
+        if compiled(_columns_kernel):
+            position = self.position
+            contacts, contacts_width = _columns_kernel(position, _int64(block_a), _int64(block_b))
+            bolts, bolts_width = _columns_kernel(position, _int64(bolt_i), _int64(bolt_j))
+            return Numbering(position, contacts, bolts, max(contacts_width, bolts_width))
         contacts = contact_columns(self.position, block_a, block_b)
         bolts = contact_columns(self.position, bolt_i, bolt_j)
         width = max(half_width(contacts), half_width(bolts))
         return Numbering(self.position, contacts, bolts, width)
+
+
+def _int64(values: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(values, np.int64)
+
+
+def _columns(position, block_i, block_j):
+    """Compiled :func:`dda.solve.dense_system.contact_columns` and :func:`half_width` of
+    its result, in one pass."""
+    m = block_i.shape[0]
+    columns = np.empty((m, 12), np.int64)
+    spread = 0
+    for c in range(m):
+        low, high = np.iinfo(np.int64).max, -1
+        for side, b in enumerate((block_i[c], block_j[c])):
+            at = position[b]
+            for r in range(6):
+                column = 6 * at + r if at >= 0 else -1
+                columns[c, 6 * side + r] = column
+                if column >= 0:
+                    low, high = min(low, column), max(high, column)
+        if high >= 0:
+            spread = max(spread, high - low)
+    return columns, max(spread, 5)
+
+
+_columns_kernel = kernel(_columns)
 
 
 def band_pays(free_rows: int, width: int) -> bool:
