@@ -231,7 +231,8 @@ def keys_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
     ids=["wall", "jittered-wall", "tunnel", "jittered-tunnel", "ells", "jittered-ells"],
 )
 def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
-    """The compiled screen and vertex-vertex resolution give the numpy paths' contacts,
+    """The compiled screen, vertex-vertex resolution and pairings kept (one a vertex-edge
+    pair, the shallower of opposed edges) give the numpy paths' contacts,
     with last step's keys (from a nudged copy) for half of the pairings, the others
     decided by position, and the contact tolerance as the inside depth. The L's and
     the tunnel's blocks around the opening have reflex vertices."""
@@ -243,6 +244,7 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
     first = detect(*args)
     monkeypatch.setattr(narrow, "_screen_kernel", None)
     monkeypatch.setattr(narrow, "_resolve_kernel", None)
+    monkeypatch.setattr(narrow, "_pairings_kernel", None)
     second = detect(*args)
     assert first.vertex_vertex.sum() >= 20
     np.testing.assert_array_equal(first.vertex, second.vertex)
@@ -360,6 +362,29 @@ def test_a_corner_that_slid_past_the_other_hands_the_contact_over(monkeypatch, c
     assert abs(penetration[0]) < 1e-4 and 0.0 <= along[0] <= 1.0
 
 
+@pytest.mark.skipif(not dda.jit.numba_enabled(), reason="numba is not in use")
+@pytest.mark.parametrize("seed", range(3))
+def test_compiled_pairings_kept_equal_numpy(seed):
+    """One row per vertex-edge pair, and of a vertex's opposed edges of one block only
+    the shallower: the compiled pass against _first_of_each and _opposed_deeper, on
+    random pairings (repeated, many opposed and behind both edges) of a jittered wall."""
+    _, blocks = wall_blocks(4, 3, jitter=0.3, seed=seed)
+    fans = narrow.VertexFans(blocks)
+    rng = np.random.default_rng(seed)
+    vertex = rng.integers(0, len(blocks.vertices), 2000)
+    edge = rng.integers(0, len(blocks.vertices), 2000)
+    edge[1000:] = blocks.offsets[blocks.vertex_owner[edge[1000:]]] + rng.integers(0, 4, 1000)
+    vertex[1500:] = vertex[1000:1500]  # the same vertices with other edges of the blocks
+    keep = narrow._first_of_each(vertex, edge)
+    dropped = narrow._opposed_deeper(blocks, fans, vertex[keep], edge[keep])
+    compiled = narrow._pairings_kernel(
+        vertex, edge, blocks.vertices, blocks.vertex_owner.astype(np.int64), fans.outward,
+        blocks.count,
+    )  # fmt: skip
+    assert dropped.sum() > 10
+    np.testing.assert_array_equal(compiled, keep[~dropped])
+
+
 def test_point_distances_compiled_equal_shapely(monkeypatch):
     """Distances to the boundary and to the block: the compiled loop against shapely, on a
     jittered wall and a concave U block, for points inside, outside, on edges and vertices."""
@@ -447,6 +472,7 @@ def test_a_vertex_inside_a_sliver_is_in_contact_with_the_edge_it_entered(monkeyp
     The vertex entered through the bottom edge: that is its one contact."""
     if not compiled:
         monkeypatch.setattr(narrow, "_screen_kernel", None)
+        monkeypatch.setattr(narrow, "_pairings_kernel", None)
     needle = [[5.0, 0.001], [-5.0, 0.3], [-5.0, -0.3]]
     sliver = [[0.0, 0.0], [10.0, 0.0], [10.0, 1.0]]
     far = [[0.0, 20.0], [1.0, 20.0], [1.0, 21.0]]
