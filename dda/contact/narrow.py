@@ -729,16 +729,9 @@ def _pairs_within_groups(sorted_group: np.ndarray) -> tuple[np.ndarray, np.ndarr
 def _pairings(vertex, edge, v, owner, outward, count):
     """Compiled :func:`_first_of_each`, then the rows :func:`_opposed_deeper` keeps: the
     same rows, in the same (ascending) order."""
-    m = vertex.shape[0]
-    if m == 0:
+    if vertex.shape[0] == 0:
         return np.zeros(0, np.int64)
-    width = edge.max() + 1
-    key = vertex * width + edge
-    order = np.argsort(key, kind="mergesort")
-    first = np.zeros(m, np.bool_)
-    for p in range(m):
-        first[order[p]] = p == 0 or key[order[p]] != key[order[p - 1]]
-    rows = np.flatnonzero(first)
+    rows = _first_rows(vertex * (edge.max() + 1) + edge)
     group = vertex[rows] * count + owner[edge[rows]]
     by_group = np.argsort(group, kind="mergesort")
     drop = np.zeros(rows.shape[0], np.bool_)
@@ -750,20 +743,37 @@ def _pairings(vertex, edge, v, owner, outward, count):
         for a in range(start, end):
             for b in range(a + 1, end):
                 i, j = by_group[a], by_group[b]
-                ei, ej, vi = edge[rows[i]], edge[rows[j]], vertex[rows[i]]
-                if outward[ei, 0] * outward[ej, 0] + outward[ei, 1] * outward[ej, 1] >= 0.0:
-                    continue
-                di = (v[ei, 0] - v[vi, 0]) * outward[ei, 0] + (v[ei, 1] - v[vi, 1]) * outward[ei, 1]
-                dj = (v[ej, 0] - v[vi, 0]) * outward[ej, 0] + (v[ej, 1] - v[vi, 1]) * outward[ej, 1]
-                if di > 0.0 and dj > 0.0:
-                    if di > dj:
-                        drop[i] = True
-                    elif dj > di:
-                        drop[j] = True
+                _drop_deeper_if_opposed(rows[i], rows[j], i, j, vertex, edge, v, outward, drop)
         start = end
     return rows[~drop]
 
 
+def _first_rows(key):
+    """Ascending rows of each key's first occurrence (``np.unique``'s return_index)."""
+    order = np.argsort(key, kind="mergesort")
+    first = np.zeros(key.shape[0], np.bool_)
+    for p in range(key.shape[0]):
+        first[order[p]] = p == 0 or key[order[p]] != key[order[p - 1]]
+    return np.flatnonzero(first)
+
+
+def _drop_deeper_if_opposed(row_i, row_j, i, j, vertex, edge, v, outward, drop):
+    """Of one vertex's two pairings with edges of one block facing opposite ways, both
+    behind their lines, mark the deeper one (:func:`_opposed_deeper`)."""
+    ei, ej, p = edge[row_i], edge[row_j], vertex[row_i]
+    if outward[ei, 0] * outward[ej, 0] + outward[ei, 1] * outward[ej, 1] >= 0.0:
+        return
+    di = (v[ei, 0] - v[p, 0]) * outward[ei, 0] + (v[ei, 1] - v[p, 1]) * outward[ei, 1]
+    dj = (v[ej, 0] - v[p, 0]) * outward[ej, 0] + (v[ej, 1] - v[p, 1]) * outward[ej, 1]
+    if di > 0.0 and dj > 0.0:
+        if di > dj:
+            drop[i] = True
+        elif dj > di:
+            drop[j] = True
+
+
+_first_rows = kernel(_first_rows) or _first_rows
+_drop_deeper_if_opposed = kernel(_drop_deeper_if_opposed) or _drop_deeper_if_opposed
 _pairings_kernel = kernel(_pairings)
 
 
