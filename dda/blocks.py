@@ -104,9 +104,15 @@ class BlockSet:
         return self._kept("_previous_vertex", previous_vertex_index)
 
     def _kept(self, name: str, make) -> np.ndarray:
+        return self.kept(name, lambda: make(self.offsets), self.offsets)
+
+    def kept(self, name: str, make, *sources: np.ndarray) -> np.ndarray:
+        """``make()``, computed once and kept (read-only, shared) while ``sources`` are
+        the same arrays: the fields it is derived from, which a BlockSet replaces and
+        never edits."""
         kept = self.__dict__.get(name)
-        if kept is None or kept[0] is not self.offsets:
-            kept = (self.offsets, make(self.offsets))
+        if kept is None or any(a is not b for a, b in zip(kept[0], sources, strict=True)):
+            kept = (sources, make())
             kept[1].flags.writeable = False  # shared by every caller
             self.__dict__[name] = kept
         return kept[1]

@@ -79,18 +79,16 @@ def vertex_key_parts(blocks: BlockSet) -> np.ndarray:
     """Per packed vertex: block id x 2**10 + local number, the halves of a contact key;
     kept on ``blocks`` while its ``offsets`` and ``ids`` are the same arrays (like
     :attr:`BlockSet.vertex_owner`)."""
-    kept = blocks.__dict__.get("_key_parts")
-    if kept is not None and kept[0] is blocks.offsets and kept[1] is blocks.ids:
-        return kept[2]
+    return blocks.kept("_key_parts", lambda: _key_parts(blocks), blocks.offsets, blocks.ids)
+
+
+def _key_parts(blocks: BlockSet) -> np.ndarray:
     if blocks.ids.max(initial=0) >= _IDS or np.diff(blocks.offsets).max(initial=0) >= _LOCAL:
         raise ValueError("contact keys need block ids < 2**20 and < 1024 vertices per block")
     owner = blocks.vertex_owner
-    parts = blocks.ids[owner].astype(np.int64) * _LOCAL + (
+    return blocks.ids[owner].astype(np.int64) * _LOCAL + (
         np.arange(len(owner)) - blocks.offsets[owner]
     )
-    parts.flags.writeable = False
-    blocks.__dict__["_key_parts"] = (blocks.offsets, blocks.ids, parts)
-    return parts
 
 
 KEY_SCALE = _IDS * _LOCAL  # key = part(vertex) x KEY_SCALE + part(edge start)
