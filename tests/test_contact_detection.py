@@ -241,15 +241,18 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
     pairs = candidate_pairs(blocks, c.search_distance)
     previous = keys_after_a_nudge(blocks, pairs, c)[::2]
     args = (blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance, previous)
-    first = detect(*args)
+    first = detect(*args)  # one compiled call
+    monkeypatch.setattr(narrow, "_detect_kernel", None)
+    pieces = detect(*args)  # the compiled pieces called from numpy
     monkeypatch.setattr(narrow, "_screen_kernel", None)
     monkeypatch.setattr(narrow, "_resolve_kernel", None)
     monkeypatch.setattr(narrow, "_pairings_kernel", None)
     second = detect(*args)
     assert first.vertex_vertex.sum() >= 20
-    np.testing.assert_array_equal(first.vertex, second.vertex)
-    np.testing.assert_array_equal(first.edge, second.edge)
-    np.testing.assert_array_equal(first.vertex_vertex, second.vertex_vertex)
+    for found in (pieces, second):
+        np.testing.assert_array_equal(first.vertex, found.vertex)
+        np.testing.assert_array_equal(first.edge, found.edge)
+        np.testing.assert_array_equal(first.vertex_vertex, found.vertex_vertex)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -347,6 +350,7 @@ def test_a_corner_that_slid_past_the_other_hands_the_contact_over(monkeypatch, c
     left the corner without a contact for a step; A2 entered B by 0.4 mm, was pushed
     out as a fresh deep contact, and such corners fed the stack 0.16 of its energy."""
     if not compiled:
+        monkeypatch.setattr(narrow, "_detect_kernel", None)
         monkeypatch.setattr(narrow, "_resolve_kernel", None)
     a = [(0.04435, 0.26332), (1.00925, 0.00075), (1.14055, 0.48322), (0.17564, 0.7458)]
     b = [(0.19288, 0.74284), (1.15734, 0.47864), (1.28945, 0.96088), (0.32499, 1.22509)]
@@ -436,6 +440,7 @@ def test_a_corner_facing_an_edge_end_across_a_block_is_no_contact(monkeypatch, c
     round-off alone used to put thousands of such pairs in and out of the list each
     step); projected 1e-6 inside the edge it is one, as the search distance says."""
     if not compiled:
+        monkeypatch.setattr(narrow, "_detect_kernel", None)
         monkeypatch.setattr(narrow, "_screen_kernel", None)
     model, blocks = wall_blocks(3, 1)
     first, third = 1, 3  # rows of the blocks at x = 2..3 and 4..5
@@ -471,6 +476,7 @@ def test_a_vertex_inside_a_sliver_is_in_contact_with_the_edge_it_entered(monkeyp
     large the augmented Lagrangian made them (the tunnel case: 1e11 N, 8e7 J released).
     The vertex entered through the bottom edge: that is its one contact."""
     if not compiled:
+        monkeypatch.setattr(narrow, "_detect_kernel", None)
         monkeypatch.setattr(narrow, "_screen_kernel", None)
         monkeypatch.setattr(narrow, "_pairings_kernel", None)
     needle = [[5.0, 0.001], [-5.0, 0.3], [-5.0, -0.3]]

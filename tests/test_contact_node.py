@@ -35,7 +35,9 @@ def separated(starts_deg, spans_deg, compiled=True, at=None, tight=1e-3):
     p1, p2 = pairs[:, 0], pairs[:, 1]
     indptr, mates = node._mates(p1, p2, len(owner))
     v = np.zeros((len(owner), 2)) if at is None else at
-    if compiled:  # the kernel, or its Python source where numba is missing
+    if compiled == "one call" and node.separated_corners_kernel is not None:  # fans in
+        mask = node.separated_corners_kernel(v, owner, to_next, to_prev, p1, p2, tight)
+    elif compiled:  # the kernel, or its Python source where numba is missing
         kernel = node._separated_kernel or node._separated
         mask = kernel(v, owner, start, span, p1, p2, indptr, mates, tight, ANGLE_FILL)
     else:
@@ -43,7 +45,7 @@ def separated(starts_deg, spans_deg, compiled=True, at=None, tight=1e-3):
     return {tuple(p): bool(m) for p, m in zip(pairs.tolist(), mask, strict=True)}
 
 
-PATHS = [True, False]
+PATHS = [True, False, "one call"]  # the kernel, numpy, the kernel from the fans
 
 
 @pytest.mark.parametrize("compiled", PATHS)

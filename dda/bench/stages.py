@@ -94,8 +94,9 @@ def _search_rows(model, blocks) -> list[tuple[str, float]]:
             best_of(lambda: refresh_contacts(blocks, ContactSet.empty(), settings)),
         )
     ]
-    saved = broad._grid_kernel, narrow._screen_kernel, narrow._resolve_kernel
-    broad._grid_kernel, narrow._screen_kernel, narrow._resolve_kernel = None, None, None
+    saved = broad._grid_kernel, narrow._detect_kernel, narrow._screen_kernel, narrow._resolve_kernel
+    broad._grid_kernel, narrow._detect_kernel = None, None
+    narrow._screen_kernel, narrow._resolve_kernel = None, None
     try:
         out.append(
             (
@@ -104,7 +105,9 @@ def _search_rows(model, blocks) -> list[tuple[str, float]]:
             )
         )
     finally:
-        broad._grid_kernel, narrow._screen_kernel, narrow._resolve_kernel = saved
+        broad._grid_kernel, narrow._detect_kernel, narrow._screen_kernel, narrow._resolve_kernel = (
+            saved
+        )
     return out
 
 

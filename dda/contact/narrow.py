@@ -34,7 +34,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
-from dda.contact.node import separated_pairs
+from dda.contact.node import separated_corners_kernel, separated_pairs
 from dda.geometry import (
     expand_counts,
     reflex_vertices,
@@ -171,6 +171,10 @@ def detect(
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
         return Detected(empty, empty, np.zeros(0, bool))
+    if compiled(_detect_kernel):
+        return _detect_compiled(
+            blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap
+        )
     fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(
         blocks, pairs, search, vertex_radius, search if gap is None else gap
     )
@@ -196,6 +200,67 @@ def detect(
         keep = _first_of_each(vertex_all, edge_all)
         keep = keep[~_opposed_deeper(blocks, fans, vertex_all[keep], edge_all[keep])]
     return Detected(vertex_all[keep], edge_all[keep], kind[keep])
+
+
+def _detect_compiled(blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap):
+    """:func:`detect` in one compiled call (:func:`_detect`): the same contacts, in the
+    same order, as the numpy path's and the compiled pieces' it strings together."""
+    known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
+    vertex, edge, kind = _detect_kernel(
+        np.ascontiguousarray(pairs, dtype=np.int64),
+        blocks.offsets.astype(np.int64),
+        np.ascontiguousarray(blocks.vertices, dtype=np.float64),
+        blocks.next_vertex.astype(np.int64),
+        blocks.previous_vertex.astype(np.int64),
+        blocks.vertex_owner.astype(np.int64),
+        np.ascontiguousarray(blocks.area, dtype=np.float64),
+        vertex_key_parts(blocks),
+        known.astype(np.int64),
+        float(vertex_radius),
+        float(search),
+        float(search if gap is None else gap),
+        float(inside_depth),
+    )
+    return Detected(vertex, edge, kind)
+
+
+def _detect(
+    pairs, offsets, v, nxt, prv, owner, area, parts, known, vertex_radius, search, gap, inside
+):
+    """Compiled :func:`detect`: fans, screen, corners separated at filled nodes,
+    vertex-vertex resolution and one row per pairing, the kernels of each stage."""
+    to_next, to_prev, reflex, shortest = _fans_kernel(v, nxt, prv)
+    outward = np.empty_like(to_next)
+    outward[:, 0], outward[:, 1] = to_next[:, 1], -to_next[:, 0]
+    radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * shortest)
+    margin = max(gap, radius.max()) if radius.shape[0] else gap
+    blocks_count = offsets.shape[0] - 1
+    lo, hi = np.empty((blocks_count, 2)), np.empty((blocks_count, 2))
+    for b in range(blocks_count):
+        for axis in range(2):
+            low, high = np.inf, -np.inf
+            for k in range(offsets[b], offsets[b + 1]):
+                low, high = min(low, v[k, axis]), max(high, v[k, axis])
+            lo[b, axis], hi[b, axis] = low - margin, high + margin
+    directed = np.empty((2 * pairs.shape[0], 2), np.int64)
+    directed[: pairs.shape[0]] = pairs
+    directed[pairs.shape[0] :, 0], directed[pairs.shape[0] :, 1] = pairs[:, 1], pairs[:, 0]
+    ve_v, ve_e, vv_v, vv_e = _screen_kernel(
+        directed, offsets, v, nxt, reflex, to_next, to_prev, radius, area, lo, hi,
+        search, gap, ANGLE_TOLERANCE, EDGE_END,
+    )  # fmt: skip
+    if vv_v.shape[0]:
+        close = ~separated_corners_kernel(v, owner, to_next, to_prev, vv_v, vv_e, inside)
+        vv_v, vv_e = _resolve_kernel(
+            vv_v[close], vv_e[close], v, nxt, prv, to_next, to_prev, outward, reflex, parts,
+            known, OUTSIDE_FRACTION * search, inside, ANGLE_TIE, KEY_SCALE,
+        )  # fmt: skip
+    vertex = np.concatenate((ve_v, vv_v))
+    edge = np.concatenate((ve_e, vv_e))
+    kind = np.zeros(vertex.shape[0], np.bool_)
+    kind[ve_v.shape[0] :] = True
+    keep = _pairings_kernel(vertex, edge, v, owner, outward, blocks_count)
+    return vertex[keep], edge[keep], kind[keep]
 
 
 def _screened(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float, gap: float):
@@ -784,3 +849,6 @@ def _first_of_each(vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:
     key = vertex.astype(np.int64) * (int(edge.max()) + 1) + edge  # one integer per pair
     _, first = np.unique(key, return_index=True)  # first occurrence of each
     return np.sort(first)
+
+
+_detect_kernel = kernel(_detect)
