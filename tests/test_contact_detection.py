@@ -17,6 +17,7 @@ from dda.bench.scenes import wall_scene
 from dda.contact.broad import candidate_pairs, overlapping_pairs
 from dda.contact.contact_set import contact_keys
 from dda.contact.narrow import detect
+import dda.contact.pipeline as pipeline
 from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_geometry
 from dda.model import build
@@ -253,6 +254,32 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
         np.testing.assert_array_equal(first.vertex, found.vertex)
         np.testing.assert_array_equal(first.edge, found.edge)
         np.testing.assert_array_equal(first.vertex_vertex, found.vertex_vertex)
+
+
+@pytest.mark.skipif(pipeline._sift_kernel is None, reason="numba is not in use")
+@pytest.mark.parametrize(
+    "make", [lambda: tunnel_blocks(1e-3), lambda: tiles_of_ells(1e-3)], ids=["tunnel", "ells"]
+)
+@pytest.mark.parametrize("depth", [1e-4, 2e-3])
+def test_sifting_the_pairings_compiled_equals_numpy(make, depth):
+    """The pipeline's tests before the shapely one (geometry, keys, the last step's rows,
+    distances where doubtful, plausibility), one compiled call against numpy: with half
+    of the keys known from last step, deep overlapping blocks (vertices inside others)
+    and a search distance that lets many deep pairings through."""
+    model, blocks = make()
+    c = model.contact
+    pairs = candidate_pairs(blocks, c.search_distance)
+    found = detect(blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance)
+    keys = contact_keys(blocks, found.vertex, found.edge)
+    previous = np.random.default_rng(3).permutation(np.concatenate([keys[::2], [-5, 7]]))
+    slack = narrow.OUTSIDE_FRACTION * c.search_distance
+    args = (blocks, found, previous, c.search_distance, slack, depth, c.law.tolerance)
+    compiled = pipeline._sift_compiled(*args)
+    expected = pipeline._sift_numpy(*args)
+    assert np.count_nonzero(~np.isnan(expected[5])) >= 5  # distances were needed
+    assert 0 < np.count_nonzero(expected[4]) < len(found.vertex)  # some pairings refused
+    for got, want in zip(compiled, expected, strict=True):
+        np.testing.assert_array_equal(got, want)
 
 
 @pytest.mark.parametrize("seed", range(3))

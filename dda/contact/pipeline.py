@@ -7,10 +7,18 @@ import shapely
 
 from dda.blocks import BlockSet
 from dda.contact.broad import KeptPairs, candidate_pairs
-from dda.contact.contact_set import ContactSet, contact_keys, merge, rows_in
+from dda.contact.contact_set import (
+    KEY_SCALE,
+    ContactSet,
+    contact_keys,
+    merge,
+    rows_in,
+    vertex_key_parts,
+)
 from dda.contact.narrow import OUTSIDE_FRACTION, detect
-from dda.contact.point_distance import block_polygons, point_distances
-from dda.contact.rows import edge_geometry
+from dda.contact.point_distance import _distances_kernel, block_polygons, point_distances
+from dda.contact.rows import _edge_geometry_kernel, edge_geometry
+from dda.jit import compiled, kernel
 
 
 def refresh_contacts(
@@ -52,24 +60,14 @@ def refresh_contacts(
         previous.key,
         gap,
     )
-    penetration, parameter, far = edge_geometry(blocks, found.vertex, found.edge)
-    keys = contact_keys(blocks, found.vertex, found.edge)
-    previous_rows = rows_in(keys, previous.key)
-    persisting = previous_rows >= 0
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
-    # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes the
-    # soundness tests by construction (distance to the block <= to the edge <= slack)
-    doubtful = (far > slack) | (penetration > slack)
-    new_and_deep = ~persisting & (penetration > tolerance)
-    boundary, to_block = _distances_where(blocks, found.vertex, found.edge, doubtful | new_and_deep)
-    plausible = persisting | (penetration <= settings.search_distance)
-    plausible &= ~doubtful | _geometrically_sound(
-        far, penetration, boundary, to_block, tolerance, slack
-    )
-    plausible &= ~new_and_deep | (penetration <= boundary + settings.law.tolerance)
+    sift = _sift_compiled if compiled(_sift_kernel) else _sift_numpy
+    penetration, parameter, keys, previous_rows, plausible, to_block, asked = sift(
+        blocks, found, previous.key, settings.search_distance, slack, tolerance,
+        settings.law.tolerance,
+    )  # fmt: skip
     # the shapely test last, on the pairings still plausible (on the 100 x 100 wall
     # ~24,000 deep new pairings a step fail the tests above; it would check 10,000)
-    asked = new_and_deep & plausible
     plausible &= _blocks_touch(blocks, found.vertex, found.edge, to_block, asked, tolerance)
     vertex, edge = found.vertex[plausible], found.edge[plausible]
     penetration, parameter = penetration[plausible], parameter[plausible]
@@ -88,6 +86,92 @@ def refresh_contacts(
     contacts.reference = parameter  # shear motion is measured from the step start
     contacts.penetration = penetration
     return contacts
+
+
+def _sift_numpy(blocks, found, previous_keys, search, slack, tolerance, depth_tolerance):
+    """(penetration, parameter, keys, rows in the last step's set, plausible, distance
+    to the edge's block, the pairings asked of :func:`_blocks_touch`) of the pairings
+    found: the tests of :func:`refresh_contacts` before the shapely one."""
+    penetration, parameter, far = edge_geometry(blocks, found.vertex, found.edge)
+    keys = contact_keys(blocks, found.vertex, found.edge)
+    previous_rows = rows_in(keys, previous_keys)
+    persisting = previous_rows >= 0
+    # a contact within ``slack`` of its edge, penetrating less than ``slack``, passes the
+    # soundness tests by construction (distance to the block <= to the edge <= slack)
+    doubtful = (far > slack) | (penetration > slack)
+    new_and_deep = ~persisting & (penetration > tolerance)
+    boundary, to_block = _distances_where(blocks, found.vertex, found.edge, doubtful | new_and_deep)
+    plausible = persisting | (penetration <= search)
+    plausible &= ~doubtful | _geometrically_sound(
+        far, penetration, boundary, to_block, tolerance, slack
+    )
+    plausible &= ~new_and_deep | (penetration <= boundary + depth_tolerance)
+    asked = new_and_deep & plausible
+    return penetration, parameter, keys, previous_rows, plausible, to_block, asked
+
+
+def _sift_compiled(blocks, found, previous_keys, search, slack, tolerance, depth_tolerance):
+    """:func:`_sift_numpy` in one compiled call (:func:`_sift`)."""
+    return _sift_kernel(
+        found.vertex.astype(np.int64),
+        found.edge.astype(np.int64),
+        np.ascontiguousarray(blocks.vertices, dtype=np.float64),
+        blocks.next_vertex.astype(np.int64),
+        blocks.vertex_owner.astype(np.int64),
+        blocks.offsets.astype(np.int64),
+        vertex_key_parts(blocks),
+        np.asarray(previous_keys, dtype=np.int64),
+        float(search),
+        float(slack),
+        float(tolerance),
+        float(depth_tolerance),
+    )
+
+
+def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, slack, tolerance,
+          depth_tolerance):  # fmt: skip
+    """Compiled :func:`_sift_numpy`: the same tests, pairing by pairing."""
+    penetration, parameter, far = _edge_geometry_kernel(v, vertex, edge, nxt)
+    m = vertex.shape[0]
+    order = np.argsort(previous_keys, kind="mergesort")
+    known = previous_keys[order]
+    keys = np.empty(m, np.int64)
+    previous_rows = np.full(m, -1, np.int64)
+    needed = np.zeros(m, np.bool_)
+    for k in range(m):
+        keys[k] = parts[vertex[k]] * KEY_SCALE + parts[edge[k]]
+        at = np.searchsorted(known, keys[k])
+        if at < known.shape[0] and known[at] == keys[k]:
+            previous_rows[k] = order[at]
+        doubtful = far[k] > slack or penetration[k] > slack
+        new_and_deep = previous_rows[k] < 0 and penetration[k] > tolerance
+        needed[k] = doubtful or new_and_deep
+    rows = np.flatnonzero(needed)
+    boundary, to_block = np.full(m, np.nan), np.full(m, np.nan)
+    if rows.shape[0]:
+        points = np.empty((rows.shape[0], 2))
+        for i in range(rows.shape[0]):
+            points[i, 0], points[i, 1] = v[vertex[rows[i]], 0], v[vertex[rows[i]], 1]
+        near, inside = _distances_kernel(points, owner[edge[rows]], offsets, v)
+        boundary[rows], to_block[rows] = near, inside
+    plausible = np.empty(m, np.bool_)
+    asked = np.zeros(m, np.bool_)
+    for k in range(m):
+        persisting = previous_rows[k] >= 0
+        doubtful = far[k] > slack or penetration[k] > slack
+        new_and_deep = not persisting and penetration[k] > tolerance
+        keep = persisting or penetration[k] <= search
+        if doubtful:
+            near_enough = far[k] <= boundary[k] + slack
+            keep = keep and near_enough and (penetration[k] <= tolerance or to_block[k] <= slack)
+        if new_and_deep:
+            keep = keep and penetration[k] <= boundary[k] + depth_tolerance
+        plausible[k] = keep
+        asked[k] = new_and_deep and keep
+    return penetration, parameter, keys, previous_rows, plausible, to_block, asked
+
+
+_sift_kernel = kernel(_sift)
 
 
 def _distances_where(blocks, vertex, edge, needed) -> tuple[np.ndarray, np.ndarray]:
@@ -126,6 +210,8 @@ def _blocks_touch(blocks, vertex, edge, to_block, asked, tolerance) -> np.ndarra
     (``to_block``), or the blocks' shapely distance is within the tolerance.
     """
     keep = np.ones(len(vertex), dtype=bool)
+    if not asked.any():
+        return keep
     check = np.flatnonzero(asked & (to_block > tolerance))
     if len(check) == 0:
         return keep
