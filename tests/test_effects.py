@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import dda
 from dda.blocks import BlockSet
+from dda.effects import damping
 from dda.effects.elastic import elasticity_matrices
 from dda.effects.inertia import mass_matrices
 from dda.geometry import pack_polygons
 from dda.kinematics import displacement_matrices
+from dda.model import build
 from tests.helpers import ROCK, rectangle
+
+CASES = Path(__file__).resolve().parent.parent / "cases"
 
 
 def one_block(polygon: np.ndarray) -> BlockSet:
@@ -143,3 +149,30 @@ def test_frictionless_joints_build_no_friction():
     )
     active = dda.simulate(scene).summary["active_effects"]
     assert "contact_augmented" in active and "friction" not in active
+
+
+@pytest.mark.skipif(damping.slowest_frequencies_kernel is None, reason="numba is not in use")
+def test_slowest_strain_frequency_compiled_equals_numpy():
+    """ω₁ of the material damping: the compiled Cholesky and Jacobi rotations against
+    numpy's LAPACK, on random strain blocks (well and badly conditioned, equal
+    eigenvalues, one eigenvalue split by 1e-9) and on the rock slope's blocks."""
+    rng = np.random.default_rng(0)
+    n = 500
+    masses = np.zeros((n, 6, 6))
+    x = rng.normal(size=(n, 3, 3))
+    masses[:, 3:, 3:] = x @ np.swapaxes(x, 1, 2) + 0.1 * np.eye(3)
+    y = rng.normal(size=(n, 3, 3))
+    stiffness = y @ np.swapaxes(y, 1, 2) + 0.01 * np.eye(3)
+    stiffness[:10], masses[:10, 3:, 3:] = 5.0 * np.eye(3), 2.0 * np.eye(3)
+    stiffness[10:20] = np.diag([1.0, 1.0, 1.0 + 1e-9])
+    expected = damping.slowest_strain_frequency(stiffness, masses)  # numpy outside a run
+    got = damping.slowest_frequencies_kernel(stiffness, masses)
+    np.testing.assert_allclose(got, expected, rtol=1e-9)  # eps x the condition number
+    model = build(dda.load_scene(CASES / "rock_slope.toml"))
+    effect = next(e for e in model.effects if e.name == "material_damping")
+    blocks = model.blocks
+    elastic = blocks.area[:, None, None] * effect.material_elasticity[blocks.material]
+    masses = mass_matrices(effect.density[blocks.material], blocks)
+    expected = damping.slowest_strain_frequency(elastic, masses)
+    got = damping.slowest_frequencies_kernel(elastic, masses)
+    np.testing.assert_allclose(got, expected, rtol=1e-13)
