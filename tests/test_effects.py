@@ -10,6 +10,8 @@ import pytest
 import dda
 from dda.blocks import BlockSet
 from dda.effects import damping
+from dda.effects import inertia as inertia_module
+from dda.effects.base import StepContext
 from dda.effects.elastic import elasticity_matrices
 from dda.effects.inertia import mass_matrices
 from dda.geometry import pack_polygons
@@ -176,3 +178,28 @@ def test_slowest_strain_frequency_compiled_equals_numpy():
     expected = damping.slowest_strain_frequency(elastic, masses)
     got = damping.slowest_frequencies_kernel(elastic, masses)
     np.testing.assert_allclose(got, expected, rtol=1e-13)
+
+
+def test_inertia_and_damping_share_a_steps_mass_matrices(monkeypatch):
+    """K₀ and F₀ of the inertia and the material damping's frequencies use one
+    computation of the mass matrices a step (kept on the blocks while their moments
+    are the same arrays), equal to one made afresh; new moments make a new one."""
+    model = build(dda.load_scene(single_block_scene()))
+    assert [e.name for e in model.effects] == ["elastic", "inertia", "material_damping"]
+    calls = []
+    original = inertia_module.mass_matrices
+    monkeypatch.setattr(inertia_module, "mass_matrices", lambda *a: calls.append(1) or original(*a))
+    blocks, ctx = model.blocks, StepContext(dt=0.01, time=0.0, step=0, static=False)
+    for effect in model.effects:
+        effect.stiffness(blocks, ctx)
+        effect.forces(blocks, ctx)
+    assert len(calls) == 1
+    inertia = model.effects[1]
+    expected = original(inertia.material_density[blocks.material], blocks)
+    np.testing.assert_array_equal(inertia.masses(blocks), expected)
+    blocks.vertices = blocks.vertices * 1.01
+    blocks.update_moments()
+    np.testing.assert_array_equal(
+        inertia.masses(blocks), original(inertia.material_density[blocks.material], blocks)
+    )
+    assert len(calls) == 2

@@ -33,7 +33,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.effects.base import Effect, StepContext
-from dda.effects.inertia import mass_matrices
+from dda.effects.inertia import block_masses
 from dda.jit import compiled_in_run, kernel
 
 DEFAULT_RATIO = 0.2  # fraction of critical damping of each block's slowest elastic mode
@@ -137,7 +137,7 @@ class MaterialDamping(Effect):
         if ctx.static:
             return None
         elastic = blocks.area[:, None, None] * self.material_elasticity[blocks.material]
-        masses = mass_matrices(self.density[blocks.material], blocks)
+        masses = block_masses(self.density, blocks)
         beta = 2.0 * self.ratio[blocks.material] / slowest_strain_frequency(elastic, masses)
         k = np.zeros((blocks.count, 6, 6))
         k[:, 3:, 3:] = (beta / ctx.dt)[:, None, None] * elastic
