@@ -30,8 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dda.contact import law_kernels
 from dda.contact.contact_set import ContactSet
 from dda.contact.potential import NORMAL_ELASTIC, STICK, ContactTerms
+from dda.jit import compiled
 from dda.result import LOCKED, OPEN, SLIDING
 
 UNBOUNDED = 1e300  # the friction bound of a contact whose normal force is not known yet
@@ -100,6 +102,15 @@ def contact_terms(
     λn is kept at or above −T and λt within ±b (a bound that fell since the last
     solve clamps the carried shear force: that is slip, it dissipates).
     """
+    if compiled(law_kernels.terms_kernel):
+        normal_base, tension, shear_base, shear_penalty, bound = law_kernels.terms_kernel(
+            contacts.intact, _floats(joint.tensile), contacts.normal_multiplier,
+            contacts.shear_multiplier, contacts.penalty, float(law.shear_ratio),
+            _floats(bound), bool(law.friction),
+        )  # fmt: skip
+        return ContactTerms(
+            normal_base, contacts.penalty, tension, shear_base, shear_penalty, bound
+        )
     tension = np.where(contacts.intact, joint.tensile, 0.0)
     lam_n = contacts.normal_multiplier
     if law.friction:
@@ -193,11 +204,18 @@ def update(
     ``previous_g``: the penetrations of the previous solve of this step (None for
     the first). Returns whether another solve is needed.
     """
-    normal = terms.normal_force(g)
     settled = True
-    bound = friction_bound(contacts, joint, normal) if law.friction else terms.bound
+    if compiled(law_kernels.forces_and_bounds_kernel):
+        normal, bound, changed = law_kernels.forces_and_bounds_kernel(
+            *_term_arrays(terms), _floats(g), _floats(s), contacts.intact, _floats(joint.friction),
+            _floats(joint.cohesion), bool(law.friction),
+        )  # fmt: skip
+    else:
+        normal = terms.normal_force(g)
+        bound = friction_bound(contacts, joint, normal) if law.friction else terms.bound
+        if law.friction:
+            changed = np.abs(np.clip(terms.shear_trial(s), -bound, bound) - terms.shear_force(s))
     if law.friction:
-        changed = np.abs(np.clip(terms.shear_trial(s), -bound, bound) - terms.shear_force(s))
         settled = bool(np.linalg.norm(changed) <= law.friction_tolerance * np.linalg.norm(bound))
     augmented, violation = 0, 0.0
     if law.augmented:
@@ -205,15 +223,22 @@ def update(
         settled &= augmented == 0
     broken = 0
     if settled:  # bonds are judged on consistent forces only: a break is for good
-        broken = _break_bonds(contacts, terms, joint, *terms.pieces(g, s))
+        broken = _break_bonds(contacts, terms, joint, g, s)
         settled = broken == 0
     contacts.normal_force = normal
     return LawOutcome(bool(settled), bound, augmented, broken, violation)
 
 
-def _break_bonds(contacts, terms, joint, normal_piece, shear_piece) -> int:
+def _break_bonds(contacts, terms, joint, g, s) -> int:
     """Intact contacts (with a tensile strength or cohesion) pulled to their tensile
     strength, or slipping, lose both for good."""
+    if compiled(law_kernels.broken_kernel):
+        lost = law_kernels.broken_kernel(
+            *_term_arrays(terms), _floats(g), _floats(s), contacts.intact, _floats(joint.cohesion)
+        )
+        contacts.intact &= ~lost
+        return int(np.count_nonzero(lost))
+    normal_piece, shear_piece = terms.pieces(g, s)
     bonded = contacts.intact & ((terms.tension > 0.0) | (joint.cohesion > 0.0))
     at_tension = (normal_piece != NORMAL_ELASTIC) & (terms.tension > 0.0)
     slipping = (shear_piece != STICK) & (terms.shear_penalty > 0.0)
@@ -225,6 +250,19 @@ def _break_bonds(contacts, terms, joint, normal_piece, shear_piece) -> int:
 def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
     """Eq. 7 beyond the tolerance, and the variable penalty; returns (count, violation)."""
     tolerance = law.tolerance
+    if compiled(law_kernels.augment_kernel):
+        has_previous = previous_g is not None
+        previous = _floats(previous_g if has_previous else g)
+        normal, shear, penalty, count, violation = law_kernels.augment_kernel(
+            *_term_arrays(terms), _floats(g), _floats(s), previous, has_previous,
+            contacts.fresh, _floats(contacts.penetration), contacts.shear_multiplier,
+            float(tolerance), float(law.shrink_target), float(law.max_penalty),
+            float(law.penalty_growth),
+        )  # fmt: skip
+        contacts.normal_multiplier, contacts.shear_multiplier = normal, shear
+        if has_previous:
+            contacts.penalty = penalty
+        return int(count), float(violation)
     trial_n = terms.normal_trial(g)
     elastic = trial_n >= -terms.tension
     # a contact found this step already deeper than the tolerance (fresh fracture
@@ -270,6 +308,20 @@ def record(
     equilibrium would otherwise be called locked or sliding by the solver's
     last digits). λt becomes the shear force carried into the next step.
     """
+    if compiled(law_kernels.recorded_kernel):
+        state, multiplier, direction, normal, shear = law_kernels.recorded_kernel(
+            *_term_arrays(terms),
+            _floats(g),
+            _floats(s),
+            contacts.normal_multiplier,
+            float(limit_band),
+        )
+        contacts.state, contacts.normal_multiplier = state, multiplier
+        contacts.slide_direction = direction
+        contacts.normal_force, contacts.shear_force = normal, shear
+        contacts.shear_multiplier = shear
+        contacts.penetration, contacts.slip = g, s
+        return
     normal_piece, _ = terms.pieces(g, s)
     closed = (normal_piece == NORMAL_ELASTIC) | (terms.tension > 0.0)
     normal = np.where(closed, terms.normal_force(g), 0.0)
@@ -298,3 +350,15 @@ def friction_dissipation(terms: ContactTerms, s: np.ndarray) -> float:
     with np.errstate(divide="ignore", invalid="ignore"):
         work = np.where(ps > 0.0, terms.bound * excess / ps, 0.0)
     return float(np.sum(work))
+
+
+def _floats(values) -> np.ndarray:
+    """``values`` as a contiguous float array (the kernels' argument type)."""
+    return np.ascontiguousarray(values, dtype=np.float64)
+
+
+def _term_arrays(terms: ContactTerms) -> tuple[np.ndarray, ...]:
+    """λn, p, T, λt, ps, b of the terms, contiguous float arrays for the kernels."""
+    data = (terms.normal_base, terms.penalty, terms.tension, terms.shear_base,
+            terms.shear_penalty, terms.bound)  # fmt: skip
+    return tuple(_floats(a) for a in data)
