@@ -47,6 +47,7 @@ BIN = Path(sys.executable).parent
 # assembly and the effects (not dda/effects/__init__.py)
 MODULES = [
     "dda/contact/law.py",
+    "dda/contact/law_kernels.py",
     "dda/contact/potential.py",
     "dda/solve/integrator.py",
     "dda/solve/update.py",
@@ -76,7 +77,16 @@ _EFFECTS = ["tests/test_effects.py"]
 _CASE = "tests/test_cases.py::test_case_runs_and_matches_stored_number[{}]"  # a shipped case
 # stage 2: the unit tests of each module (a fast subset, seconds to a minute)
 TESTS = {
-    "dda/contact/law.py": ["tests/test_contact_law.py", "tests/test_augmented_lagrangian.py"],
+    "dda/contact/law.py": [
+        "tests/test_contact_law.py",
+        "tests/test_augmented_lagrangian.py",
+        "tests/test_law_kernels.py",
+    ],
+    # the law's compiled twins against its numpy bodies
+    "dda/contact/law_kernels.py": [
+        "tests/test_law_kernels.py",
+        "tests/test_augmented_lagrangian.py",
+    ],
     "dda/contact/potential.py": ["tests/test_contact_potential.py", "tests/test_newton.py"],
     "dda/solve/integrator.py": _MOTION,
     "dda/solve/update.py": _MOTION,

@@ -165,11 +165,12 @@ class BoundIteration:
         self._history = [*self._history[-self.DEPTH :], (self.bound, target - self.bound)]
         points = np.array([b for b, _ in self._history])
         residuals = np.array([r for _, r in self._history])
+        residual_steps = np.diff(residuals, axis=0)
         gamma = np.zeros(len(points) - 1)
         if len(points) > 1:
-            gamma = _least_squares(np.diff(residuals, axis=0), residuals[-1])
+            gamma = _least_squares(residual_steps, residuals[-1])
         mean_point = points[-1] - gamma @ np.diff(points, axis=0)
-        mean_residual = residuals[-1] - gamma @ np.diff(residuals, axis=0)
+        mean_residual = residuals[-1] - gamma @ residual_steps
         self.bound = np.maximum(mean_point + self.MIXING * mean_residual, 0.0)
 
 
