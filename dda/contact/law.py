@@ -104,8 +104,8 @@ def contact_terms(
     """
     if compiled(law_kernels.terms_kernel):
         normal_base, tension, shear_base, shear_penalty, bound = law_kernels.terms_kernel(
-            contacts.intact, _floats(joint.tensile), contacts.normal_multiplier,
-            contacts.shear_multiplier, contacts.penalty, float(law.shear_ratio),
+            contacts.intact, _floats(joint.tensile), _floats(contacts.normal_multiplier),
+            _floats(contacts.shear_multiplier), _floats(contacts.penalty), float(law.shear_ratio),
             _floats(bound), bool(law.friction),
         )  # fmt: skip
         return ContactTerms(
@@ -208,8 +208,8 @@ def update(
     settled = True
     if compiled(law_kernels.forces_and_bounds_kernel):
         normal, bound, changed = law_kernels.forces_and_bounds_kernel(
-            *_term_arrays(terms), _floats(g), _floats(s), contacts.intact, _floats(joint.friction),
-            _floats(joint.cohesion), bool(law.friction),
+            *terms.kernel_arrays(), _floats(g), _floats(s), contacts.intact,
+            _floats(joint.friction), _floats(joint.cohesion), bool(law.friction),
         )  # fmt: skip
     else:
         normal = terms.normal_force(g)
@@ -235,7 +235,7 @@ def _break_bonds(contacts, terms, joint, g, s) -> int:
     strength, or slipping, lose both for good."""
     if compiled(law_kernels.broken_kernel):
         lost = law_kernels.broken_kernel(
-            *_term_arrays(terms), _floats(g), _floats(s), contacts.intact, _floats(joint.cohesion)
+            *terms.kernel_arrays(), _floats(g), _floats(s), contacts.intact, _floats(joint.cohesion)
         )
         contacts.intact &= ~lost
         return int(np.count_nonzero(lost))
@@ -255,8 +255,8 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
         has_previous = previous_g is not None
         previous = _floats(previous_g if has_previous else g)
         normal, shear, penalty, count, violation = law_kernels.augment_kernel(
-            *_term_arrays(terms), _floats(g), _floats(s), previous, has_previous,
-            contacts.fresh, _floats(contacts.penetration), contacts.shear_multiplier,
+            *terms.kernel_arrays(), _floats(g), _floats(s), previous, has_previous,
+            contacts.fresh, _floats(contacts.penetration), _floats(contacts.shear_multiplier),
             float(tolerance), float(law.shrink_target), float(law.max_penalty),
             float(law.penalty_growth),
         )  # fmt: skip
@@ -311,10 +311,10 @@ def record(
     """
     if compiled(law_kernels.recorded_kernel):
         state, multiplier, direction, normal, shear = law_kernels.recorded_kernel(
-            *_term_arrays(terms),
+            *terms.kernel_arrays(),
             _floats(g),
             _floats(s),
-            contacts.normal_multiplier,
+            _floats(contacts.normal_multiplier),
             float(limit_band),
         )
         contacts.state, contacts.normal_multiplier = state, multiplier
@@ -356,10 +356,3 @@ def friction_dissipation(terms: ContactTerms, s: np.ndarray) -> float:
 def _floats(values) -> np.ndarray:
     """``values`` as a contiguous float array (the kernels' argument type)."""
     return np.ascontiguousarray(values, dtype=np.float64)
-
-
-def _term_arrays(terms: ContactTerms) -> tuple[np.ndarray, ...]:
-    """λn, p, T, λt, ps, b of the terms, contiguous float arrays for the kernels."""
-    data = (terms.normal_base, terms.penalty, terms.tension, terms.shear_base,
-            terms.shear_penalty, terms.bound)  # fmt: skip
-    return tuple(_floats(a) for a in data)

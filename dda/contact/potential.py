@@ -53,6 +53,12 @@ class ContactTerms:
     shear_penalty: np.ndarray  # ps (0: no shear term)
     bound: np.ndarray  # b ≥ 0
 
+    def kernel_arrays(self) -> tuple[np.ndarray, ...]:
+        """λn, p, T, λt, ps, b as contiguous float arrays, the kernels' arguments."""
+        data = (self.normal_base, self.penalty, self.tension, self.shear_base,
+                self.shear_penalty, self.bound)  # fmt: skip
+        return tuple(np.ascontiguousarray(a, np.float64) for a in data)
+
     def normal_trial(self, g: np.ndarray) -> np.ndarray:
         return self.normal_base + self.penalty * g
 

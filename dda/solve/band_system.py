@@ -221,7 +221,7 @@ class BandSystem:
         normal_piece, shear_piece = first_pieces if first else (none, none)
         made = int(state[band_newton.FACTORISATIONS])
         arguments = (
-            *self._fixed_arrays(), self.g0, self.s0, *_term_arrays(terms), self.friction,
+            *self._fixed_arrays(), self.g0, self.s0, *terms.kernel_arrays(), self.friction,
             x, *(np.ascontiguousarray(a, np.float64) for a in gaps), have_gaps,
             np.ascontiguousarray(normal_piece, np.int8),
             np.ascontiguousarray(shear_piece, np.int8), first,
@@ -242,7 +242,7 @@ class BandSystem:
 
     def better_start(self, terms, candidates: list[np.ndarray]) -> np.ndarray:
         """:func:`dda.solve.newton.better_start` by the compiled Π."""
-        arrays = (*self._fixed_arrays(), self.g0, self.s0, *_term_arrays(terms))
+        arrays = (*self._fixed_arrays(), self.g0, self.s0, *terms.kernel_arrays())
         values = [
             band_newton.potential_kernel(*arrays, np.ascontiguousarray(d[self.order].ravel()))
             for d in candidates
@@ -271,13 +271,6 @@ class BandSystem:
         out = np.zeros(self.shape)
         out[self.order] = x.reshape(-1, 6)
         return out
-
-
-def _term_arrays(terms) -> tuple[np.ndarray, ...]:
-    """λn, p, T, λt, ps, b of the contact terms, contiguous float arrays for the kernels."""
-    t = terms
-    data = (t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound)
-    return tuple(np.ascontiguousarray(a, np.float64) for a in data)
 
 
 def _bolts(couplings, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
