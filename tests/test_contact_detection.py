@@ -12,12 +12,12 @@ import pytest
 import dda
 import dda.contact.broad as broad
 import dda.contact.narrow as narrow
+import dda.contact.pipeline as pipeline
 import dda.contact.point_distance as pd
 from dda.bench.scenes import wall_scene
 from dda.contact.broad import candidate_pairs, overlapping_pairs
 from dda.contact.contact_set import contact_keys
 from dda.contact.narrow import detect
-import dda.contact.pipeline as pipeline
 from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_geometry
 from dda.model import build
@@ -232,8 +232,9 @@ def keys_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
     ids=["wall", "jittered-wall", "tunnel", "jittered-tunnel", "ells", "jittered-ells"],
 )
 def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
-    """The compiled screen, vertex-vertex resolution and pairings kept (one a vertex-edge
-    pair, the shallower of opposed edges) give the numpy paths' contacts,
+    """The compiled narrow phase (one call: screen, corners at filled nodes,
+    vertex-vertex resolution, pairings kept — one a vertex-edge pair, the shallower of
+    opposed edges) gives the numpy path's contacts (with and without the compiled screen),
     with last step's keys (from a nudged copy) for half of the pairings, the others
     decided by position, and the contact tolerance as the inside depth. The L's and
     the tunnel's blocks around the opening have reflex vertices."""
@@ -244,10 +245,8 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
     args = (blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance, previous)
     first = detect(*args)  # one compiled call
     monkeypatch.setattr(narrow, "_detect_kernel", None)
-    pieces = detect(*args)  # the compiled pieces called from numpy
+    pieces = detect(*args)  # the numpy path around the compiled screen
     monkeypatch.setattr(narrow, "_screen_kernel", None)
-    monkeypatch.setattr(narrow, "_resolve_kernel", None)
-    monkeypatch.setattr(narrow, "_pairings_kernel", None)
     second = detect(*args)
     assert first.vertex_vertex.sum() >= 20
     for found in (pieces, second):
@@ -378,7 +377,6 @@ def test_a_corner_that_slid_past_the_other_hands_the_contact_over(monkeypatch, c
     out as a fresh deep contact, and such corners fed the stack 0.16 of its energy."""
     if not compiled:
         monkeypatch.setattr(narrow, "_detect_kernel", None)
-        monkeypatch.setattr(narrow, "_resolve_kernel", None)
     a = [(0.04435, 0.26332), (1.00925, 0.00075), (1.14055, 0.48322), (0.17564, 0.7458)]
     b = [(0.19288, 0.74284), (1.15734, 0.47864), (1.28945, 0.96088), (0.32499, 1.22509)]
     blocks = build(dda.load_scene(scene([block("a", a), block("b", b)]))).blocks
@@ -505,7 +503,6 @@ def test_a_vertex_inside_a_sliver_is_in_contact_with_the_edge_it_entered(monkeyp
     if not compiled:
         monkeypatch.setattr(narrow, "_detect_kernel", None)
         monkeypatch.setattr(narrow, "_screen_kernel", None)
-        monkeypatch.setattr(narrow, "_pairings_kernel", None)
     needle = [[5.0, 0.001], [-5.0, 0.3], [-5.0, -0.3]]
     sliver = [[0.0, 0.0], [10.0, 0.0], [10.0, 1.0]]
     far = [[0.0, 20.0], [1.0, 20.0], [1.0, 21.0]]

@@ -94,9 +94,8 @@ def _search_rows(model, blocks) -> list[tuple[str, float]]:
             best_of(lambda: refresh_contacts(blocks, ContactSet.empty(), settings)),
         )
     ]
-    saved = broad._grid_kernel, narrow._detect_kernel, narrow._screen_kernel, narrow._resolve_kernel
-    broad._grid_kernel, narrow._detect_kernel = None, None
-    narrow._screen_kernel, narrow._resolve_kernel = None, None
+    saved = broad._grid_kernel, narrow._detect_kernel, narrow._screen_kernel
+    broad._grid_kernel, narrow._detect_kernel, narrow._screen_kernel = None, None, None
     try:
         out.append(
             (
@@ -105,9 +104,7 @@ def _search_rows(model, blocks) -> list[tuple[str, float]]:
             )
         )
     finally:
-        broad._grid_kernel, narrow._detect_kernel, narrow._screen_kernel, narrow._resolve_kernel = (
-            saved
-        )
+        broad._grid_kernel, narrow._detect_kernel, narrow._screen_kernel = saved
     return out
 
 

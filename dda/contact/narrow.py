@@ -187,18 +187,8 @@ def detect(
     vertex_all = np.concatenate([ve_vertex, vv_vertex])
     edge_all = np.concatenate([ve_edge, vv_edge])
     kind = np.concatenate([np.zeros(len(ve_vertex), bool), np.ones(len(vv_vertex), bool)])
-    if compiled(_pairings_kernel):
-        keep = _pairings_kernel(
-            vertex_all.astype(np.int64),
-            edge_all.astype(np.int64),
-            np.ascontiguousarray(blocks.vertices, dtype=np.float64),
-            blocks.vertex_owner.astype(np.int64),
-            np.ascontiguousarray(fans.outward),
-            blocks.count,
-        )
-    else:
-        keep = _first_of_each(vertex_all, edge_all)
-        keep = keep[~_opposed_deeper(blocks, fans, vertex_all[keep], edge_all[keep])]
+    keep = _first_of_each(vertex_all, edge_all)
+    keep = keep[~_opposed_deeper(blocks, fans, vertex_all[keep], edge_all[keep])]
     return Detected(vertex_all[keep], edge_all[keep], kind[keep])
 
 
@@ -461,8 +451,6 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     """
     if len(p1) == 0:
         return p1, p2
-    if compiled(_resolve_kernel):
-        return _resolve_compiled(blocks, fans, p1, p2, slack, inside_depth, previous_keys)
     candidates = [
         (p1, p2),  # p1 onto edge starting at p2
         (p1, fans.prev[p2]),  # p1 onto edge ending at p2
@@ -501,29 +489,6 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     edges = np.column_stack([c[1] for c in candidates])
     rows = np.arange(len(p1))
     return verts[rows, best], edges[rows, best]
-
-
-def _resolve_compiled(blocks, fans, p1, p2, slack, inside_depth, previous_keys):
-    """The pairings of :func:`_resolve_vertex_vertex`, one coincident pair at a time (numba)."""
-    known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
-    vertex, edge = _resolve_kernel(
-        p1.astype(np.int64),
-        p2.astype(np.int64),
-        np.ascontiguousarray(blocks.vertices, dtype=np.float64),
-        fans.next.astype(np.int64),
-        fans.prev.astype(np.int64),
-        np.ascontiguousarray(fans.to_next),
-        np.ascontiguousarray(fans.to_prev),
-        np.ascontiguousarray(fans.outward),
-        fans.reflex,
-        vertex_key_parts(blocks),
-        known.astype(np.int64),
-        float(slack),
-        float(inside_depth),
-        ANGLE_TIE,
-        KEY_SCALE,
-    )
-    return vertex, edge
 
 
 def _shares_line(outward, prv, vertex, other_edge):

@@ -137,16 +137,15 @@ def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, sl
     known = previous_keys[order]
     keys = np.empty(m, np.int64)
     previous_rows = np.full(m, -1, np.int64)
-    needed = np.zeros(m, np.bool_)
+    doubtful, new_and_deep = np.empty(m, np.bool_), np.empty(m, np.bool_)
     for k in range(m):
         keys[k] = parts[vertex[k]] * KEY_SCALE + parts[edge[k]]
         at = np.searchsorted(known, keys[k])
         if at < known.shape[0] and known[at] == keys[k]:
             previous_rows[k] = order[at]
-        doubtful = far[k] > slack or penetration[k] > slack
-        new_and_deep = previous_rows[k] < 0 and penetration[k] > tolerance
-        needed[k] = doubtful or new_and_deep
-    rows = np.flatnonzero(needed)
+        doubtful[k] = far[k] > slack or penetration[k] > slack
+        new_and_deep[k] = previous_rows[k] < 0 and penetration[k] > tolerance
+    rows = np.flatnonzero(doubtful | new_and_deep)
     boundary, to_block = np.full(m, np.nan), np.full(m, np.nan)
     if rows.shape[0]:
         points = np.empty((rows.shape[0], 2))
@@ -157,17 +156,14 @@ def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, sl
     plausible = np.empty(m, np.bool_)
     asked = np.zeros(m, np.bool_)
     for k in range(m):
-        persisting = previous_rows[k] >= 0
-        doubtful = far[k] > slack or penetration[k] > slack
-        new_and_deep = not persisting and penetration[k] > tolerance
-        keep = persisting or penetration[k] <= search
-        if doubtful:
+        keep = previous_rows[k] >= 0 or penetration[k] <= search
+        if doubtful[k]:
             near_enough = far[k] <= boundary[k] + slack
             keep = keep and near_enough and (penetration[k] <= tolerance or to_block[k] <= slack)
-        if new_and_deep:
+        if new_and_deep[k]:
             keep = keep and penetration[k] <= boundary[k] + depth_tolerance
         plausible[k] = keep
-        asked[k] = new_and_deep and keep
+        asked[k] = new_and_deep[k] and keep
     return penetration, parameter, keys, previous_rows, plausible, to_block, asked
 
 
