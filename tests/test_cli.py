@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import logging
+import os
 import subprocess
 import sys
 import textwrap
@@ -201,10 +202,13 @@ IMPORTED = (
 )
 
 
-def imported_by_a_run(case: Path, *options: str) -> list[str]:
-    """``dda run CASE`` in a new interpreter: its exit code, then which of HEAVY it imported."""
+def imported_by_a_run(case: Path, *options: str, threads: str = "1") -> list[str]:
+    """``dda run CASE`` in a new interpreter (``DDA_THREADS=threads``): its exit code,
+    then which of HEAVY it imported."""
     argv = [",".join(HEAVY), "run", str(case), "-o", "result", "-q", *options]
-    out = subprocess.run([sys.executable, "-c", IMPORTED, *argv], capture_output=True, text=True)
+    env = {**os.environ, "DDA_THREADS": threads}
+    command = [sys.executable, "-c", IMPORTED, *argv]
+    out = subprocess.run(command, capture_output=True, text=True, env=env)
     assert out.returncode == 0, out.stderr
     return out.stdout.split()
 
@@ -217,6 +221,11 @@ def test_a_run_without_a_picture_imports_no_plotting_or_cluster_library(case):
 
 def test_a_run_draws_its_picture_with_matplotlib_alone(case):
     assert imported_by_a_run(case) == ["0", "matplotlib"]
+    assert Path("result/final.png").stat().st_size > 1000
+
+
+def test_a_run_with_a_second_core_leaves_matplotlib_to_its_picture_helper(case):
+    assert imported_by_a_run(case, threads="2") == ["0"]
     assert Path("result/final.png").stat().st_size > 1000
 
 

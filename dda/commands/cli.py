@@ -395,7 +395,7 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
     resume_step = None if checkpoint is None else checkpoint.step
     writer = RunWriter(
         folder, scalars=args.scalars, image=not args.no_picture, resume_step=resume_step,
-        scene=scene,
+        scene=scene, picture=_picture_helper(args),
     )  # fmt: skip
     minutes = args.checkpoint_minutes
     plan = CheckpointPlan(
@@ -434,6 +434,18 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
     if not args.quiet:
         print(summary_paragraph(summary, folder.outdir))
     return EXIT_OK
+
+
+def _picture_helper(args: argparse.Namespace):
+    """A helper process importing matplotlib beside the run (:mod:`dda.io.picture_process`)
+    when the run draws and may have a second core: the solver would get two threads
+    (``DDA_THREADS``, else the cores the other processes leave idle); else None."""
+    from dda.io.picture_process import PictureProcess
+    from dda.solve.linsolve import solver_threads
+
+    if args.no_picture or solver_threads() < 2:
+        return None
+    return PictureProcess.start()
 
 
 def _write_failed(exc: OSError, writer, scene, folder, args: argparse.Namespace) -> int:

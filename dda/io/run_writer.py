@@ -32,6 +32,7 @@ from typing import Any
 
 from dda.io.atomic import TEMP_MARK, append_whole, naming, write_text
 from dda.io.images import render_frame
+from dda.io.picture_process import PictureProcess
 from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
 from dda.io.run_folder import SUMMARY_NAME, RunFolder
 from dda.io.tables import (
@@ -69,6 +70,9 @@ class RunWriter:
         the rest is kept and extended.
     scene
         The scene (title and source for the summaries written while running).
+    picture
+        A helper process to draw ``final.png`` (:mod:`dda.io.picture_process`), or
+        None to draw it in this process.
     """
 
     def __init__(
@@ -79,6 +83,7 @@ class RunWriter:
         overwrite: bool = False,
         resume_step: int | None = None,
         scene: Any = None,
+        picture: PictureProcess | None = None,
     ) -> None:
         if isinstance(outdir, RunFolder):
             self.folder = outdir
@@ -92,6 +97,7 @@ class RunWriter:
         self.scalars = scalars
         self.image = image
         self.scene = scene
+        self.picture = picture
         self.history_path = self.outdir / "history.csv"
         if resume_step is None:
             blocks, contacts = [], []
@@ -191,6 +197,8 @@ class RunWriter:
         self.close()
         if self.image and final is not None:
             summary["image"] = self._render_final(final, summary)
+        elif self.picture is not None:
+            self.picture.cancel()
         write_summary(self.outdir / SUMMARY_NAME, summary)
         if summary["status"] == "finished":
             self.folder.checkpoint_path.unlink(missing_ok=True)
@@ -241,11 +249,15 @@ class RunWriter:
         return summary
 
     def _render_final(self, frame: Frame, summary: dict[str, Any]) -> str | None:
+        path = self.outdir / "final.png"
+        options = {
+            "scalars": self.scalars, "scene_title": summary.get("title") or "",
+            "units": summary.get("units"),
+        }  # fmt: skip
+        if self.picture is not None and self.picture.draw(frame, path, **options):
+            return "final.png"
         try:
-            render_frame(
-                frame, self.outdir / "final.png", scalars=self.scalars,
-                scene_title=summary.get("title") or "", units=summary.get("units"),
-            )  # fmt: skip
+            render_frame(frame, path, **options)
         except Exception:  # a missing OpenGL must not cost the run's data
             logger.exception("could not render final.png")
             return None

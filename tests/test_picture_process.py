@@ -1,0 +1,81 @@
+"""final.png drawn by the helper process: the same picture, and the run's own drawing
+whenever the helper does not draw."""
+
+from __future__ import annotations
+
+from dda.io.images import render_frame
+from dda.io.picture_process import PictureProcess
+from dda.io.run_writer import RunWriter
+from tests.test_io import make_frame
+
+OPTIONS = {"scalars": "syy", "scene_title": "Two blocks", "units": {"length": "ft"}}
+
+
+def test_the_helpers_picture_is_the_one_drawn_here_byte_for_byte(tmp_path):
+    frame = make_frame((4, 5, 4))
+    helper = PictureProcess.start()
+    assert helper is not None
+    assert helper.draw(frame, tmp_path / "helper.png", **OPTIONS)
+    render_frame(frame, tmp_path / "here.png", **OPTIONS)
+    drawn = (tmp_path / "helper.png").read_bytes()
+    assert len(drawn) > 1000 and drawn == (tmp_path / "here.png").read_bytes()
+    assert helper.process.returncode == 0
+
+
+def test_a_helper_with_nothing_to_draw_ends_and_writes_nothing(tmp_path):
+    helper = PictureProcess.start()
+    helper.process.stdin.close()  # the run ended without a picture (or died)
+    assert helper.process.wait(timeout=60) == 0
+    cancelled = PictureProcess.start()
+    cancelled.cancel()
+    assert cancelled.process.returncode is not None
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_helper_that_cannot_draw_says_so(tmp_path, caplog):
+    helper = PictureProcess.start()
+    with caplog.at_level("DEBUG", logger="dda.io.picture_process"):
+        assert not helper.draw(make_frame(), tmp_path / "no such folder" / "final.png")
+    assert helper.process.returncode == 1
+    assert "could not draw" in caplog.text
+
+
+class _Helper:
+    """A stand-in helper: whether it draws, what was asked of it."""
+
+    def __init__(self, draws: bool) -> None:
+        self.draws, self.asked, self.cancelled = draws, [], False
+
+    def draw(self, frame, path, **options) -> bool:
+        self.asked.append((frame.step, path.name, options["scalars"]))
+        return self.draws
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
+def test_the_run_draws_its_picture_when_the_helper_did_not(tmp_path):
+    helper = _Helper(draws=False)
+    writer = RunWriter(tmp_path / "run", picture=helper)
+    writer.add_frame(make_frame(step=3))
+    summary = writer.finish()
+    assert helper.asked == [(3, "final.png", "syy")]
+    assert summary["image"] == "final.png"
+    assert (tmp_path / "run" / "final.png").stat().st_size > 1000
+
+
+def test_a_helper_that_drew_leaves_the_picture_to_it(tmp_path):
+    helper = _Helper(draws=True)
+    writer = RunWriter(tmp_path / "run", picture=helper)
+    writer.add_frame(make_frame(step=3))
+    assert writer.finish()["image"] == "final.png"
+    assert not (tmp_path / "run" / "final.png").exists()  # the stand-in draws nothing
+
+
+def test_a_run_without_a_picture_ends_its_helper(tmp_path):
+    helper = _Helper(draws=True)
+    writer = RunWriter(tmp_path / "run", picture=helper)
+    writer.add_frame(make_frame(step=3))
+    writer.image = False  # as after a failed write (a full disk)
+    writer.finish()
+    assert helper.cancelled and helper.asked == []
