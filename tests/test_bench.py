@@ -71,6 +71,9 @@ def test_machine_line_names_the_solver_threads_and_mkl_reproducibility(monkeypat
     assert machine_line().endswith("2 solver threads (DDA_THREADS)")
     monkeypatch.setenv("MKL_CBWR", "AUTO")
     assert machine_line().endswith("2 solver threads (DDA_THREADS), MKL_CBWR=AUTO")
+    monkeypatch.delenv("DDA_THREADS")  # each size's process decides: no count of this one's
+    said = "solver threads by the thread policy (DDA_THREADS unset), MKL_CBWR=AUTO"
+    assert machine_line().endswith(said)
 
 
 def test_warm_up_loads_the_compiled_kernels():

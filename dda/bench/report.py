@@ -34,13 +34,20 @@ def machine_line() -> str:
             model = value.strip()
         elif key.strip() == "CPU(s)":
             cores = value.strip()
-    threads = solver_threads()
     reproducible = os.environ.get("MKL_CBWR")
     return (
-        f"{model}, {cores or '?'} cores, Python {platform.python_version()}, "
-        f"{threads} solver thread{'s' if threads > 1 else ''} ({THREADS_VARIABLE})"
+        f"{model}, {cores or '?'} cores, Python {platform.python_version()}, {_threads_said()}"
         + (f", MKL_CBWR={reproducible}" if reproducible else "")
     )
+
+
+def _threads_said() -> str:
+    """``DDA_THREADS``'s count, or the policy's words: each size's process decides its
+    threads as it runs (:mod:`dda.solve.thread_policy`), not this one."""
+    if not os.environ.get(THREADS_VARIABLE, "").strip():
+        return f"solver threads by the thread policy ({THREADS_VARIABLE} unset)"
+    threads = solver_threads()
+    return f"{threads} solver thread{'s' if threads > 1 else ''} ({THREADS_VARIABLE})"
 
 
 def table(measurements: Iterable[Measurement]) -> str:
