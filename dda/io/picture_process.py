@@ -43,6 +43,8 @@ class PictureProcess:
     @classmethod
     def start(cls) -> PictureProcess | None:
         """The helper, started (None if it cannot start)."""
+        if not sys.executable:  # an embedded interpreter: no Python to start
+            return None
         command = [sys.executable, "-m", __name__]
         try:
             process = subprocess.Popen(
