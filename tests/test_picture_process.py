@@ -3,6 +3,10 @@ whenever the helper does not draw."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import time
+
 from dda.io.images import render_frame
 from dda.io.picture_process import PictureProcess
 from dda.io.run_writer import RunWriter
@@ -38,6 +42,62 @@ def test_a_helper_that_cannot_draw_says_so(tmp_path, caplog):
         assert not helper.draw(make_frame(), tmp_path / "no such folder" / "final.png")
     assert helper.process.returncode == 1
     assert "could not draw" in caplog.text
+
+
+def test_the_helper_imports_no_module_of_the_users_folder(tmp_path, monkeypatch):
+    """A script of the user's called like a library (matplotlib.py, random.py, ...)
+    must not run in the helper (``python -P``)."""
+    folder = tmp_path / "project"
+    folder.mkdir()
+    marker = tmp_path / "ran"
+    for name in ("matplotlib", "random", "dda"):
+        (folder / f"{name}.py").write_text(f"open({str(marker)!r}, 'a').write('{name} ')\n")
+    monkeypatch.chdir(folder)
+    helper = PictureProcess.start()
+    assert helper.draw(make_frame(), tmp_path / "final.png", **OPTIONS)
+    assert not marker.exists() and (tmp_path / "final.png").stat().st_size > 1000
+
+
+DIES_AFTER_ASKING = """
+import os, pickle, sys
+from dda.io.picture_process import PictureProcess
+from tests.test_io import make_frame
+helper = PictureProcess.start()
+helper.process.stdin.write(pickle.dumps((make_frame(), sys.argv[1], {})))
+helper.process.stdin.close()
+print(helper.process.pid, flush=True)
+os._exit(0)  # the run dies while the helper draws
+"""
+
+
+def test_a_run_that_died_while_its_helper_drew_gets_no_picture(tmp_path):
+    path = tmp_path / "final.png"
+    out = subprocess.run(
+        [sys.executable, "-c", DIES_AFTER_ASKING, str(path)], capture_output=True, text=True
+    )
+    helper = int(out.stdout)
+    for _ in range(600):  # the helper ends after its drawing (a minute at most)
+        if not _alive(helper):
+            break
+        time.sleep(0.1)
+    assert not _alive(helper)
+    assert list(tmp_path.iterdir()) == []  # neither final.png nor its temporary file
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_a_helper_that_did_not_draw_leaves_no_temporary_file(tmp_path):
+    stray = tmp_path / "final.tmp-0badc0de.png"  # as a helper killed mid-write leaves it
+    stray.write_bytes(b"half a picture")
+    helper = PictureProcess.start()
+    assert not helper.draw(make_frame(), tmp_path / "final.png", scalars="no such field")
+    assert list(tmp_path.iterdir()) == []
 
 
 class _Helper:

@@ -381,8 +381,7 @@ def _warn_about_free_space(scene, outdir: Path) -> None:
 def _run_in(folder, scene, args: argparse.Namespace) -> int:
     """Run ``scene`` into the claimed ``folder`` (new, overwritten or resumed)."""
     from dda.io.run_writer import RunWriter
-    from dda.run.checkpoint import CheckpointPlan, check_scene, read_checkpoint
-    from dda.run.stop import StopOnSignal
+    from dda.run.checkpoint import check_scene, read_checkpoint
 
     checkpoint = None
     if args.resume:
@@ -395,8 +394,21 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
     resume_step = None if checkpoint is None else checkpoint.step
     writer = RunWriter(
         folder, scalars=args.scalars, image=not args.no_picture, resume_step=resume_step,
-        scene=scene, picture=_picture_helper(args),
+        scene=scene,
     )  # fmt: skip
+    writer.picture = _picture_helper(args)
+    try:
+        return _run_with(writer, folder, scene, args, checkpoint)
+    finally:  # a run that ends before its picture (an error, a signal) ends the helper too
+        if writer.picture is not None:
+            writer.picture.cancel()
+
+
+def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> int:
+    """The run of :func:`_run_in` into ``writer``: frames as they come, then the summary."""
+    from dda.run.checkpoint import CheckpointPlan
+    from dda.run.stop import StopOnSignal
+
     minutes = args.checkpoint_minutes
     plan = CheckpointPlan(
         folder.checkpoint_path, scene.analysis.checkpoint_every,
