@@ -66,3 +66,11 @@ def test_a_partial_append_is_cut_back_to_whole_rows(tmp_path, monkeypatch):
     monkeypatch.undo()
     os.close(fd)
     assert caught.value.filename == str(path) and path.read_text() == "head\n"
+
+
+def test_a_disk_too_full_to_start_the_outputs_names_the_file(tmp_path, capsys):
+    with mounted(tmp_path / "tiny", size="8k") as disk:
+        assert main(["run", *RUN, "-o", str(disk / "run")]) != 0
+    err = capsys.readouterr().err
+    assert f"{disk}/run/" in err and "No space left on device" in err
+    assert "Traceback" not in err

@@ -6,6 +6,9 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+from pathlib import Path
+
+import pytest
 
 from dda.io.images import render_frame
 from dda.io.picture_process import PictureProcess
@@ -70,6 +73,7 @@ os._exit(0)  # the run dies while the helper draws
 """
 
 
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="watches the helper through /proc")
 def test_a_run_that_died_while_its_helper_drew_gets_no_picture(tmp_path):
     path = tmp_path / "final.png"
     out = subprocess.run(
@@ -122,6 +126,18 @@ def test_the_run_draws_its_picture_when_the_helper_did_not(tmp_path):
     assert helper.asked == [(3, "final.png", "syy")]
     assert summary["image"] == "final.png"
     assert (tmp_path / "run" / "final.png").stat().st_size > 1000
+
+
+def test_a_picture_that_cannot_be_drawn_is_one_line_and_the_run_goes_on(tmp_path, caplog):
+    writer = RunWriter(tmp_path / "run", picture=_Helper(draws=False))
+    writer.add_frame(make_frame(step=3))
+    (tmp_path / "run" / "final.png").mkdir()  # no picture can be moved there
+    with caplog.at_level("INFO"):
+        summary = writer.finish()
+    assert summary["image"] is None and (tmp_path / "run" / "summary.json").is_file()
+    errors = [r for r in caplog.records if r.levelname == "ERROR"]
+    assert len(errors) == 1 and errors[0].exc_info is None
+    assert "could not draw" in errors[0].getMessage() and "final.png" in errors[0].getMessage()
 
 
 def test_a_helper_that_drew_leaves_the_picture_to_it(tmp_path):

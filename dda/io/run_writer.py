@@ -258,8 +258,10 @@ class RunWriter:
             return "final.png"
         try:
             render_frame(frame, path, **options)
-        except Exception:  # a missing OpenGL must not cost the run's data
-            logger.exception("could not render final.png")
+        except Exception as exc:  # a picture that fails must not cost the run's data
+            reason = " ".join(str(exc).split()) or type(exc).__name__
+            logger.error("could not draw %s: %s (summary.json has no image)", path, reason)
+            logger.debug("the picture's error", exc_info=True)
             return None
         return "final.png"
 
