@@ -184,12 +184,30 @@ class BandSystem:
         self._make_fallback = make_fallback
         self._fallback = None
         self._own_factorisations = 0
-        m = len(self.g0)
+        self.restart()
+
+    def restart(self) -> None:
+        """No factorisation kept: the next pass factorises its K."""
         self._state = (
-            np.zeros((self.size, width + 1)),
-            np.full((2, m), np.nan),
+            np.zeros((self.size, self.width + 1)),
+            np.full((2, len(self.g0)), np.nan),
             np.zeros(3, np.int64),
         )
+
+    @property
+    def kernel_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(band, springs, state): the kept factorisation, the springs of its K and
+        :mod:`dda.solve.band_newton`'s state flags, which the kernels update in place."""
+        return self._state
+
+    def kernel_geometry(self) -> tuple:
+        """The kernels' arguments that do not change within the step: K₀'s blocks, the
+        bolts, F₀, the contacts' columns and rows, and g₀, s₀."""
+        return (*self._fixed_arrays(), self.g0, self.s0)
+
+    def count_factorisations(self, made: int) -> None:
+        """Count ``made`` factorisations of a kernel given :attr:`kernel_state`."""
+        self._own_factorisations += made
 
     @property
     def factorisations(self) -> int:
@@ -235,7 +253,7 @@ class BandSystem:
             self._fallback = self._make_fallback()
             return None
         d, g, s, solves, chords, converged, chord_next, finite = out
-        full = self._spread(d)
+        full = self.spread(d)
         if not finite:
             return NewtonResult(full, solves, False, chords)
         return NewtonResult(full, solves, converged, chords, chord_next, (g, s))
@@ -267,7 +285,8 @@ class BandSystem:
             self.shear_rows,
         )  # fmt: skip
 
-    def _spread(self, x: np.ndarray) -> np.ndarray:
+    def spread(self, x: np.ndarray) -> np.ndarray:
+        """(n, 6) unknowns of every block from the band-ordered vector ``x``."""
         out = np.zeros(self.shape)
         out[self.order] = x.reshape(-1, 6)
         return out

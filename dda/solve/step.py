@@ -34,6 +34,7 @@ from dda.effects.base import StepContext
 from dda.effects.pair_springs import PairSprings
 from dda.model import Model
 from dda.result import LOCKED, OPEN, SLIDING
+from dda.solve import band_step
 from dda.solve.assembly import (
     BLOCK,
     BlockPattern,
@@ -439,6 +440,113 @@ def _constant_velocity(blocks: BlockSet, ctx: StepContext) -> np.ndarray:
     return np.where(blocks.fixed[:, None], 0.0, blocks.velocity * ctx.dt)
 
 
+@dataclass
+class _StepLoop:
+    """What the step's outer loop works on; :meth:`solve` is the loop in Python (numpy
+    Newton or one compiled pass at a time), :func:`dda.solve.band_step.solve_on_band`
+    the whole loop compiled on band systems."""
+
+    blocks: BlockSet
+    contacts: ContactSet
+    rows: object
+    joints: object
+    law: object
+    system: object
+    budget: int
+    rules: object
+    ctx: StepContext
+    timer: StageTimer
+    quadratic: BlockQuadratic
+
+    guessed_bound_solves = GUESSED_BOUND_SOLVES
+
+    @property
+    def between_bounds(self) -> int:
+        """Newton iterations and chord steps on one set of bounds."""
+        return 1 if self.rules.bounds_every_solve else INNER_SOLVES
+
+    def solve(self) -> tuple[np.ndarray, int, int, bool, float]:
+        """(D, Newton iterations, chord steps, converged, friction's dissipation); the
+        contacts' law data and states written (:func:`dda.contact.law.update`,
+        :func:`dda.contact.law.record`)."""
+        blocks, contacts, rows, joints, law = (
+            self.blocks, self.contacts, self.rows, self.joints, self.law
+        )  # fmt: skip
+        system, budget, rules, ctx, timer = (
+            self.system, self.budget, self.rules, self.ctx, self.timer
+        )  # fmt: skip
+        with timer("contact_law"):
+            bounds = BoundIteration(_first_bounds(contacts, rows, joints, law))
+        quadratic = self.quadratic
+        geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
+        d = np.zeros((blocks.count, 6))
+        solves, chords, converged, previous_g = 0, 0, False, None
+        # this pass goes on, on new friction bounds, from an unfinished one whose next
+        # direction was a chord direction, or from a converged one whose solution the law
+        # then moved (new bounds or multipliers: the pieces, and so the kept
+        # factorisation, still fit nearly everywhere); in large systems
+        # (SizeRules.chord_first) it starts with a chord step, only while the chord steps
+        # are fewer than the Newton iterations' budget: a Newton iteration in every pass
+        # bounds the step's work
+        goes_on = False
+        gaps = None  # (g, s) at d, when known
+        while solves < budget:
+            terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
+            guess = None
+            if solves == 0:
+                if not ctx.static:
+                    candidates = [d, _constant_velocity(blocks, ctx)]
+                    start = system.better_start(terms, candidates)  # compiled, or None
+                    if start is None:
+                        start = better_start(quadratic, geometry, terms, candidates)
+                    d = start
+                gaps = geometry.at(d)
+                guess = _remembered_pieces(contacts, terms, *gaps)
+            inner = None
+            if law.friction:
+                inner = self.guessed_bound_solves if bounds.guessing else self.between_bounds
+            rule = {
+                "max_steps": inner,
+                "rate": rules.rate,
+                "chord_first": rules.chord_first and goes_on and chords < budget,
+                "start_gaps": gaps,
+                "conjugate": rules.conjugate,
+            }
+            newton = system.minimise(terms, d, budget - solves, guess, **rule)  # or None
+            if newton is None:
+                newton = minimise(
+                    quadratic, geometry, terms, system, system.contact_vector, d,
+                    budget - solves, guess, chord=system.chord, forces_from_rows=True, **rule,
+                )  # fmt: skip
+            gaps = newton.gaps
+            goes_on = newton.converged or newton.chord_next
+            solves += newton.solves
+            chords += newton.chords
+            d = newton.d
+            if not np.all(np.isfinite(d)):
+                break
+            if not newton.converged:
+                if solves >= budget:
+                    break
+                with timer("contact_law"):  # the bounds follow the normal forces as they come
+                    normal = terms.normal_force(gaps[0])
+                    bounds.advance(contact_law.friction_bound(contacts, joints, normal))
+                continue
+            with timer("contact_law"):
+                g, s = gaps
+                outcome = contact_law.update(contacts, terms, g, s, previous_g, joints, law)
+            if outcome.settled:
+                converged = True
+                break
+            bounds.advance(outcome.bound)
+            previous_g = g
+        with timer("contact_law"):
+            g, s = geometry.at(d) if gaps is None else gaps
+            dissipated = contact_law.friction_dissipation(terms, s)
+            contact_law.record(contacts, terms, g, s, law.friction_tolerance)
+        return d, solves, chords, converged, dissipated
+
+
 def solve_step(
     model: Model,
     blocks: BlockSet,
@@ -481,7 +589,6 @@ def solve_step(
                 rows, contacts.block_a, contacts.block_b, ctx.prescribed
             )
         joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
-        bounds = BoundIteration(_first_bounds(contacts, rows, joints, law))
 
     def neighbours():
         return pattern_neighbours(blocks, contacts, cm)
@@ -509,74 +616,20 @@ def solve_step(
             cache, blocks, contacts, rows, base_k, base_f, law, couplings, timer, numpy_system
         )
         system = system or numpy_system()
-    quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
-    geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
     budget = model.scene.contact.max_iterations
     rules = size_rules(free_rows_count, dynamic=not ctx.static)
-    between_bounds = 1 if rules.bounds_every_solve else INNER_SOLVES
-    d = np.zeros((blocks.count, 6))
-    solves, chords, converged, previous_g = 0, 0, False, None
-    # this pass goes on, on new friction bounds, from an unfinished one whose next
-    # direction was a chord direction, or from a converged one whose solution the law
-    # then moved (new bounds or multipliers: the pieces, and so the kept factorisation,
-    # still fit nearly everywhere); in large systems (SizeRules.chord_first) it starts
-    # with a chord step, only while the chord steps are fewer than the Newton
-    # iterations' budget: a Newton iteration in every pass bounds the step's work
-    goes_on = False
-    gaps = None  # (g, s) at d, when known
-    while solves < budget:
-        terms = contact_law.contact_terms(contacts, joints, law, bounds.bound)
-        guess = None
-        if solves == 0:
-            if not ctx.static:
-                candidates = [d, _constant_velocity(blocks, ctx)]
-                start = system.better_start(terms, candidates)  # compiled, or None
-                d = better_start(quadratic, geometry, terms, candidates) if start is None else start
-            gaps = geometry.at(d)
-            guess = _remembered_pieces(contacts, terms, *gaps)
-        inner = None
-        if law.friction:
-            inner = GUESSED_BOUND_SOLVES if bounds.guessing else between_bounds
-        rule = {
-            "max_steps": inner,
-            "rate": rules.rate,
-            "chord_first": rules.chord_first and goes_on and chords < budget,
-            "start_gaps": gaps,
-            "conjugate": rules.conjugate,
-        }
-        newton = system.minimise(terms, d, budget - solves, guess, **rule)  # compiled, or None
-        if newton is None:
-            newton = minimise(
-                quadratic, geometry, terms, system, system.contact_vector, d,
-                budget - solves, guess, chord=system.chord, forces_from_rows=True, **rule,
-            )  # fmt: skip
-        gaps = newton.gaps
-        goes_on = newton.converged or newton.chord_next
-        solves += newton.solves
-        chords += newton.chords
-        d = newton.d
-        if not np.all(np.isfinite(d)):
-            cache.solver.reset()
-            break
-        if not newton.converged:
-            if solves >= budget:
-                break
-            with timer("contact_law"):  # the bounds follow the normal forces as they come
-                normal = terms.normal_force(gaps[0])
-                bounds.advance(contact_law.friction_bound(contacts, joints, normal))
-            continue
-        with timer("contact_law"):
-            g, s = gaps
-            outcome = contact_law.update(contacts, terms, g, s, previous_g, joints, law)
-        if outcome.settled:
-            converged = True
-            break
-        bounds.advance(outcome.bound)
-        previous_g = g
-    with timer("contact_law"):
-        g, s = geometry.at(d) if gaps is None else gaps
-        dissipated = contact_law.friction_dissipation(terms, s)
-        contact_law.record(contacts, terms, g, s, law.friction_tolerance)
+    loop = _StepLoop(
+        blocks, contacts, rows, joints, law, system, budget, rules, ctx, timer,
+        BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings),
+    )  # fmt: skip
+    solved = None
+    if isinstance(system, BandSystem) and band_step.USE_KERNEL:
+        solved = band_step.solve_on_band(system, loop)  # None: LAPACK failed, the loop redoes it
+    if solved is None:
+        solved = loop.solve()
+    d, solves, chords, converged, dissipated = solved
+    if not np.all(np.isfinite(d)):
+        cache.solver.reset()
     closed = contacts.state != OPEN
     max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
     made = cache.solver.factorisations - factorisations_before + system.factorisations

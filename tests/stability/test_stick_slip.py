@@ -184,38 +184,57 @@ def test_the_mid_systems_chord_rules_keep_stick_slip_and_energy(dt, monkeypatch)
 
 @pytest.mark.parametrize("dt", [1e-3, pytest.param(1e-4, marks=pytest.mark.slow)])
 @pytest.mark.parametrize(
-    "path", ["band, compiled Newton", "dense, numpy Newton", "block pattern, numpy Newton"]
+    "path",
+    [
+        "band, compiled step",
+        "band, compiled Newton",
+        "dense, numpy Newton",
+        "block pattern, numpy Newton",
+    ],
 )
 def test_every_solve_path_of_a_small_model_keeps_stick_slip_and_energy(path, dt, monkeypatch):
     """With 500 steps or more the incline's systems (6 unknowns) are held in band storage,
-    each Newton pass one compiled call (dda.solve.band_newton): the rows above run that
-    path. Held dense and on the block pattern, both with the numpy Newton, are the other
-    paths a step can take: on each the block at 0.95 stands within its settlement, at
-    1.05 it slides as the closed form (1e-4 relative), and none gains energy."""
+    and the step's whole loop — Newton passes and the contact law between them — is one
+    compiled call (dda.solve.band_step): the rows above run that path. The same loop in
+    Python with each Newton pass one compiled call (dda.solve.band_newton), and the
+    systems held dense and on the block pattern, both with the numpy Newton, are the
+    other paths a step can take: on each the block at 0.95 stands within its settlement,
+    at 1.05 it slides as the closed form (1e-4 relative), and none gains energy."""
+    import dda.solve.band_step
     import dda.solve.band_system
     import dda.solve.step
     from dda.solve.band_system import BandSystem
     from tests.stability.incline import largest_gain
 
-    passes = []
-    compiled_pass = BandSystem.minimise
+    calls = {"pass": [], "step": []}
+    compiled_pass, compiled_step = BandSystem.minimise, dda.solve.band_step.solve_on_band
 
-    def counted(self, *args, **kwargs):
+    def counted_pass(self, *args, **kwargs):
         result = compiled_pass(self, *args, **kwargs)
-        passes.append(result is not None)
+        calls["pass"].append(result is not None)
         return result
 
-    monkeypatch.setattr(BandSystem, "minimise", counted)
-    if path != "band, compiled Newton":
+    def counted_step(*args):
+        result = compiled_step(*args)
+        calls["step"].append(result is not None)
+        return result
+
+    monkeypatch.setattr(BandSystem, "minimise", counted_pass)
+    monkeypatch.setattr(dda.solve.band_step, "solve_on_band", counted_step)
+    if path == "band, compiled Newton":
+        monkeypatch.setattr(dda.solve.band_step, "USE_KERNEL", False)
+    if not path.startswith("band"):
         monkeypatch.setattr(dda.solve.band_system, "BAND_WORK", 0.0)
     if path == "block pattern, numpy Newton":
         monkeypatch.setattr(dda.solve.step, "DENSE_ROWS", 0)
     stand = dda.simulate(incline_scene(0.95, dt, 0.5))
     slide = dda.simulate(incline_scene(1.05, dt, 1.0))
-    if path == "band, compiled Newton":
-        assert bool(passes) == dda.jit.numba_enabled() and all(passes)
-    else:
-        assert not passes
+    used = {"band, compiled step": "step", "band, compiled Newton": "pass"}.get(path)
+    for kind, made in calls.items():
+        if kind == used:
+            assert bool(made) == dda.jit.numba_enabled() and all(made)
+        else:
+            assert not made
     assert_stands(stand, settlement(0.95, 10.0))
     assert slide.summary["cut_steps"] == 0
     assert abs(slid_error(slide, 1.05)) <= 1e-4

@@ -1,0 +1,367 @@
+"""A whole step on band systems in one compiled call: the Newton passes and the law between.
+
+Where a step's systems are held in band storage (:mod:`dda.solve.band_system`), the
+outer loop of :func:`dda.solve.step.solve_step` — the step's first friction bounds, the
+start (Π at D = 0 and at v₀Δt), the pieces remembered from the last step, the compiled
+Newton passes (:mod:`dda.solve.band_newton`), and between them the contact law's
+update (:mod:`dda.contact.law`: the forces and friction bounds, eq. 7's augmentation
+and the variable penalty, broken bonds, the Anderson mixing of the bounds), then the
+record of the step's contact states and the friction's dissipation — runs here as one
+kernel, with the same operations in the same order as the Python loop, which stays its
+oracle (``tests/test_band_step.py``). The norms and sums over the contacts are the
+kernel's own (a sum in another order than numpy's pairwise one) and the Anderson
+least squares is numba's ``eigh``: the two loops agree to rounding.
+
+Should LAPACK find a K not positive definite, the kernel stops and reports it; the step
+is then solved again by the Python loop, which hands the pass to the numpy Newton.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.contact import law_kernels
+from dda.contact.law import GRAM_CUTOFF, UNBOUNDED, BoundIteration
+from dda.contact.potential import NORMAL_ELASTIC, NORMAL_LIMIT, SLIP_BACK, SLIP_FORWARD, STICK
+from dda.jit import kernel
+from dda.result import LOCKED, OPEN, SLIDING
+from dda.solve import band_newton
+
+# the Python loop instead of this kernel (the tests compare the two)
+USE_KERNEL = True
+
+DEPTH = BoundIteration.DEPTH
+MIXING = BoundIteration.MIXING
+
+# what the kernel's integer outcome holds
+SOLVES, CHORDS, CONVERGED, FINITE, FAILED = 0, 1, 2, 3, 4
+
+terms_kernel = law_kernels.terms_kernel
+forces_and_bounds_kernel = law_kernels.forces_and_bounds_kernel
+augment_kernel = law_kernels.augment_kernel
+broken_kernel = law_kernels.broken_kernel
+recorded_kernel = law_kernels.recorded_kernel
+band_minimise_kernel = band_newton.band_minimise_kernel
+potential_kernel = band_newton.potential_kernel
+
+
+def _first_bounds(intact, tensile, friction_tan, cohesion, multiplier, penalty, g0, last_normal,
+                  fresh, state, friction):  # fmt: skip
+    """:func:`dda.solve.step._first_bounds`: b = tan φ ⟨max(N(g₀), N_last)⟩₊ + c l, a contact
+    found touching this step ``UNBOUNDED``; 0 without friction."""
+    m = g0.shape[0]
+    bound = np.zeros(m)
+    if not friction:
+        return bound
+    for c in range(m):
+        tension = tensile[c] if intact[c] else 0.0
+        start = max(max(multiplier[c], -tension) + penalty[c] * g0[c], -tension)
+        normal = max(start, last_normal[c])
+        held = cohesion[c] if intact[c] else 0.0
+        bound[c] = friction_tan[c] * max(normal, 0.0) + held
+        if fresh[c] and state[c] != OPEN:
+            bound[c] = UNBOUNDED
+    return bound
+
+
+def _remembered(normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, state,
+                direction):  # fmt: skip
+    """:func:`dda.solve.step._remembered_pieces`: a contact closed at the last step's end
+    starts elastic, one sliding then slides the same way, one locked sticks; the others
+    take the pieces at (g, s)."""
+    m = g.shape[0]
+    normal, shear = np.empty(m, np.int8), np.empty(m, np.int8)
+    for c in range(m):
+        if state[c] != OPEN or normal_base[c] + penalty[c] * g[c] >= -tension[c]:
+            normal[c] = NORMAL_ELASTIC
+        else:
+            normal[c] = NORMAL_LIMIT
+        trial = shear_base[c] + shear_penalty[c] * s[c]
+        if state[c] == LOCKED:
+            shear[c] = STICK
+        elif state[c] == SLIDING:
+            shear[c] = SLIP_BACK if direction[c] < 0.0 else SLIP_FORWARD
+        elif trial <= -bound[c]:
+            shear[c] = SLIP_BACK
+        elif trial >= bound[c]:
+            shear[c] = SLIP_FORWARD
+        else:
+            shear[c] = STICK
+    return normal, shear
+
+
+def _norm(x):
+    """‖x‖₂."""
+    total = 0.0
+    for value in x:
+        total += value * value
+    return np.sqrt(total)
+
+
+def _guessing(bound):
+    """:attr:`dda.contact.law.BoundIteration.guessing`."""
+    for value in bound:
+        if value >= 0.5 * UNBOUNDED:
+            return True
+    return False
+
+
+def _advance(bound, target, points, residuals, count):
+    """:meth:`dda.contact.law.BoundIteration.advance`: the next bounds from ``target`` =
+    G(``bound``) and the last iterates kept in ``points``, ``residuals`` (DEPTH + 1, m;
+    the first ``count`` rows, oldest first). Returns (bounds, count)."""
+    if _guessing(bound):
+        return target.copy(), 0
+    if count == DEPTH + 1:
+        points[:-1] = points[1:].copy()
+        residuals[:-1] = residuals[1:].copy()
+        count -= 1
+    points[count] = bound
+    residuals[count] = target - bound
+    count += 1
+    last_point, last_residual = points[count - 1], residuals[count - 1]
+    mean_point, mean_residual = last_point.copy(), last_residual.copy()
+    if count > 1:
+        point_steps = points[1:count] - points[: count - 1]
+        residual_steps = residuals[1:count] - residuals[: count - 1]
+        gamma = _least_squares(residual_steps, last_residual)
+        mean_point = last_point - gamma @ point_steps
+        mean_residual = last_residual - gamma @ residual_steps
+    return np.maximum(mean_point + MIXING * mean_residual, 0.0), count
+
+
+def _least_squares(differences, target):
+    """:func:`dda.contact.law._least_squares` (the truncated Gram solution), with loops
+    over the few rows of ``differences``."""
+    k = differences.shape[0]
+    gram, product = np.empty((k, k)), np.empty(k)
+    for i in range(k):
+        product[i] = differences[i] @ target
+        for j in range(k):
+            gram[i, j] = differences[i] @ differences[j]
+    gamma = np.zeros(k)
+    if not np.all(np.isfinite(gram)):
+        return gamma  # numpy's eigh gives NaN eigenvalues, all dropped
+    values, vectors = np.linalg.eigh(gram)
+    cutoff = (GRAM_CUTOFF**2) * max(values[k - 1], 0.0)
+    for a in range(k):
+        if values[a] > cutoff:
+            projected = 0.0
+            for i in range(k):
+                projected += vectors[i, a] * product[i]
+            for i in range(k):
+                gamma[i] += vectors[i, a] * (projected / values[a])
+    return gamma
+
+
+def _dissipation(shear_base, shear_penalty, bound, s):
+    """:func:`dda.contact.law.friction_dissipation`: Σ b ⟨|λt + ps s| − b⟩₊ / ps."""
+    work = 0.0
+    for c in range(s.shape[0]):
+        if shear_penalty[c] > 0.0:
+            excess = max(abs(shear_base[c] + shear_penalty[c] * s[c]) - bound[c], 0.0)
+            work += bound[c] * excess / shear_penalty[c]
+    return work
+
+
+def _band_step(
+    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows, g0, s0,
+    intact, tensile, friction_tan, cohesion, normal_multiplier, shear_multiplier, penalty,
+    fresh, state, direction, last_normal, penetration,
+    friction, augmented, shear_ratio, tolerance, shrink_target, max_penalty, growth,
+    friction_tolerance,
+    velocity_step, dynamic, budget, between_bounds, guessed_solves, rate, chord_first,
+    conjugate, band, springs, factor_state,
+):  # fmt: skip
+    """The outer loop of :func:`dda.solve.step.solve_step` on band systems (module
+    docstring); the vectors in band order, the contacts' arrays not changed. Returns
+    (D, g, s, intact, λn, λt, p, state, slide direction, N, F, dissipation, outcome):
+    the contacts' new data (what :func:`dda.contact.law.update` and
+    :func:`dda.contact.law.record` write) and the integers :data:`SOLVES`,
+    :data:`CHORDS`, :data:`CONVERGED`, :data:`FINITE`, :data:`FAILED`."""
+    m, n = g0.shape[0], forces.shape[0]
+    intact = intact.copy()
+    normal_force, shear_force = last_normal.copy(), np.zeros(m)
+    new_state, new_direction = state.copy(), direction.copy()
+    bound = _first_bounds(
+        intact, tensile, friction_tan, cohesion, normal_multiplier, penalty, g0, last_normal,
+        fresh, state, friction,
+    )  # fmt: skip
+    points, residuals = np.zeros((DEPTH + 1, m)), np.zeros((DEPTH + 1, m))
+    history = 0
+    d, g, s = np.zeros(n), g0.copy(), s0.copy()
+    previous_g, has_previous = g0.copy(), False
+    outcome = np.zeros(5, np.int64)
+    solves = chords = 0
+    goes_on = False
+    none = np.zeros(m, np.int8)
+    dissipated = 0.0
+    while solves < budget:
+        terms_penalty = penalty  # the terms' p: the law's update makes a new array
+        normal_base, tension, shear_base, shear_penalty, bounds = terms_kernel(
+            intact, tensile, normal_multiplier, shear_multiplier, penalty, shear_ratio, bound,
+            friction,
+        )  # fmt: skip
+        first = solves == 0
+        first_normal, first_shear = none, none
+        if first:
+            if dynamic:
+                here = potential_kernel(
+                    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows,
+                    shear_rows, g0, s0, normal_base, penalty, tension, shear_base,
+                    shear_penalty, bounds, d,
+                )  # fmt: skip
+                moving = potential_kernel(
+                    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows,
+                    shear_rows, g0, s0, normal_base, penalty, tension, shear_base,
+                    shear_penalty, bounds, velocity_step,
+                )  # fmt: skip
+                if not np.isnan(here) and (np.isnan(moving) or moving < here):
+                    d = velocity_step.copy()
+            g = g0 + _along(columns, normal_rows, d)
+            s = s0 + _along(columns, shear_rows, d)
+            first_normal, first_shear = _remembered(
+                normal_base, penalty, tension, shear_base, shear_penalty, bounds, g, s, state,
+                direction,
+            )  # fmt: skip
+        inner = -1
+        if friction:
+            inner = guessed_solves if _guessing(bound) else between_bounds
+        chord_start = chord_first and goes_on and chords < budget
+        d, g, s, pass_solves, pass_chords, pass_converged, chord_next, finite = (
+            band_minimise_kernel(
+                blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows,
+                shear_rows, g0, s0, normal_base, penalty, tension, shear_base, shear_penalty,
+                bounds, friction, d, g, s, True, first_normal, first_shear, first,
+                budget - solves, inner, rate, chord_start,
+                conjugate, band, springs, factor_state,
+            )
+        )  # fmt: skip
+        if factor_state[band_newton.FAILED]:
+            outcome[FAILED] = 1
+            break
+        goes_on = pass_converged or chord_next
+        solves += pass_solves
+        chords += pass_chords
+        finite = finite and np.all(np.isfinite(d))
+        if not finite:
+            break
+        if not pass_converged:
+            if solves >= budget:
+                break
+            target = np.empty(m)
+            for c in range(m):  # b = tan φ ⟨N⟩₊ + c l from this pass's normal forces
+                normal = max(normal_base[c] + terms_penalty[c] * g[c], -tension[c])
+                held = cohesion[c] if intact[c] else 0.0
+                target[c] = friction_tan[c] * max(normal, 0.0) + held
+            bound, history = _advance(bound, target, points, residuals, history)
+            continue
+        normal, target, changed = forces_and_bounds_kernel(
+            normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
+            intact, friction_tan, cohesion, friction,
+        )  # fmt: skip
+        settled = True
+        if friction:
+            settled = _norm(changed) <= friction_tolerance * _norm(target)
+        if augmented:
+            new_n, new_t, new_p, count, _ = augment_kernel(
+                normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
+                previous_g, has_previous, fresh, penetration, shear_multiplier, tolerance,
+                shrink_target, max_penalty, growth,
+            )  # fmt: skip
+            normal_multiplier, shear_multiplier = new_n, new_t
+            if has_previous:
+                penalty = new_p
+            settled = settled and count == 0
+        if settled:  # bonds are judged on consistent forces only
+            lost = broken_kernel(
+                normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
+                intact, cohesion,
+            )  # fmt: skip
+            for c in range(m):
+                if lost[c]:
+                    intact[c] = False
+                    settled = False
+        normal_force = normal
+        if settled:
+            outcome[CONVERGED] = 1
+            break
+        bound, history = _advance(bound, target, points, residuals, history)
+        previous_g, has_previous = g, True
+    outcome[SOLVES], outcome[CHORDS] = solves, chords
+    if finite and not outcome[FAILED]:
+        outcome[FINITE] = 1
+        if friction:
+            dissipated = _dissipation(shear_base, shear_penalty, bounds, s)
+        new_state, normal_multiplier, new_direction, normal_force, shear_force = (
+            recorded_kernel(
+                normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
+                normal_multiplier, friction_tolerance,
+            )
+        )  # fmt: skip
+    return (
+        d, g, s, intact, normal_multiplier, shear_force, penalty, new_state, new_direction,
+        normal_force, shear_force, dissipated, outcome,
+    )  # fmt: skip
+
+
+_along = band_newton._along
+_first_bounds = kernel(_first_bounds) or _first_bounds
+_remembered = kernel(_remembered) or _remembered
+_norm = kernel(_norm) or _norm
+_guessing = kernel(_guessing) or _guessing
+_least_squares = kernel(_least_squares) or _least_squares
+_advance = kernel(_advance) or _advance
+_dissipation = kernel(_dissipation) or _dissipation
+band_step_kernel = kernel(_band_step)
+
+
+def solve_on_band(system, loop) -> tuple[np.ndarray, int, int, bool, float] | None:
+    """The step's outer loop (``loop``: a :class:`dda.solve.step._StepLoop` on the
+    :class:`dda.solve.band_system.BandSystem` ``system``) in one compiled call.
+
+    Returns what :meth:`~dda.solve.step._StepLoop.solve` does, (D, Newton iterations,
+    chord steps, converged, dissipation), with the contacts' law data and states
+    written; or None, the contacts untouched, when LAPACK found a K not positive
+    definite (the Python loop then solves the step, on the fallback systems).
+    """
+    contacts, joints, law, rules = loop.contacts, loop.joints, loop.law, loop.rules
+    band, springs, factor_state = system.kernel_state
+    made = int(factor_state[band_newton.FACTORISATIONS])
+    velocity_step = loop.blocks.velocity[system.order] * loop.ctx.dt
+    arguments = (
+        *system.kernel_geometry(),
+        np.ascontiguousarray(contacts.intact, np.bool_), _floats(joints.tensile),
+        _floats(joints.friction), _floats(joints.cohesion), _floats(contacts.normal_multiplier),
+        _floats(contacts.shear_multiplier), _floats(contacts.penalty),
+        np.ascontiguousarray(contacts.fresh, np.bool_),
+        np.ascontiguousarray(contacts.state, np.int8), _floats(contacts.slide_direction),
+        _floats(contacts.normal_force), _floats(contacts.penetration),
+        bool(law.friction), bool(law.augmented), float(law.shear_ratio), float(law.tolerance),
+        float(law.shrink_target), float(law.max_penalty), float(law.penalty_growth),
+        float(law.friction_tolerance),
+        _floats(velocity_step.ravel()), not loop.ctx.static, int(loop.budget),
+        int(loop.between_bounds), int(loop.guessed_bound_solves), float(rules.rate),
+        bool(rules.chord_first), bool(rules.conjugate), band, springs, factor_state,
+    )  # fmt: skip
+    with loop.timer("solve"):  # the passes and the law between them
+        out = band_step_kernel(*arguments)
+    system.count_factorisations(int(factor_state[band_newton.FACTORISATIONS]) - made)
+    d, g, s, intact, normal_multiplier, shear_multiplier, penalty = out[:7]
+    state, direction, normal_force, shear_force, dissipated, outcome = out[7:]
+    if outcome[FAILED]:
+        system.restart()
+        return None
+    if outcome[FINITE]:
+        contacts.intact, contacts.penalty = intact, penalty
+        contacts.normal_multiplier, contacts.shear_multiplier = normal_multiplier, shear_multiplier
+        contacts.state, contacts.slide_direction = state, direction
+        contacts.normal_force, contacts.shear_force = normal_force, shear_force
+        contacts.penetration, contacts.slip = g, s
+    converged = bool(outcome[CONVERGED])
+    return system.spread(d), int(outcome[SOLVES]), int(outcome[CHORDS]), converged, dissipated
+
+
+def _floats(values) -> np.ndarray:
+    """``values`` as a contiguous float array (the kernel's argument type)."""
+    return np.ascontiguousarray(values, dtype=np.float64)
