@@ -25,7 +25,9 @@ from dda.solve.dense_system import contact_columns
 from dda.solve.newton import NewtonResult
 
 # largest n kd² of a band system (a factorisation's flops): above it the sparse path
-BAND_WORK = 1.5e7
+# (measured with the step's loop compiled, docs/benchmarks.md: the 25 x 25 wall, 9.0e7,
+# is 10-20 % faster in band, the 30 x 30, 1.85e8, 27 % slower)
+BAND_WORK = 1e8
 # a numbering is made again when the band it gives has grown past this factor of its own
 REORDER_GROWTH = 1.5
 
