@@ -165,12 +165,12 @@ class BoundIteration:
         self._history = [*self._history[-self.DEPTH :], (self.bound, target - self.bound)]
         points = np.array([b for b, _ in self._history])
         residuals = np.array([r for _, r in self._history])
-        residual_steps = np.diff(residuals, axis=0)
-        gamma = np.zeros(len(points) - 1)
+        point_steps, residual_steps = np.diff(points, axis=0), np.diff(residuals, axis=0)
+        mean_point, mean_residual = points[-1], residuals[-1]
         if len(points) > 1:
             gamma = _least_squares(residual_steps, residuals[-1])
-        mean_point = points[-1] - gamma @ np.diff(points, axis=0)
-        mean_residual = residuals[-1] - gamma @ residual_steps
+            mean_point = mean_point - _combination(gamma, point_steps)
+            mean_residual = mean_residual - _combination(gamma, residual_steps)
         self.bound = np.maximum(mean_point + self.MIXING * mean_residual, 0.0)
 
 
@@ -183,11 +183,36 @@ def _least_squares(differences: np.ndarray, target: np.ndarray) -> np.ndarray:
     """γ = argmin ‖target − differencesᵀ γ‖ for the few rows of ``differences`` (k, m),
     from the k × k Gram matrix A Aᵀ = V Λ Vᵀ: γ = V Λ⁺ Vᵀ A target, directions whose
     singular value √λ is below ``GRAM_CUTOFF`` of the largest dropped (the truncated
-    SVD solution; one pass over the m contacts instead of an m × k SVD)."""
-    values, vectors = np.linalg.eigh(differences @ differences.T)
-    kept = values > (GRAM_CUTOFF**2) * max(float(values[-1]), 0.0)
-    projected = vectors.T @ (differences @ target)
-    return vectors[:, kept] @ (projected[kept] / values[kept])
+    SVD solution; one pass over the m contacts instead of an m × k SVD). The products
+    over the contacts are dot products row by row and the rest scalar loops, as in
+    the compiled twin :func:`dda.solve.band_step._least_squares` (the same numbers)."""
+    k = len(differences)
+    gram, product = np.empty((k, k)), np.empty(k)
+    for i in range(k):
+        product[i] = np.dot(differences[i], target)
+        for j in range(k):
+            gram[i, j] = np.dot(differences[i], differences[j])
+    gamma = np.zeros(k)
+    if not np.all(np.isfinite(gram)):
+        return gamma
+    values, vectors = np.linalg.eigh(gram)
+    cutoff = (GRAM_CUTOFF**2) * max(float(values[k - 1]), 0.0)
+    for a in range(k):
+        if values[a] > cutoff:
+            projected = 0.0
+            for i in range(k):
+                projected += vectors[i, a] * product[i]
+            for i in range(k):
+                gamma[i] += vectors[i, a] * (projected / values[a])
+    return gamma
+
+
+def _combination(gamma: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Σ_k γ_k rows[k], summed in row order."""
+    total = np.zeros(rows.shape[1])
+    for k in range(len(gamma)):
+        total += gamma[k] * rows[k]
+    return total
 
 
 def update(

@@ -91,11 +91,8 @@ def _remembered(normal_base, penalty, tension, shear_base, shear_penalty, bound,
 
 
 def _norm(x):
-    """‖x‖₂."""
-    total = 0.0
-    for value in x:
-        total += value * value
-    return np.sqrt(total)
+    """‖x‖₂ as ``np.linalg.norm`` computes it: √(x·x), the dot product BLAS's."""
+    return np.sqrt(np.dot(x, x))
 
 
 def _guessing(bound):
@@ -119,26 +116,25 @@ def _advance(bound, target, points, residuals, count):
     points[count] = bound
     residuals[count] = target - bound
     count += 1
-    last_point, last_residual = points[count - 1], residuals[count - 1]
-    mean_point, mean_residual = last_point.copy(), last_residual.copy()
+    mean_point, mean_residual = points[count - 1].copy(), residuals[count - 1].copy()
     if count > 1:
         point_steps = points[1:count] - points[: count - 1]
         residual_steps = residuals[1:count] - residuals[: count - 1]
-        gamma = _least_squares(residual_steps, last_residual)
-        mean_point = last_point - gamma @ point_steps
-        mean_residual = last_residual - gamma @ residual_steps
+        gamma = _least_squares(residual_steps, residuals[count - 1])
+        mean_point = mean_point - _combination(gamma, point_steps)
+        mean_residual = mean_residual - _combination(gamma, residual_steps)
     return np.maximum(mean_point + MIXING * mean_residual, 0.0), count
 
 
 def _least_squares(differences, target):
-    """:func:`dda.contact.law._least_squares` (the truncated Gram solution), with loops
-    over the few rows of ``differences``."""
+    """:func:`dda.contact.law._least_squares` (the truncated Gram solution), the same
+    operations in the same order."""
     k = differences.shape[0]
     gram, product = np.empty((k, k)), np.empty(k)
     for i in range(k):
-        product[i] = differences[i] @ target
+        product[i] = np.dot(differences[i], target)
         for j in range(k):
-            gram[i, j] = differences[i] @ differences[j]
+            gram[i, j] = np.dot(differences[i], differences[j])
     gamma = np.zeros(k)
     if not np.all(np.isfinite(gram)):
         return gamma  # numpy's eigh gives NaN eigenvalues, all dropped
@@ -152,6 +148,14 @@ def _least_squares(differences, target):
             for i in range(k):
                 gamma[i] += vectors[i, a] * (projected / values[a])
     return gamma
+
+
+def _combination(gamma, rows):
+    """:func:`dda.contact.law._combination`: Σ_k γ_k rows[k], in row order."""
+    total = np.zeros(rows.shape[1])
+    for k in range(gamma.shape[0]):
+        total += gamma[k] * rows[k]
+    return total
 
 
 def _dissipation(shear_base, shear_penalty, bound, s):
@@ -311,6 +315,7 @@ _remembered = kernel(_remembered) or _remembered
 _norm = kernel(_norm) or _norm
 _guessing = kernel(_guessing) or _guessing
 _least_squares = kernel(_least_squares) or _least_squares
+_combination = kernel(_combination) or _combination
 _advance = kernel(_advance) or _advance
 _dissipation = kernel(_dissipation) or _dissipation
 band_step_kernel = kernel(_band_step)

@@ -269,6 +269,14 @@ class BandSystem:
         ]
         return candidates[int(np.argmin(values))]
 
+    def gaps(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(g, s) after the step ``d`` (n, 6), summed as the compiled passes sum them."""
+        x = np.ascontiguousarray(d[self.order].ravel(), np.float64)
+        along = band_newton._along
+        return self.g0 + along(self.columns, self.normal_rows, x), self.s0 + along(
+            self.columns, self.shear_rows, x
+        )
+
     def __call__(self, kn, ks, offset_n, offset_t) -> np.ndarray:
         """The fallback system's solve (the numpy Newton's, after a failed pass)."""
         return self._fallback(kn, ks, offset_n, offset_t)

@@ -82,6 +82,13 @@ MID_CHORD_RATE, MID_ROWS = 0.85, 1_000
 # 60x60, 21,600 rows, 153.7/176.7 against 145.0/159.1; 70x70, 29,400 rows, 176.0/191.7
 # against 184.1/203.0; 100x100 503.5/545.7 against 527.0/567.7)
 HUGE_CHORD_RATE, HUGE_ROWS = 0.99, 25_000
+# Band systems, whose Newton passes and law updates run compiled (dda.solve.band_step),
+# pay for a factorisation with about ten chord steps at any size: in dynamic steps they
+# take the mid rules below MID_ROWS and the large ones from there (CPU ms a step, one
+# solver thread, three interleaved runs each, medians, small / mid / large rules:
+# 3 x 3 wall 1.41 / 1.19 / 1.48, 5 x 5 1.79 / 1.66 / 1.75, 7 x 7 2.42 / 1.87 / 2.40,
+# 10 x 10 5.75 / 5.05 / 5.04, the rock slope 3.29 / 2.85 / 2.68; from 1,000 rows, mid /
+# large: 15 x 15 13.4 / 11.4, the tunnel 20.3 / 19.0)
 
 
 @dataclass(frozen=True)
@@ -103,20 +110,22 @@ class SizeRules:
     conjugate: bool = False
 
 
-def size_rules(rows: int, dynamic: bool = True) -> SizeRules:
+def size_rules(rows: int, dynamic: bool = True, band: bool = False) -> SizeRules:
     """The :class:`SizeRules` of a system of ``rows`` unknowns: the larger the system,
     the more back-substitutions a factorisation costs, and the longer chord steps pay.
     ``dynamic``: False for static steps (and the equilibrium start's pseudo-steps), which
     move blocks much further than a time step and keep the small systems' rules up to
     ``LARGE_ROWS`` (with the mid rules the tunnel's start did not settle with two
-    solver threads)."""
+    solver threads). ``band``: the step's systems are band systems, their passes
+    compiled: dynamic steps take the mid rules below ``MID_ROWS``, the large ones from
+    there."""
     if rows >= HUGE_ROWS:
         return SizeRules(HUGE_CHORD_RATE, chord_first=True, bounds_every_solve=True)
-    if rows >= LARGE_ROWS:
+    if rows >= LARGE_ROWS or (band and dynamic and rows >= MID_ROWS):
         return SizeRules(
             LARGE_CHORD_RATE, chord_first=True, bounds_every_solve=False, conjugate=True
         )
-    if rows >= MID_ROWS and dynamic:
+    if (rows >= MID_ROWS or band) and dynamic:
         return SizeRules(MID_CHORD_RATE, chord_first=True, bounds_every_solve=False, conjugate=True)
     return SizeRules(CHORD_RATE, chord_first=False, bounds_every_solve=False)
 

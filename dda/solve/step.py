@@ -500,7 +500,7 @@ class _StepLoop:
                     if start is None:
                         start = better_start(quadratic, geometry, terms, candidates)
                     d = start
-                gaps = geometry.at(d)
+                gaps = system.gaps(d) if isinstance(system, BandSystem) else geometry.at(d)
                 guess = _remembered_pieces(contacts, terms, *gaps)
             inner = None
             if law.friction:
@@ -617,13 +617,14 @@ def solve_step(
         )
         system = system or numpy_system()
     budget = model.scene.contact.max_iterations
-    rules = size_rules(free_rows_count, dynamic=not ctx.static)
+    band = isinstance(system, BandSystem)
+    rules = size_rules(free_rows_count, dynamic=not ctx.static, band=band)
     loop = _StepLoop(
         blocks, contacts, rows, joints, law, system, budget, rules, ctx, timer,
         BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings),
     )  # fmt: skip
     solved = None
-    if isinstance(system, BandSystem) and band_step.USE_KERNEL:
+    if band and band_step.USE_KERNEL:
         solved = band_step.solve_on_band(system, loop)  # None: LAPACK failed, the loop redoes it
     if solved is None:
         solved = loop.solve()
