@@ -184,8 +184,9 @@ def _least_squares(differences: np.ndarray, target: np.ndarray) -> np.ndarray:
     from the k × k Gram matrix A Aᵀ = V Λ Vᵀ: γ = V Λ⁺ Vᵀ A target, directions whose
     singular value √λ is below ``GRAM_CUTOFF`` of the largest dropped (the truncated
     SVD solution; one pass over the m contacts instead of an m × k SVD). The products
-    over the contacts are dot products row by row and the rest scalar loops, as in
-    the compiled twin :func:`dda.solve.band_step._least_squares` (the same numbers)."""
+    over the contacts are dot products row by row and the rest scalar loops: the
+    compiled step (:mod:`dda.solve.band_step`) runs this function compiled, with the
+    same numbers."""
     k = len(differences)
     gram, product = np.empty((k, k)), np.empty(k)
     for i in range(k):

@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.contact import law as contact_law
 from dda.contact import law_kernels
-from dda.contact.law import GRAM_CUTOFF, UNBOUNDED, BoundIteration
+from dda.contact.law import UNBOUNDED, BoundIteration
 from dda.contact.potential import NORMAL_ELASTIC, NORMAL_LIMIT, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.jit import kernel
 from dda.result import LOCKED, OPEN, SLIDING
@@ -124,38 +125,6 @@ def _advance(bound, target, points, residuals, count):
         mean_point = mean_point - _combination(gamma, point_steps)
         mean_residual = mean_residual - _combination(gamma, residual_steps)
     return np.maximum(mean_point + MIXING * mean_residual, 0.0), count
-
-
-def _least_squares(differences, target):
-    """:func:`dda.contact.law._least_squares` (the truncated Gram solution), the same
-    operations in the same order."""
-    k = differences.shape[0]
-    gram, product = np.empty((k, k)), np.empty(k)
-    for i in range(k):
-        product[i] = np.dot(differences[i], target)
-        for j in range(k):
-            gram[i, j] = np.dot(differences[i], differences[j])
-    gamma = np.zeros(k)
-    if not np.all(np.isfinite(gram)):
-        return gamma  # numpy's eigh gives NaN eigenvalues, all dropped
-    values, vectors = np.linalg.eigh(gram)
-    cutoff = (GRAM_CUTOFF**2) * max(values[k - 1], 0.0)
-    for a in range(k):
-        if values[a] > cutoff:
-            projected = 0.0
-            for i in range(k):
-                projected += vectors[i, a] * product[i]
-            for i in range(k):
-                gamma[i] += vectors[i, a] * (projected / values[a])
-    return gamma
-
-
-def _combination(gamma, rows):
-    """:func:`dda.contact.law._combination`: Σ_k γ_k rows[k], in row order."""
-    total = np.zeros(rows.shape[1])
-    for k in range(gamma.shape[0]):
-        total += gamma[k] * rows[k]
-    return total
 
 
 def _dissipation(shear_base, shear_penalty, bound, s):
@@ -314,8 +283,9 @@ _first_bounds = kernel(_first_bounds) or _first_bounds
 _remembered = kernel(_remembered) or _remembered
 _norm = kernel(_norm) or _norm
 _guessing = kernel(_guessing) or _guessing
-_least_squares = kernel(_least_squares) or _least_squares
-_combination = kernel(_combination) or _combination
+# the law's own Anderson least squares and combination, compiled: the same code, the same numbers
+_least_squares = kernel(contact_law._least_squares) or contact_law._least_squares
+_combination = kernel(contact_law._combination) or contact_law._combination
 _advance = kernel(_advance) or _advance
 _dissipation = kernel(_dissipation) or _dissipation
 band_step_kernel = kernel(_band_step)
