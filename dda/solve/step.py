@@ -25,11 +25,11 @@ from dda.blocks import BlockSet
 from dda.contact import law as contact_law
 from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet
-from dda.contact.law import UNBOUNDED, BoundIteration
+from dda.contact.law import UNBOUNDED, BoundIteration, ContactLaw, JointProperties
 from dda.contact.narrow import separated_blocks
 from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.contact.push_out import push_out_displacement, pushed_overlap
-from dda.contact.rows import contact_rows, gaps_after
+from dda.contact.rows import ContactRows, contact_rows, gaps_after
 from dda.effects.base import StepContext
 from dda.effects.pair_springs import PairSprings
 from dda.model import Model
@@ -53,6 +53,7 @@ from dda.solve.newton import (
     BlockQuadratic,
     ContactGeometry,
     NumpyPasses,
+    SizeRules,
     better_start,
     minimise,
     size_rules,
@@ -448,12 +449,12 @@ class _StepLoop:
 
     blocks: BlockSet
     contacts: ContactSet
-    rows: object
-    joints: object
-    law: object
-    system: object
+    rows: ContactRows
+    joints: JointProperties
+    law: ContactLaw
+    system: BandSystem | DenseSystem | _PieceSystem
     budget: int
-    rules: object
+    rules: SizeRules
     ctx: StepContext
     timer: StageTimer
     quadratic: BlockQuadratic
