@@ -143,13 +143,21 @@ class BoundIteration:
     which converges in a few steps where G is close to linear, clipped at
     b ≥ 0. Any b ≥ 0 gives a convex potential, so this changes how fast the
     bounds settle, not whether a solve can create energy.
+
+    ``by_rows``: the least squares' products over the contacts as dot products row by
+    row (:func:`_least_squares_by_rows`), as the compiled step on band systems makes
+    them (:mod:`dda.solve.band_step`), whose Python oracle sets it; else numpy's matrix
+    products. The two differ in the last bits, and the iteration carries such
+    differences far where the bounds settle slowly: the tunnel's equilibrium start with
+    SuperLU settles with the matrix products and not within its budget by rows.
     """
 
     DEPTH = 4
     MIXING = 1.0  # 0.5 measured no better (tunnel, 0.2 s: 24.3 solves a step against 23.7)
 
-    def __init__(self, bound: np.ndarray) -> None:
+    def __init__(self, bound: np.ndarray, by_rows: bool = False) -> None:
         self.bound = bound
+        self.by_rows = by_rows
         self._history: list[tuple[np.ndarray, np.ndarray]] = []  # (b, r) per solve
 
     @property
@@ -167,10 +175,14 @@ class BoundIteration:
         residuals = np.array([r for _, r in self._history])
         point_steps, residual_steps = np.diff(points, axis=0), np.diff(residuals, axis=0)
         mean_point, mean_residual = points[-1], residuals[-1]
-        if len(points) > 1:
-            gamma = _least_squares(residual_steps, residuals[-1])
+        if self.by_rows and len(points) > 1:
+            gamma = _least_squares_by_rows(residual_steps, residuals[-1])
             mean_point = mean_point - _combination(gamma, point_steps)
             mean_residual = mean_residual - _combination(gamma, residual_steps)
+        elif len(points) > 1:
+            gamma = _least_squares(residual_steps, residuals[-1])
+            mean_point = mean_point - gamma @ point_steps
+            mean_residual = mean_residual - gamma @ residual_steps
         self.bound = np.maximum(mean_point + self.MIXING * mean_residual, 0.0)
 
 
@@ -183,10 +195,17 @@ def _least_squares(differences: np.ndarray, target: np.ndarray) -> np.ndarray:
     """γ = argmin ‖target − differencesᵀ γ‖ for the few rows of ``differences`` (k, m),
     from the k × k Gram matrix A Aᵀ = V Λ Vᵀ: γ = V Λ⁺ Vᵀ A target, directions whose
     singular value √λ is below ``GRAM_CUTOFF`` of the largest dropped (the truncated
-    SVD solution; one pass over the m contacts instead of an m × k SVD). The products
-    over the contacts are dot products row by row and the rest scalar loops: the
-    compiled step (:mod:`dda.solve.band_step`) runs this function compiled, with the
-    same numbers."""
+    SVD solution; one pass over the m contacts instead of an m × k SVD)."""
+    values, vectors = np.linalg.eigh(differences @ differences.T)
+    kept = values > (GRAM_CUTOFF**2) * max(float(values[-1]), 0.0)
+    projected = vectors.T @ (differences @ target)
+    return vectors[:, kept] @ (projected[kept] / values[kept])
+
+
+def _least_squares_by_rows(differences: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """:func:`_least_squares` with the products over the contacts as dot products row
+    by row and the rest scalar loops: the compiled step (:mod:`dda.solve.band_step`)
+    runs this function compiled, with the same numbers."""
     k = len(differences)
     gram, product = np.empty((k, k)), np.empty(k)
     for i in range(k):

@@ -283,8 +283,9 @@ _first_bounds = kernel(_first_bounds) or _first_bounds
 _remembered = kernel(_remembered) or _remembered
 _norm = kernel(_norm) or _norm
 _guessing = kernel(_guessing) or _guessing
-# the law's own Anderson least squares and combination, compiled: the same code, the same numbers
-_least_squares = kernel(contact_law._least_squares) or contact_law._least_squares
+# the law's Anderson least squares by rows and combination, compiled: the same code, the same
+# numbers as the Python loop's on band systems (BoundIteration(by_rows=True))
+_least_squares = kernel(contact_law._least_squares_by_rows) or contact_law._least_squares_by_rows
 _combination = kernel(contact_law._combination) or contact_law._combination
 _advance = kernel(_advance) or _advance
 _dissipation = kernel(_dissipation) or _dissipation

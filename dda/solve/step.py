@@ -477,7 +477,8 @@ class _StepLoop:
             self.system, self.budget, self.rules, self.ctx, self.timer
         )  # fmt: skip
         with timer("contact_law"):
-            bounds = BoundIteration(_first_bounds(contacts, rows, joints, law))
+            by_rows = isinstance(system, BandSystem)  # as the compiled loop sums them
+            bounds = BoundIteration(_first_bounds(contacts, rows, joints, law), by_rows)
         quadratic = self.quadratic
         geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
         d = np.zeros((blocks.count, 6))
