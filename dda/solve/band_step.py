@@ -22,11 +22,11 @@ import numpy as np
 
 from dda.contact import law as contact_law
 from dda.contact import law_kernels
-from dda.contact.law import UNBOUNDED, BoundIteration
-from dda.contact.potential import NORMAL_ELASTIC, NORMAL_LIMIT, SLIP_BACK, SLIP_FORWARD, STICK
+from dda.contact.law import UNBOUNDED, BoundIteration, _floats
+from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.jit import kernel
 from dda.result import LOCKED, OPEN, SLIDING
-from dda.solve import band_newton
+from dda.solve import band_newton, contact_pieces
 
 # the Python loop instead of this kernel (the tests compare the two)
 USE_KERNEL = True
@@ -46,6 +46,11 @@ band_minimise_kernel = band_newton.band_minimise_kernel
 potential_kernel = band_newton.potential_kernel
 
 
+def _friction_bound(friction_tan, held, normal):
+    """b = tan φ ⟨N⟩₊ + c l (:func:`dda.contact.law.friction_bound`), one contact."""
+    return friction_tan * max(normal, 0.0) + held
+
+
 def _first_bounds(intact, tensile, friction_tan, cohesion, multiplier, penalty, g0, last_normal,
                   fresh, state, friction):  # fmt: skip
     """:func:`dda.solve.step._first_bounds`: b = tan φ ⟨max(N(g₀), N_last)⟩₊ + c l, a contact
@@ -57,9 +62,8 @@ def _first_bounds(intact, tensile, friction_tan, cohesion, multiplier, penalty, 
     for c in range(m):
         tension = tensile[c] if intact[c] else 0.0
         start = max(max(multiplier[c], -tension) + penalty[c] * g0[c], -tension)
-        normal = max(start, last_normal[c])
         held = cohesion[c] if intact[c] else 0.0
-        bound[c] = friction_tan[c] * max(normal, 0.0) + held
+        bound[c] = _friction_bound(friction_tan[c], held, max(start, last_normal[c]))
         if fresh[c] and state[c] != OPEN:
             bound[c] = UNBOUNDED
     return bound
@@ -67,27 +71,19 @@ def _first_bounds(intact, tensile, friction_tan, cohesion, multiplier, penalty, 
 
 def _remembered(normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, state,
                 direction):  # fmt: skip
-    """:func:`dda.solve.step._remembered_pieces`: a contact closed at the last step's end
-    starts elastic, one sliding then slides the same way, one locked sticks; the others
-    take the pieces at (g, s)."""
+    """:func:`dda.solve.step._remembered_pieces`: the pieces at (g, s)
+    (:func:`dda.solve.contact_pieces._pieces`), except that a contact closed at the last
+    step's end starts elastic, one sliding then slides the same way, one locked sticks."""
     m = g.shape[0]
     normal, shear = np.empty(m, np.int8), np.empty(m, np.int8)
+    _pieces(normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, normal, shear)
     for c in range(m):
-        if state[c] != OPEN or normal_base[c] + penalty[c] * g[c] >= -tension[c]:
+        if state[c] != OPEN:
             normal[c] = NORMAL_ELASTIC
-        else:
-            normal[c] = NORMAL_LIMIT
-        trial = shear_base[c] + shear_penalty[c] * s[c]
         if state[c] == LOCKED:
             shear[c] = STICK
         elif state[c] == SLIDING:
             shear[c] = SLIP_BACK if direction[c] < 0.0 else SLIP_FORWARD
-        elif trial <= -bound[c]:
-            shear[c] = SLIP_BACK
-        elif trial >= bound[c]:
-            shear[c] = SLIP_FORWARD
-        else:
-            shear[c] = STICK
     return normal, shear
 
 
@@ -148,9 +144,9 @@ def _band_step(
 ):  # fmt: skip
     """The outer loop of :func:`dda.solve.step.solve_step` on band systems (module
     docstring); the vectors in band order, the contacts' arrays not changed. Returns
-    (D, g, s, intact, λn, λt, p, state, slide direction, N, F, dissipation, outcome):
-    the contacts' new data (what :func:`dda.contact.law.update` and
-    :func:`dda.contact.law.record` write) and the integers :data:`SOLVES`,
+    (D, g, s, intact, λn, p, state, slide direction, N, F, dissipation, outcome): the
+    contacts' new data (what :func:`dda.contact.law.update` and
+    :func:`dda.contact.law.record` write; the carried λt is F) and the integers :data:`SOLVES`,
     :data:`CHORDS`, :data:`CONVERGED`, :data:`FINITE`, :data:`FAILED`."""
     m, n = g0.shape[0], forces.shape[0]
     intact = intact.copy()
@@ -223,10 +219,10 @@ def _band_step(
             if solves >= budget:
                 break
             target = np.empty(m)
-            for c in range(m):  # b = tan φ ⟨N⟩₊ + c l from this pass's normal forces
+            for c in range(m):  # the bounds of this pass's normal forces
                 normal = max(normal_base[c] + terms_penalty[c] * g[c], -tension[c])
                 held = cohesion[c] if intact[c] else 0.0
-                target[c] = friction_tan[c] * max(normal, 0.0) + held
+                target[c] = _friction_bound(friction_tan[c], held, normal)
             bound, history = _advance(bound, target, points, residuals, history)
             continue
         normal, target, changed = forces_and_bounds_kernel(
@@ -273,12 +269,14 @@ def _band_step(
             )
         )  # fmt: skip
     return (
-        d, g, s, intact, normal_multiplier, shear_force, penalty, new_state, new_direction,
-        normal_force, shear_force, dissipated, outcome,
+        d, g, s, intact, normal_multiplier, penalty, new_state, new_direction, normal_force,
+        shear_force, dissipated, outcome,
     )  # fmt: skip
 
 
 _along = band_newton._along
+_pieces = contact_pieces._pieces
+_friction_bound = kernel(_friction_bound) or _friction_bound
 _first_bounds = kernel(_first_bounds) or _first_bounds
 _remembered = kernel(_remembered) or _remembered
 _norm = kernel(_norm) or _norm
@@ -323,21 +321,16 @@ def solve_on_band(system, loop) -> tuple[np.ndarray, int, int, bool, float] | No
     with loop.timer("solve"):  # the passes and the law between them
         out = band_step_kernel(*arguments)
     system.count_factorisations(int(factor_state[band_newton.FACTORISATIONS]) - made)
-    d, g, s, intact, normal_multiplier, shear_multiplier, penalty = out[:7]
-    state, direction, normal_force, shear_force, dissipated, outcome = out[7:]
+    d, g, s, intact, normal_multiplier, penalty = out[:6]
+    state, direction, normal_force, shear_force, dissipated, outcome = out[6:]
     if outcome[FAILED]:
         system.restart()
         return None
     if outcome[FINITE]:
         contacts.intact, contacts.penalty = intact, penalty
-        contacts.normal_multiplier, contacts.shear_multiplier = normal_multiplier, shear_multiplier
+        contacts.normal_multiplier, contacts.shear_multiplier = normal_multiplier, shear_force
         contacts.state, contacts.slide_direction = state, direction
         contacts.normal_force, contacts.shear_force = normal_force, shear_force
         contacts.penetration, contacts.slip = g, s
     converged = bool(outcome[CONVERGED])
     return system.spread(d), int(outcome[SOLVES]), int(outcome[CHORDS]), converged, dissipated
-
-
-def _floats(values) -> np.ndarray:
-    """``values`` as a contiguous float array (the kernel's argument type)."""
-    return np.ascontiguousarray(values, dtype=np.float64)
