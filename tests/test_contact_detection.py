@@ -86,6 +86,7 @@ def test_kept_pairs_equal_a_new_search_as_blocks_move(monkeypatch, compiled):
     blocks change."""
     if not compiled:
         monkeypatch.setattr(broad, "_still_overlapping_kernel", None)
+        monkeypatch.setattr(broad, "_kept_kernel", None)
     model, blocks = jittered_blocks(wall_scene(6, 5), 0.0)
     margin = model.contact.search_distance
     free = ~blocks.fixed
@@ -127,7 +128,7 @@ def test_a_run_with_kept_pairs_equals_one_without(monkeypatch):
     monkeypatch.setattr(broad, "candidate_pairs", lambda *a: searches.append(1) or search(*a))
     kept = dda.simulate(scene)
     assert len(searches) < 5  # the list was kept over most of the 15 steps
-    monkeypatch.setattr(broad.KeptPairs, "_valid", lambda self, blocks, margin: False)
+    monkeypatch.setattr(broad.KeptPairs, "_same_blocks", lambda self, blocks, margin: False)
     fresh = dda.simulate(scene)
     for ours, theirs in zip(kept.final.vertices, fresh.final.vertices, strict=True):
         np.testing.assert_array_equal(ours, theirs)

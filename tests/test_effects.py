@@ -57,6 +57,26 @@ def test_mass_matrix_matches_quadrature_on_a_concave_polygon():
     np.testing.assert_allclose(m, quad, rtol=2e-3, atol=2e-3 * np.abs(m).max())
 
 
+@pytest.mark.skipif(not dda.jit.numba_enabled(), reason="numba is not in use")
+def test_the_compiled_mass_matrices_equal_numpy_to_the_bit():
+    """In a run with the kernels :func:`mass_matrices` is compiled: the same numbers, the
+    infinities and NaN of a block of no area too."""
+    from dda.bench.scenes import wall_scene
+    from dda.model import build
+
+    blocks = build(dda.load_scene(wall_scene(4, 3))).blocks.copy()
+    blocks.ixy = blocks.ixy + np.linspace(-0.1, 0.1, blocks.count)
+    blocks.area = blocks.area.copy()
+    blocks.area[1] = 0.0
+    density = np.linspace(2000.0, 2700.0, blocks.count)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the block of no area
+        plain = mass_matrices(density, blocks)
+        with dda.jit.run_work(blocks=1000, steps=10_000):
+            compiled = mass_matrices(density, blocks)
+    assert not np.isfinite(plain[1]).any()
+    np.testing.assert_array_equal(plain, compiled)
+
+
 def test_polygon_moments_of_a_rectangle():
     blocks = one_block(np.array(rectangle(1, 2, 3, 3), float))
     assert blocks.area[0] == pytest.approx(2.0)

@@ -70,12 +70,28 @@ class KeptPairs:
 
     def pairs(self, blocks: BlockSet, margin: float) -> np.ndarray:
         """The pairs :func:`candidate_pairs` gives for ``blocks`` and ``margin``."""
-        if not self._valid(blocks, margin):
-            self._pairs = candidate_pairs(blocks, margin * (1.0 + 2.0 * self.SLACK))
-            self._vertices = blocks.vertices.copy()
-            self._offsets, self._fixed = blocks.offsets.copy(), blocks.fixed.copy()
-            self._margin = margin
-            self.searches += 1
+        if compiled(_kept_kernel) and self._same_blocks(blocks, margin):
+            valid, keep = _kept_kernel(
+                np.ascontiguousarray(blocks.vertices, dtype=np.float64),
+                blocks.offsets.astype(np.int64),
+                self._vertices,
+                self._pairs,
+                margin / 2.0,
+                0.5 * self.SLACK * margin,
+            )
+            if valid:
+                return self._pairs[keep]
+        elif self._valid(blocks, margin):
+            return self._kept_overlapping(blocks, margin)
+        self._pairs = candidate_pairs(blocks, margin * (1.0 + 2.0 * self.SLACK))
+        self._vertices = np.ascontiguousarray(blocks.vertices, dtype=np.float64).copy()
+        self._offsets, self._fixed = blocks.offsets.copy(), blocks.fixed.copy()
+        self._margin = margin
+        self.searches += 1
+        return self._kept_overlapping(blocks, margin)
+
+    def _kept_overlapping(self, blocks: BlockSet, margin: float) -> np.ndarray:
+        """The kept pairs whose boxes, grown by ``margin`` / 2, overlap."""
         boxes = bounding_boxes(blocks, margin / 2.0)
         if compiled(_still_overlapping_kernel):
             return self._pairs[_still_overlapping_kernel(boxes, self._pairs)]
@@ -85,16 +101,20 @@ class KeptPairs:
         )
         return self._pairs[~apart]
 
-    def _valid(self, blocks: BlockSet, margin: float) -> bool:
-        """True when the kept list holds every pair (same blocks and margin, small moves)."""
+    def _same_blocks(self, blocks: BlockSet, margin: float) -> bool:
+        """True when the list was made for these blocks (offsets, fixed) and ``margin``."""
         if self._pairs is None or margin != self._margin:
             return False
         if len(blocks.offsets) != len(self._offsets) or len(blocks.vertices) != len(self._vertices):
             return False
-        if not (
+        return bool(
             np.array_equal(blocks.offsets, self._offsets)
             and np.array_equal(blocks.fixed, self._fixed)
-        ):
+        )
+
+    def _valid(self, blocks: BlockSet, margin: float) -> bool:
+        """True when the kept list holds every pair (same blocks and margin, small moves)."""
+        if not self._same_blocks(blocks, margin):
             return False
         moved = float(np.abs(blocks.vertices - self._vertices).max(initial=0.0))
         return moved <= 0.5 * self.SLACK * margin  # half the growth: round-off to spare
@@ -223,3 +243,26 @@ def _still_overlapping(boxes, pairs):
 
 
 _still_overlapping_kernel = kernel(_still_overlapping)
+
+
+def _kept(vertices, offsets, kept_vertices, pairs, half_margin, allowed):
+    """Compiled :meth:`KeptPairs.pairs` on a list made for these blocks: (whether no
+    vertex moved more than ``allowed`` in x or y since, and then which kept pairs' boxes,
+    grown by ``half_margin``, overlap: :func:`bounding_boxes` and
+    :func:`_still_overlapping`)."""
+    for k in range(vertices.shape[0]):
+        for axis in range(2):
+            if not abs(vertices[k, axis] - kept_vertices[k, axis]) <= allowed:  # NaN too
+                return False, np.zeros(0, np.bool_)
+    n = offsets.shape[0] - 1
+    boxes = np.empty((n, 4))
+    for b in range(n):
+        for axis in range(2):
+            low, high = vertices[offsets[b], axis], vertices[offsets[b], axis]
+            for k in range(offsets[b] + 1, offsets[b + 1]):
+                low, high = min(low, vertices[k, axis]), max(high, vertices[k, axis])
+            boxes[b, axis], boxes[b, 2 + axis] = low - half_margin, high + half_margin
+    return True, _still_overlapping_kernel(boxes, pairs)
+
+
+_kept_kernel = kernel(_kept)

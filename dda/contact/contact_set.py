@@ -12,6 +12,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.jit import compiled, kernel
 from dda.result import LOCKED, OPEN
 
 _LOCAL = 1 << 10  # vertices per block allowed in a key
@@ -137,6 +138,11 @@ def merge(
     owner = blocks.vertex_owner
     m = len(vertex)
     keys = contact_keys(blocks, vertex, edge) if keys is None else keys
+    if previous_rows is not None and compiled(merge_kernel):
+        return _merge_compiled(
+            previous, owner, vertex, edge, keys, initial_penetration, initial_penalty,
+            initial_parameter, touch_tolerance, previous_rows,
+        )  # fmt: skip
     touching = np.asarray(initial_penetration) >= -touch_tolerance  # a new bool array
     new = ContactSet(
         vertex=vertex,
@@ -182,3 +188,64 @@ def merge(
     still_open = new.state == OPEN
     new.reference[still_open] = np.asarray(initial_parameter, float)[still_open]
     return new
+
+
+# the fields a persisting contact carries from the last step (merge)
+CARRIED = (
+    "state", "normal_multiplier", "shear_multiplier", "penalty", "reference",
+    "slide_direction", "intact", "normal_force", "shear_force", "penetration",
+)  # fmt: skip
+
+
+def _merge_compiled(previous, owner, vertex, edge, keys, penetration, penalty, parameter,
+                    touch_tolerance, previous_rows) -> ContactSet:  # fmt: skip
+    """:func:`merge` in one compiled call (:func:`_merge`)."""
+    carried = merge_kernel(
+        *(getattr(previous, name) for name in CARRIED),
+        np.asarray(previous_rows, np.int64),
+        np.asarray(penetration, np.float64),
+        np.asarray(parameter, np.float64),
+        float(penalty),
+        float(touch_tolerance),
+        LOCKED,
+        OPEN,
+    )
+    fields_ = dict(zip((*CARRIED, "fresh"), carried, strict=True))
+    m = len(vertex)
+    return ContactSet(
+        vertex=vertex, edge=edge, block_a=owner[vertex], block_b=owner[edge], key=keys,
+        slip=np.zeros(m), **fields_,
+    )  # fmt: skip
+
+
+def _merge(state, normal_multiplier, shear_multiplier, penalty, reference, slide_direction,
+           intact, normal_force, shear_force, penetration, previous_rows, initial_penetration,
+           initial_parameter, initial_penalty, touch_tolerance, locked, open_):  # fmt: skip
+    """Compiled :func:`merge` (the carried fields and ``fresh``): a new contact as
+    :func:`merge` starts it, a persisting one with its last step's fields."""
+    m = previous_rows.shape[0]
+    new_state, new_intact = np.empty(m, np.int8), np.empty(m, np.bool_)
+    fresh = np.empty(m, np.bool_)
+    new_normal, new_shear = np.zeros(m), np.zeros(m)
+    new_penalty, new_reference, new_direction = np.empty(m), np.empty(m), np.zeros(m)
+    new_normal_force, new_shear_force, new_penetration = np.zeros(m), np.zeros(m), np.zeros(m)
+    for r in range(m):
+        old = previous_rows[r]
+        if old < 0:
+            touching = initial_penetration[r] >= -touch_tolerance
+            new_state[r] = locked if touching else open_
+            new_intact[r], fresh[r] = touching, True
+            new_penalty[r], new_reference[r] = initial_penalty, initial_parameter[r]
+            continue
+        new_state[r], new_intact[r], fresh[r] = state[old], intact[old], False
+        new_normal[r], new_shear[r] = normal_multiplier[old], shear_multiplier[old]
+        new_penalty[r], new_reference[r] = penalty[old], reference[old]
+        new_direction[r], new_normal_force[r] = slide_direction[old], normal_force[old]
+        new_shear_force[r], new_penetration[r] = shear_force[old], penetration[old]
+        if new_state[r] == open_:  # an open contact measures shear from where it is now
+            new_reference[r] = initial_parameter[r]
+    return (new_state, new_normal, new_shear, new_penalty, new_reference, new_direction,
+            new_intact, new_normal_force, new_shear_force, new_penetration, fresh)  # fmt: skip
+
+
+merge_kernel = kernel(_merge)

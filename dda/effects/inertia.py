@@ -6,13 +6,18 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.effects.base import Effect, StepContext
+from dda.jit import compiled_in_run, kernel
 
 
 def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
     """M_i = ρ_i ∫ T_iᵀ T_i dA about the centroid (docs/theory.md §3), (n, 6, 6), with the
     current density ρ_i = ``density`` × mass_area / area: the mass ρ S₀ is conserved
-    as the block strains (:class:`dda.blocks.BlockSet`)."""
+    as the block strains (:class:`dda.blocks.BlockSet`); in a run with the kernels, its
+    compiled twin :func:`_masses`."""
     s, ixx, iyy, ixy = blocks.area, blocks.ixx, blocks.iyy, blocks.ixy
+    scale = density * blocks.density_ratio
+    if compiled_in_run(masses_kernel):
+        return masses_kernel(*(np.asarray(a, np.float64) for a in (scale, s, ixx, iyy, ixy)))
     m = np.zeros((blocks.count, 6, 6))
     m[:, 0, 0] = m[:, 1, 1] = s
     m[:, 2, 2] = ixx + iyy
@@ -24,7 +29,31 @@ def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
     m[:, 3, 5] = m[:, 5, 3] = ixy / 2
     m[:, 4, 5] = m[:, 5, 4] = ixy / 2
     m[:, 5, 5] = (ixx + iyy) / 4
-    return (density * blocks.density_ratio)[:, None, None] * m
+    return scale[:, None, None] * m
+
+
+def _masses(scale, s, ixx, iyy, ixy):
+    """Compiled :func:`mass_matrices`: every entry, the zeros too, times the block's ρ."""
+    n = s.shape[0]
+    m = np.zeros((n, 6, 6))
+    for i in range(n):
+        m[i, 0, 0] = m[i, 1, 1] = s[i]
+        m[i, 2, 2] = ixx[i] + iyy[i]
+        m[i, 2, 3] = m[i, 3, 2] = -ixy[i]
+        m[i, 2, 4] = m[i, 4, 2] = ixy[i]
+        m[i, 2, 5] = m[i, 5, 2] = (ixx[i] - iyy[i]) / 2
+        m[i, 3, 3] = ixx[i]
+        m[i, 4, 4] = iyy[i]
+        m[i, 3, 5] = m[i, 5, 3] = ixy[i] / 2
+        m[i, 4, 5] = m[i, 5, 4] = ixy[i] / 2
+        m[i, 5, 5] = (ixx[i] + iyy[i]) / 4
+        for j in range(6):
+            for k in range(6):
+                m[i, j, k] = scale[i] * m[i, j, k]
+    return m
+
+
+masses_kernel = kernel(_masses)
 
 
 def block_masses(material_density: np.ndarray, blocks: BlockSet) -> np.ndarray:
