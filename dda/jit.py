@@ -114,6 +114,13 @@ class Lapack:
         return self._external
 
 
+def floats(values) -> Any:
+    """``values`` as a contiguous float64 array: the kernels' argument type."""
+    import numpy as np
+
+    return np.ascontiguousarray(values, dtype=np.float64)
+
+
 def kernel(function: Callable) -> Kernel | None:
     """A :class:`Kernel` of ``function``, or None when numba is off (callers keep numpy)."""
     return Kernel(function) if numba_enabled() else None

@@ -62,12 +62,20 @@ def move_points(
     rel = points - centroids
     if not exact_rotation:
         return points + np.einsum("mkr,mr->mk", displacement_matrices(points, centroids), d)
-    c, s = np.cos(d[:, 2]), np.sin(d[:, 2])
-    rx = c * rel[:, 0] - s * rel[:, 1]
-    ry = s * rel[:, 0] + c * rel[:, 1]
-    ex, ey, g = d[:, 3], d[:, 4], d[:, 5] / 2.0
-    sx = ex * rel[:, 0] + g * rel[:, 1]
-    sy = g * rel[:, 0] + ey * rel[:, 1]
-    return np.column_stack(
-        [centroids[:, 0] + d[:, 0] + rx + sx, centroids[:, 1] + d[:, 1] + ry + sy]
-    )
+    x, y = exact_position(
+        centroids[:, 0], centroids[:, 1], rel[:, 0], rel[:, 1], np.cos(d[:, 2]),
+        np.sin(d[:, 2]), d[:, 0], d[:, 1], d[:, 3], d[:, 4], d[:, 5],
+    )  # fmt: skip
+    return np.column_stack([x, y])
+
+
+def exact_position(cx, cy, rel_x, rel_y, cos_r, sin_r, u0, v0, ex, ey, gxy):
+    """(x, y) of the point at ``rel`` from the centroid (cx, cy) after the exact update of
+    :func:`move_points` (rotation by r0, then translation and strain), element by element
+    (arrays or numbers: the compiled update, :mod:`dda.solve.update`, calls it on numbers)."""
+    g = gxy / 2.0
+    rx = cos_r * rel_x - sin_r * rel_y
+    ry = sin_r * rel_x + cos_r * rel_y
+    sx = ex * rel_x + g * rel_y
+    sy = g * rel_x + ey * rel_y
+    return cx + u0 + rx + sx, cy + v0 + ry + sy

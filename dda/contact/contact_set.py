@@ -114,6 +114,13 @@ def rows_in(keys: np.ndarray, known: np.ndarray) -> np.ndarray:
     return rows
 
 
+# the fields a persisting contact carries from the last step (merge)
+CARRIED = (
+    "state", "normal_multiplier", "shear_multiplier", "penalty", "reference",
+    "slide_direction", "intact", "normal_force", "shear_force", "penetration",
+)  # fmt: skip
+
+
 def merge(
     previous: ContactSet,
     blocks: BlockSet,
@@ -168,18 +175,7 @@ def merge(
     new_rows = np.flatnonzero(previous_rows >= 0)
     if len(new_rows):
         old_rows = previous_rows[new_rows]
-        for name in (
-            "state",
-            "normal_multiplier",
-            "shear_multiplier",
-            "penalty",
-            "reference",
-            "slide_direction",
-            "intact",
-            "normal_force",
-            "shear_force",
-            "penetration",
-        ):
+        for name in CARRIED:
             getattr(new, name)[new_rows] = getattr(previous, name)[old_rows]
         new.fresh[new_rows] = False
     # An open contact has no shear reference yet: measure from the vertex's current
@@ -188,13 +184,6 @@ def merge(
     still_open = new.state == OPEN
     new.reference[still_open] = np.asarray(initial_parameter, float)[still_open]
     return new
-
-
-# the fields a persisting contact carries from the last step (merge)
-CARRIED = (
-    "state", "normal_multiplier", "shear_multiplier", "penalty", "reference",
-    "slide_direction", "intact", "normal_force", "shear_force", "penetration",
-)  # fmt: skip
 
 
 def _merge_compiled(previous, owner, vertex, edge, keys, penetration, penalty, parameter,

@@ -33,7 +33,7 @@ import numpy as np
 from dda.contact import law_kernels
 from dda.contact.contact_set import ContactSet
 from dda.contact.potential import NORMAL_ELASTIC, STICK, ContactTerms
-from dda.jit import compiled
+from dda.jit import compiled, floats
 from dda.result import LOCKED, OPEN, SLIDING
 
 UNBOUNDED = 1e300  # the friction bound of a contact whose normal force is not known yet
@@ -104,9 +104,9 @@ def contact_terms(
     """
     if compiled(law_kernels.terms_kernel):
         normal_base, tension, shear_base, shear_penalty, bound = law_kernels.terms_kernel(
-            contacts.intact, _floats(joint.tensile), _floats(contacts.normal_multiplier),
-            _floats(contacts.shear_multiplier), _floats(contacts.penalty), float(law.shear_ratio),
-            _floats(bound), bool(law.friction),
+            contacts.intact, floats(joint.tensile), floats(contacts.normal_multiplier),
+            floats(contacts.shear_multiplier), floats(contacts.penalty), float(law.shear_ratio),
+            floats(bound), bool(law.friction),
         )  # fmt: skip
         return ContactTerms(
             normal_base, contacts.penalty, tension, shear_base, shear_penalty, bound
@@ -253,8 +253,8 @@ def update(
     settled = True
     if compiled(law_kernels.forces_and_bounds_kernel):
         normal, bound, changed = law_kernels.forces_and_bounds_kernel(
-            *terms.kernel_arrays(), _floats(g), _floats(s), contacts.intact,
-            _floats(joint.friction), _floats(joint.cohesion), bool(law.friction),
+            *terms.kernel_arrays(), floats(g), floats(s), contacts.intact,
+            floats(joint.friction), floats(joint.cohesion), bool(law.friction),
         )  # fmt: skip
     else:
         normal = terms.normal_force(g)
@@ -280,7 +280,7 @@ def _break_bonds(contacts, terms, joint, g, s) -> int:
     strength, or slipping, lose both for good."""
     if compiled(law_kernels.broken_kernel):
         lost = law_kernels.broken_kernel(
-            *terms.kernel_arrays(), _floats(g), _floats(s), contacts.intact, _floats(joint.cohesion)
+            *terms.kernel_arrays(), floats(g), floats(s), contacts.intact, floats(joint.cohesion)
         )
         contacts.intact &= ~lost
         return int(np.count_nonzero(lost))
@@ -298,10 +298,10 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
     tolerance = law.tolerance
     if compiled(law_kernels.augment_kernel):
         has_previous = previous_g is not None
-        previous = _floats(previous_g if has_previous else g)
+        previous = floats(previous_g if has_previous else g)
         normal, shear, penalty, count, violation = law_kernels.augment_kernel(
-            *terms.kernel_arrays(), _floats(g), _floats(s), previous, has_previous,
-            contacts.fresh, _floats(contacts.penetration), _floats(contacts.shear_multiplier),
+            *terms.kernel_arrays(), floats(g), floats(s), previous, has_previous,
+            contacts.fresh, floats(contacts.penetration), floats(contacts.shear_multiplier),
             float(tolerance), float(law.shrink_target), float(law.max_penalty),
             float(law.penalty_growth),
         )  # fmt: skip
@@ -357,9 +357,9 @@ def record(
     if compiled(law_kernels.recorded_kernel):
         state, multiplier, direction, normal, shear = law_kernels.recorded_kernel(
             *terms.kernel_arrays(),
-            _floats(g),
-            _floats(s),
-            _floats(contacts.normal_multiplier),
+            floats(g),
+            floats(s),
+            floats(contacts.normal_multiplier),
             float(limit_band),
         )
         contacts.state, contacts.normal_multiplier = state, multiplier
@@ -396,8 +396,3 @@ def friction_dissipation(terms: ContactTerms, s: np.ndarray) -> float:
     with np.errstate(divide="ignore", invalid="ignore"):
         work = np.where(ps > 0.0, terms.bound * excess / ps, 0.0)
     return float(np.sum(work))
-
-
-def _floats(values) -> np.ndarray:
-    """``values`` as a contiguous float array (the kernels' argument type)."""
-    return np.ascontiguousarray(values, dtype=np.float64)

@@ -22,9 +22,9 @@ import numpy as np
 
 from dda.contact import law as contact_law
 from dda.contact import law_kernels
-from dda.contact.law import UNBOUNDED, BoundIteration, _floats
+from dda.contact.law import UNBOUNDED, BoundIteration
 from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
-from dda.jit import kernel
+from dda.jit import floats, kernel
 from dda.result import LOCKED, OPEN, SLIDING
 from dda.solve import band_newton, contact_pieces
 
@@ -305,16 +305,16 @@ def solve_on_band(system, loop) -> tuple[np.ndarray, int, int, bool, float] | No
     velocity_step = loop.blocks.velocity[system.order] * loop.ctx.dt
     arguments = (
         *system.kernel_geometry(),
-        np.ascontiguousarray(contacts.intact, np.bool_), _floats(joints.tensile),
-        _floats(joints.friction), _floats(joints.cohesion), _floats(contacts.normal_multiplier),
-        _floats(contacts.shear_multiplier), _floats(contacts.penalty),
+        np.ascontiguousarray(contacts.intact, np.bool_), floats(joints.tensile),
+        floats(joints.friction), floats(joints.cohesion), floats(contacts.normal_multiplier),
+        floats(contacts.shear_multiplier), floats(contacts.penalty),
         np.ascontiguousarray(contacts.fresh, np.bool_),
-        np.ascontiguousarray(contacts.state, np.int8), _floats(contacts.slide_direction),
-        _floats(contacts.normal_force), _floats(contacts.penetration),
+        np.ascontiguousarray(contacts.state, np.int8), floats(contacts.slide_direction),
+        floats(contacts.normal_force), floats(contacts.penetration),
         bool(law.friction), bool(law.augmented), float(law.shear_ratio), float(law.tolerance),
         float(law.shrink_target), float(law.max_penalty), float(law.penalty_growth),
         float(law.friction_tolerance),
-        _floats(velocity_step.ravel()), not loop.ctx.static, int(loop.budget),
+        floats(velocity_step.ravel()), not loop.ctx.static, int(loop.budget),
         int(loop.between_bounds), int(loop.guessed_bound_solves), float(rules.rate),
         bool(rules.chord_first), bool(rules.conjugate), band, springs, factor_state,
     )  # fmt: skip

@@ -45,4 +45,10 @@ def new_velocity(
     """
     a1 = step_acceleration(d, velocity, dt)
     a0 = np.where(np.isnan(acceleration), a1, acceleration)
-    return velocity + dt * ((1.0 - gamma) * a0 + gamma * a1), a1
+    return newmark_velocity(velocity, a0, a1, dt, gamma), a1
+
+
+def newmark_velocity(velocity, a0, a1, dt: float, gamma: float):
+    """v1 = v0 + Δt ((1 − γ) a0 + γ a1), element by element (arrays or numbers: the
+    compiled update, :mod:`dda.solve.update`, calls it on numbers)."""
+    return velocity + dt * ((1.0 - gamma) * a0 + gamma * a1)

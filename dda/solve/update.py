@@ -8,9 +8,9 @@ import numpy as np
 
 from dda.blocks import BlockSet, moments_kernel
 from dda.effects.elastic import Elastic
-from dda.jit import compiled, kernel
-from dda.kinematics import move_points
-from dda.solve.integrator import new_velocity
+from dda.jit import compiled, floats, kernel
+from dda.kinematics import exact_position, move_points
+from dda.solve.integrator import new_velocity, newmark_velocity, step_acceleration
 
 
 def vertex_displacements(blocks: BlockSet, d: np.ndarray, exact_rotation: bool) -> np.ndarray:
@@ -18,21 +18,24 @@ def vertex_displacements(blocks: BlockSet, d: np.ndarray, exact_rotation: bool) 
     in a run with the kernels, its compiled twin :func:`_moves`)."""
     owner = blocks.vertex_owner
     if exact_rotation and compiled(moves_kernel):
-        return moves_kernel(_floats(blocks.vertices), _floats(blocks.centroid), _floats(d), owner)
+        return moves_kernel(floats(blocks.vertices), floats(blocks.centroid), floats(d), owner)
     moved = move_points(blocks.vertices, blocks.centroid[owner], d[owner], exact_rotation)
     return moved - blocks.vertices
 
 
 def rotate_stress(stress: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """σ' = R σ Rᵀ for a rotation by ``angle`` (co-rotational stress)."""
-    c, s = np.cos(angle), np.sin(angle)
-    sxx, syy, sxy = stress[:, 0], stress[:, 1], stress[:, 2]
-    return np.column_stack(
-        [
-            c * c * sxx - 2 * c * s * sxy + s * s * syy,
-            s * s * sxx + 2 * c * s * sxy + c * c * syy,
-            c * s * (sxx - syy) + (c * c - s * s) * sxy,
-        ]
+    rotated = rotated_stress(np.cos(angle), np.sin(angle), stress[:, 0], stress[:, 1], stress[:, 2])
+    return np.column_stack(rotated)
+
+
+def rotated_stress(c, s, sxx, syy, sxy):
+    """(sxx', syy', sxy') of R σ Rᵀ with c = cos, s = sin of the angle, element by element
+    (arrays or numbers: the compiled update calls it on numbers)."""
+    return (
+        c * c * sxx - 2 * c * s * sxy + s * s * syy,
+        s * s * sxx + 2 * c * s * sxy + c * c * syy,
+        c * s * (sxx - syy) + (c * c - s * s) * sxy,
     )
 
 
@@ -80,30 +83,26 @@ def apply_step(
     blocks.velocity[blocks.fixed] = 0.0
 
 
-def _floats(a: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
 def _apply_compiled(blocks, d, dt, elastic, static, exact_rotation, pushed, gamma, moves) -> None:
     """:func:`apply_step` in one compiled call (:func:`_apply`); Δσ = E ε stays numpy's
     ``einsum`` (it sums in an order of its own)."""
-    d = _floats(d)
+    d = floats(d)
     moved = d if pushed is None else d - pushed
     (
         blocks.stress, blocks.vertices, blocks.area, blocks.centroid, blocks.ixx, blocks.iyy,
         blocks.ixy, blocks.displacement, blocks.rotation, blocks.velocity, blocks.acceleration,
     ) = apply_kernel(
-        _floats(blocks.stress + elastic.stress_increment(blocks, d)),
+        floats(blocks.stress + elastic.stress_increment(blocks, d)),
         d,
-        _floats(moved),
-        _floats(blocks.vertices),
-        _floats(moves),
+        floats(moved),
+        floats(blocks.vertices),
+        floats(moves),
         blocks.offsets.astype(np.int64),
-        _floats(blocks.centroid),
-        _floats(blocks.displacement),
-        _floats(blocks.rotation),
-        _floats(blocks.velocity),
-        _floats(blocks.acceleration),
+        floats(blocks.centroid),
+        floats(blocks.displacement),
+        floats(blocks.rotation),
+        floats(blocks.velocity),
+        floats(blocks.acceleration),
         blocks.fixed.astype(np.bool_),
         float(dt),
         float(gamma),
@@ -119,15 +118,11 @@ def _moves(vertices, centroid, d, owner):
     for k in range(vertices.shape[0]):
         i = owner[k]
         cx, cy = centroid[i, 0], centroid[i, 1]
-        relx, rely = vertices[k, 0] - cx, vertices[k, 1] - cy
-        c, s = math.cos(d[i, 2]), math.sin(d[i, 2])
-        rx = c * relx - s * rely
-        ry = s * relx + c * rely
-        ex, ey, g = d[i, 3], d[i, 4], d[i, 5] / 2.0
-        sx = ex * relx + g * rely
-        sy = g * relx + ey * rely
-        moves[k, 0] = (cx + d[i, 0] + rx + sx) - vertices[k, 0]
-        moves[k, 1] = (cy + d[i, 1] + ry + sy) - vertices[k, 1]
+        x, y = _exact_position(
+            cx, cy, vertices[k, 0] - cx, vertices[k, 1] - cy, math.cos(d[i, 2]),
+            math.sin(d[i, 2]), d[i, 0], d[i, 1], d[i, 3], d[i, 4], d[i, 5],
+        )  # fmt: skip
+        moves[k, 0], moves[k, 1] = x - vertices[k, 0], y - vertices[k, 1]
     return moves
 
 
@@ -140,11 +135,9 @@ def _apply(stress, d, moved, vertices, moves, offsets, centroid, displacement, r
     stress = stress.copy()
     if exact_rotation:
         for i in range(n):
-            c, s = math.cos(d[i, 2]), math.sin(d[i, 2])
-            sxx, syy, sxy = stress[i, 0], stress[i, 1], stress[i, 2]
-            stress[i, 0] = c * c * sxx - 2 * c * s * sxy + s * s * syy
-            stress[i, 1] = s * s * sxx + 2 * c * s * sxy + c * c * syy
-            stress[i, 2] = c * s * (sxx - syy) + (c * c - s * s) * sxy
+            stress[i, 0], stress[i, 1], stress[i, 2] = _rotated_stress(
+                math.cos(d[i, 2]), math.sin(d[i, 2]), stress[i, 0], stress[i, 1], stress[i, 2]
+            )
     vertices = vertices + moves
     area, new_centroid, ixx, iyy, ixy = moments_kernel(vertices, offsets)
     displacement = displacement + (new_centroid - centroid)
@@ -155,9 +148,9 @@ def _apply(stress, d, moved, vertices, moves, offsets, centroid, displacement, r
             if static:
                 velocity[i, j] = 0.0
                 continue
-            a1 = 2.0 * (moved[i, j] - velocity[i, j] * dt) / (dt * dt)
+            a1 = _step_acceleration(moved[i, j], velocity[i, j], dt)
             a0 = a1 if np.isnan(acceleration[i, j]) else acceleration[i, j]
-            velocity[i, j] = velocity[i, j] + dt * ((1.0 - gamma) * a0 + gamma * a1)
+            velocity[i, j] = _newmark_velocity(velocity[i, j], a0, a1, dt, gamma)
             acceleration[i, j] = 0.0 if fixed[i] else a1
             if fixed[i]:
                 velocity[i, j] = 0.0
@@ -165,5 +158,10 @@ def _apply(stress, d, moved, vertices, moves, offsets, centroid, displacement, r
             velocity, acceleration)  # fmt: skip
 
 
+# the formulas the numpy code uses, compiled for the kernels below (the same numbers)
+_exact_position = kernel(exact_position) or exact_position
+_rotated_stress = kernel(rotated_stress) or rotated_stress
+_step_acceleration = kernel(step_acceleration) or step_acceleration
+_newmark_velocity = kernel(newmark_velocity) or newmark_velocity
 moves_kernel = kernel(_moves)
 apply_kernel = kernel(_apply)
