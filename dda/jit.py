@@ -75,6 +75,7 @@ class Kernel:
                     namespace[name] = helper.dispatcher
                 elif isinstance(helper, Lapack):
                     namespace[name] = helper.external()
+            _announce_compiling()
             self._dispatcher = numba.njit(cache=True, nogil=True)(self.function)
             log.debug("numba kernel %s", self.function.__qualname__)
         return self._dispatcher
@@ -112,6 +113,41 @@ class Lapack:
             pointers = [types.voidptr] * self.arguments
             self._external = types.ExternalFunction(symbol, types.void(*pointers))
         return self._external
+
+
+_COMPILING_LISTENER: Any = None  # the numba event listener of :func:`_announce_compiling`
+
+
+def _announce_compiling() -> None:
+    """Say once in a process when numba starts compiling a kernel (not loading it from
+    its cache): the first run after installing or upgrading waits for it, up to about
+    1.5 minutes of CPU for the rock slope's kernels on the 2-core benchmark machine
+    (docs/benchmarks.md), and would otherwise seem to hang at its first step.
+
+    Uses numba's event API: ``numba:compile`` fires only for a compilation, never
+    for a load from the on-disk cache.
+    """
+    global _COMPILING_LISTENER
+    if _COMPILING_LISTENER is not None:
+        return
+    from numba.core import event
+
+    class CompilingListener(event.Listener):
+        announced = False
+
+        def on_start(self, ev: event.Event) -> None:
+            if not self.announced:
+                self.announced = True
+                log.warning(
+                    "compiling dda's kernels for this machine (once per installation; numba "
+                    "keeps them in its cache): this run may start up to two minutes late"
+                )
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    _COMPILING_LISTENER = CompilingListener()
+    event.register("numba:compile", _COMPILING_LISTENER)
 
 
 def floats(values) -> Any:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -90,3 +91,30 @@ def test_a_kernel_binds_the_compiled_helpers_it_calls():
     assert kernel.dispatcher is kernel.dispatcher  # made once
     assert not isinstance(rows_module._project, jit.Kernel)
     assert hasattr(rows_module._project, "py_func")  # a numba dispatcher
+
+
+_ONE_KERNEL = """
+import logging, numpy as np
+logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")
+from dda.contact.broad import _still_overlapping_kernel as overlapping
+boxes = np.array([[0, 0, 1, 1], [0.5, 0.5, 2, 2]], float)
+for _ in range(2):
+    print(overlapping(boxes, np.array([[0, 1]], np.int64)).tolist())
+"""
+
+
+@needs_numba
+def test_compiling_a_kernel_is_announced_once_and_loading_it_from_the_cache_is_not(tmp_path):
+    """A first run after installing waits for numba to compile: a warning says so, once;
+    a later process that loads the kernel from numba's cache says nothing."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", _ONE_KERNEL], capture_output=True, text=True, check=True, env=env
+        )
+        for _ in range(2)
+    ]
+    assert [run.stdout.split("\n")[:2] for run in runs] == [["[True]", "[True]"]] * 2
+    assert runs[0].stderr.count("compiling dda's kernels for this machine") == 1
+    assert runs[0].stderr.startswith("WARNING dda.jit:")
+    assert runs[1].stderr == ""
