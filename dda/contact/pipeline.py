@@ -8,17 +8,20 @@ import shapely
 from dda.blocks import BlockSet
 from dda.contact.broad import KeptPairs, candidate_pairs
 from dda.contact.contact_set import (
+    CARRIED,
     KEY_SCALE,
     ContactSet,
     contact_keys,
     merge,
+    merge_kernel,
     rows_in,
     vertex_key_parts,
 )
-from dda.contact.narrow import OUTSIDE_FRACTION, detect
+from dda.contact.narrow import OUTSIDE_FRACTION, _detect_kernel, detect
 from dda.contact.point_distance import _distances_kernel, block_polygons, point_distances
 from dda.contact.rows import _edge_geometry_kernel, edge_geometry
 from dda.jit import compiled, kernel
+from dda.result import LOCKED, OPEN
 
 
 def refresh_contacts(
@@ -51,6 +54,8 @@ def refresh_contacts(
         pairs = candidate_pairs(blocks, settings.search_distance)
     else:
         pairs = kept_pairs.pairs(blocks, settings.search_distance)
+    if len(pairs) and compiled(_refresh_kernel):
+        return _refresh_compiled(blocks, previous, settings, pairs, gap)
     found = detect(
         blocks,
         pairs,
@@ -62,14 +67,21 @@ def refresh_contacts(
     )
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
     sift = _sift_compiled if compiled(_sift_kernel) else _sift_numpy
-    penetration, parameter, keys, previous_rows, plausible, to_block, asked = sift(
+    sifted = sift(
         blocks, found, previous.key, settings.search_distance, slack, tolerance,
         settings.law.tolerance,
     )  # fmt: skip
+    return _touching_and_merged(blocks, previous, settings, found.vertex, found.edge, *sifted)
+
+
+def _touching_and_merged(blocks, previous, settings, vertex, edge, penetration, parameter, keys,
+                         previous_rows, plausible, to_block, asked) -> ContactSet:  # fmt: skip
+    """The step's contacts from the sifted pairings: the shapely test, then the merge."""
+    tolerance = settings.touch_tolerance
     # the shapely test last, on the pairings still plausible (on the 100 x 100 wall
     # ~24,000 deep new pairings a step fail the tests above; it would check 10,000)
-    plausible &= _blocks_touch(blocks, found.vertex, found.edge, to_block, asked, tolerance)
-    vertex, edge = found.vertex[plausible], found.edge[plausible]
+    plausible &= _blocks_touch(blocks, vertex, edge, to_block, asked, tolerance)
+    vertex, edge = vertex[plausible], edge[plausible]
     penetration, parameter = penetration[plausible], parameter[plausible]
     contacts = merge(
         previous,
@@ -168,6 +180,93 @@ def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, sl
 
 
 _sift_kernel = kernel(_sift)
+
+
+def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
+    """:func:`refresh_contacts` after its broad phase in one compiled call
+    (:func:`_refresh`); from the shapely test on in Python when a pairing asks for it."""
+    search = settings.search_distance
+    known = np.sort(previous.key)
+    owner = blocks.vertex_owner
+    out = _refresh_kernel(
+        np.ascontiguousarray(pairs, dtype=np.int64),
+        blocks.offsets.astype(np.int64),
+        np.ascontiguousarray(blocks.vertices, dtype=np.float64),
+        blocks.next_vertex.astype(np.int64),
+        blocks.previous_vertex.astype(np.int64),
+        owner.astype(np.int64),
+        np.ascontiguousarray(blocks.area, dtype=np.float64),
+        vertex_key_parts(blocks),
+        known.astype(np.int64),
+        np.asarray(previous.key, dtype=np.int64),
+        float(settings.vertex_radius),
+        float(search),
+        float(search if gap is None else gap),
+        float(settings.law.tolerance),
+        float(OUTSIDE_FRACTION * search),
+        float(settings.touch_tolerance),
+        float(settings.law.tolerance),
+        *(getattr(previous, name) for name in CARRIED),
+        float(settings.initial_penalty),
+        LOCKED,
+        OPEN,
+    )  # fmt: skip
+    touch_asked, vertex, edge, penetration, parameter, keys, previous_rows = out[:7]
+    if touch_asked:
+        return _touching_and_merged(blocks, previous, settings, vertex, edge, *out[3:10])
+    m = len(vertex)
+    contacts = ContactSet(
+        vertex=vertex, edge=edge, block_a=owner[vertex], block_b=owner[edge], key=keys,
+        slip=np.zeros(m), **dict(zip((*CARRIED, "fresh"), out[10], strict=True)),
+    )  # fmt: skip
+    contacts.reference = parameter  # shear motion is measured from the step start
+    contacts.penetration = penetration
+    return contacts
+
+
+def _refresh(
+    pairs, offsets, v, nxt, prv, owner, area, parts, known, previous_keys,
+    vertex_radius, search, gap, inside, slack, touch_tolerance, depth_tolerance,
+    state, normal_multiplier, shear_multiplier, penalty, reference, slide_direction,
+    intact, normal_force, shear_force, penetration_before, initial_penalty, locked, open_,
+):  # fmt: skip
+    """Compiled :func:`refresh_contacts` after its broad phase: the narrow phase
+    (:func:`dda.contact.narrow._detect`), the tests of :func:`_sift` and the merge with
+    the last step's set (:func:`dda.contact.contact_set._merge`), the same calls with
+    the same arguments as the stages make one by one, so the same contacts to the bit.
+
+    Returns (touch_asked, vertex, edge, penetration, parameter, keys, rows in the last
+    step's set, plausible, distance to the edge's block, asked, the merge's carried
+    fields and ``fresh``). ``touch_asked``: a pairing needs the shapely test of
+    :func:`_blocks_touch`; the pairings are then all those found, the merge not made
+    (its fields empty), and the caller goes on from the tests. Else the pairings are
+    the plausible ones, merged.
+    """
+    vertex, edge, _ = _detect_kernel(
+        pairs, offsets, v, nxt, prv, owner, area, parts, known, vertex_radius, search, gap,
+        inside,
+    )  # fmt: skip
+    penetration, parameter, keys, previous_rows, plausible, to_block, asked = _sift_kernel(
+        vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, slack,
+        touch_tolerance, depth_tolerance,
+    )  # fmt: skip
+    touch_asked = False
+    for k in range(vertex.shape[0]):  # _blocks_touch's test: asked, outside the block
+        touch_asked = touch_asked or (asked[k] and to_block[k] > touch_tolerance)
+    keep = np.arange(vertex.shape[0]) if touch_asked else np.flatnonzero(plausible)
+    merged = keep[:0] if touch_asked else keep
+    carried = merge_kernel(
+        state, normal_multiplier, shear_multiplier, penalty, reference, slide_direction, intact,
+        normal_force, shear_force, penetration_before, previous_rows[merged], penetration[merged],
+        parameter[merged], initial_penalty, touch_tolerance, locked, open_,
+    )  # fmt: skip
+    return (
+        touch_asked, vertex[keep], edge[keep], penetration[keep], parameter[keep], keys[keep],
+        previous_rows[keep], plausible[keep], to_block[keep], asked[keep], carried,
+    )  # fmt: skip
+
+
+_refresh_kernel = kernel(_refresh)
 
 
 def _distances_where(blocks, vertex, edge, needed) -> tuple[np.ndarray, np.ndarray]:
