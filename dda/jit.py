@@ -139,8 +139,9 @@ def _announce_compiling() -> None:
             if not self.announced:
                 self.announced = True
                 log.warning(
-                    "compiling dda's kernels for this machine (once per installation; numba "
-                    "keeps them in its cache): this run may start up to two minutes late"
+                    "compiling the kernels this run needs for this machine (each once per "
+                    "installation; numba keeps them in its cache): it may start up to two "
+                    "minutes late"
                 )
 
         def on_end(self, ev: event.Event) -> None:

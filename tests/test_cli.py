@@ -276,6 +276,9 @@ def test_render_a_written_run(tmp_path, capsys):
     assert cli.main(["render", str(vtu), "--size", "300", "200"]) == 0
     assert (tmp_path / "run" / "blocks_000000_syy.png").is_file()
     assert cli.main(["render", str(tmp_path / "missing")]) == 2
+    capsys.readouterr()
+    assert cli.main(["render", str(tmp_path / "run"), "--step", "7"]) == 2
+    assert "no written frame (step 7); written steps: 0, 4" in capsys.readouterr().err
     deeper = tmp_path / "new" / "dir" / "pic.png"  # a missing folder is made
     small = ["--size", "300", "200"]
     assert cli.main(["render", str(tmp_path / "run"), "-o", str(deeper), *small]) == 0

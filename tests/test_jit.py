@@ -115,6 +115,6 @@ def test_compiling_a_kernel_is_announced_once_and_loading_it_from_the_cache_is_n
         for _ in range(2)
     ]
     assert [run.stdout.split("\n")[:2] for run in runs] == [["[True]", "[True]"]] * 2
-    assert runs[0].stderr.count("compiling dda's kernels for this machine") == 1
+    assert runs[0].stderr.count("compiling the kernels this run needs for this machine") == 1
     assert runs[0].stderr.startswith("WARNING dda.jit:")
     assert runs[1].stderr == ""

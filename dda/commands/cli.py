@@ -237,7 +237,11 @@ def _add_run(subparsers: Any) -> None:
         help="and every M minutes of wall time (default %(default)g; 0: not by time)",
     )
     p.add_argument(
-        "--max-steps", type=positive_int, metavar="N", help="overrides analysis.max_steps"
+        "--max-steps",
+        type=positive_int,
+        metavar="N",
+        help="refuse (and stop) a run of more than N steps; overrides analysis.max_steps "
+        "(to run fewer steps, set analysis.steps or analysis.duration)",
     )
     p.add_argument(
         "--max-output",

@@ -26,7 +26,7 @@ def register(subparsers: Any) -> None:
         help="probability of failure over realisations of random joint properties",
         description="Draw the scene's [ensemble] values for each realisation, cut, run and "
         "judge it by the [fos] criterion at F = 1 (with --fos: also search its factor of "
-        "safety); P(failure) with its 95 %% Wilson interval. Writes OUT/ensemble.csv (a row per "
+        "safety); P(failure) with its 95 % Wilson interval. Writes OUT/ensemble.csv (a row per "
         "realisation as it finishes: a rerun reuses them), OUT/ensemble.png, "
         "OUT/failing_K.png and OUT/ensemble.json (docs/stability.md).",
     )

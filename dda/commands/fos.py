@@ -28,6 +28,19 @@ OVERRIDES = {
     "acceleration": float,
     "window": float,
 }
+# what each overridden key means (docs/stability.md); argparse %-formats help texts
+FOS_HELP = {
+    "lower": "the smallest strength-reduction factor F tried (default 0.25)",
+    "upper": "the largest F tried (default 4)",
+    "tolerance": "the width of the final bracket on F (default 0.01)",
+    "duration": "how long each trial runs after the reduction, in the scene's time unit "
+    "(default: the scene's run)",
+    "velocity": "the mean speed, in the scene's length/time units, above which a trial "
+    "fails (default: acceleration x |g| x duration)",
+    "acceleration": "the fraction of g that sets the default velocity (default 1e-4)",
+    "window": "the fraction of the trial's duration, at its end, over which the speed is "
+    "judged (default 0.2: a fraction, not seconds)",
+}
 COLUMNS = ("factor", "failed", "speed", "limit", "steps", "seconds", "host", "status")
 
 
@@ -52,7 +65,7 @@ def register(subparsers: Any) -> None:
 def add_fos_options(p: Any) -> None:
     """The options that override the scene's ``[fos]`` keys."""
     for name, kind in OVERRIDES.items():
-        p.add_argument(f"--{name}", type=kind, metavar="X", help=f"[fos] {name}")
+        p.add_argument(f"--{name}", type=kind, metavar="X", help=f"[fos] {name}: {FOS_HELP[name]}")
     p.add_argument("--blocks", metavar="A,B", help="[fos] blocks: watched blocks or groups")
     p.add_argument(
         "--intact", action="store_true", help="[fos] intact: reduce breakable materials too"

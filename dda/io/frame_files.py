@@ -75,12 +75,22 @@ def find_frame(source: str | os.PathLike[str], step: int | None = None) -> Frame
         raise FileNotFoundError(f"{source}: no such file or directory")
     times = _times(source / "blocks.pvd")
     candidates = list(times) or sorted((source / "frames").glob("blocks_*.vtu"), key=step_of_file)
+    written = candidates
     if step is not None:
         candidates = [path for path in candidates if step_of_file(path) == step]
     if not candidates:
         wanted = f"step {step}" if step is not None else "any frame"
-        raise FileNotFoundError(f"{source}: no written frame ({wanted})")
+        raise FileNotFoundError(f"{source}: no written frame ({wanted}){_steps_note(written)}")
     return _describe(candidates[-1], times)
+
+
+def _steps_note(written: list[Path]) -> str:
+    """ "; written steps: 0, 10, ..., 300" for an error that names a missing step."""
+    steps = sorted({step_of_file(path) for path in written})
+    if not steps:
+        return ""
+    shown = steps if len(steps) <= 8 else [*steps[:4], "...", *steps[-3:]]
+    return "; written steps: " + ", ".join(str(step) for step in shown)
 
 
 def all_frames(folder: str | os.PathLike[str]) -> list[FrameFiles]:
