@@ -347,3 +347,14 @@ def test_progress_bar_on_a_terminal_redraws_in_place():
     text = stream.getvalue()
     assert text.startswith("\r") and text.endswith("\n") and text.count("\n") == 1
     assert "100.0%" in text.rsplit("\r", 1)[-1]
+
+
+def test_progress_bar_on_a_narrow_terminal_fits_its_width(monkeypatch):
+    """A line wider than the terminal would wrap, and each redraw leave a row behind."""
+    monkeypatch.setenv("COLUMNS", "60")
+    stream = FakeTerminal()
+    with ProgressBar(total=10, label="paper_uniaxial_fracture", stream=stream) as bar:
+        for k in range(11):
+            bar.update(k, step=k, time=0.001 * k, contacts=1234, iterations=5, broken=17)
+    redraws = stream.getvalue().strip("\n").split("\r")[1:]
+    assert len(redraws) >= 2 and max(len(line) for line in redraws) <= 59

@@ -89,6 +89,7 @@ def test_ctrl_c_keeps_the_finished_trials(tmp_path, cluster):  # noqa: F811
     _, err = process.communicate(timeout=TIMEOUT)
     assert process.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
+    assert "the finished trials are in out/fos.csv: the same command reuses them" in err
     kept = len(table.read_text().splitlines()) - 1
     assert kept >= 2
     assert not (folder / "out" / "fos.json").exists()

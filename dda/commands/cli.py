@@ -93,7 +93,8 @@ def _main(argv: list[str]) -> int:
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
-        print(f"\n{label}: interrupted", file=sys.stderr)
+        kept = getattr(args, "kept_on_interrupt", "")  # what a command keeps, and how to go on
+        print(f"\n{label}: interrupted{'; ' + kept if kept else ''}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as exc:  # the last resort: one line, the traceback with -v
         if verbosity:

@@ -65,6 +65,9 @@ def ensemble_command(args: argparse.Namespace) -> int:
         print(where, file=sys.stderr)
         return EXIT_INPUT
     outdir, cluster = where
+    args.kept_on_interrupt = (
+        f"the finished realisations are in {outdir / 'ensemble.csv'}: the same command reuses them"
+    )
     ensemble = scene.ensemble
     keys = [d.key for d in ensemble.vary]
     columns = (*BASE_COLUMNS, *keys, *OUTCOME_COLUMNS)

@@ -143,6 +143,9 @@ def fos_command(args: argparse.Namespace) -> int:
         print(where, file=sys.stderr)
         return EXIT_INPUT
     outdir, cluster = where
+    args.kept_on_interrupt = (
+        f"the finished trials are in {outdir / 'fos.csv'}: the same command reuses them"
+    )
     store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
     runner = _Runner(raw, source, store, scene.units.velocity)
     fos = scene.fos

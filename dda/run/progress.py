@@ -14,6 +14,7 @@ Examples
 
 from __future__ import annotations
 
+import shutil
 import sys
 import time
 from typing import Any, TextIO
@@ -106,7 +107,9 @@ class ProgressBar:
         return " ".join(parts).strip()
 
     def _draw_in_place(self) -> None:
-        line = self.text()
+        # cut to the terminal's width: a longer line wraps, and "\r" then redraws only
+        # its last row, leaving a trail of rows behind
+        line = self.text()[: max(shutil.get_terminal_size().columns - 1, 20)]
         padding = " " * max(self._width - len(line), 0)  # wipe a longer previous line
         self._width = len(line)
         self.stream.write("\r" + line + padding)
