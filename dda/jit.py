@@ -118,22 +118,34 @@ class Lapack:
 _COMPILING_LISTENER: Any = None  # the numba event listener of :func:`_announce_compiling`
 
 
+def compile_seconds() -> float:
+    """Seconds this process has spent compiling kernels (not loading them from numba's
+    cache): 0 on a warm install. A run's summary reports its share (``compile_seconds``),
+    which its wall time includes."""
+    return 0.0 if _COMPILING_LISTENER is None else _COMPILING_LISTENER.seconds
+
+
 def _announce_compiling() -> None:
     """Say once in a process when numba starts compiling a kernel (not loading it from
-    its cache): the first run after installing or upgrading waits for it, up to about
-    1.5 minutes of CPU for the rock slope's kernels on the 2-core benchmark machine
-    (docs/benchmarks.md), and would otherwise seem to hang at its first step.
+    its cache), and count the seconds: the first run after installing or upgrading waits
+    for the kernels it uses, up to about 1.5 minutes of CPU for the rock slope's on the
+    2-core benchmark machine (docs/benchmarks.md), and would otherwise seem to hang at
+    its first step.
 
     Uses numba's event API: ``numba:compile`` fires only for a compilation, never
-    for a load from the on-disk cache.
+    for a load from the on-disk cache; a kernel's helpers compile inside it (nested
+    events), counted once.
     """
     global _COMPILING_LISTENER
     if _COMPILING_LISTENER is not None:
         return
+    import time
+
     from numba.core import event
 
     class CompilingListener(event.Listener):
         announced = False
+        seconds, depth, started = 0.0, 0, 0.0
 
         def on_start(self, ev: event.Event) -> None:
             if not self.announced:
@@ -143,9 +155,14 @@ def _announce_compiling() -> None:
                     "installation; numba keeps them in its cache): it may start up to two "
                     "minutes late"
                 )
+            if self.depth == 0:
+                self.started = time.perf_counter()
+            self.depth += 1
 
         def on_end(self, ev: event.Event) -> None:
-            pass
+            self.depth -= 1
+            if self.depth == 0:
+                self.seconds += time.perf_counter() - self.started
 
     _COMPILING_LISTENER = CompilingListener()
     event.register("numba:compile", _COMPILING_LISTENER)

@@ -99,8 +99,10 @@ class Result:
     ``[[measure]]`` quantities, one value per step from step 0 (columns
     ``step``, ``time`` and ``name.component``; empty without ``[[measure]]``).
 
-    ``summary`` keys: steps, time, wall_seconds, iterations (linear solves: Newton
-    iterations and chord steps, dda.solve.newton), iterations_per_step, newton_iterations
+    ``summary`` keys: steps, time, wall_seconds, compile_seconds (of the wall time, numba
+    compiling kernels that were not in its cache yet: 0 on a warm install), iterations
+    (linear solves: Newton iterations and chord steps, dda.solve.newton),
+    iterations_per_step, newton_iterations
     (assembled systems solved), newton_iterations_per_step, factorisations,
     max_penetration, active_effects, stage_seconds, contact_method, cut_steps,
     search_redos (steps redone after a contact search with the full distance,

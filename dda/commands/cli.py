@@ -512,6 +512,9 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
         f"to t = {_number(summary.get('time'))} s",
         f"in {_number(summary.get('wall_seconds'), '.3g')} s wall time",
     ]
+    compiling = summary.get("compile_seconds") or 0.0
+    if compiling >= 1.0:  # the first run after installing: numba compiled its kernels
+        parts.append(f"({compiling:.3g} s of it compiling kernels, once per installation)")
     text = " ".join(parts) + "."
     from dda.io.fields import unit_name
 

@@ -16,7 +16,7 @@ from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.effects.base import StepContext
 from dda.errors import SimulationError
-from dda.jit import run_work
+from dda.jit import compile_seconds, run_work
 from dda.model import SEARCH_FACTOR, Model, build
 from dda.result import OPEN, FractureEvent, Frame, Result
 from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
@@ -76,6 +76,7 @@ class _Run:
         self.excavated_energy = 0.0  # energy of the blocks the stages removed
         self.probes = _probes(model, self.blocks)  # [[measure]], None without
         self.start = "unloaded"  # how the run started (dda.run.equilibrium_start)
+        self.compiled_before = 0.0  # dda.jit.compile_seconds() as the run started
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
@@ -321,6 +322,7 @@ def run(
     SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
     """
     start = wallclock.perf_counter()
+    compiled_before = compile_seconds()  # the run's own share goes in its summary
     solver_threads()  # a bad DDA_THREADS, DDA_SOLVER or DDA_SYSTEMS stops the run at once
     solver_choice()
     systems_choice()
@@ -329,6 +331,7 @@ def run(
     local = translated(scene, origin)
     model = build(local)
     state = _Run(model)
+    state.compiled_before = compiled_before
     if resume is not None:
         check_scene(resume, scene)  # it compares the scene as the run holds it
         restore(state, resume)
@@ -461,6 +464,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "steps": state.step,
         "time": state.time,
         "wall_seconds": round(wall, 6),
+        "compile_seconds": round(compile_seconds() - state.compiled_before, 3),
         "blocks": state.blocks.count,
         "iterations": state.iterations,
         "factorisations": state.factorisations,
