@@ -457,6 +457,21 @@ def test_toml_syntax_error_in_file(tmp_path):
     assert (error.source, error.key) == (str(path), "<toml>")
 
 
+@pytest.mark.parametrize(
+    "text, key",
+    [
+        ("[analysis]\nduration = 1.0\nduration = 2.0\n", "analysis.duration"),
+        ('title = "a"\ntitle = "b"\n', "title"),
+        ('[[materials]]\nname = "rock"\nname = "rock2"\n', "materials.name"),
+    ],
+)
+def test_a_key_given_twice_is_named(text, key):
+    """tomllib names only the line of a key given twice: the error names the key."""
+    error = refused(text)
+    assert (error.source, error.key) == ("<text>", key)
+    assert "given twice" in str(error) and "(at line " in str(error)
+
+
 def test_error_in_file_names_the_file(tmp_path):
     path = tmp_path / "case.toml"
     path.write_text(FULL_SCENE.replace("poisson = 0.25", "poisson = 0.6"))
@@ -775,3 +790,17 @@ def test_units_name_the_unit_of_each_quantity():
         load_scene({**full(), "units": {"lenght": "ft"}})
     with pytest.raises(SceneError, match="units.force"):
         load_scene({**full(), "units": {"force": " "}})
+
+
+@pytest.mark.parametrize(
+    "vertices, reason",
+    [
+        ([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], "its vertices lie on one line (no area)"),
+        ([[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]], "not a simple polygon (Self-"),
+    ],
+)
+def test_a_block_of_collinear_vertices_is_named_so_and_a_bow_tie_self_intersecting(
+    vertices, reason
+):
+    error = refused(edited(("blocks", 0, "vertices"), vertices))
+    assert error.key == "blocks[0].vertices" and reason in str(error)

@@ -344,7 +344,34 @@ def _parse_toml(text: str, source: str) -> dict[str, Any]:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(source, "<toml>", str(exc)) from None
+        message = str(exc)
+        key = _overwritten_key(text, message)
+        if key:
+            raise SceneError(source, key, f"given twice ({message})") from None
+        raise SceneError(source, "<toml>", message) from None
+
+
+_AT_LINE = re.compile(r"\(at line (\d+), column \d+\)")
+
+
+def _overwritten_key(text: str, message: str) -> str | None:
+    """The dotted key a "Cannot overwrite a value" error of tomllib is about (its table
+    header and the key of the line it names), else None: tomllib names the line only."""
+    at = _AT_LINE.search(message)
+    if not message.startswith("Cannot overwrite a value") or at is None:
+        return None
+    lines = text.splitlines()
+    number = int(at.group(1))
+    if not 1 <= number <= len(lines) or "=" not in lines[number - 1]:
+        return None
+    key = lines[number - 1].split("=", 1)[0].strip()
+    table = ""
+    for line in reversed(lines[: number - 1]):
+        header = line.strip()
+        if header.startswith("["):
+            table = header.strip("[]").strip()
+            break
+    return f"{table}.{key}" if table else key
 
 
 # --------------------------------------------------------------------------- sections
@@ -672,8 +699,19 @@ def _simple_polygons(chk: Checker, polygons: np.ndarray) -> None:
     invalid = np.flatnonzero(~shapely.is_valid(polygons))
     if invalid.size:
         i = invalid[0]
+        if _collinear(shapely.get_coordinates(polygons[i])):
+            chk.fail(f"blocks[{i}].vertices", "its vertices lie on one line (no area)")
         reason = shapely.is_valid_reason(polygons[i])
         chk.fail(f"blocks[{i}].vertices", f"not a simple polygon ({reason})")
+
+
+def _collinear(points: np.ndarray) -> bool:
+    """Whether ``points`` (k, 2) lie on one line: the smaller singular value of the
+    centred points is below 1e-12 of the larger (shapely calls such a polygon
+    self-intersecting)."""
+    centred = points - points.mean(axis=0)
+    singular = np.linalg.svd(centred, compute_uv=False)
+    return bool(singular[-1] <= 1e-12 * singular[0])
 
 
 def _sized_polygons(chk: Checker, areas: np.ndarray, sizes: np.ndarray) -> None:
