@@ -160,3 +160,10 @@ def test_dda_fos_and_ensemble_show_the_cut_of_their_scene(scene_file, capsys, mo
     lines = bar_lines(capsys.readouterr().err)
     assert {(name, blocks) for name, blocks, _, _ in lines} == {("crossed.toml", 2346)}
     assert lines[-1][2:] == (100.0, "done")
+
+
+def test_cut_takes_a_shipped_case_by_name(tmp_path, monkeypatch):
+    """Like ``dda run``, ``dda cut`` finds a shipped case by its name from any folder."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["cut", "jointed_slope_fos", "-o", "cut.toml", "--no-png", "-q"]) == 0
+    assert "[[blocks]]" in (tmp_path / "cut.toml").read_text()

@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -38,7 +37,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         description="Cut the rock mass of SCENE by its joints and write the scene "
         "with explicit [[blocks]] (TOML) and a picture of the blocks (PNG).",
     )
-    parser.add_argument("scene", help="scene file (TOML) with [[regions]] and joints")
+    parser.add_argument(
+        "scene", help="scene file (TOML) with [[regions]] and joints, or a shipped case's name"
+    )
     parser.add_argument(
         "-o",
         "--output",
@@ -63,6 +64,13 @@ def run_cut(args: argparse.Namespace) -> int:
     """Run ``dda cut``: 0 on success, 2 on a bad scene or output path (nothing written)."""
     from tomli_w import dumps
 
+    from dda.commands.cli import scene_source
+
+    try:
+        args.scene = str(scene_source(Path(args.scene)))  # a file, or a shipped case's name
+    except SceneError as exc:
+        sys.stderr.write(f"dda cut: {exc}\n")
+        return 2
     output = Path(args.output)
     png = None if args.no_png else Path(args.png) if args.png else output.with_suffix(".png")
     stages = _stage_ends(picture=png is not None)
@@ -124,12 +132,10 @@ def _cut(path: Path, max_blocks: int | None = None, progress: Progress | None = 
         raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
+    from dda.scene.format import parse_toml
     from dda.scene.text_file import read_scene_text
 
-    try:
-        raw = tomllib.loads(read_scene_text(path))
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(str(path), "<toml>", str(exc)) from None
+    raw = parse_toml(read_scene_text(path), str(path))
     from dda.scene.rockmass.expand import cut_rock_mass
 
     if max_blocks is not None and isinstance(raw.get("cutting", {}), dict):

@@ -324,7 +324,7 @@ def _read_raw(scene: str | Path | Mapping[str, Any]) -> tuple[Mapping[str, Any],
     if _is_path(scene):
         return _read_file(Path(scene)), str(scene)
     if isinstance(scene, str):
-        return _parse_toml(scene, "<text>"), "<text>"
+        return parse_toml(scene, "<text>"), "<text>"
     raise SceneError(
         f"<{type(scene).__name__}>",
         "<scene>",
@@ -337,10 +337,12 @@ def _read_file(path: Path) -> dict[str, Any]:
         raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
-    return _parse_toml(read_scene_text(path), str(path))
+    return parse_toml(read_scene_text(path), str(path))
 
 
-def _parse_toml(text: str, source: str) -> dict[str, Any]:
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    """The raw mapping of a scene's TOML ``text``; a SceneError of ``source`` that
+    names the key given twice, or says what tomllib found wrong and where."""
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
