@@ -229,3 +229,33 @@ def test_bad_input_is_one_line_exit_2_nothing_written(
     assert err.startswith("dda fos: slope.toml: ")
     assert message in err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_plot_draws_trials_at_rest_on_a_marked_line_near_the_limit(tmp_path, monkeypatch):
+    """A trial whose blocks did not move (speed 0) is drawn at 1e-6 of the limit, as a
+    triangle with its own legend entry, not at 1e-16: the log axis keeps to the decades
+    that judge the trials. A run stopped by an error (NaN speed) is not drawn."""
+    from matplotlib.axes import Axes
+
+    from dda.stability.report import BELOW_LIMIT, fos_plot
+
+    drawn = []
+    scatter = Axes.scatter
+
+    def recorded(self, x, y, **kwargs):
+        drawn.append((list(x), list(y), kwargs.get("marker"), kwargs.get("label")))
+        return scatter(self, x, y, **kwargs)
+
+    monkeypatch.setattr(Axes, "scatter", recorded)
+    rows = [
+        {"factor": 1.0, "failed": False, "speed": 0.0},
+        {"factor": 1.5, "failed": False, "speed": 2e-4},
+        {"factor": 2.0, "failed": True, "speed": 0.5},
+        {"factor": 3.0, "failed": True, "speed": math.nan},
+    ]
+    known = {float(r["factor"]): bool(r["failed"]) for r in rows}
+    path = fos_plot(rows, outcome(known), 1e-3, tmp_path / "fos.png", "slope", "m/s")
+    assert path.stat().st_size > 1000
+    stands, fails, at_rest = drawn
+    assert stands[:3] == ([1.5], [2e-4], "o") and fails[:3] == ([2.0, 3.0], [0.5, math.nan], "x")
+    assert at_rest[:3] == ([1.0], [BELOW_LIMIT * 1e-3], "v") and "below 1e-09 m/s" in at_rest[3]

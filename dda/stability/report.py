@@ -10,7 +10,9 @@ import numpy as np
 from dda.io.atomic import atomic_path
 from dda.stability.search import Outcome
 
-FLOOR = 1e-16  # speeds of blocks at rest are drawn here on the log axis
+# speeds below this fraction of the limit (blocks at rest: 0) are drawn on it, marked as
+# such: the log axis then spans the decades that judge the trials, not sixteen
+BELOW_LIMIT = 1e-6
 
 
 def _pyplot():
@@ -26,13 +28,20 @@ def fos_plot(
     rows: Sequence[dict], outcome: Outcome, limit: float, path: Path, title: str, speed_unit: str
 ) -> Path:
     """The criterion (largest mean speed over the judged window) against F, the limit and the
-    bracket marked; standing trials as circles, failing ones as crosses."""
+    bracket marked; standing trials as circles, failing ones as crosses, and trials slower
+    than :data:`BELOW_LIMIT` x the limit (at rest: 0) as triangles on that line."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    floor = BELOW_LIMIT * limit if limit > 0 else 1e-16
+    low = [r for r in rows if float(r["speed"]) < floor]  # not NaN: a run stopped by an error
     for failed, marker, label in ((False, "o", "stands"), (True, "x", "fails")):
-        pick = [r for r in rows if bool(r["failed"]) == failed]
-        speeds = [min(max(float(r["speed"]), FLOOR), 1e300) for r in pick]
+        pick = [r for r in rows if bool(r["failed"]) == failed and r not in low]
+        speeds = [min(float(r["speed"]), 1e300) for r in pick]
         ax.scatter([float(r["factor"]) for r in pick], speeds, marker=marker, label=label)
+    if low:
+        label = f"speed below {floor:.1g} {speed_unit} (at rest: 0)"
+        factors = [float(r["factor"]) for r in low]
+        ax.scatter(factors, [floor] * len(low), marker="v", color="C2", label=label)
     ax.axhline(limit, color="k", lw=0.8, ls="--", label=f"limit {limit:.3g} {speed_unit}")
     if outcome.stands is not None and outcome.fails is not None:
         ax.axvspan(outcome.stands, outcome.fails, color="C3", alpha=0.25, label="bracket")
