@@ -233,3 +233,15 @@ def test_each_realisation_gets_its_own_fos(tmp_path, capsys, monkeypatch):
         exact = math.tan(math.radians(phi)) / math.tan(math.radians(THETA))
         assert abs(float(row["fos"]) - exact) <= 0.02, (row, exact)
         assert (row["failed"] == "True") == (exact < 1.0)
+
+
+def test_a_failing_realisations_picture_names_its_drawn_values_with_their_units():
+    from dda.commands.ensemble import _drawn
+    from dda.scene import Units
+
+    keys = ["joints.bedding.friction_angle", "joints.bedding.cohesion", "joint_sets[0].spacing"]
+    row = dict(zip(keys, (28.123, 2388.2, 2.8351), strict=True))
+    drawn = _drawn(row, keys, Units())
+    assert drawn == "friction_angle = 28.12°, cohesion = 2388 Pa, spacing = 2.835 m"
+    feet = _drawn(row, keys[1:], Units(length="ft", force="lbf"))
+    assert feet == "cohesion = 2388 lbf/ft², spacing = 2.835 ft"

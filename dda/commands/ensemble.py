@@ -197,12 +197,27 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
 
 def _label(key: str, units) -> str:
     """An axis label for a drawn value: its key and unit."""
+    return f"{key} ({_unit(key, units)})"
+
+
+def _unit(key: str, units) -> str:
+    """The unit of a drawn value (docs/stability.md lists them): angles in degrees,
+    strengths in the scene's stress unit, the joint sets' lengths in its length unit."""
     field = key.split(".")[-1]
     if field in ("friction_angle", "dip"):
-        return f"{key} (°)"
+        return "°"
     if field in ("cohesion", "tensile_strength"):
-        return f"{key} ({units.stress})"
-    return f"{key} ({units.length})"
+        return units.stress
+    return units.length
+
+
+def _drawn(row: dict, keys, units) -> str:
+    """The drawn values of a realisation with their units ("friction_angle = 28.1°, …")."""
+    return ", ".join(f"{k.split('.')[-1]} = {_with_unit(row[k], _unit(k, units))}" for k in keys)
+
+
+def _with_unit(value: float, unit: str) -> str:
+    return f"{value:.4g}°" if unit == "°" else f"{value:.4g} {unit}"
 
 
 def _failure_pictures(outdir, raw, source, scene, rows, frames, keys) -> list[str]:
@@ -219,7 +234,7 @@ def _failure_pictures(outdir, raw, source, scene, rows, frames, keys) -> list[st
             frame = run_realisation(Realisation(raw, k, source)).get("frame")
         if frame is None:
             continue
-        drawn = ", ".join(f"{key.split('.')[-1]} = {rows[k][key]:.4g}" for key in keys)
+        drawn = _drawn(rows[k], keys, scene.units)
         render_frame(frame, outdir / f"failing_{n}.png", scalars="displacement",
                      title=f"realisation {k}: {drawn}", scene_title=scene.title,
                      units=units)  # fmt: skip
