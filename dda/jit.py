@@ -25,6 +25,8 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Any
 
+import numpy as np
+
 log = logging.getLogger(__name__)
 
 # block-steps from which a run uses the kernels: loading them costs ~0.5 s, and they
@@ -170,8 +172,6 @@ def _announce_compiling() -> None:
 
 def floats(values) -> Any:
     """``values`` as a contiguous float64 array: the kernels' argument type."""
-    import numpy as np
-
     return np.ascontiguousarray(values, dtype=np.float64)
 
 

@@ -199,11 +199,15 @@ def _merge_compiled(previous, owner, vertex, edge, keys, penetration, penalty, p
         LOCKED,
         OPEN,
     )
-    fields_ = dict(zip((*CARRIED, "fresh"), carried, strict=True))
-    m = len(vertex)
+    return merged_set(owner, vertex, edge, keys, carried)
+
+
+def merged_set(owner, vertex, edge, keys, carried) -> ContactSet:
+    """The ContactSet of pairings (``vertex``, ``edge``) with the fields :func:`_merge`
+    returns (``carried``: :data:`CARRIED`, then ``fresh``) and no slip yet."""
     return ContactSet(
         vertex=vertex, edge=edge, block_a=owner[vertex], block_b=owner[edge], key=keys,
-        slip=np.zeros(m), **fields_,
+        slip=np.zeros(len(vertex)), **dict(zip((*CARRIED, "fresh"), carried, strict=True)),
     )  # fmt: skip
 
 

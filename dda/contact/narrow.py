@@ -195,8 +195,16 @@ def detect(
 def _detect_compiled(blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap):
     """:func:`detect` in one compiled call (:func:`_detect`): the same contacts, in the
     same order, as the numpy path's and the compiled pieces' it strings together."""
+    arguments = detect_arguments(
+        blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap
+    )
+    return Detected(*_detect_kernel(*arguments))
+
+
+def detect_arguments(blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap):
+    """The arguments of the compiled narrow phase (:func:`_detect`) for :func:`detect`'s."""
     known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
-    vertex, edge, kind = _detect_kernel(
+    return (
         np.ascontiguousarray(pairs, dtype=np.int64),
         blocks.offsets.astype(np.int64),
         np.ascontiguousarray(blocks.vertices, dtype=np.float64),
@@ -211,7 +219,6 @@ def _detect_compiled(blocks, pairs, search, vertex_radius, inside_depth, previou
         float(search if gap is None else gap),
         float(inside_depth),
     )
-    return Detected(vertex, edge, kind)
 
 
 def _detect(

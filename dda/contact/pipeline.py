@@ -14,10 +14,11 @@ from dda.contact.contact_set import (
     contact_keys,
     merge,
     merge_kernel,
+    merged_set,
     rows_in,
     vertex_key_parts,
 )
-from dda.contact.narrow import OUTSIDE_FRACTION, _detect_kernel, detect
+from dda.contact.narrow import OUTSIDE_FRACTION, _detect_kernel, detect, detect_arguments
 from dda.contact.point_distance import _distances_kernel, block_polygons, point_distances
 from dda.contact.rows import _edge_geometry_kernel, edge_geometry
 from dda.jit import compiled, kernel
@@ -185,48 +186,30 @@ _sift_kernel = kernel(_sift)
 def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
     """:func:`refresh_contacts` after its broad phase in one compiled call
     (:func:`_refresh`); from the shapely test on in Python when a pairing asks for it."""
-    search = settings.search_distance
-    known = np.sort(previous.key)
-    owner = blocks.vertex_owner
+    search, depth = settings.search_distance, settings.law.tolerance
     out = _refresh_kernel(
-        np.ascontiguousarray(pairs, dtype=np.int64),
-        blocks.offsets.astype(np.int64),
-        np.ascontiguousarray(blocks.vertices, dtype=np.float64),
-        blocks.next_vertex.astype(np.int64),
-        blocks.previous_vertex.astype(np.int64),
-        owner.astype(np.int64),
-        np.ascontiguousarray(blocks.area, dtype=np.float64),
-        vertex_key_parts(blocks),
-        known.astype(np.int64),
+        *detect_arguments(blocks, pairs, search, settings.vertex_radius, depth, previous.key, gap),
         np.asarray(previous.key, dtype=np.int64),
-        float(settings.vertex_radius),
-        float(search),
-        float(search if gap is None else gap),
-        float(settings.law.tolerance),
         float(OUTSIDE_FRACTION * search),
         float(settings.touch_tolerance),
-        float(settings.law.tolerance),
+        float(depth),
         *(getattr(previous, name) for name in CARRIED),
         float(settings.initial_penalty),
         LOCKED,
         OPEN,
     )  # fmt: skip
-    touch_asked, vertex, edge, penetration, parameter, keys, previous_rows = out[:7]
+    touch_asked, vertex, edge, penetration, parameter, keys = out[:6]
     if touch_asked:
         return _touching_and_merged(blocks, previous, settings, vertex, edge, *out[3:10])
-    m = len(vertex)
-    contacts = ContactSet(
-        vertex=vertex, edge=edge, block_a=owner[vertex], block_b=owner[edge], key=keys,
-        slip=np.zeros(m), **dict(zip((*CARRIED, "fresh"), out[10], strict=True)),
-    )  # fmt: skip
+    contacts = merged_set(blocks.vertex_owner, vertex, edge, keys, out[10])
     contacts.reference = parameter  # shear motion is measured from the step start
     contacts.penetration = penetration
     return contacts
 
 
 def _refresh(
-    pairs, offsets, v, nxt, prv, owner, area, parts, known, previous_keys,
-    vertex_radius, search, gap, inside, slack, touch_tolerance, depth_tolerance,
+    pairs, offsets, v, nxt, prv, owner, area, parts, known, vertex_radius, search, gap,
+    inside, previous_keys, slack, touch_tolerance, depth_tolerance,
     state, normal_multiplier, shear_multiplier, penalty, reference, slide_direction,
     intact, normal_force, shear_force, penetration_before, initial_penalty, locked, open_,
 ):  # fmt: skip

@@ -76,7 +76,7 @@ class _Run:
         self.excavated_energy = 0.0  # energy of the blocks the stages removed
         self.probes = _probes(model, self.blocks)  # [[measure]], None without
         self.start = "unloaded"  # how the run started (dda.run.equilibrium_start)
-        self.compiled_before = 0.0  # dda.jit.compile_seconds() as the run started
+        self.compiled_before = compile_seconds()  # the run's share goes in its summary
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
@@ -322,7 +322,6 @@ def run(
     SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
     """
     start = wallclock.perf_counter()
-    compiled_before = compile_seconds()  # the run's own share goes in its summary
     solver_threads()  # a bad DDA_THREADS, DDA_SOLVER or DDA_SYSTEMS stops the run at once
     solver_choice()
     systems_choice()
@@ -331,7 +330,6 @@ def run(
     local = translated(scene, origin)
     model = build(local)
     state = _Run(model)
-    state.compiled_before = compiled_before
     if resume is not None:
         check_scene(resume, scene)  # it compares the scene as the run holds it
         restore(state, resume)

@@ -33,9 +33,11 @@ def fos_plot(
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
     floor = BELOW_LIMIT * limit if limit > 0 else 1e-16
-    low = [r for r in rows if float(r["speed"]) < floor]  # not NaN: a run stopped by an error
+    at_rest = [float(r["speed"]) < floor for r in rows]  # False for NaN: an error ended it
+    low = [r for r, rest in zip(rows, at_rest, strict=True) if rest]
+    shown = [r for r, rest in zip(rows, at_rest, strict=True) if not rest]
     for failed, marker, label in ((False, "o", "stands"), (True, "x", "fails")):
-        pick = [r for r in rows if bool(r["failed"]) == failed and r not in low]
+        pick = [r for r in shown if bool(r["failed"]) == failed]
         speeds = [min(float(r["speed"]), 1e300) for r in pick]
         ax.scatter([float(r["factor"]) for r in pick], speeds, marker=marker, label=label)
     if low:
