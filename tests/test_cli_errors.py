@@ -82,6 +82,8 @@ REFUSED = [
     (["run", "ok.toml", "--max-output", "-1"], 2, "argument --max-output: must be a finite n"),
     (["cut", "ok.toml", "-o", "a_file/x.toml"], 2, "-o a_file/x.toml: a_file is a file, not a"),
     (["cut", "no_such_case", "-o", "x.toml"], 2, "dda cut: no_such_case: <file>: no such file"),
+    (["cut", "ok.toml", "-o", "heavier.toml"], 2, "-o heavier.toml: exists; give --overwrite to"),
+    (["cut", "ok.toml", "-o", "new.toml", "--png", "a_file"], 2, "--png a_file: exists; give --o"),
     (["render", "a_file"], 2, "dda render: a_file: not a blocks frame file"),
     (["render", "contacts_000000.vtu"], 2, "contacts_000000.vtu: not a blocks frame file"),
     (["render", "a_dir"], 2, "dda render: a_dir: no written frame"),

@@ -74,6 +74,21 @@ def test_max_blocks_in_the_scene_and_on_the_command_line(tmp_path, capsys):
     assert len(tomllib.loads(out.read_text())["blocks"]) == 81
 
 
+def test_a_second_cut_replaces_the_files_only_with_overwrite(tmp_path, capsys):
+    raw = shipped("rock_slope")
+    scene = tmp_path / "slope.toml"
+    scene.write_text(dumps(raw))
+    out = tmp_path / "blocks.toml"
+    assert main(["cut", str(scene), "-o", str(out), "-q"]) == 0
+    out.write_text("# edited by hand\n")  # a cut scene is meant to be edited
+    assert main(["cut", str(scene), "-o", str(out), "-q"]) == 2
+    assert capsys.readouterr().err == f"dda cut: -o {out}: exists; give --overwrite to replace it\n"
+    assert out.read_text() == "# edited by hand\n"
+    assert main(["cut", str(scene), "-o", str(out), "-q", "--overwrite"]) == 0
+    assert len(tomllib.loads(out.read_text())["blocks"]) == 81
+    assert out.with_suffix(".png").stat().st_size > 0
+
+
 def test_max_blocks_must_be_a_positive_integer(tmp_path, capsys):
     raw = shipped("rock_slope")
     raw["cutting"]["max_blocks"] = 0

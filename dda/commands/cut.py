@@ -51,6 +51,11 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "--png", type=output_path, default=None, help="picture to write (default: OUTPUT.png)"
     )
     parser.add_argument("--no-png", action="store_true", help="do not draw a picture")
+    parser.add_argument(
+        "--overwrite", action="store_true",
+        help="replace OUTPUT and the picture if they exist (the scene TOML may hold edits: "
+        "without this option an existing file is refused)",
+    )  # fmt: skip
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     parser.add_argument(
         "--max-blocks", type=positive_int, metavar="N",
@@ -78,7 +83,7 @@ def run_cut(args: argparse.Namespace) -> int:
         try:
             for path, option in ((output, "-o"), (png, "--png")):
                 if path is not None:
-                    _check_output(path, option, Path(args.scene))
+                    _check_output(path, option, Path(args.scene), args.overwrite)
             cut, scene = _cut(Path(args.scene), args.max_blocks, bar)
             _check_loadable(scene, str(args.scene))
         except (SceneError, OutputError) as exc:
@@ -117,14 +122,18 @@ def _stage_ends(picture: bool) -> dict[str, float]:
     return ends
 
 
-def _check_output(path: Path, option: str, scene: Path) -> None:
-    """Refuse an output path that cannot be written, or that is the scene file itself."""
+def _check_output(path: Path, option: str, scene: Path, overwrite: bool) -> None:
+    """Refuse an output path that cannot be written, that is the scene file itself, or
+    that exists (unless ``overwrite``: a cut scene is meant to be edited, so a second
+    cut must not replace those edits unasked)."""
     try:
         check_output_file(path)
     except OutputError as exc:
         raise OutputError(f"{option} {path}", exc.reason) from None
     if path.exists() and scene.exists() and path.resolve() == scene.resolve():
         raise OutputError(f"{option} {path}", "is the scene file itself; give another name")
+    if path.exists() and not overwrite:
+        raise OutputError(f"{option} {path}", "exists; give --overwrite to replace it")
 
 
 def _cut(path: Path, max_blocks: int | None = None, progress: Progress | None = None):
