@@ -122,3 +122,61 @@ def test_compiling_a_kernel_is_announced_once_and_loading_it_from_the_cache_is_n
     assert runs[0].stderr.count("compiling the kernels this run needs for this machine") == 1
     assert runs[0].stderr.startswith("WARNING dda.jit:")
     assert runs[1].stderr == ""
+
+
+def _kernels() -> dict[str, object]:
+    """Every kernel of the package, by qualified name (every module imported): its
+    :class:`dda.jit.Kernel`, or the numba dispatcher a compiled kernel bound in its place."""
+    import importlib
+    import pkgutil
+
+    import dda
+
+    found = {}
+    for info in pkgutil.walk_packages(dda.__path__, "dda."):
+        if not info.name.endswith("__main__"):
+            module = importlib.import_module(info.name)
+            for value in vars(module).values():
+                # a kernel's helpers are bound to their numba dispatchers once it compiled
+                function = getattr(value, "function", None) or getattr(value, "py_func", None)
+                if (
+                    isinstance(value, jit.Kernel)
+                    or function
+                    and type(value).__name__.endswith("Dispatcher")
+                ):
+                    found[f"{function.__module__}.{function.__qualname__}"] = function
+    return found
+
+
+def _slice_assignments_of_arrays(function) -> list[str]:
+    """The statements of ``function`` that assign a non-constant to a slice."""
+    import ast
+    import inspect
+    import textwrap
+
+    def slices(target) -> bool:
+        return isinstance(target, ast.Subscript) and any(
+            isinstance(part, ast.Slice) for part in ast.walk(target.slice)
+        )
+
+    found = []
+    for node in ast.walk(ast.parse(textwrap.dedent(inspect.getsource(function)))):
+        if isinstance(node, ast.Assign | ast.AugAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            flat = [t for target in targets for t in getattr(target, "elts", [target])]
+            constant = isinstance(node.value, ast.Constant)
+            if not constant and any(slices(target) for target in flat):
+                found.append(ast.unparse(node))
+    return found
+
+
+@needs_numba
+def test_kernels_copy_arrays_into_slices_by_loops():
+    """A slice assignment of an array in a kernel makes numba compile its shape-mismatch
+    error message, about 6 s of CPU in a process's first compile (dda.jit's docstring)."""
+    kernels = _kernels()
+    assert len(kernels) >= 70
+    found = {
+        name: lines for name, f in kernels.items() if (lines := _slice_assignments_of_arrays(f))
+    }
+    assert found == {}

@@ -228,7 +228,8 @@ def _detect(
     vertex-vertex resolution and one row per pairing, the kernels of each stage."""
     to_next, to_prev, reflex, shortest = _fans_kernel(v, nxt, prv)
     outward = np.empty_like(to_next)
-    outward[:, 0], outward[:, 1] = to_next[:, 1], -to_next[:, 0]
+    for k in range(to_next.shape[0]):  # loops, not slices (dda.jit's docstring)
+        outward[k, 0], outward[k, 1] = to_next[k, 1], -to_next[k, 0]
     radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * shortest)
     margin = max(gap, radius.max()) if radius.shape[0] else gap
     blocks_count = offsets.shape[0] - 1
@@ -239,9 +240,11 @@ def _detect(
             for k in range(offsets[b], offsets[b + 1]):
                 low, high = min(low, v[k, axis]), max(high, v[k, axis])
             lo[b, axis], hi[b, axis] = low - margin, high + margin
-    directed = np.empty((2 * pairs.shape[0], 2), np.int64)
-    directed[: pairs.shape[0]] = pairs
-    directed[pairs.shape[0] :, 0], directed[pairs.shape[0] :, 1] = pairs[:, 1], pairs[:, 0]
+    count = pairs.shape[0]
+    directed = np.empty((2 * count, 2), np.int64)
+    for k in range(count):
+        directed[k, 0], directed[k, 1] = pairs[k, 0], pairs[k, 1]
+        directed[count + k, 0], directed[count + k, 1] = pairs[k, 1], pairs[k, 0]
     ve_v, ve_e, vv_v, vv_e = _screen_kernel(
         directed, offsets, v, nxt, reflex, to_next, to_prev, radius, area, lo, hi,
         search, gap, ANGLE_TOLERANCE, EDGE_END,

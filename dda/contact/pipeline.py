@@ -165,7 +165,8 @@ def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, sl
         for i in range(rows.shape[0]):
             points[i, 0], points[i, 1] = v[vertex[rows[i]], 0], v[vertex[rows[i]], 1]
         near, inside = _distances_kernel(points, owner[edge[rows]], offsets, v)
-        boundary[rows], to_block[rows] = near, inside
+        for i in range(rows.shape[0]):
+            boundary[rows[i]], to_block[rows[i]] = near[i], inside[i]
     plausible = np.empty(m, np.bool_)
     asked = np.zeros(m, np.bool_)
     for k in range(m):

@@ -185,8 +185,8 @@ def _band_minimise(
     other_normal, other_shear = np.empty(m, np.int8), np.empty(m, np.int8)
     have_pieces = have_first
     if have_first:
-        normal[:] = first_normal
-        shear[:] = first_shear
+        for c in range(m):
+            normal[c], shear[c] = first_normal[c], first_shear[c]
     gradient = np.zeros(n)
     have_gradient = False
     if chord_first:
@@ -229,8 +229,8 @@ def _band_minimise(
                 if info != 0:
                     state[FAILED] = 1
                     return d, g, s, solves, chords, False, False, False
-                springs[0, :] = kn
-                springs[1, :] = ks
+                for c in range(m):
+                    springs[0, c], springs[1, c] = kn[c], ks[c]
                 state[HAS_FACTOR] = 1
                 state[FACTORISATIONS] += 1
             offset_n, offset_t = _offsets(

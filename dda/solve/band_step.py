@@ -106,12 +106,14 @@ def _advance(bound, target, points, residuals, count):
     the first ``count`` rows, oldest first). Returns (bounds, count)."""
     if _guessing(bound):
         return target.copy(), 0
+    m = bound.shape[0]
     if count == DEPTH + 1:
-        points[:-1] = points[1:].copy()
-        residuals[:-1] = residuals[1:].copy()
+        for row in range(DEPTH):
+            for c in range(m):
+                points[row, c], residuals[row, c] = points[row + 1, c], residuals[row + 1, c]
         count -= 1
-    points[count] = bound
-    residuals[count] = target - bound
+    for c in range(m):
+        points[count, c], residuals[count, c] = bound[c], target[c] - bound[c]
     count += 1
     mean_point, mean_residual = points[count - 1].copy(), residuals[count - 1].copy()
     if count > 1:
