@@ -137,14 +137,13 @@ def _kernels() -> dict[str, object]:
         if not info.name.endswith("__main__"):
             module = importlib.import_module(info.name)
             for value in vars(module).values():
-                # a kernel's helpers are bound to their numba dispatchers once it compiled
-                function = getattr(value, "function", None) or getattr(value, "py_func", None)
-                if (
-                    isinstance(value, jit.Kernel)
-                    or function
-                    and type(value).__name__.endswith("Dispatcher")
-                ):
-                    found[f"{function.__module__}.{function.__qualname__}"] = function
+                if isinstance(value, jit.Kernel):
+                    function = value.function
+                elif type(value).__name__.endswith("Dispatcher"):  # bound once it compiled
+                    function = value.py_func
+                else:
+                    continue
+                found[f"{function.__module__}.{function.__qualname__}"] = function
     return found
 
 
