@@ -2,7 +2,7 @@
 
 Scanned: README.md, docs/*.md, and the Python sources of dda/,
 verify/, cases/ and bench/. A citation is a path under one of the project's
-folders (``docs/theory.md``, ``dda/jit.py``, ``cases/verify/node.toml``) or a
+folders (``docs/theory.md``, ``dda/jit/__init__.py``, ``cases/verify/node.toml``) or a
 Markdown file name (``contact.md``, ``DESIGN.md``); it must name a file or
 folder of the repository, from the root, from the citing file's folder or in
 docs/. Patterns and placeholders (``frames/*.vtu``, ``cases/verify/NAME.toml``)
@@ -67,6 +67,6 @@ def test_the_check_finds_a_missing_file(tmp_path):
     page = tmp_path / "page.md"
     page.write_text(
         "See THEORY.md, docs/nowhere.md, [x](gone.png) and `cases/verify/NAME.toml`; "
-        "dda run writes frames/*.vtu and report.md. dda/jit.py exists."
+        "dda run writes frames/*.vtu and report.md. dda/jit/__init__.py exists."
     )
     assert missing_targets(page) == ["link gone.png", "cites THEORY.md", "cites docs/nowhere.md"]

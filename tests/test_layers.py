@@ -82,8 +82,7 @@ def test_every_unit_has_a_layer():
 def test_only_the_shared_vocabulary_stands_outside_a_folder():
     loose = {p.stem for p in PACKAGE.glob("*.py")}
     assert loose == {
-        "__init__", "__main__", "errors", "geometry", "result", "jit", "kinematics", "blocks",
-        "model",
+        "__init__", "__main__", "errors", "geometry", "result", "kinematics", "blocks", "model",
     }  # fmt: skip
 
 

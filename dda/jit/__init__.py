@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from dda.jit.cache import cached_dispatcher
+
 log = logging.getLogger(__name__)
 
 # block-steps from which a run uses the kernels: loading them costs ~0.5 s, and they
@@ -57,7 +59,8 @@ def numba_enabled() -> bool:
 
 
 class Kernel:
-    """A function compiled by ``numba.njit(cache=True, nogil=True)`` at its first call.
+    """A function compiled by ``numba.njit(nogil=True)`` at its first call, cached on disk
+    under a stamp of all its sources (:mod:`dda.jit.cache`).
 
     Kernels that call other kernels (helpers bound to a module-level name)
     get the helpers' compiled dispatchers in their globals before they
@@ -74,8 +77,6 @@ class Kernel:
     def dispatcher(self) -> Callable:
         """The numba dispatcher (imports numba and binds the helpers the first time)."""
         if self._dispatcher is None:
-            import numba
-
             namespace = self.function.__globals__
             for name in self.function.__code__.co_names:
                 helper = namespace.get(name)
@@ -84,7 +85,7 @@ class Kernel:
                 elif isinstance(helper, Lapack):
                     namespace[name] = helper.external()
             _announce_compiling()
-            self._dispatcher = numba.njit(cache=True, nogil=True)(self.function)
+            self._dispatcher = cached_dispatcher(self.function, nogil=True)
             log.debug("numba kernel %s", self.function.__qualname__)
         return self._dispatcher
 
