@@ -12,6 +12,7 @@ from dda.contact.joints import JointTable
 from dda.contact.law import ContactLaw
 from dda.effects.base import Effect
 from dda.effects.bolts import RockBolts
+from dda.effects.boundary_stresses import boundary_stress_loads
 from dda.effects.damping import MaterialDamping
 from dda.effects.elastic import Elastic, elasticity_matrices
 from dda.effects.fixed_points import FixedPoints
@@ -23,6 +24,7 @@ from dda.effects.seismic import GroundMotion
 from dda.effects.water import WaterPressure
 from dda.geometry import pack_polygons
 from dda.scene import Scene
+from dda.scene.in_situ import in_situ_stress
 from dda.scene.presets import apply_preset
 from dda.scene.stage_plan import StagePlan, stage_plan
 
@@ -119,6 +121,8 @@ def build(scene: Scene) -> Model:
     joints = list(scene.joints.values())
     joint_rows = {j.name: k for k, j in enumerate(joints)}
     blocks = initial_blocks(scene, material_rows, joint_rows)
+    if scene.in_situ is not None:  # the stress the rock stands in, at each centroid
+        blocks.stress = blocks.stress + in_situ_stress(scene.in_situ, blocks.centroid)
     a = scene.analysis
     density = np.array([m.density for m in materials])
     young = np.array([m.young for m in materials])
@@ -140,6 +144,8 @@ def build(scene: Scene) -> Model:
         effects.append(Gravity(density, a.gravity))
     if scene.loads:
         effects.append(_point_loads(scene, blocks, exact))
+    if scene.boundary_stresses:
+        effects.append(boundary_stress_loads(scene, blocks.fixed, exact))
     if any(b.fixed_points for b in scene.blocks):
         stiffness = a.fixed_point_penalty or 100.0 * float(young.max())
         effects.append(_fixed_points(scene, blocks, stiffness, exact))

@@ -11,7 +11,7 @@ Per step the engine records (``Result.history``)::
                                                at their forces after the step)
     springs   ½ Σ p_f |x − x₀|²                (fixed points)
               + Σ f0 e + ½ k e²                (rock bolts: pretension f0, stretch e)
-    work      W = Σ_steps Σ_loads F(t)·T(x) D  (point loads)
+    work      W = Σ_steps Σ_loads F(t)·T(x) D  (point loads, boundary stresses)
               + Σ_steps F_w·D                   (water pressure, at the step start)
               + Σ_steps Σ (N ∇g_j + F ∇s_j)·D_j (the ground moving fixed blocks by D_j:
                                                 contacts, and T r_j·D_j of bolts)
@@ -275,7 +275,8 @@ class EnergyAccount:
         self.elastic = model.elastic
         gravity = _effect(model.effects, Gravity)
         self.gravity = None if gravity is None else np.asarray(gravity.gravity, float)
-        self.loads = _effect(model.effects, PointLoads)
+        # point loads and boundary stresses (dda.effects.boundary_stresses)
+        self.loads = [e for e in model.effects if isinstance(e, PointLoads)]
         self.springs = _effect(model.effects, FixedPoints)
         self.bolts = _effect(model.effects, RockBolts)
         self.water = _effect(model.effects, WaterPressure)
@@ -324,7 +325,7 @@ class EnergyAccount:
         """Add the external work over the accepted step ``d`` (before the blocks move):
         the loads', the water's and, when fixed blocks moved by ``prescribed`` (part of
         ``d``), the ground's through ``contacts`` (their forces at the step's end)."""
-        w = load_work(self.loads, blocks, d, time)
+        w = sum(load_work(loads, blocks, d, time) for loads in self.loads)
         if self.water is not None:
             w += float(np.sum(self.water.forces(blocks)[~blocks.fixed] * d[~blocks.fixed]))
         if prescribed is not None:

@@ -14,6 +14,7 @@ from dda.contact import reach
 from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
+from dda.contact.preload import carry_stress
 from dda.effects.base import StepContext
 from dda.errors import SimulationError
 from dda.jit import compile_seconds, run_work
@@ -144,7 +145,7 @@ def _equilibrium_start(run: _Run) -> None:
     (dda.run.equilibrium_start); a start that does not settle leaves the run unloaded."""
     m = run.model
     started = wallclock.perf_counter()
-    _search(run, ContactSet.empty())
+    _touching_at_start(run)
     with run.timer("start"):
         settled = settle(m, run.blocks, run.contacts, run.timer)
     if settled is None:
@@ -163,6 +164,15 @@ def _equilibrium_start(run: _Run) -> None:
         settled.newton_iterations,
         wallclock.perf_counter() - started,
     )
+
+
+def _touching_at_start(run: _Run) -> None:
+    """The contacts at t = 0, carrying the scene's in-situ stress (dda.contact.preload)."""
+    _search(run, ContactSet.empty())
+    field = run.model.scene.in_situ
+    if field is not None and run.model.contact is not None:
+        run.contacts = carry_stress(run.blocks, run.contacts, field)
+        run.energy.initial = run.energy.measure(run.blocks, run.contacts)
 
 
 def _search(run: _Run, previous: ContactSet) -> None:
@@ -339,6 +349,8 @@ def run(
     elif not model.static and scene.analysis.start == "equilibrium":
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
             _equilibrium_start(state)
+    elif scene.in_situ is not None:  # an unloaded or static start: the contacts carry it
+        _touching_at_start(state)
     first = state.probes.take() if state.probes is not None and resume is None else None
     with run_work(len(scene.blocks), _expected_steps(model)):  # its contacts' rows: numpy
         frames = [_frame(state, first, origin)]  # in a small run, as the steps compute them

@@ -37,6 +37,7 @@ from dda.scene.checks import (
     require,
     table_list,
 )
+from dda.scene.in_situ import BoundaryStress, boundary_stress
 
 ENGINEERING_KEYS = ("bolts", "seismic", "water", "measure", "stages")
 ON_BLOCK = 1e-9  # a point within this fraction of a block's size lies on it
@@ -110,13 +111,17 @@ class Measure:
 @dataclass(frozen=True)
 class Stage:
     """``[[stages]]``: at ``time``, remove blocks, install bolts and (``strength_factor``)
-    divide the joints' strengths, with ``intact`` the breakable materials' too."""
+    divide the joints' strengths, with ``intact`` the breakable materials' too; apply or
+    take away boundary stresses (:mod:`dda.scene.in_situ`)."""
 
     time: float
     remove: tuple[str, ...] = ()
     bolts: tuple[Bolt, ...] = ()
     strength_factor: float | None = None  # F: tan φ / F, c / F, T / F from ``time`` on
     intact: bool = False
+    # boundary stresses applied from this stage on, and the names of those it takes away
+    boundary_stresses: tuple[BoundaryStress, ...] = ()
+    remove_boundary_stresses: tuple[str, ...] = ()
 
 
 class _Geometry:
@@ -487,6 +492,10 @@ def _stages(
         "bolts": lambda chk, value, key: chk.sequence(value, key),
         "strength_factor": real(POSITIVE),
         "intact": Checker.boolean,
+        "boundary_stresses": lambda chk, value, key: chk.sequence(value, key),
+        "remove_boundary_stresses": lambda chk, value, key: tuple(
+            chk.text(v, f"{key}[{k}]") for k, v in enumerate(chk.sequence(value, key))
+        ),
     }
     stages: list[Stage] = []
     removed: dict[str, str] = {}  # block -> the stage key that removed it
@@ -502,9 +511,12 @@ def _stages(
                      f"(analysis.duration = {analysis.duration:g})")  # fmt: skip
         if "intact" in values and "strength_factor" not in values:
             chk.fail(f"{key}.intact", "needs strength_factor in the same stage")
-        if not any(k in values for k in ("remove", "polygon", "bolts", "strength_factor")):
-            chk.fail(key, "a stage removes blocks (remove, polygon), adds bolts (bolts) or "
-                     "divides the strengths (strength_factor)")  # fmt: skip
+        changes = ("remove", "polygon", "bolts", "strength_factor", "boundary_stresses",
+                   "remove_boundary_stresses")  # fmt: skip
+        if not any(k in values for k in changes):
+            chk.fail(key, "a stage removes blocks (remove, polygon), adds bolts (bolts), "
+                     "divides the strengths (strength_factor) or applies or removes "
+                     "boundary stresses (boundary_stresses, remove_boundary_stresses)")  # fmt: skip
         remove = list(_named_blocks(chk, values.get("remove"), f"{key}.remove", geometry, groups))
         if "polygon" in values:
             inside = geometry.inside(values["polygon"])
@@ -525,7 +537,14 @@ def _stages(
                     chk.fail(f"{key}.bolts[{k}].{end}", f"lies in block {host!r}, removed by "
                              f"{removed[host]}")  # fmt: skip
         factor = values.get("strength_factor")
-        stages.append(Stage(time, tuple(remove), bolts, factor, values.get("intact", False)))
+        loads = tuple(
+            boundary_stress(chk, b, f"{key}.boundary_stresses[{k}]", on=time)
+            for k, b in enumerate(values.get("boundary_stresses", ()))
+        )
+        stages.append(
+            Stage(time, tuple(remove), bolts, factor, values.get("intact", False), loads,
+                  values.get("remove_boundary_stresses", ()))
+        )  # fmt: skip
     left = [n for n, f in zip(geometry.names, geometry.fixed, strict=True) if not f]
     if left and all(n in removed for n in left):
         chk.fail("stages", "the stages remove every free block: nothing would be left to move")

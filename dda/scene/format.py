@@ -66,6 +66,7 @@ from dda.scene.engineering import (
     Water,
     parse_engineering,
 )
+from dda.scene.in_situ import IN_SITU_KEYS, BoundaryStress, StressField, parse_in_situ
 from dda.scene.limits import DEFAULT_MAX_STEPS
 from dda.scene.local_frame import origin_of
 from dda.scene.stability import (
@@ -243,6 +244,9 @@ class Scene:
     water: Water | None = None
     measure: tuple[Measure, ...] = ()
     stages: tuple[Stage, ...] = ()
+    # the stress the rock mass stands in (dda.scene.in_situ): at t = 0, and on outer edges
+    in_situ: StressField | None = None
+    boundary_stresses: tuple[BoundaryStress, ...] = ()
     # stability (dda.scene.stability): dda fos and dda ensemble
     fos: FosSettings = field(default_factory=FosSettings)
     ensemble: EnsembleSettings | None = None
@@ -394,6 +398,7 @@ _TOP_KEYS = (
     "groups",
     "units",
     *ENGINEERING_KEYS,
+    *IN_SITU_KEYS,
     *STABILITY_KEYS,
 )
 
@@ -978,6 +983,8 @@ def _build_scene(
     groups = _groups(chk, raw, names)
     units = _units(chk, raw)
     engineering = parse_engineering(chk, raw, blocks, groups, analysis, loads)
+    stages = engineering.get("stages", ())
+    in_situ = parse_in_situ(chk, raw, blocks, stages, joints, interfaces)
     scene = Scene(
         title=title,
         analysis=analysis,
@@ -992,6 +999,7 @@ def _build_scene(
         groups=groups,
         units=units,
         **engineering,
+        **in_situ,
         **parse_stability(chk, raw, written, blocks, groups),
     )
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))

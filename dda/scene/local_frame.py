@@ -49,7 +49,8 @@ def origin_of(points: np.ndarray) -> np.ndarray:
 
 def translated(scene: Any, origin: tuple[float, float]) -> Any:
     """``scene`` with every position less ``origin``: vertices, fixed points, load points,
-    bolt ends (also the staged ones), the water table, measurement points."""
+    bolt ends (also the staged ones), the water table, measurement points, the boxes of
+    boundary stresses; stress fields that vary with y give the same stresses there."""
     if origin == (0.0, 0.0):
         return scene
     ox, oy = origin
@@ -72,10 +73,18 @@ def translated(scene: Any, origin: tuple[float, float]) -> Any:
         "loads": tuple(dataclasses.replace(load, point=point(load.point)) for load in scene.loads),
         "bolts": tuple(bolt(b) for b in scene.bolts),
         "stages": tuple(
-            dataclasses.replace(s, bolts=tuple(bolt(b) for b in s.bolts)) for s in scene.stages
+            dataclasses.replace(
+                s,
+                bolts=tuple(bolt(b) for b in s.bolts),
+                boundary_stresses=tuple(b.shifted(ox, oy) for b in s.boundary_stresses),
+            )
+            for s in scene.stages
         ),
         "measure": tuple(dataclasses.replace(m, point=point(m.point)) for m in scene.measure),
+        "boundary_stresses": tuple(b.shifted(ox, oy) for b in scene.boundary_stresses),
     }
+    if scene.in_situ is not None:  # the same stresses at the same places
+        changes["in_situ"] = scene.in_situ.shifted(oy)
     if scene.water is not None:
         changes["water"] = dataclasses.replace(scene.water, table=points(scene.water.table))
     return dataclasses.replace(scene, **changes)

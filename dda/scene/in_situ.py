@@ -1,0 +1,222 @@
+"""Scene sections for the stress a rock mass stands in: ``[in_situ]`` and ``[[boundary_stresses]]``.
+
+Both give a stress field σ(y) = ``stress`` + ``gradient`` · y (components sxx, syy, sxy,
+tension positive, the blocks' own convention; y in the scene's frame), the field of
+UDEC's ``insitu`` and ``bound stress``:
+
+* ``[in_situ]`` is the stress of every block at t = 0 (at its centroid, added to the
+  block's own ``stress``), which the contacts that touch at t = 0 carry
+  (:mod:`dda.run.in_situ`);
+* each ``[[boundary_stresses]]`` entry loads the outer edges (touching no other block,
+  :mod:`dda.scene.edge_cover`) whose midpoints lie in its ``box`` with the traction σ·n,
+  from t = 0 or, given in a ``[[stages]]`` entry, from that stage on; a stage's
+  ``remove_boundary_stresses`` lists the names of those it takes away.
+
+The checks at load time: finite values, three of each; a box that selects no outer
+edge is refused; so is in-situ tension across a joint weaker in tension (the joint
+would open at t = 0), named with its blocks and where.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from dda.scene.checks import Checker, Spec, checked_fields, require, table_list, vector
+from dda.scene.edge_cover import EdgePieces, covered_pieces, outer_pieces
+
+IN_SITU_KEYS = ("in_situ", "boundary_stresses")
+# tension across a joint up to this fraction of the field's largest component is round-off
+TENSION_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class StressField:
+    """σ(y) = ``stress`` + ``gradient`` · y: (sxx, syy, sxy), tension positive."""
+
+    stress: tuple[float, float, float]
+    gradient: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def at(self, y: np.ndarray) -> np.ndarray:
+        """(m, 3) the stress at heights ``y``."""
+        y = np.asarray(y, float).reshape(-1)
+        return np.asarray(self.stress) + np.outer(y, self.gradient)
+
+    def traction(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """(m, 2) σ·n at ``points`` on surfaces of unit (outward) normals ``normals``."""
+        s = self.at(np.asarray(points, float)[:, 1])
+        nx, ny = normals[:, 0], normals[:, 1]
+        return np.column_stack([s[:, 0] * nx + s[:, 2] * ny, s[:, 2] * nx + s[:, 1] * ny])
+
+    def normal_stress(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """n·σ·n (tension positive) at ``points`` for unit normals ``normals``."""
+        return np.einsum("ij,ij->i", self.traction(points, normals), normals)
+
+    def segment_forces(
+        self, start: np.ndarray, end: np.ndarray, normals: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The two point forces at the ends a, b of each segment that do the work of the
+        traction t = σ·n (linear along it) against any linear displacement, as Shi's
+        first-order fields are: f_a = L (t_a/3 + t_b/6), f_b = L (t_a/6 + t_b/3)."""
+        t_a, t_b = self.traction(start, normals), self.traction(end, normals)
+        length = np.linalg.norm(np.asarray(end) - np.asarray(start), axis=1)[:, None]
+        return length * (t_a / 3.0 + t_b / 6.0), length * (t_a / 6.0 + t_b / 3.0)
+
+    def shifted(self, dy: float) -> StressField:
+        """The same field in a frame whose y is this one's less ``dy``."""
+        moved = tuple(s + g * dy for s, g in zip(self.stress, self.gradient, strict=True))
+        return replace(self, stress=moved)
+
+    @property
+    def scale(self) -> float:
+        return max(max(abs(s) for s in self.stress), 1e-300)
+
+
+@dataclass(frozen=True)
+class BoundaryStress:
+    """``[[boundary_stresses]]``: the traction σ·n on the outer edges whose midpoints lie
+    in ``box`` = (xmin, ymin, xmax, ymax), from time ``on`` (0, or its stage's time) to
+    ``off`` (the time of the stage that removes it, else never)."""
+
+    name: str
+    field: StressField
+    box: tuple[float, float, float, float]
+    on: float = 0.0
+    off: float = math.inf
+
+    def selects(self, points: np.ndarray) -> np.ndarray:
+        x0, y0, x1, y1 = self.box
+        x, y = points[:, 0], points[:, 1]
+        return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+
+    def shifted(self, dx: float, dy: float) -> BoundaryStress:
+        x0, y0, x1, y1 = self.box
+        box = (x0 - dx, y0 - dy, x1 - dx, y1 - dy)
+        return replace(self, field=self.field.shifted(dy), box=box)
+
+
+def _stress_field(chk: Checker, value: object, key: str, extra: Mapping[str, Spec]) -> dict:
+    specs: dict[str, Spec] = {"stress": vector(3), "gradient": vector(3), **extra}
+    values = checked_fields(chk, value, key, specs)
+    require(chk, values, key, ("stress",))
+    values["field"] = StressField(values.pop("stress"), values.pop("gradient", (0.0, 0.0, 0.0)))
+    return values
+
+
+def _box(chk: Checker, value: object, key: str) -> tuple[float, float, float, float]:
+    x0, y0, x1, y1 = chk.vector(value, key, 4)
+    if not (x1 > x0 and y1 > y0):
+        chk.fail(key, "expected [xmin, ymin, xmax, ymax] with xmax > xmin and ymax > ymin")
+    return (x0, y0, x1, y1)
+
+
+def boundary_stress(chk: Checker, value: object, key: str, on: float = 0.0) -> BoundaryStress:
+    """One ``[[boundary_stresses]]`` table (in the scene or in a stage starting at ``on``)."""
+    values = _stress_field(chk, value, key, {"box": _box, "name": Checker.text})
+    require(chk, values, key, ("box",))
+    return BoundaryStress(values.get("name", key), values["field"], values["box"], on)
+
+
+def parse_in_situ(chk: Checker, raw: Mapping[str, Any], blocks: Sequence[Any],
+                  stages: Sequence[Any], joints: Mapping[str, Any],
+                  interfaces: Sequence[Any]) -> dict[str, Any]:  # fmt: skip
+    """The Scene fields ``in_situ`` and ``boundary_stresses`` (every one, those of the
+    stages included, with the times they are on), checked against the blocks."""
+    in_situ = None
+    if "in_situ" in raw:
+        in_situ = _stress_field(chk, raw["in_situ"], "in_situ", {})["field"]
+    given = [
+        boundary_stress(chk, value, f"boundary_stresses[{k}]")
+        for k, value in enumerate(table_list(chk, raw, "boundary_stresses"))
+    ]
+    timeline = _timeline(chk, given, stages)
+    if not (in_situ or timeline):
+        return {"in_situ": None, "boundary_stresses": ()}
+    polygons = [np.asarray(b.vertices, float) for b in blocks]
+    for stress, key in timeline:
+        _check_selects(chk, stress, key, polygons, _present_at(blocks, stages, stress.on))
+    if in_situ is not None:
+        _check_tension(chk, in_situ, blocks, polygons, joints, interfaces)
+    return {"in_situ": in_situ, "boundary_stresses": tuple(s for s, _ in timeline)}
+
+
+def _timeline(chk: Checker, given: list[BoundaryStress], stages: Sequence[Any]):
+    """(boundary stress, its key) of the scene's and the stages' entries, each with the
+    time a stage removes it."""
+    entries = [(s, f"boundary_stresses[{k}]") for k, s in enumerate(given)]
+    where = {}
+    for k, (stress, key) in enumerate(entries):
+        _unique(chk, stress.name, key, where)
+        where[stress.name] = k
+    for i, stage in enumerate(stages):
+        for name in stage.remove_boundary_stresses:
+            key = f"stages[{i}].remove_boundary_stresses"
+            if name not in where or entries[where[name]][0].off != math.inf:
+                chk.fail(key, f"{name!r} is no boundary stress in force before this stage")
+            stress, old_key = entries[where[name]]
+            entries[where[name]] = (replace(stress, off=stage.time), old_key)
+        for k, stress in enumerate(stage.boundary_stresses):
+            key = f"stages[{i}].boundary_stresses[{k}]"
+            _unique(chk, stress.name, key, where)
+            where[stress.name] = len(entries)
+            entries.append((stress, key))
+    return entries
+
+
+def _unique(chk: Checker, name: str, key: str, where: Mapping[str, int]) -> None:
+    if name in where:
+        chk.fail(f"{key}.name", f"{name!r} names another boundary stress already")
+
+
+def _present_at(blocks: Sequence[Any], stages: Sequence[Any], time: float) -> np.ndarray:
+    """Which blocks are there at ``time`` (a stage at that time has removed its blocks)."""
+    gone = {name for s in stages if s.time <= time for name in s.remove}
+    return np.array([b.name not in gone for b in blocks], bool)
+
+
+def _check_selects(chk, stress: BoundaryStress, key: str, polygons, present) -> None:
+    outer = outer_pieces(polygons, present)
+    if not np.any(stress.selects(outer.midpoint)):
+        chk.fail(f"{key}.box", "holds the midpoint of no outer edge (an edge that touches "
+                 "no other block) of the blocks there at that time")  # fmt: skip
+
+
+def _check_tension(chk, field: StressField, blocks, polygons, joints, interfaces) -> None:
+    """Refuse in-situ tension across a joint whose tensile strength is below it."""
+    pieces = covered_pieces(polygons)
+    sigma = field.normal_stress(pieces.midpoint, pieces.normal)
+    strength = _piece_joints(pieces, blocks, joints, interfaces)
+    tensile = np.array([joints[name].tensile_strength for name in strength])
+    over = sigma - tensile > TENSION_TOLERANCE * field.scale
+    if not np.any(over):
+        return
+    k = int(np.argmax(np.where(over, sigma - tensile, -np.inf)))
+    x, y = pieces.midpoint[k]
+    a, b = blocks[pieces.block[k]].name, blocks[pieces.other[k]].name
+    chk.fail("in_situ.stress", f"puts a tension of {sigma[k]:.6g} across joint "
+             f"{strength[k]!r} (tensile_strength {tensile[k]:g}) between blocks {a!r} and "
+             f"{b!r} at ({x:.6g}, {y:.6g}): the joint would open at t = 0")  # fmt: skip
+
+
+def _piece_joints(pieces: EdgePieces, blocks, joints, interfaces) -> list[str]:
+    """The joint of each covered piece: an interface of its two blocks, else its edge's
+    joint, else ``default``."""
+    pairs = {frozenset(i.blocks): i.joint for i in interfaces}
+    names = []
+    for block, vertex, other in zip(pieces.block, pieces.vertex, pieces.other, strict=True):
+        b = blocks[block]
+        own = b.edge_joints[vertex] if b.edge_joints else None
+        pair = pairs.get(frozenset((b.name, blocks[other].name)))
+        names.append(pair or own or "default")
+    return names
+
+
+def in_situ_stress(field: StressField | None, centroids: np.ndarray) -> np.ndarray:
+    """(n, 3) the in-situ stress at the blocks' ``centroids`` (zeros without a field)."""
+    if field is None:
+        return np.zeros((len(centroids), 3))
+    return field.at(np.asarray(centroids, float)[:, 1])

@@ -1,0 +1,268 @@
+"""In-situ stress and boundary stresses (dda/scene/in_situ.py, dda/contact/preload.py,
+dda/effects/boundary_stresses.py): a jointed rock mass starts as it stands in the ground.
+
+Closed forms: a uniform field in a jointed assembly, held by a fixed ring or by boundary
+stresses on free blocks, is in equilibrium with the contacts that carry it, so nothing
+moves and every block keeps it; under gravity, a field whose vertical gradient is ρ g
+(σyy = ρ g (y − H), σxx = K0 σyy) is in equilibrium with the blocks' weight.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import dda
+from dda.errors import SceneError
+from dda.scene.edge_cover import covered_pieces, outer_pieces
+from dda.scene.in_situ import StressField
+
+RHO, G = 2600.0, 9.81
+FIELD = (-2.0e6, -1.0e6, 0.3e6)  # sxx, syy, sxy: compression, with shear
+
+
+def square(x0, y0, x1, y1):
+    return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+
+
+def grid(columns, rows, dx=0.0, dy=0.0):
+    return [
+        {"name": f"b{i}_{j}", "material": "rock",
+         "vertices": square(dx + i, dy + j, dx + i + 1, dy + j + 1)}
+        for j in range(rows) for i in range(columns)
+    ]  # fmt: skip
+
+
+def ring(n, dx=0.0, dy=0.0):
+    """Four fixed blocks around an n x n grid whose corner is at (dx, dy)."""
+    x0, y0, x1, y1 = dx, dy, dx + n, dy + n
+    return [
+        {"name": "bottom", "material": "rock", "fixed": True,
+         "vertices": square(x0 - 1, y0 - 1, x1 + 1, y0)},
+        {"name": "top", "material": "rock", "fixed": True,
+         "vertices": square(x0 - 1, y1, x1 + 1, y1 + 1)},
+        {"name": "left", "material": "rock", "fixed": True,
+         "vertices": square(x0 - 1, y0, x0, y1)},
+        {"name": "right", "material": "rock", "fixed": True,
+         "vertices": square(x1, y0, x1 + 1, y1)},
+    ]  # fmt: skip
+
+
+def scene(blocks, method="augmented-lagrangian", start="equilibrium", gravity=(0.0, 0.0),
+          duration=0.2, **sections):  # fmt: skip
+    return {
+        "analysis": {"mode": "dynamic", "time_step": 1e-3, "duration": duration,
+                     "gravity": list(gravity), "start": start, "save_every": 1000},
+        "contact": {"method": method, "penalty": 1e11},
+        "materials": {"rock": {"density": RHO, "young": 1e10, "poisson": 0.25}},
+        "joints": {"default": {"friction_angle": 30.0}},
+        "blocks": blocks,
+        **sections,
+    }  # fmt: skip
+
+
+def uniform(held_by: str, dx: float = 0.0, dy: float = 0.0) -> list:
+    blocks = grid(3, 3, dx, dy)
+    if held_by == "ring":
+        return blocks + ring(3, dx, dy)
+    return blocks
+
+
+@pytest.mark.parametrize("method", ["augmented-lagrangian", "penalty"])
+@pytest.mark.parametrize("start", ["equilibrium", "unloaded"])
+@pytest.mark.parametrize("held_by", ["ring", "boundary stresses"])
+def test_a_uniform_field_in_a_jointed_assembly_stays_as_it_is(method, start, held_by):
+    """3 x 3 unit blocks, σ = (−2, −1, 0.3) MPa: held by a fixed ring or by the same
+    field's traction on their outer edges (free blocks, no fixed block at all), each block
+    keeps σ to 1e-6 over 0.2 s and nothing moves beyond round-off."""
+    sections = {"in_situ": {"stress": list(FIELD)}}
+    if held_by == "boundary stresses":
+        sections["boundary_stresses"] = [{"stress": list(FIELD), "box": [-1, -1, 4, 4]}]
+    result = dda.simulate(dda.load_scene(scene(uniform(held_by), method, start, **sections)))
+    stress = result.final.stresses[:9]
+    assert np.abs(stress - FIELD).max() <= 1e-6 * 2.0e6
+    assert np.abs(result.final.displacements[:9]).max() <= 1e-12
+    assert result.summary["start"] == start
+
+
+def test_the_field_is_the_same_far_from_the_origin():
+    """The engine computes far from the origin in a local frame: a field that varies
+    with y gives each block the stress of its height in the scene's frame (here
+    σyy = −2 MPa + ρ g y under gravity, in equilibrium with the blocks' weight)."""
+    field = {"stress": [-1.0e6, -2.0e6, 0.0], "gradient": [0.0, RHO * G, 0.0]}
+    near_scene = scene(uniform("ring"), gravity=(0.0, -G), in_situ=field, duration=0.01)
+    near = dda.simulate(dda.load_scene(near_scene))
+    dy = 1.0e6
+    moved = dict(field, stress=[-1.0e6, -2.0e6 - RHO * G * dy, 0.0])
+    far_scene = scene(uniform("ring", dy=dy), gravity=(0.0, -G), in_situ=moved, duration=0.01)
+    far = dda.simulate(dda.load_scene(far_scene))
+    expected = -2.0e6 + RHO * G * (np.repeat(np.arange(3), 3) + 0.5)
+    np.testing.assert_allclose(near.final.stresses[:9, 1], expected, rtol=1e-9)
+    np.testing.assert_allclose(far.final.stresses[:9, 1], expected, rtol=1e-9)
+
+
+def column(held_by: str, k0: float = 0.5, start: str = "equilibrium") -> dict:
+    """Two columns of ten unit blocks on a fixed base under gravity, σyy = ρ g (y − 10),
+    σxx = K0 σyy, between fixed walls or loaded on their outer edges by the same field."""
+    height = 10.0
+    blocks = grid(2, 10) + [
+        {"name": "base", "material": "rock", "fixed": True, "vertices": square(-1, -1, 3, 0)}
+    ]
+    syy, dsyy = -RHO * G * height, RHO * G
+    field = {"stress": [k0 * syy, syy, 0.0], "gradient": [k0 * dsyy, dsyy, 0.0]}
+    sections = {"in_situ": field}
+    if held_by == "walls":
+        blocks += [
+            {"name": "left", "material": "rock", "fixed": True,
+             "vertices": square(-1, 0, 0, height)},
+            {"name": "right", "material": "rock", "fixed": True,
+             "vertices": square(2, 0, 3, height)},
+        ]  # fmt: skip
+    else:
+        sections["boundary_stresses"] = [dict(field, box=[-0.5, -0.5, 2.5, height + 0.5])]
+    return scene(blocks, start=start, gravity=(0.0, -G), **sections)
+
+
+@pytest.mark.parametrize("held_by", ["walls", "boundary stresses"])
+@pytest.mark.parametrize("start", ["equilibrium", "unloaded"])
+def test_a_jointed_column_stands_in_its_gravity_field(held_by, start):
+    """The centroid stresses stay the field's, σyy = ρ g (y − H) and σxx = K0 σyy, within
+    2 % (to round-off here: the contacts carry the field's own tractions), and the
+    column does not settle."""
+    result = dda.simulate(dda.load_scene(column(held_by, start=start)))
+    y = np.repeat(np.arange(10) + 0.5, 2)
+    syy = RHO * G * (y - 10.0)
+    stress = result.final.stresses[:20]
+    assert np.abs(stress[:, 1] - syy).max() <= 0.02 * np.abs(syy).max()
+    assert np.abs(stress[:, 0] - 0.5 * syy).max() <= 0.02 * 0.5 * np.abs(syy).max()
+    assert np.abs(result.final.displacements[:20]).max() <= 1e-9
+
+
+def lone_block(**sections) -> dict:
+    """One free unit block, no contacts, stiff and damped: its stress follows the
+    traction on its edges."""
+    out = scene([{"name": "b", "material": "rock", "vertices": square(0, 0, 1, 1)}],
+                duration=0.4, **sections)  # fmt: skip
+    out["materials"]["rock"]["damping"] = 0.5
+    return out
+
+
+def test_a_stage_takes_boundary_stresses_away_and_the_block_relaxes():
+    """σ0 held by its traction until t = 0.1 s: exact until then; after the stage the
+    block expands and its stress decays towards zero; energy never above E0 + W."""
+    field = {"stress": list(FIELD)}
+    raw = lone_block(
+        in_situ=field,
+        boundary_stresses=[dict(field, box=[-1, -1, 2, 2], name="far field")],
+        stages=[{"time": 0.1, "remove_boundary_stresses": ["far field"]}],
+    )
+    raw["analysis"]["save_every"] = 1
+    result = dda.simulate(dda.load_scene(raw))
+    before = [f for f in result.frames if f.time <= 0.1 + 1e-9]
+    assert all(np.abs(f.stresses[0] - FIELD).max() <= 1e-6 * 2e6 for f in before)
+    assert np.abs(result.final.stresses[0]).max() <= 0.05 * 2.0e6
+    history = result.history
+    e0 = result.summary["initial_energy"]
+    excess = history["total_energy"] - e0 - history["external_work"]
+    assert np.all(excess <= 1e-9 * e0), excess.max()
+
+
+def test_a_stage_applies_a_boundary_stress_and_the_block_takes_it_on():
+    """An unstressed block loaded from t = 0.1 s by a uniform traction: nothing before,
+    the field's stress (within 5 %) once it has rung down; the loads' work accounted."""
+    applied = {"stress": list(FIELD), "box": [-1, -1, 2, 2]}
+    raw = lone_block(stages=[{"time": 0.1, "boundary_stresses": [applied]}])
+    raw["analysis"]["save_every"] = 1
+    result = dda.simulate(dda.load_scene(raw))
+    before = [f for f in result.frames if f.time <= 0.1 + 1e-9]
+    assert all(np.abs(f.stresses[0]).max() == 0.0 for f in before)
+    assert np.abs(result.final.stresses[0] - FIELD).max() <= 0.05 * 2.0e6
+    history = result.history
+    e0 = result.summary["initial_energy"]
+    excess = history["total_energy"] - e0 - history["external_work"]
+    assert np.all(excess <= 1e-9 * max(history["external_work"].max(), 1.0)), excess.max()
+    assert "boundary_stresses" in result.summary["active_effects"]
+
+
+def test_outer_and_covered_pieces_of_three_blocks_on_a_base():
+    base = np.array(square(0, 0, 3, 1), float)
+    tops = [np.array(square(i, 1, i + 1, 2), float) for i in range(3)]
+    outer = outer_pieces([base, *tops])
+    assert sorted(np.round(outer.length, 12)) == [1, 1, 1, 1, 1, 1, 1, 3]
+    assert outer.length.sum() == pytest.approx(10.0)  # the outline
+    covered = covered_pieces([base, *tops])
+    assert covered.length.sum() == pytest.approx(2 * (3.0 + 2.0))  # each joint, both sides
+
+
+def test_segment_forces_do_the_work_of_a_linear_traction():
+    """∫ t(s) φ(s) ds for φ = 1 and s (linear displacement) against the two end forces."""
+    field = StressField((1.0, 2.0, 0.5), (0.3, -0.7, 0.2))
+    start, end = np.array([[0.0, 0.0]]), np.array([[0.0, 2.0]])
+    normal = np.array([[-1.0, 0.0]])
+    fa, fb = field.segment_forces(start, end, normal)
+    s = np.linspace(0.0, 2.0, 20001)
+    points = np.column_stack([np.zeros_like(s), s])
+    t = field.traction(points, np.repeat(normal, len(s), axis=0))
+    for weight in (np.ones_like(s), s):
+        exact = np.trapezoid(t * weight[:, None], s, axis=0)
+        np.testing.assert_allclose(fa[0] * weight[0] + fb[0] * weight[-1], exact, rtol=1e-8)
+
+
+def refused(raw, key, words):
+    with pytest.raises(SceneError) as caught:
+        dda.load_scene(raw)
+    assert caught.value.key == key, str(caught.value)
+    assert words in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    "section, key, words",
+    [
+        ({"in_situ": {"stress": [1.0, 2.0]}}, "in_situ.stress", "expected 3 numbers, got 2"),
+        ({"in_situ": {"stress": [1.0, math.nan, 0.0]}}, "in_situ.stress[1]", "finite"),
+        (
+            {"in_situ": {"stress": [-1.0, -1.0, 0.0], "gradient": [0, math.inf, 0]}},
+            "in_situ.gradient[1]",
+            "finite",
+        ),  # fmt: skip
+        ({"in_situ": {"gradient": [0, 1, 0]}}, "in_situ.stress", "is required"),
+        ({"in_situ": {"stress": [0, 0, 0], "strees": 1}}, "in_situ.strees", "unknown key"),
+        (
+            {"boundary_stresses": [{"stress": [-1.0, -1.0, 0.0], "box": [0, 0, 1]}]},
+            "boundary_stresses[0].box",
+            "expected 4 numbers, got 3",
+        ),  # fmt: skip
+        (
+            {"boundary_stresses": [{"stress": [-1.0, -1.0, 0.0], "box": [2, 0, 1, 1]}]},
+            "boundary_stresses[0].box",
+            "xmax > xmin",
+        ),  # fmt: skip
+        (
+            {"boundary_stresses": [{"stress": [-1.0, -1.0, 0.0]}]},
+            "boundary_stresses[0].box",
+            "is required",
+        ),  # fmt: skip
+        (
+            {"boundary_stresses": [{"stress": [-1.0, -1.0, 0.0], "box": [1.2, 1.2, 1.8, 1.8]}]},
+            "boundary_stresses[0].box",
+            "holds the midpoint of no outer edge",
+        ),  # fmt: skip
+        (
+            {"stages": [{"time": 0.05, "remove_boundary_stresses": ["far"]}]},
+            "stages[0].remove_boundary_stresses",
+            "'far' is no boundary stress",
+        ),  # fmt: skip
+    ],
+)
+def test_bad_fields_are_refused_with_their_key(section, key, words):
+    refused(scene(uniform("ring"), duration=0.1, **section), key, words)
+
+
+def test_in_situ_tension_across_a_joint_without_tensile_strength_is_refused():
+    """σxx = +1 kPa across the vertical joints of the grid, which carry no tension."""
+    raw = scene(uniform("ring"), in_situ={"stress": [1.0e3, -1.0e6, 0.0]})
+    refused(raw, "in_situ.stress", "puts a tension of 1000 across joint 'default'")
+    raw["joints"]["default"]["tensile_strength"] = 2.0e3  # a joint that carries it
+    assert dda.load_scene(raw).in_situ.stress == (1.0e3, -1.0e6, 0.0)
