@@ -31,7 +31,7 @@ def test_wall_scene_refuses_unknown_method():
 
 @pytest.mark.parametrize("method", ["penalty", "augmented-lagrangian"])
 def test_measure_a_small_wall(method):
-    m = measure(3, method, steps=3, warm_up=False)
+    m = measure(3, method, steps=3, warm_up=False, start="unloaded")
     assert m.status == "finished" and m.steps == 3 and m.blocks == 10
     assert m.iterations >= 3 and m.factorisations >= 1
     assert 3 <= m.newton_iterations <= m.iterations  # at least one a step; chord steps beside
@@ -40,6 +40,27 @@ def test_measure_a_small_wall(method):
     assert 0 < m.first_step_seconds < m.seconds  # the first step, timed apart
     assert m.ms_per_later_step == pytest.approx(1000 * (m.seconds - m.first_step_seconds) / 2)
     assert "3x3" in table([m]) and "after step 1" in table([m]) and "Newton/step" in table([m])
+
+
+def test_the_walls_start_as_users_runs_do_and_report_the_start():
+    """By default the wall takes the engine's equilibrium start (and material damping),
+    whose seconds and Newton iterations the table gives; ``start="unloaded"`` is Shi's
+    start without damping, the C code's, with no start to report."""
+    loaded = measure(3, "penalty", steps=3, warm_up=False)
+    assert loaded.start == "equilibrium" and loaded.start_newton_iterations >= 1
+    assert 0 < loaded.start_seconds < loaded.first_step_seconds
+    assert f"| equilibrium | {loaded.start_seconds:.3f} |" in table([loaded])
+    shi = measure(3, "penalty", steps=3, warm_up=False, start="unloaded")
+    assert shi.start_newton_iterations == 0 and shi.start_seconds == 0.0
+    assert "| unloaded | – | – | – |" in table([shi])
+    raw = wall_scene(3, start="unloaded")
+    assert raw["analysis"]["start"] == "unloaded" and raw["materials"]["rock"]["damping"] == 0
+    default = wall_scene(3, start="equilibrium")
+    assert "start" not in default["analysis"] and "damping" not in default["materials"]["rock"]
+    parser = argparse.ArgumentParser()
+    cli.register(parser.add_subparsers())
+    assert parser.parse_args(["bench"]).start == "equilibrium"
+    assert parser.parse_args(["bench", "--start", "unloaded"]).start == "unloaded"
 
 
 def test_growth_exponent():
@@ -94,7 +115,7 @@ def test_repeat_keeps_the_fastest_run(monkeypatch, capsys):
     seconds = iter([0.3, 0.1, 0.2])
     made = []
 
-    def fake(columns, method, steps):
+    def fake(columns, method, steps, start):
         made.append(columns)
         return Measurement(columns, columns, method, steps, columns**2 + 1, next(seconds), 4, 2)
 

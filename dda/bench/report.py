@@ -51,10 +51,13 @@ def _threads_said() -> str:
 
 
 def table(measurements: Iterable[Measurement]) -> str:
-    """Markdown table: one row per (size, method); stage seconds per step in ms."""
+    """Markdown table: one row per (size, method, start); the equilibrium start's wall
+    time, Newton iterations and time in steps after step 1 ("start in steps"); ms/step
+    is the whole run's (the start included) per step, "after step 1" a later step's;
+    stage seconds per step in ms."""
     head = (
-        "| wall | blocks | method | ms/step | after step 1 | block-steps/s | iter/step "
-        "| Newton/step | factor. |"
+        "| wall | blocks | method | start | start s | start Newton | start in steps "
+        "| ms/step | after step 1 | block-steps/s | iter/step | Newton/step | factor. |"
         + "".join(f" {SHORT[s]} |" for s in STAGES)
         + " peak MiB | status |"
     )
@@ -62,8 +65,15 @@ def table(measurements: Iterable[Measurement]) -> str:
     lines = [head, rule]
     for m in measurements:
         per_step = {s: 1000.0 * m.stage_seconds.get(s, 0.0) / max(m.steps, 1) for s in STAGES}
+        started = m.start == "equilibrium"
         lines.append(
-            f"| {m.columns}x{m.rows} | {m.blocks} | {m.method} | {m.ms_per_step:.2f} | "
+            f"| {m.columns}x{m.rows} | {m.blocks} | {m.method} | {m.start} | "
+            + (
+                f"{m.start_seconds:.3f} | {m.start_newton_iterations} | {m.start_in_steps:.1f} | "
+                if started
+                else "– | – | – | "
+            )  # fmt: skip
+            + f"{m.ms_per_step:.2f} | "
             f"{m.ms_per_later_step:.2f} | "
             f"{m.block_steps_per_second:,.0f} | {m.iterations_per_step:.2f} | "
             f"{m.newton_iterations_per_step:.2f} | {m.factorisations} |"

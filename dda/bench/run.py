@@ -51,6 +51,9 @@ class Measurement:
     peak_memory_mib: float = float("nan")
     status: str = "finished"
     first_step_seconds: float = float("nan")  # model build and step 1 (pattern, analysis)
+    start: str = "unloaded"  # the wall's start (dda.bench.scenes.STARTS)
+    start_seconds: float = 0.0  # the equilibrium start's wall time (in first_step_seconds)
+    start_newton_iterations: int = 0
 
     @property
     def ms_per_step(self) -> float:
@@ -61,6 +64,12 @@ class Measurement:
         """ms per step after the first (the one-off model build, pattern and analysis)."""
         later = self.seconds - self.first_step_seconds
         return 1000.0 * later / (self.steps - 1) if self.steps > 1 else float("nan")
+
+    @property
+    def start_in_steps(self) -> float:
+        """The equilibrium start's time in later steps of the same run."""
+        step = self.ms_per_later_step / 1000.0
+        return self.start_seconds / step if step > 0 else float("nan")
 
     @property
     def block_steps_per_second(self) -> float:
@@ -81,6 +90,7 @@ def measure(
     steps: int = 100,
     rows: int | None = None,
     warm_up: bool = True,
+    start: str = "equilibrium",
 ) -> Measurement:
     """Run the wall scene in this process and time it.
 
@@ -89,6 +99,8 @@ def measure(
     columns, rows : wall size (``rows`` defaults to ``columns``)
     method : "penalty" or "augmented-lagrangian"
     steps : time steps
+    start : "equilibrium" (the engine's default, what users run) or "unloaded" (Shi's,
+        as the C code's: the comparison with it)
     warm_up : run a small wall first (imports; walls with enough work for the compiled
         kernels to load, :data:`WARM_UPS`) and load the PARDISO library when it
         is used. The measured run uses the kernels at every size, as a run of
@@ -96,22 +108,25 @@ def measure(
         (start-up is measured apart)
     """
     rows = columns if rows is None else rows
-    return _measure(columns, rows, method, steps, warm_up)
+    return _measure(columns, rows, method, steps, warm_up, start)
 
 
-def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) -> Measurement:
+def _measure(
+    columns: int, rows: int, method: str, steps: int, warm_up: bool, start: str
+) -> Measurement:
     if warm_up:
         for size, warm_steps in WARM_UPS if numba_enabled() else ((2, 3),):
-            dda.simulate(dda.load_scene(wall_scene(size, method=method, steps=warm_steps)))
+            warm = wall_scene(size, method=method, steps=warm_steps, start=start)
+            dda.simulate(dda.load_scene(warm))
         if pardiso_available():
             new_pardiso_handle()  # finding the MKL library is a one-off cost too
-    scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps))
-    start = time.perf_counter()
+    scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps, start=start))
+    began = time.perf_counter()
     first_step = [float("nan")]
 
     def note_first_step(_fraction: float, info: dict) -> None:
         if info["step"] == 1:
-            first_step[0] = time.perf_counter() - start
+            first_step[0] = time.perf_counter() - began
 
     status = "finished"
     try:
@@ -122,7 +137,7 @@ def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) ->
         status = f"failed: {exc}"
         partial = getattr(exc, "result", None)
         summary = partial.summary if partial is not None else {}
-    seconds = time.perf_counter() - start
+    seconds = time.perf_counter() - began
     done = int(summary.get("steps", 0)) or steps
     return Measurement(
         columns=columns,
@@ -138,6 +153,9 @@ def _measure(columns: int, rows: int, method: str, steps: int, warm_up: bool) ->
         peak_memory_mib=peak_memory_mib(),
         status=status,
         first_step_seconds=first_step[0],
+        start=start,
+        start_seconds=float(summary.get("start_seconds", 0.0)),
+        start_newton_iterations=int(summary.get("start_newton_iterations", 0)),
     )
 
 
@@ -152,10 +170,12 @@ def measure_in_subprocess(
     method: str = "penalty",
     steps: int = 100,
     rows: int | None = None,
+    start: str = "equilibrium",
 ) -> Measurement:
     """:func:`measure` in a fresh Python process (its own peak memory)."""
     rows = columns if rows is None else rows
     cmd = [sys.executable, "-m", "dda.bench.run", str(columns), str(rows), method, str(steps)]
+    cmd.append(start)
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"benchmark process failed ({done.returncode}): {done.stderr[-2000:]}")
@@ -170,8 +190,9 @@ def _main(argv: list[str] | None = None) -> int:
     parser.add_argument("rows", type=int)
     parser.add_argument("method")
     parser.add_argument("steps", type=int)
+    parser.add_argument("start", nargs="?", default="equilibrium")
     args = parser.parse_args(argv)
-    m = measure(args.columns, args.method, args.steps, args.rows)
+    m = measure(args.columns, args.method, args.steps, args.rows, start=args.start)
     sys.stdout.write(json.dumps(asdict(m)) + "\n")
     return 0
 

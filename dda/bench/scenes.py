@@ -3,8 +3,9 @@
 A fixed base block [0, n+4] x [0, 1] carries an n x m grid of 1 x 1 blocks
 from x = 2, y = 1 upwards; neighbouring blocks share their edges exactly.
 Rock: density 2.6, E = 1e6, ν = 0.25; joints: 30° friction; g = 9.81;
-penalty 5e7; Δt = 1e-3 s, dynamic. The same scene as the C DDA timings
-quoted in docs/benchmarks.md.
+penalty 5e7; Δt = 1e-3 s, dynamic. With ``start="unloaded"`` (Shi's start, no material
+damping) the same scene as the C DDA timings quoted in docs/benchmarks.md; with
+``start="equilibrium"`` what a user's run of it does (the engine's defaults).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 METHODS = ("penalty", "augmented-lagrangian")
+STARTS = ("equilibrium", "unloaded")  # the engine's default; Shi's, as the C code's
 
 
 def wall_scene(
@@ -20,6 +22,7 @@ def wall_scene(
     method: str = "penalty",
     steps: int = 100,
     save_every: int | None = None,
+    start: str = "unloaded",
 ) -> dict[str, Any]:
     """Scene dict (for :func:`dda.load_scene`) of a ``columns`` x ``rows`` wall.
 
@@ -29,6 +32,10 @@ def wall_scene(
     method : "penalty" or "augmented-lagrangian"
     steps : time steps to run
     save_every : frames kept every this many steps (default: only the first and last)
+    start : "unloaded": Shi's start, as the C code's (every contact spring unloaded at
+        t = 0, no material damping: the wall rings); "equilibrium": the engine's default
+        start and material damping (dda.run.equilibrium_start, dda.effects.damping),
+        what a user's run of the wall does
 
     Returns
     -------
@@ -52,20 +59,24 @@ def wall_scene(
             blocks.append(
                 {"name": f"b{i}_{j}", "material": "rock", "vertices": _square(x, y, x + 1, y + 1)}
             )
+    if start not in STARTS:
+        raise ValueError(f"start must be one of {STARTS}, not {start!r}")
+    rock = {"density": 2.6, "young": 1e6, "poisson": 0.25}
+    analysis = {
+        "mode": "dynamic",
+        "time_step": 1e-3,
+        "steps": int(steps),
+        "gravity": [0.0, -9.81],
+        "save_every": int(save_every or steps),
+    }
+    if start == "unloaded":
+        analysis["start"] = "unloaded"
+        rock["damping"] = 0.0
     return {
         "title": f"wall {columns}x{rows} ({method})",
-        "analysis": {
-            "mode": "dynamic",
-            "time_step": 1e-3,
-            "steps": int(steps),
-            "gravity": [0.0, -9.81],
-            "save_every": int(save_every or steps),
-            # Shi's start, as the C code's: every contact spring unloaded, no material
-            # damping (the wall rings; dda.run.equilibrium_start, dda.effects.damping)
-            "start": "unloaded",
-        },
+        "analysis": analysis,
         "contact": {"method": method, "penalty": 5e7},
-        "materials": {"rock": {"density": 2.6, "young": 1e6, "poisson": 0.25, "damping": 0.0}},
+        "materials": {"rock": rock},
         "joints": {"default": {"friction_angle": 30.0}},
         "blocks": blocks,
     }

@@ -6,7 +6,7 @@ import argparse
 import logging
 from typing import Any
 
-from dda.bench.scenes import METHODS
+from dda.bench.scenes import METHODS, STARTS
 from dda.commands.cli import positive_int
 
 log = logging.getLogger(__name__)
@@ -38,6 +38,14 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("--steps", type=positive_int, default=100, help="time steps (default: 100)")
     parser.add_argument(
+        "--start",
+        choices=STARTS,
+        default="equilibrium",
+        help="how the walls start: the engine's default equilibrium start (what users run; "
+        "its seconds and Newton iterations are reported), or Shi's unloaded start without "
+        "material damping, as the C code's (the comparison with it); default: %(default)s",
+    )
+    parser.add_argument(
         "--repeat",
         type=positive_int,
         default=1,
@@ -60,7 +68,10 @@ def run_command(args: argparse.Namespace) -> int:
         for method in methods:
             log.info("wall %dx%d, %s, %d steps", size, size, method, args.steps)
             try:
-                runs = [measure_in_subprocess(size, method, args.steps) for _ in range(args.repeat)]
+                runs = [
+                    measure_in_subprocess(size, method, args.steps, start=args.start)
+                    for _ in range(args.repeat)
+                ]
             except RuntimeError as exc:
                 log.error("%dx%d %s: %s", size, size, method, exc)
                 return 1
@@ -71,7 +82,7 @@ def run_command(args: argparse.Namespace) -> int:
     print(f"\nmachine: {machine_line()}")
     print(
         f"command: dda bench --sizes {' '.join(map(str, args.sizes))} "
-        f"--method {args.method} --steps {args.steps}"
+        f"--method {args.method} --steps {args.steps} --start {args.start}"
         + (f" --repeat {args.repeat} (fastest of {args.repeat} runs)" if args.repeat > 1 else "")
     )
     return 0 if all(m.status == "finished" for m in results) else 3

@@ -79,6 +79,7 @@ class _Run:
         self.start = "unloaded"  # how the run started (dda.run.equilibrium_start)
         self.compiled_before = compile_seconds()  # the run's share goes in its summary
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
+        self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -146,8 +147,8 @@ def _equilibrium_start(run: _Run) -> None:
     m = run.model
     started = wallclock.perf_counter()
     _touching_at_start(run)
-    with run.timer("start"):
-        settled = settle(m, run.blocks, run.contacts, run.timer)
+    with run.timer("start"):  # its own stages apart: the steps' stay the steps'
+        settled = settle(m, run.blocks, run.contacts, StageTimer())
     if settled is None:
         run.contacts = ContactSet.empty()  # step 1 finds them afresh, as an unloaded start
         run.start = "unloaded (the equilibrium start did not settle)"
@@ -158,6 +159,7 @@ def _equilibrium_start(run: _Run) -> None:
     run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
     run.start = "equilibrium"
     run.start_newton_iterations = settled.newton_iterations
+    run.start_seconds = wallclock.perf_counter() - started
     log.info(
         "equilibrium start: %d contacts loaded, %d Newton iterations, %.2f s",
         int(np.count_nonzero(settled.contacts.state != OPEN)),
@@ -484,6 +486,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "max_iterations_step": state.max_iterations_step,
         "start": state.start,
         "start_newton_iterations": state.start_newton_iterations,
+        "start_seconds": round(state.start_seconds, 6),
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
         "search_redos": state.search_redos,
