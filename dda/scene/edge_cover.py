@@ -89,7 +89,8 @@ def covered_intervals(polygons: Sequence[np.ndarray], present: np.ndarray | None
     edges = _edges(polygons)
     present = np.ones(len(polygons), bool) if present is None else np.asarray(present, bool)
     extent = edges.extent
-    grown = shapely.buffer(shapely.polygons(list(polygons)), TOUCH * extent, join_style="mitre")
+    rings = shapely.linearrings(edges.start, indices=edges.block)
+    grown = shapely.buffer(shapely.polygons(rings), TOUCH * extent, join_style="mitre")
     lines = shapely.linestrings(np.stack([edges.start, edges.end], axis=1))
     edge_at, other = shapely.STRtree(grown).query(lines, predicate="intersects")
     keep = (other != edges.block[edge_at]) & present[other] & present[edges.block[edge_at]]
