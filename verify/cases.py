@@ -24,6 +24,7 @@ from verify.compare import Row, max_errors
 from verify.dda_side import DdaSide
 from verify.expect import Expectation, ExpectationError, load_expectation
 from verify.fem import FemOptions, FemSolution
+from verify.in_situ import excavated
 from verify.runners import RUNNERS
 from verify.turn import turned_scene
 
@@ -166,8 +167,8 @@ def run_case(case: Case, reference=None) -> CaseResult:
             f"{case.expect_path}: offsets: no such rows: {', '.join(sorted(unknown))}"
         )
     verdicts = judge(result.rows, expectation)
-    # a case compared in a turned state (verify.turn) is drawn there
-    scene = turned_scene(scene, expectation.fem_turn, expectation.fem_about)
+    # a case compared in a turned state (verify.turn) is drawn there, after its stages
+    scene = turned_scene(excavated(scene), expectation.fem_turn, expectation.fem_about)
     log.info(
         "%s: %s",
         case.name,

@@ -34,7 +34,7 @@ static DDA (it starts every step from rest).
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -53,6 +53,12 @@ from dda.scene import Scene
 from verify.contact import ContactPoints, build_contact_points, contact_tolerance, penalty_of
 from verify.contact_law import ContactState, solve_with_contact
 from verify.geometry import geometric_tolerance, scene_size
+from verify.in_situ import (
+    boundary_stress_load,
+    contact_preload,
+    excavated,
+    initial_stress_load,
+)
 from verify.interfaces import Interface, find_interfaces
 from verify.mesh import BlockMesh, mesh_blocks
 
@@ -261,16 +267,27 @@ def solve_fem(
     scene : the scene (its analysis is treated as static)
     options : element order, size, stabiliser
     load_factor : factor on the point loads (their history is not used)
+
+    With ``[in_situ]``, ``[[boundary_stresses]]`` and stages that remove blocks, the
+    state after the last stage (:mod:`verify.in_situ`); the solution's scene is then
+    the scene without the removed blocks.
     """
     options = options or FemOptions()
     if any(any(b.stress) for b in scene.blocks):
         log.warning("initial block stresses are ignored by the FEM model")
+    written, scene = scene, excavated(scene)  # the state after the stages' excavations
     interfaces = find_interfaces(scene)
     bm = mesh_blocks(scene, options.size)
     basis = make_basis(bm, options.order)
     stiffness, load, materials = base_system(scene, bm, basis, options, load_factor)
+    load = load + initial_stress_load(scene, basis)
+    boundary = boundary_stress_load(written, bm, basis.elem)
+    if len(boundary):
+        load = load + boundary
     contact = build_contact_points(scene, bm, basis, interfaces)
     state = ContactState.initial(contact, contact_tolerance(scene))
+    lam_n, lam_t = contact_preload(scene, contact)  # the in-situ field across the joints
+    state = replace(state, lam_n=lam_n * state.closed, lam_t=lam_t * state.closed)
     u, state, iterations = solve_with_contact(
         stiffness, load, contact, state, options.max_active_set, contact_tolerance_of(scene)
     )

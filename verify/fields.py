@@ -20,18 +20,21 @@ from skfem.helpers import sym_grad
 from verify.contact_law import forces
 from verify.fem import FemSolution, nearest_node_dofs, per_quadrature_point
 from verify.geometry import geometric_tolerance
+from verify.in_situ import initial_stress_at
 
 COMPONENTS = ("sxx", "syy", "sxy")
 
 
 def stress_at_quadrature(solution: FemSolution) -> np.ndarray:
-    """(3, M, q) sxx, syy, sxy at the quadrature points of every element."""
+    """(3, M, q) sxx, syy, sxy at the quadrature points of every element: the in-situ
+    field σ0 (:mod:`verify.in_situ`) plus C ε(u)."""
     basis = solution.basis
     eps = np.asarray(sym_grad(basis.interpolate(solution.u)))
     lam = per_quadrature_point(solution.lam, basis)
     mu = per_quadrature_point(solution.mu, basis)
     tr = eps[0, 0] + eps[1, 1]
-    return np.stack(
+    initial = initial_stress_at(solution.scene, basis.global_coordinates().value[1])
+    return initial + np.stack(
         [2 * mu * eps[0, 0] + lam * tr, 2 * mu * eps[1, 1] + lam * tr, 2 * mu * eps[0, 1]]
     )
 

@@ -37,6 +37,7 @@ from verify.fem import FemOptions, FemSolution, load_factor_at, solve_fem
 from verify.fracture import Onset, onset_factors
 from verify.impact import REFERENCES as IMPACT_REFERENCES
 from verify.impact import ROWS as IMPACT_ROWS
+from verify.in_situ import excavated
 from verify.motion import (
     REFERENCES,
     Track,
@@ -85,7 +86,8 @@ def run_static(
     result = watch.run("dda", dda.simulate, scene)
     at_rest = turned_scene(scene, expectation.fem_turn, expectation.fem_about)
     fem = reference or watch.run("fem", solve_fem, at_rest, options)
-    side = DdaSide.from_result(result, scene, start=None if at_rest is scene else at_rest)
+    start = None if at_rest is scene else excavated(at_rest)
+    side = DdaSide.from_result(result, excavated(scene), start=start)  # after the stages
     rows = compare(side, fem, expectation)
     if "al_updates" in expectation.checks:
         rows += watch.run("dda", al_update_rows, scene)

@@ -34,6 +34,16 @@ class BoundaryStresses(PointLoads):
         self.on, self.off = np.asarray(on, float), np.asarray(off, float)
         self.tolerance = TIME_TOLERANCE * time_step
 
+    def on_blocks_replaced(self, old, new, parent_of: np.ndarray) -> None:
+        """Blocks were split or removed (``parent_of[k]``: the old row of new block k): the
+        loads of a removed block's edges go with it, the rest follow their blocks."""
+        kept = np.isin(self.points.rows, parent_of)
+        if not kept.all():
+            self.points = MaterialPoints(self.points.rows[kept], self.points.positions[kept])
+            self.force, self.on, self.off = self.force[kept], self.on[kept], self.off[kept]
+            self.histories = [h for h, k in zip(self.histories, kept, strict=True) if k]
+        super().on_blocks_replaced(old, new, parent_of)
+
     def factors(self, time: float) -> np.ndarray:
         """1 for the forces of a set in force over a step ending at ``time`` (those of the
         scene at t = 0 too: the equilibrium start), else 0."""
