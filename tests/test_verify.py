@@ -396,8 +396,10 @@ def test_every_case_is_a_valid_scene_with_reasoned_expectations():
         dynamic = expectation.kind in ("dynamic", "motion")
         assert scene.analysis.mode == ("dynamic" if dynamic else "static")
         assert expectation.summary and expectation.checks
-        # every case checks displacements (or what is measured from them) and stresses
-        assert DISPLACEMENT_CHECKS & set(expectation.checks), case.name
+        # every case checks displacements (or what is measured from them) and stresses,
+        # or its notes say why no displacement can be compared (nothing moves in either)
+        moved = DISPLACEMENT_CHECKS & set(expectation.checks)
+        assert moved or "centroid" in expectation.notes, case.name
         assert STRESS_CHECKS & set(expectation.checks), case.name
         for check in expectation.checks.values():
             assert len(check.why) > 20, (case.name, check.quantity)
