@@ -254,6 +254,15 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
             dtype=np.int64,
         ).reshape(-1, 2),
         interface_joint=np.array([joint_rows[i.joint] for i in scene.interfaces], np.int64),
+        residual={
+            "friction_angle": np.array([j.residual_angle for j in joints]),
+            "cohesion": np.array([j.residual_cohesion for j in joints]),
+            "tensile": np.array([j.residual_tensile_strength for j in joints]),
+            "barton": np.array([j.barton_bandis for j in joints], bool),
+            "jrc": np.array([j.jrc for j in joints]),
+            "jcs": np.array([j.jcs for j in joints]),
+            "divisor": np.array([j.strength_divisor for j in joints]),
+        },
     )
     extent = float(max(blocks.vertices.max(axis=0) - blocks.vertices.min(axis=0)))
     penalty = c.penalty if c.penalty is not None else 10.0 * young_max

@@ -44,7 +44,7 @@ print(json.dumps({"package": dda.__file__, "digest": hashlib.sha256(moved.tobyte
 
 # the shipped sliding block (30° plane, φ = 20°) for 500 steps of 1 ms (the kernels, and
 # with them the band step, are used from 500 steps): its travel goes through the
-# friction bound of dda/contact/law_kernels.py
+# friction bound of dda/contact/formulas.py
 SLIDE = """
 import hashlib, json, tomllib, dda, dda.cases
 from dda import jit
@@ -120,14 +120,14 @@ def test_a_change_outside_a_kernels_imports_keeps_its_cache(tmp_path):
 @needs_numba
 @pytest.mark.slow
 def test_an_edited_contact_law_callee_recompiles_the_band_step(tmp_path):
-    """Scaling the friction bound in dda/contact/law_kernels.py (compiled into the band
-    step of dda/solve/band_step.py) changes a sliding block's travel; reverting gives
-    the first run's numbers to the bit."""
+    """Scaling the friction bound in dda/contact/formulas.py (compiled into the contact
+    law's kernels and the band step of dda/solve/band_step.py) changes a sliding block's
+    travel; reverting gives the first run's numbers to the bit."""
     copy = scratch_package(tmp_path)
     first = run_in(copy, SLIDE)
-    callee = copy / "dda" / "contact" / "law_kernels.py"
-    old = "        new_bound[c] = friction_tan[c] * max(normal[c], 0.0) + held\n"
-    original = edit(callee, old, old.replace("friction_tan[c]", "0.5 * friction_tan[c]"))
+    callee = copy / "dda" / "contact" / "formulas.py"
+    old = "    coulomb = tangent * pressed + held\n"
+    original = edit(callee, old, old.replace("tangent", "0.5 * tangent"))
     edited = run_in(copy, SLIDE)
     assert edited["compile_seconds"] > 0
     assert edited["travel"] > 1.05 * first["travel"]
@@ -145,7 +145,7 @@ def test_kernel_sources_follow_the_imports_of_the_kernels_module():
         return {str(p.relative_to(PACKAGE)) for p in cache.kernel_sources(function)}
 
     assert {"solve/update.py", "kinematics.py", "solve/integrator.py"} <= names(update._apply)
-    assert "contact/law_kernels.py" in names(band_step._band_step)
+    assert {"contact/law_kernels.py", "contact/formulas.py"} <= names(band_step._band_step)
     assert "scene/format.py" not in names(update._apply)
 
 

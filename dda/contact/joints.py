@@ -6,7 +6,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
-from dda.contact.law import JointProperties
+from dda.contact.strength import JointProperties
 
 
 class JointTable:
@@ -28,11 +28,26 @@ class JointTable:
         tensile: np.ndarray,
         interface_ids: np.ndarray,
         interface_joint: np.ndarray,
+        residual: dict[str, np.ndarray] | None = None,
     ) -> None:
+        """``residual``: per joint, optional ``friction_angle``, ``cohesion``, ``tensile``
+        (the residual strengths; defaults: the peak angle, 0, 0), ``barton`` (bool),
+        ``jrc``, ``jcs`` and ``divisor`` (Barton–Bandis; :class:`JointProperties`)."""
         self.names = names
         self.tan_friction = np.tan(np.radians(friction_angle))
         self.cohesion = np.asarray(cohesion, float)
         self.tensile = np.asarray(tensile, float)
+        residual = residual or {}
+        count = len(names)
+        angle = np.asarray(residual.get("friction_angle", friction_angle), float)
+        self.residual_angle = np.radians(angle)
+        self.tan_residual = np.tan(self.residual_angle)
+        self.residual_cohesion = np.asarray(residual.get("cohesion", np.zeros(count)), float)
+        self.residual_tensile = np.asarray(residual.get("tensile", np.zeros(count)), float)
+        self.barton = np.asarray(residual.get("barton", np.zeros(count, bool)), bool)
+        self.jrc = np.asarray(residual.get("jrc", np.zeros(count)), float)
+        self.jcs = np.asarray(residual.get("jcs", np.zeros(count)), float)
+        self.divisor = np.asarray(residual.get("divisor", np.ones(count)), float)
         self.factor = 1.0
         self.default = names.index("default")
         keys = (
@@ -51,7 +66,9 @@ class JointTable:
 
     @property
     def has_friction(self) -> bool:
-        return bool(np.any(self.tan_friction > 0) or np.any(self.cohesion > 0))
+        return bool(
+            np.any(self.tan_friction > 0) or np.any(self.cohesion > 0) or np.any(self.barton)
+        )
 
     def rows_for(self, blocks: BlockSet, contacts: ContactSet) -> np.ndarray:
         """Joint row of each contact."""
@@ -68,11 +85,22 @@ class JointTable:
         return rows
 
     def properties(self, rows: np.ndarray, contact_length: np.ndarray) -> JointProperties:
-        """tan φ / F and the cohesion and tensile forces c·l / F, T·l / F of each contact
-        (F = ``factor``; x / 1 is x to the bit)."""
+        """Each contact's strengths: tan φ / F and the cohesion and tensile forces
+        c·l / F, T·l / F, peak and residual; a Barton–Bandis joint's shear strength
+        (cohesion included) divided by F through its divisor (F = ``factor``; x / 1 is x
+        to the bit)."""
         f = self.factor
+        barton = self.barton[rows]
         return JointProperties(
             friction=self.tan_friction[rows] / f,
-            cohesion=self.cohesion[rows] * contact_length / f,
+            cohesion=self.cohesion[rows] * contact_length / np.where(barton, 1.0, f),
             tensile=self.tensile[rows] * contact_length / f,
+            residual_friction=self.tan_residual[rows] / f,
+            residual_cohesion=self.residual_cohesion[rows] * contact_length / f,
+            residual_tensile=self.residual_tensile[rows] * contact_length / f,
+            barton=barton,
+            jrc=self.jrc[rows],
+            jcs_length=self.jcs[rows] * contact_length,
+            residual_angle=self.residual_angle[rows],
+            divisor=self.divisor[rows] * f,
         )

@@ -30,9 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dda.contact import law_kernels
+from dda.contact import formulas, law_kernels
 from dda.contact.contact_set import ContactSet
 from dda.contact.potential import NORMAL_ELASTIC, STICK, ContactTerms
+from dda.contact.strength import JointProperties
 from dda.jit import compiled, floats
 from dda.result import LOCKED, OPEN, SLIDING
 
@@ -69,15 +70,6 @@ class ContactLaw:
 
 
 @dataclass
-class JointProperties:
-    """Per contact: tan φ, cohesion force c·l and tensile force T·l capacities."""
-
-    friction: np.ndarray
-    cohesion: np.ndarray
-    tensile: np.ndarray
-
-
-@dataclass
 class LawOutcome:
     """What one update between Newton solves decided."""
 
@@ -89,9 +81,9 @@ class LawOutcome:
 
 
 def friction_bound(contacts: ContactSet, joint: JointProperties, normal: np.ndarray):
-    """b = tan φ ⟨N⟩₊ + c l (cohesion only while the contact is intact)."""
-    cohesion = np.where(contacts.intact, joint.cohesion, 0.0)
-    return joint.friction * np.maximum(normal, 0.0) + cohesion
+    """b of the normal forces: :func:`dda.contact.formulas.friction_bound` (peak strength
+    while a contact is intact, residual after; Coulomb or Barton–Bandis)."""
+    return formulas.friction_bound(joint, slice(None), normal, contacts.intact)
 
 
 def contact_terms(
@@ -104,14 +96,14 @@ def contact_terms(
     """
     if compiled(law_kernels.terms_kernel):
         normal_base, tension, shear_base, shear_penalty, bound = law_kernels.terms_kernel(
-            contacts.intact, floats(joint.tensile), floats(contacts.normal_multiplier),
+            contacts.intact, joint.kernel_strength(), floats(contacts.normal_multiplier),
             floats(contacts.shear_multiplier), floats(contacts.penalty), float(law.shear_ratio),
             floats(bound), bool(law.friction),
         )  # fmt: skip
         return ContactTerms(
             normal_base, contacts.penalty, tension, shear_base, shear_penalty, bound
         )
-    tension = np.where(contacts.intact, joint.tensile, 0.0)
+    tension = formulas.tension_held(joint, slice(None), contacts.intact)
     lam_n = contacts.normal_multiplier
     if law.friction:
         shear_penalty = law.shear_ratio * contacts.penalty
@@ -254,7 +246,7 @@ def update(
     if compiled(law_kernels.forces_and_bounds_kernel):
         normal, bound, changed = law_kernels.forces_and_bounds_kernel(
             *terms.kernel_arrays(), floats(g), floats(s), contacts.intact,
-            floats(joint.friction), floats(joint.cohesion), bool(law.friction),
+            joint.kernel_strength(), bool(law.friction),
         )  # fmt: skip
     else:
         normal = terms.normal_force(g)
@@ -276,16 +268,18 @@ def update(
 
 
 def _break_bonds(contacts, terms, joint, g, s) -> int:
-    """Intact contacts (with a tensile strength or cohesion) pulled to their tensile
-    strength, or slipping, lose both for good."""
+    """Intact contacts with a bond to lose (a peak strength above the residual: tensile
+    strength, cohesion or friction) pulled to their tensile strength, or slipping, have
+    their residual strength from then on, for good."""
+    breakable = joint.breakable
     if compiled(law_kernels.broken_kernel):
         lost = law_kernels.broken_kernel(
-            *terms.kernel_arrays(), floats(g), floats(s), contacts.intact, floats(joint.cohesion)
+            *terms.kernel_arrays(), floats(g), floats(s), contacts.intact, breakable
         )
         contacts.intact &= ~lost
         return int(np.count_nonzero(lost))
     normal_piece, shear_piece = terms.pieces(g, s)
-    bonded = contacts.intact & ((terms.tension > 0.0) | (joint.cohesion > 0.0))
+    bonded = contacts.intact & breakable
     at_tension = (normal_piece != NORMAL_ELASTIC) & (terms.tension > 0.0)
     slipping = (shear_piece != STICK) & (terms.shear_penalty > 0.0)
     lost = bonded & (at_tension | slipping)

@@ -1,10 +1,10 @@
 """Compiled twins of the contact law's passes over the contacts (:mod:`dda.contact.law`).
 
-Each function here is the arithmetic of one numpy function of the law, contact by
-contact, with the same operations in the same order (so the same numbers: every value
-is an elementwise result; the norms and sums over the contacts stay numpy's, at the
-call site). The law's functions call them where the kernels are used
-(:func:`dda.jit.compiled`) and keep their numpy bodies as the oracle
+Each function here runs one numpy function of the law contact by contact, its formulas
+those of :mod:`dda.contact.formulas` (the same functions, compiled), in the same order
+(so the same numbers: every value is an elementwise result; the norms and sums over
+the contacts stay numpy's, at the call site). The law's functions call them where the
+kernels are used (:func:`dda.jit.compiled`) and keep their numpy bodies as the oracle
 (tests/test_law_kernels.py). Piece numbers as :mod:`dda.contact.potential`'s.
 """
 
@@ -12,20 +12,31 @@ from __future__ import annotations
 
 import numpy as np
 
-from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
+from dda.contact.formulas import (
+    friction_bound,
+    normal_force,
+    normal_piece,
+    normal_trial,
+    shear_force,
+    shear_piece,
+    shear_trial,
+    tension_held,
+)
+from dda.contact.potential import NORMAL_ELASTIC, STICK
 from dda.jit import kernel
 from dda.result import LOCKED, OPEN, SLIDING
 
 
-def _terms(intact, tensile, multiplier, carried, penalty, shear_ratio, bound, friction):
-    """:func:`dda.contact.law.contact_terms`: (λn, T, λt, ps, b) of each contact; T = the
-    tensile force while intact, λn = max(multiplier, −T), b = ``bound`` (0 without
-    friction), λt = clamp(carried, −b, b), ps = ``shear_ratio`` p (0 without friction)."""
+def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, friction):
+    """:func:`dda.contact.law.contact_terms`: (λn, T, λt, ps, b) of each contact; T the
+    tension held (:func:`~dda.contact.formulas.tension_held`), λn = max(multiplier, −T),
+    b = ``bound`` (0 without friction), λt = clamp(carried, −b, b), ps = ``shear_ratio`` p
+    (0 without friction)."""
     m = penalty.shape[0]
     tension, normal_base = np.empty(m), np.empty(m)
     shear_base, shear_penalty, bounds = np.empty(m), np.empty(m), np.empty(m)
     for c in range(m):
-        tension[c] = tensile[c] if intact[c] else 0.0
+        tension[c] = tension_held(strength, c, intact[c])
         normal_base[c] = max(multiplier[c], -tension[c])
         b = bound[c] if friction else 0.0
         bounds[c] = b
@@ -36,23 +47,22 @@ def _terms(intact, tensile, multiplier, carried, penalty, shear_ratio, bound, fr
 
 def _forces_and_bounds(
     normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s,
-    intact, friction_tan, cohesion, friction,
+    intact, strength, friction,
 ):  # fmt: skip
-    """:func:`dda.contact.law.update`'s forces: N = max(λn + p g, −T); the new bounds
-    b' = tan φ ⟨N⟩₊ + c l (c while intact; without friction b' = b) and the change
-    |clamp(λt + ps s, ±b') − clamp(λt + ps s, ±b)| they make to the shear forces."""
+    """:func:`dda.contact.law.update`'s forces: N (:func:`~dda.contact.formulas.normal_force`);
+    the new bounds b' (:func:`~dda.contact.formulas.friction_bound`; without friction
+    b' = b) and the change |clamp(λt + ps s, ±b') − clamp(λt + ps s, ±b)| they make to the
+    shear forces."""
     m = g.shape[0]
     normal, new_bound, changed = np.empty(m), np.empty(m), np.zeros(m)
     for c in range(m):
-        normal[c] = max(normal_base[c] + penalty[c] * g[c], -tension[c])
+        normal[c] = normal_force(normal_base[c], penalty[c], tension[c], g[c])
         if not friction:
             new_bound[c] = bound[c]
             continue
-        held = cohesion[c] if intact[c] else 0.0
-        new_bound[c] = friction_tan[c] * max(normal[c], 0.0) + held
-        trial = shear_base[c] + shear_penalty[c] * s[c]
-        after = min(max(trial, -new_bound[c]), new_bound[c])
-        changed[c] = abs(after - min(max(trial, -bound[c]), bound[c]))
+        new_bound[c] = friction_bound(strength, c, normal[c], intact[c])
+        after = shear_force(shear_base[c], shear_penalty[c], new_bound[c], s[c])
+        changed[c] = abs(after - shear_force(shear_base[c], shear_penalty[c], bound[c], s[c]))
     return normal, new_bound, changed
 
 
@@ -67,11 +77,11 @@ def _augment(
     new_n, new_t, new_p = np.empty(m), np.empty(m), np.empty(m)
     count, violation = 0, 0.0
     for c in range(m):
-        trial_n = normal_base[c] + penalty[c] * g[c]
+        trial_n = normal_trial(normal_base[c], penalty[c], g[c])
         elastic = trial_n >= -tension[c]
         found_deep = fresh[c] and penetration[c] > tolerance
         far = elastic and abs(g[c]) > tolerance and not found_deep
-        trial_t = shear_base[c] + shear_penalty[c] * s[c]
+        trial_t = shear_trial(shear_base[c], shear_penalty[c], s[c])
         stuck = abs(trial_t) < bound[c] and shear_penalty[c] > 0.0
         slid = stuck and abs(s[c]) > tolerance
         if not elastic:
@@ -94,32 +104,18 @@ def _augment(
     return new_n, new_t, new_p, count, violation
 
 
-def _piece_normal(normal_base, penalty, tension, g):
-    """The normal piece at g (:meth:`dda.contact.potential.ContactTerms.pieces`)."""
-    return NORMAL_ELASTIC if normal_base + penalty * g >= -tension else 0
-
-
-def _piece_shear(shear_base, shear_penalty, bound, s):
-    """The shear piece at s (:meth:`dda.contact.potential.ContactTerms.pieces`)."""
-    trial = shear_base + shear_penalty * s
-    if trial <= -bound:
-        return SLIP_BACK
-    return SLIP_FORWARD if trial >= bound else STICK
-
-
 def _broken(
-    normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, intact, cohesion
+    normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, intact, breakable
 ):  # fmt: skip
-    """:func:`dda.contact.law._break_bonds`: which intact, bonded contacts are at their
-    tensile strength or slipping (their bonds lost)."""
+    """:func:`dda.contact.law._break_bonds`: which intact contacts with a bond to lose
+    (``breakable``) are at their tensile strength or slipping (their bonds lost)."""
     m = g.shape[0]
     lost = np.zeros(m, np.bool_)
     for c in range(m):
-        bonded = intact[c] and (tension[c] > 0.0 or cohesion[c] > 0.0)
-        if not bonded:
+        if not (intact[c] and breakable[c]):
             continue
-        normal = _piece_normal(normal_base[c], penalty[c], tension[c], g[c])
-        shear = _piece_shear(shear_base[c], shear_penalty[c], bound[c], s[c])
+        normal = normal_piece(normal_base[c], penalty[c], tension[c], g[c])
+        shear = shear_piece(shear_base[c], shear_penalty[c], bound[c], s[c])
         at_tension = normal != NORMAL_ELASTIC and tension[c] > 0.0
         slipping = shear != STICK and shear_penalty[c] > 0.0
         lost[c] = at_tension or slipping
@@ -136,11 +132,11 @@ def _recorded(
     new_n, direction = np.empty(m), np.empty(m)
     normal, shear = np.empty(m), np.empty(m)
     for c in range(m):
-        trial_n = normal_base[c] + penalty[c] * g[c]
+        trial_n = normal_trial(normal_base[c], penalty[c], g[c])
         closed = trial_n >= -tension[c] or tension[c] > 0.0
-        trial = shear_base[c] + shear_penalty[c] * s[c]
-        normal[c] = max(trial_n, -tension[c]) if closed else 0.0
-        shear[c] = min(max(trial, -bound[c]), bound[c]) if closed else 0.0
+        trial = shear_trial(shear_base[c], shear_penalty[c], s[c])
+        normal[c] = normal_force(normal_base[c], penalty[c], tension[c], g[c]) if closed else 0.0
+        shear[c] = shear_force(shear_base[c], shear_penalty[c], bound[c], s[c]) if closed else 0.0
         stuck = abs(trial) < (1.0 - limit_band) * bound[c] and shear_penalty[c] > 0.0
         state[c] = (LOCKED if stuck else SLIDING) if closed else OPEN
         new_n[c] = normal_multiplier[c] if closed else 0.0
@@ -151,7 +147,5 @@ def _recorded(
 terms_kernel = kernel(_terms)
 forces_and_bounds_kernel = kernel(_forces_and_bounds)
 augment_kernel = kernel(_augment)
-_piece_normal = kernel(_piece_normal) or _piece_normal
-_piece_shear = kernel(_piece_shear) or _piece_shear
 broken_kernel = kernel(_broken)
 recorded_kernel = kernel(_recorded)

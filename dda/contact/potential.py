@@ -32,9 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# pieces of a contact's terms (shear: which side of the friction bound, or stuck)
-NORMAL_LIMIT, NORMAL_ELASTIC = 0, 1  # at the limit −T (open when T = 0) / elastic spring
-SLIP_BACK, STICK, SLIP_FORWARD = -1, 0, 1
+from dda.contact import formulas
+from dda.contact.formulas import NORMAL_ELASTIC, NORMAL_LIMIT, SLIP_BACK, SLIP_FORWARD, STICK
+
+__all__ = ["NORMAL_ELASTIC", "NORMAL_LIMIT", "SLIP_BACK", "SLIP_FORWARD", "STICK", "ContactTerms"]
 
 
 @dataclass(frozen=True)
@@ -60,18 +61,18 @@ class ContactTerms:
         return tuple(np.ascontiguousarray(a, np.float64) for a in data)
 
     def normal_trial(self, g: np.ndarray) -> np.ndarray:
-        return self.normal_base + self.penalty * g
+        return formulas.normal_trial(self.normal_base, self.penalty, g)
 
     def shear_trial(self, s: np.ndarray) -> np.ndarray:
-        return self.shear_base + self.shear_penalty * s
+        return formulas.shear_trial(self.shear_base, self.shear_penalty, s)
 
     def normal_force(self, g: np.ndarray) -> np.ndarray:
         """N = max(λn + p g, −T)."""
-        return np.maximum(self.normal_trial(g), -self.tension)
+        return formulas.normal_force(self.normal_base, self.penalty, self.tension, g)
 
     def shear_force(self, s: np.ndarray) -> np.ndarray:
         """F = clamp(λt + ps s, −b, b)."""
-        return np.clip(self.shear_trial(s), -self.bound, self.bound)
+        return formulas.shear_force(self.shear_base, self.shear_penalty, self.bound, s)
 
     def pieces(self, g: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(normal piece, shear piece) of every contact at (g, s).
@@ -80,10 +81,8 @@ class ContactTerms:
         most likely to stay closed) and the shear term slipping (a contact at the
         friction bound is most likely to go on sliding; with b = 0 it has no stuck piece).
         """
-        normal = np.where(self.normal_trial(g) >= -self.tension, NORMAL_ELASTIC, NORMAL_LIMIT)
-        trial = self.shear_trial(s)
-        shear = np.where(trial >= self.bound, SLIP_FORWARD, STICK)
-        shear = np.where(trial <= -self.bound, SLIP_BACK, shear)
+        normal = formulas.normal_piece(self.normal_base, self.penalty, self.tension, g)
+        shear = formulas.shear_piece(self.shear_base, self.shear_penalty, self.bound, s)
         return normal.astype(np.int8), shear.astype(np.int8)
 
     def same_pieces(self, first, second) -> bool:
@@ -96,8 +95,8 @@ class ContactTerms:
 
     def springs(self, normal: np.ndarray, shear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Second derivatives (kn, ks) on the given pieces: the contact springs of K."""
-        kn = np.where(normal == NORMAL_ELASTIC, self.penalty, 0.0)
-        ks = np.where(shear == STICK, self.shear_penalty, 0.0)
+        kn = formulas.normal_spring(self.penalty, normal)
+        ks = formulas.shear_spring(self.shear_penalty, shear)
         return kn, ks
 
     def offsets(
@@ -107,21 +106,17 @@ class ContactTerms:
 
         Elastic normal: λn + p g0; at the limit: −T. Stuck: λt + ps s0; slipping: ±b.
         """
-        normal_offset = np.where(normal == NORMAL_ELASTIC, self.normal_trial(g0), -self.tension)
-        shear_offset = np.where(shear == STICK, self.shear_trial(s0), shear * self.bound)
+        normal_offset = formulas.normal_offset(
+            self.normal_base, self.penalty, self.tension, g0, normal
+        )
+        shear_offset = formulas.shear_offset(
+            self.shear_base, self.shear_penalty, self.bound, s0, shear
+        )
         return normal_offset, shear_offset
 
     def energy(self, g: np.ndarray, s: np.ndarray) -> float:
         """Σ φn(g) + Σ φt(s) (the formulas of the module docstring)."""
-        p, ps = self.penalty, self.shear_penalty
-        trial = self.normal_trial(g)
-        limited = trial < -self.tension
-        force = np.maximum(trial, -self.tension)
-        normal = (force**2 - self.normal_base**2) / (2.0 * p)
-        normal = normal - np.where(limited, self.tension * (trial + self.tension) / p, 0.0)
+        normal = formulas.normal_energy(self.normal_base, self.penalty, self.tension, g)
         with np.errstate(divide="ignore", invalid="ignore"):
-            shear_trial = self.shear_trial(s)
-            friction = self.shear_force(s)
-            excess = np.maximum(np.abs(shear_trial) - self.bound, 0.0)
-            shear = (friction**2 - self.shear_base**2) / (2.0 * ps) + self.bound * excess / ps
-        return float(np.sum(normal) + np.sum(np.where(ps > 0.0, shear, 0.0)))
+            shear = formulas.shear_energy(self.shear_base, self.shear_penalty, self.bound, s)
+        return float(np.sum(normal) + np.sum(np.where(self.shear_penalty > 0.0, shear, 0.0)))

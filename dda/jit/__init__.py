@@ -84,6 +84,7 @@ class Kernel:
                     namespace[name] = helper.dispatcher
                 elif isinstance(helper, Lapack):
                     namespace[name] = helper.external()
+            _register_formulas()
             _announce_compiling()
             self._dispatcher = cached_dispatcher(self.function, nogil=True)
             log.debug("numba kernel %s", self.function.__qualname__)
@@ -122,6 +123,30 @@ class Lapack:
             pointers = [types.voidptr] * self.arguments
             self._external = types.ExternalFunction(symbol, types.void(*pointers))
         return self._external
+
+
+_FORMULAS: list[Callable] = []  # functions of :func:`formula`, in the order defined
+_REGISTERED = [0]  # how many of them numba knows
+
+
+def formula(function: Callable) -> Callable:
+    """Mark ``function`` as a formula: written with numpy's elementwise functions and
+    arithmetic only, it takes arrays from numpy code (called as it is) and numbers from
+    kernels, which compile it into themselves (numba's ``register_jitable``, done when
+    the first kernel compiles). One definition serves both paths."""
+    _FORMULAS.append(function)
+    return function
+
+
+def _register_formulas() -> None:
+    """Let numba compile the formulas defined so far into the kernels that call them."""
+    if _REGISTERED[0] == len(_FORMULAS):
+        return
+    from numba.extending import register_jitable
+
+    for function in _FORMULAS[_REGISTERED[0] :]:
+        register_jitable(function)
+    _REGISTERED[0] = len(_FORMULAS)
 
 
 _COMPILING_LISTENER: Any = None  # the numba event listener of :func:`_announce_compiling`

@@ -67,6 +67,7 @@ from dda.scene.engineering import (
     parse_engineering,
 )
 from dda.scene.in_situ import IN_SITU_KEYS, BoundaryStress, StressField, parse_in_situ
+from dda.scene.joints import Joint, parse_joints
 from dda.scene.limits import DEFAULT_MAX_STEPS
 from dda.scene.local_frame import origin_of
 from dda.scene.stability import (
@@ -164,16 +165,6 @@ class Material:
     @property
     def breakable(self) -> bool:
         return self.cohesion is not None and self.friction_angle is not None
-
-
-@dataclass(frozen=True)
-class Joint:
-    """``[joints.NAME]``: Coulomb joint properties (angle in degrees)."""
-
-    name: str
-    friction_angle: float = 0.0
-    cohesion: float = 0.0
-    tensile_strength: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -446,12 +437,6 @@ _MATERIAL: dict[str, Spec] = {
     "damping": real(DAMPING_RATIO),
 }
 
-_JOINT: dict[str, Spec] = {
-    "friction_angle": real(ANGLE),
-    "cohesion": real(NON_NEGATIVE),
-    "tensile_strength": real(NON_NEGATIVE),
-}
-
 
 def _units(chk: Checker, raw: Mapping[str, Any]) -> Units:
     """``[units]``: unit names (non-empty text), SI by default."""
@@ -495,17 +480,6 @@ def _material(chk: Checker, name: str, value: object) -> Material:
 def _materials(chk: Checker, raw: Mapping[str, Any]) -> Mapping[str, Material]:
     table = chk.named_tables(raw.get("materials", {}), "materials")
     return MappingProxyType({name: _material(chk, name, v) for name, v in table.items()})
-
-
-def _joints(chk: Checker, raw: Mapping[str, Any]) -> Mapping[str, Joint]:
-    """Declared joints plus a frictionless ``default`` unless one is declared."""
-    table = chk.named_tables(raw.get("joints", {}), "joints")
-    joints = {
-        name: Joint(name=name, **checked_fields(chk, v, join_key("joints", name), _JOINT))
-        for name, v in table.items()
-    }
-    joints.setdefault("default", Joint("default"))
-    return MappingProxyType(joints)
 
 
 def _fracture(chk: Checker, raw: Mapping[str, Any], joints: Collection[str]) -> FractureSettings:
@@ -972,7 +946,7 @@ def _build_scene(
     analysis = _analysis(chk, raw)
     contact = _contact(chk, raw)
     materials = _materials(chk, raw)
-    joints = _joints(chk, raw)
+    joints = parse_joints(chk, raw)
     blocks = _blocks(chk, raw, materials, joints)
     _check_speeds(chk, blocks, analysis)
     names = frozenset(b.name for b in blocks)

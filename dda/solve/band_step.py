@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.contact import formulas, law_kernels
 from dda.contact import law as contact_law
-from dda.contact import law_kernels
+from dda.contact.formulas import friction_bound, tension_held
 from dda.contact.law import UNBOUNDED, BoundIteration
 from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.jit import floats, kernel
@@ -46,24 +47,18 @@ band_minimise_kernel = band_newton.band_minimise_kernel
 potential_kernel = band_newton.potential_kernel
 
 
-def _friction_bound(friction_tan, held, normal):
-    """b = tan φ ⟨N⟩₊ + c l (:func:`dda.contact.law.friction_bound`), one contact."""
-    return friction_tan * max(normal, 0.0) + held
-
-
-def _first_bounds(intact, tensile, friction_tan, cohesion, multiplier, penalty, g0, last_normal,
-                  fresh, state, friction):  # fmt: skip
-    """:func:`dda.solve.step._first_bounds`: b = tan φ ⟨max(N(g₀), N_last)⟩₊ + c l, a contact
-    found touching this step ``UNBOUNDED``; 0 without friction."""
+def _first_bounds(intact, strength, multiplier, penalty, g0, last_normal, fresh, state, friction):
+    """:func:`dda.solve.step._first_bounds`: the bounds of the larger of N(g₀) and the
+    last step's N (:func:`dda.contact.formulas.friction_bound`), a contact found
+    touching this step ``UNBOUNDED``; 0 without friction."""
     m = g0.shape[0]
     bound = np.zeros(m)
     if not friction:
         return bound
     for c in range(m):
-        tension = tensile[c] if intact[c] else 0.0
-        start = max(max(multiplier[c], -tension) + penalty[c] * g0[c], -tension)
-        held = cohesion[c] if intact[c] else 0.0
-        bound[c] = _friction_bound(friction_tan[c], held, max(start, last_normal[c]))
+        tension = tension_held(strength, c, intact[c])
+        start = formulas.normal_force(max(multiplier[c], -tension), penalty[c], tension, g0[c])
+        bound[c] = friction_bound(strength, c, max(start, last_normal[c]), intact[c])
         if fresh[c] and state[c] != OPEN:
             bound[c] = UNBOUNDED
     return bound
@@ -137,7 +132,7 @@ def _dissipation(shear_base, shear_penalty, bound, s):
 
 def _band_step(
     blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows, g0, s0,
-    intact, tensile, friction_tan, cohesion, normal_multiplier, shear_multiplier, penalty,
+    intact, strength, breakable, normal_multiplier, shear_multiplier, penalty,
     fresh, state, direction, last_normal, penetration,
     friction, augmented, shear_ratio, tolerance, shrink_target, max_penalty, growth,
     friction_tolerance,
@@ -155,9 +150,8 @@ def _band_step(
     normal_force, shear_force = last_normal.copy(), np.zeros(m)
     new_state, new_direction = state.copy(), direction.copy()
     bound = _first_bounds(
-        intact, tensile, friction_tan, cohesion, normal_multiplier, penalty, g0, last_normal,
-        fresh, state, friction,
-    )  # fmt: skip
+        intact, strength, normal_multiplier, penalty, g0, last_normal, fresh, state, friction
+    )
     points, residuals = np.zeros((DEPTH + 1, m)), np.zeros((DEPTH + 1, m))
     history = 0
     d, g, s = np.zeros(n), g0.copy(), s0.copy()
@@ -170,7 +164,7 @@ def _band_step(
     while solves < budget:
         terms_penalty = penalty  # the terms' p: the law's update makes a new array
         normal_base, tension, shear_base, shear_penalty, bounds = terms_kernel(
-            intact, tensile, normal_multiplier, shear_multiplier, penalty, shear_ratio, bound,
+            intact, strength, normal_multiplier, shear_multiplier, penalty, shear_ratio, bound,
             friction,
         )  # fmt: skip
         first = solves == 0
@@ -222,14 +216,13 @@ def _band_step(
                 break
             target = np.empty(m)
             for c in range(m):  # the bounds of this pass's normal forces
-                normal = max(normal_base[c] + terms_penalty[c] * g[c], -tension[c])
-                held = cohesion[c] if intact[c] else 0.0
-                target[c] = _friction_bound(friction_tan[c], held, normal)
+                normal = formulas.normal_force(normal_base[c], terms_penalty[c], tension[c], g[c])
+                target[c] = friction_bound(strength, c, normal, intact[c])
             bound, history = _advance(bound, target, points, residuals, history)
             continue
         normal, target, changed = forces_and_bounds_kernel(
             normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
-            intact, friction_tan, cohesion, friction,
+            intact, strength, friction,
         )  # fmt: skip
         settled = True
         if friction:
@@ -247,7 +240,7 @@ def _band_step(
         if settled:  # bonds are judged on consistent forces only
             lost = broken_kernel(
                 normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
-                intact, cohesion,
+                intact, breakable,
             )  # fmt: skip
             for c in range(m):
                 if lost[c]:
@@ -278,7 +271,6 @@ def _band_step(
 
 _along = band_newton._along
 _pieces = contact_pieces._pieces
-_friction_bound = kernel(_friction_bound) or _friction_bound
 _first_bounds = kernel(_first_bounds) or _first_bounds
 _remembered = kernel(_remembered) or _remembered
 _norm = kernel(_norm) or _norm
@@ -307,8 +299,8 @@ def solve_on_band(system, loop) -> tuple[np.ndarray, int, int, bool, float] | No
     velocity_step = loop.blocks.velocity[system.order] * loop.ctx.dt
     arguments = (
         *system.kernel_geometry(),
-        np.ascontiguousarray(contacts.intact, np.bool_), floats(joints.tensile),
-        floats(joints.friction), floats(joints.cohesion), floats(contacts.normal_multiplier),
+        np.ascontiguousarray(contacts.intact, np.bool_), joints.kernel_strength(),
+        np.ascontiguousarray(joints.breakable, np.bool_), floats(contacts.normal_multiplier),
         floats(contacts.shear_multiplier), floats(contacts.penalty),
         np.ascontiguousarray(contacts.fresh, np.bool_),
         np.ascontiguousarray(contacts.state, np.int8), floats(contacts.slide_direction),

@@ -1,10 +1,11 @@
 """The contact pieces of the step's potential, for the compiled Newton passes.
 
-Compiled twins of :class:`dda.contact.potential.ContactTerms`'s pieces, springs,
-offsets and energy, contact by contact (:mod:`dda.solve.band_newton` calls them):
+:class:`dda.contact.potential.ContactTerms`'s pieces, springs, offsets and energy,
+contact by contact (:mod:`dda.solve.band_newton` calls them), each the formula of
+:mod:`dda.contact.formulas` compiled:
 
-    normal piece: elastic (1) where λn + p g ≥ −T, else open (0);
-    shear piece: stuck (0) where |λt + ps s| < b, else sliding (±1);
+    normal piece: elastic where λn + p g ≥ −T, else at the limit;
+    shear piece: stuck where |λt + ps s| < b, else sliding (±1);
     springs: kn = p (elastic), ks = ps (stuck, with friction), else 0;
     offsets: N₀ = λn + p g₀ (elastic) or −T; T₀ = λt + ps s₀ (stuck) or ±b.
 """
@@ -13,20 +14,24 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.contact.formulas import (
+    normal_energy,
+    normal_offset,
+    normal_piece,
+    normal_spring,
+    shear_energy,
+    shear_offset,
+    shear_piece,
+    shear_spring,
+)
 from dda.jit import kernel
 
 
 def _pieces(lam_n, p, tension, lam_t, ps, bound, g, s, normal, shear):
     """:meth:`dda.contact.potential.ContactTerms.pieces`, written into ``normal``, ``shear``."""
     for c in range(g.shape[0]):
-        normal[c] = 1 if lam_n[c] + p[c] * g[c] >= -tension[c] else 0
-        trial = lam_t[c] + ps[c] * s[c]
-        if trial <= -bound[c]:
-            shear[c] = -1
-        elif trial >= bound[c]:
-            shear[c] = 1
-        else:
-            shear[c] = 0
+        normal[c] = normal_piece(lam_n[c], p[c], tension[c], g[c])
+        shear[c] = shear_piece(lam_t[c], ps[c], bound[c], s[c])
 
 
 def _same_pieces(ps, bound, normal, shear, other_normal, other_shear):
@@ -43,8 +48,8 @@ def _springs(p, ps, friction, normal, shear, kn, ks):
     """The springs of the pieces into ``kn``, ``ks``: p on the elastic normal piece,
     ps on the stuck shear piece (with friction), else 0."""
     for c in range(normal.shape[0]):
-        kn[c] = p[c] if normal[c] == 1 else 0.0
-        ks[c] = ps[c] if shear[c] == 0 and friction else 0.0
+        kn[c] = normal_spring(p[c], normal[c])
+        ks[c] = shear_spring(ps[c], shear[c]) if friction else 0.0
 
 
 def _same_springs(kn, ks, springs):
@@ -61,31 +66,17 @@ def _offsets(lam_n, p, tension, lam_t, ps, bound, g0, s0, normal, shear):
     m = normal.shape[0]
     offset_n, offset_t = np.empty(m), np.empty(m)
     for c in range(m):
-        if normal[c] == 1:
-            offset_n[c] = lam_n[c] + p[c] * g0[c]
-        else:
-            offset_n[c] = -tension[c]
-        if shear[c] == 0:
-            offset_t[c] = lam_t[c] + ps[c] * s0[c]
-        else:
-            offset_t[c] = shear[c] * bound[c]
+        offset_n[c] = normal_offset(lam_n[c], p[c], tension[c], g0[c], normal[c])
+        offset_t[c] = shear_offset(lam_t[c], ps[c], bound[c], s0[c], shear[c])
     return offset_n, offset_t
 
 
 def _add_contact_energy(value, lam_n, p, tension, lam_t, ps, bound, g, s):
     """``value`` + Σ φn(g) + Σ φt(s), added contact by contact."""
     for c in range(g.shape[0]):
-        trial = lam_n[c] + p[c] * g[c]
-        force = max(trial, -tension[c])
-        value += (force * force - lam_n[c] * lam_n[c]) / (2.0 * p[c])
-        if trial < -tension[c]:
-            value -= tension[c] * (trial + tension[c]) / p[c]
+        value += normal_energy(lam_n[c], p[c], tension[c], g[c])
         if ps[c] > 0.0:
-            shear_trial = lam_t[c] + ps[c] * s[c]
-            friction = min(max(shear_trial, -bound[c]), bound[c])
-            excess = max(abs(shear_trial) - bound[c], 0.0)
-            value += (friction * friction - lam_t[c] * lam_t[c]) / (2.0 * ps[c])
-            value += bound[c] * excess / ps[c]
+            value += shear_energy(lam_t[c], ps[c], bound[c], s[c])
     return value
 
 

@@ -1,12 +1,15 @@
 """The scene with its strengths divided by a factor F (strength reduction).
 
-Every joint's friction, cohesion and tensile strength are reduced,
+Every Coulomb joint's friction, cohesion and tensile strength are reduced, the peak
+and the residual ones alike,
 
     tan φ_F = tan φ / F,   c_F = c / F,   T_F = T / F,
 
-and, when ``intact`` is asked, the same three of every breakable material (the
-Mohr–Coulomb strength of the intact rock). The scene is changed through its public
-types (a new, frozen :class:`dda.Scene`); nothing else differs.
+a Barton–Bandis joint's shear strength τ(σn) (with its bond's cohesion) is divided by
+F (:attr:`dda.scene.joints.Joint.strength_divisor`) and its tensile strength too, and,
+when ``intact`` is asked, the friction, cohesion and tensile strength of every
+breakable material (the Mohr–Coulomb strength of the intact rock). The scene is changed
+through its public types (a new, frozen :class:`dda.Scene`); nothing else differs.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ import dataclasses
 import math
 from types import MappingProxyType
 
-from dda.scene import Scene
+from dda.scene import Joint, Scene
 
 
 def reduced_angle(angle: float, factor: float) -> float:
@@ -32,10 +35,27 @@ def _reduced(item, factor: float):
     )
 
 
+def _reduced_joint(joint: Joint, factor: float) -> Joint:
+    """A joint with its peak and residual strengths divided by ``factor``."""
+    if joint.barton_bandis:
+        return dataclasses.replace(
+            joint,
+            strength_divisor=joint.strength_divisor * factor,
+            tensile_strength=joint.tensile_strength / factor,
+        )
+    residual = joint.residual_friction_angle
+    return dataclasses.replace(
+        _reduced(joint, factor),
+        residual_friction_angle=None if residual is None else reduced_angle(residual, factor),
+        residual_cohesion=joint.residual_cohesion / factor,
+        residual_tensile_strength=joint.residual_tensile_strength / factor,
+    )
+
+
 def reduce_strengths(scene: Scene, factor: float, intact: bool = False) -> Scene:
     """``scene`` with its joint strengths (and with ``intact`` its breakable materials'
     strengths) divided by ``factor``."""
-    joints = {name: _reduced(j, factor) for name, j in scene.joints.items()}
+    joints = {name: _reduced_joint(j, factor) for name, j in scene.joints.items()}
     materials = dict(scene.materials)
     if intact:
         materials = {n: _reduced(m, factor) if m.breakable else m for n, m in materials.items()}
@@ -48,6 +68,8 @@ def reducible(scene: Scene, intact: bool = False) -> bool:
     """True when some strength would change: a joint (or, with ``intact``, a breakable
     material) with friction, cohesion or tensile strength."""
     items = list(scene.joints.values())
+    if any(j.barton_bandis for j in items):
+        return True
     if intact:
         items += [m for m in scene.materials.values() if m.breakable]
     return any(i.friction_angle > 0 or i.cohesion > 0 or i.tensile_strength > 0 for i in items)

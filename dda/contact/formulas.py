@@ -1,0 +1,159 @@
+"""The contact law's formulas, each written once for every path that evaluates it.
+
+Every function here is a :func:`dda.jit.formula`: it takes numpy arrays (the numpy
+paths: one call over all contacts) or numbers (the compiled loops of
+:mod:`dda.contact.law_kernels`, :mod:`dda.solve.contact_pieces` and
+:mod:`dda.solve.band_step`, one contact at a time, which compile the same function into
+themselves), using only ``np.maximum``, ``np.minimum``, :func:`select` (``np.where``)
+and arithmetic, which mean the same on both. The joint strengths are read through
+``at``: a contact's index in the compiled loops, ``slice(None)`` (all of them) in numpy.
+
+With λn the normal multiplier, p the penalty, T the tension a contact holds, λt the
+shear force carried, ps the shear penalty and b the friction bound (docs/theory.md
+§4-6, docs/contact.md)::
+
+    N = max(λn + p g, −T)                      normal force (eq. 7's trial, limited)
+    F = clamp(λt + ps s, −b, b)                shear force
+    T = T_peak l while intact, else T_res l    tension held
+    b = tan φ ⟨N⟩₊ + c l                       Coulomb, peak while intact, residual after
+    b = (⟨N⟩₊ tan φ_mob + c l) / F_s           Barton–Bandis, φ_mob of σn = N / l
+
+Barton–Bandis: φ_mob = φr + JRC log10(JCS / σn) (degrees), bounded below by φr (the
+formula is not meant beyond σn = JCS, where it would fall under the residual angle)
+and above by ``MOBILISED_CAP`` = 70° (at small σn the logarithm grows without bound;
+70° is Barton's cut-off for the peak angle of a rough joint under low stress): b is 0
+at σn = 0, continuous and rising with σn.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dda.jit import formula
+
+# pieces of a contact's terms (shear: which side of the friction bound, or stuck)
+NORMAL_LIMIT, NORMAL_ELASTIC = 0, 1  # at the limit −T (open when T = 0) / elastic spring
+SLIP_BACK, STICK, SLIP_FORWARD = -1, 0, 1
+
+MOBILISED_CAP = math.radians(70.0)
+TINY = 1e-300  # keeps the logarithm of σn = 0 and of a Coulomb joint's JCS = 0 finite
+
+
+@formula
+def select(condition, if_true, if_false):
+    """``np.where`` as a number for numbers (numba's is a 0-d array), as an array for arrays."""
+    return np.where(condition, if_true, if_false)[()]
+
+
+@formula
+def normal_trial(normal_base, penalty, gap):
+    """λn + p g."""
+    return normal_base + penalty * gap
+
+
+@formula
+def normal_force(normal_base, penalty, tension, gap):
+    """N = max(λn + p g, −T)."""
+    return np.maximum(normal_trial(normal_base, penalty, gap), -tension)
+
+
+@formula
+def shear_trial(shear_base, shear_penalty, slip):
+    """λt + ps s."""
+    return shear_base + shear_penalty * slip
+
+
+@formula
+def shear_force(shear_base, shear_penalty, bound, slip):
+    """F = clamp(λt + ps s, −b, b)."""
+    return np.minimum(np.maximum(shear_trial(shear_base, shear_penalty, slip), -bound), bound)
+
+
+@formula
+def tension_held(strength, at, intact):
+    """T l while intact, the residual T_r l after."""
+    return select(intact, strength.tensile[at], strength.residual_tensile[at])
+
+
+@formula
+def mobilised_tangent(strength, at, pressed):
+    """tan φ_mob of Barton–Bandis at the normal force ``pressed`` ≥ 0 (module notes)."""
+    ratio = np.maximum(strength.jcs_length[at], TINY) / np.maximum(pressed, TINY)
+    residual = strength.residual_angle[at]
+    angle = residual + strength.jrc[at] * np.log10(ratio) * (math.pi / 180.0)
+    return np.tan(np.minimum(np.maximum(angle, residual), MOBILISED_CAP))
+
+
+@formula
+def friction_bound(strength, at, normal, intact):
+    """b of the normal force ``normal``: Coulomb, peak while intact and residual after,
+    or Barton–Bandis (module notes; its formula only where some joint has it)."""
+    pressed = np.maximum(normal, 0.0)
+    held = select(intact, strength.cohesion[at], strength.residual_cohesion[at])
+    tangent = select(intact, strength.friction[at], strength.residual_friction[at])
+    coulomb = tangent * pressed + held
+    if not strength.any_barton:
+        return coulomb
+    barton = (pressed * mobilised_tangent(strength, at, pressed) + held) / strength.divisor[at]
+    return select(strength.barton[at], barton, coulomb)
+
+
+@formula
+def normal_piece(normal_base, penalty, tension, gap):
+    """Elastic where λn + p g ≥ −T, else at the limit −T."""
+    elastic = normal_trial(normal_base, penalty, gap) >= -tension
+    return select(elastic, NORMAL_ELASTIC, NORMAL_LIMIT)
+
+
+@formula
+def shear_piece(shear_base, shear_penalty, bound, slip):
+    """Slipping back where λt + ps s ≤ −b, else forward where ≥ b, else stuck."""
+    trial = shear_trial(shear_base, shear_penalty, slip)
+    return select(trial <= -bound, SLIP_BACK, select(trial >= bound, SLIP_FORWARD, STICK))
+
+
+@formula
+def normal_spring(penalty, piece):
+    """kn: p on the elastic normal piece, else 0."""
+    return select(piece == NORMAL_ELASTIC, penalty, 0.0)
+
+
+@formula
+def shear_spring(shear_penalty, piece):
+    """ks: ps on the stuck shear piece, else 0."""
+    return select(piece == STICK, shear_penalty, 0.0)
+
+
+@formula
+def normal_offset(normal_base, penalty, tension, gap0, piece):
+    """N of the piece's quadratic at D = 0: λn + p g₀ (elastic) or −T."""
+    elastic = piece == NORMAL_ELASTIC
+    return select(elastic, normal_trial(normal_base, penalty, gap0), -tension)
+
+
+@formula
+def shear_offset(shear_base, shear_penalty, bound, slip0, piece):
+    """F of the piece's quadratic at D = 0: λt + ps s₀ (stuck) or ±b (the piece's sign)."""
+    stuck = piece == STICK
+    return select(stuck, shear_trial(shear_base, shear_penalty, slip0), piece * bound)
+
+
+@formula
+def normal_energy(normal_base, penalty, tension, gap):
+    """φn(g) = (N² − λn²) / 2p, less T (λn + p g + T) / p beyond the limit (potential.py)."""
+    trial = normal_trial(normal_base, penalty, gap)
+    force = np.maximum(trial, -tension)
+    beyond = select(trial < -tension, tension * (trial + tension) / penalty, 0.0)
+    return (force * force - normal_base * normal_base) / (2.0 * penalty) - beyond
+
+
+@formula
+def shear_energy(shear_base, shear_penalty, bound, slip):
+    """φt(s) = (F² − λt²) / 2ps + b ⟨|λt + ps s| − b⟩₊ / ps (ps > 0)."""
+    trial = shear_trial(shear_base, shear_penalty, slip)
+    force = np.minimum(np.maximum(trial, -bound), bound)
+    excess = np.maximum(np.abs(trial) - bound, 0.0)
+    elastic = (force * force - shear_base * shear_base) / (2.0 * shear_penalty)
+    return elastic + bound * excess / shear_penalty
