@@ -95,7 +95,7 @@ def test_run_refuses_a_missing_file(tmp_path, monkeypatch, capsys):
 
 
 def test_run_takes_a_shipped_case_by_name_from_any_folder(tmp_path, monkeypatch, capsys):
-    """``dda run sliding_block`` runs the shipped scene (dda.cases) into out/sliding_block,
+    """``dda run sliding_block`` runs the shipped scene (dda.cases) into out/run_sliding_block,
     from a folder without it; a name that is neither a file nor a shipped case is refused
     with the shipped names, exit 2, nothing written."""
     monkeypatch.chdir(tmp_path)
@@ -104,7 +104,7 @@ def test_run_takes_a_shipped_case_by_name_from_any_folder(tmp_path, monkeypatch,
     assert "sliding_blok" in error and "no shipped case" in error and "sliding_block" in error
     assert list(tmp_path.iterdir()) == []
     assert cli.main(["run", "sliding_block", "--quiet"]) == 0
-    summary = json.loads((tmp_path / "out" / "sliding_block" / "summary.json").read_text())
+    summary = json.loads((tmp_path / "out" / "run_sliding_block" / "summary.json").read_text())
     assert summary["status"] == "finished"
 
 
@@ -172,8 +172,8 @@ def test_run_passes_options_to_the_engine(case, monkeypatch, capsys):
     assert cli.main(["run", str(case), "--save-every", "7"]) == 0
     assert seen == {"save_every": 7, "progress": True, "keep_frames": False, "stop": True}
     out = capsys.readouterr().out
-    assert "7 steps" in out and "out/small" in out.replace("\\", "/")
-    assert Path("out/small/final.png").is_file()
+    assert "7 steps" in out and "out/run_small" in out.replace("\\", "/")
+    assert Path("out/run_small/final.png").is_file()
 
 
 # ------------------------------------------------------------------ dda run, real engine

@@ -98,6 +98,7 @@ REFUSED = [
     (["bench", "--sizes", "2"], 130, "dda bench: interrupted"),  # Ctrl-C
     (["tradeoff", "sliding_block", "--serial"], 130, "dda tradeoff: interrupted"),  # Ctrl-C
     (["tradeoff", "sliding_block", "-o", "a_file"], 2, "-o a_file: exists and is not a direc"),
+    (["verify", "nosuchcase"], 2, "case(s): nosuchcase; the cases are al_rate, bolted, bonded,"),
 ]
 
 

@@ -21,6 +21,7 @@ import argparse
 import dataclasses
 import gc
 import logging
+import os
 import shutil
 import sys
 from collections.abc import Sequence
@@ -206,7 +207,9 @@ def _add_run(subparsers: Any) -> None:
         "case", type=Path,
         help="scene file (TOML), or the name of a shipped case (sliding_block, tunnel, ...)",
     )  # fmt: skip
-    p.add_argument("-o", "--outdir", type=output_path, help="output directory (default out/<case>)")
+    p.add_argument(
+        "-o", "--outdir", type=output_path, help="output directory (default out/run_<case>)"
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument(
         "--save-every", type=positive_int, metavar="N",
@@ -273,6 +276,13 @@ def output_path(text: str) -> Path:
     return Path(text)
 
 
+def default_outdir(command: str, scene: str | os.PathLike[str] | None = None) -> Path:
+    """Where ``command`` writes when given no ``-o``: ``out/<command>_<scene>``, the scene
+    (or case) file's name without its suffix, or ``out/<command>`` for a command of no
+    scene (docs/api.md, "Where the output goes")."""
+    return Path("out") / (f"{command}_{Path(scene).stem}" if scene else command)
+
+
 def non_negative_float(text: str) -> float:
     """argparse type: a finite number of at least 0."""
     try:
@@ -286,16 +296,21 @@ def non_negative_float(text: str) -> float:
 
 def run_command(args: argparse.Namespace) -> int:
     """``dda run``: load, claim OUTDIR, simulate with live output and checkpoints, summarise."""
-    from dda.io.output_paths import OutputError
+    from dda.io.output_paths import OutputError, check_output_dir
     from dda.io.run_folder import RunFolder
     from dda.run.checkpoint import CheckpointError
 
+    outdir = args.outdir or default_outdir("run", args.case)
+    try:
+        check_output_dir(outdir)  # before the scene is read or cut
+    except OutputError as exc:
+        print(f"dda run: -o {exc}", file=sys.stderr)
+        return EXIT_INPUT
     try:
         scene = _run_scene(args)
     except dda.SceneError as exc:
         print(f"dda run: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    outdir = args.outdir or Path("out") / args.case.stem
     mode = "resume" if args.resume else "overwrite" if args.overwrite else "new"
     try:
         folder = RunFolder(outdir, mode)

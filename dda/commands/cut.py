@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dda.commands.cli import output_path, positive_int
+from dda.commands.cli import default_outdir, output_path, positive_int
 from dda.errors import SceneError
 from dda.io.atomic import atomic_path, write_text
 from dda.io.output_paths import OutputError, check_output_file
@@ -44,8 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "-o",
         "--output",
         type=output_path,
-        default=Path("blocks.toml"),
-        help="TOML file to write (default: blocks.toml)",
+        help="TOML file to write (default: out/cut_<scene>/<scene>.toml)",
     )
     parser.add_argument(
         "--png", type=output_path, default=None, help="picture to write (default: OUTPUT.png)"
@@ -76,7 +75,8 @@ def run_cut(args: argparse.Namespace) -> int:
     except SceneError as exc:
         sys.stderr.write(f"dda cut: {exc}\n")
         return 2
-    output = Path(args.output)
+    stem = Path(args.scene).stem
+    output = Path(args.output or default_outdir("cut", args.scene) / f"{stem}.toml")
     png = None if args.no_png else Path(args.png) if args.png else output.with_suffix(".png")
     stages = _stage_ends(picture=png is not None)
     with CutBar(Path(args.scene).name, share=stages["cutting"], quiet=args.quiet) as bar:

@@ -12,7 +12,7 @@ from typing import Any
 
 from dda.commands.cli import output_path
 from dda.commands.cluster_options import add_cluster_options, count
-from dda.commands.fos import EXIT_INPUT, add_fos_options, output_and_cluster, prepare
+from dda.commands.fos import EXIT_INPUT, add_fos_options, prepare
 
 BASE_COLUMNS = ("realisation", "seed")
 OUTCOME_COLUMNS = ("failed", "speed", "limit", "fos", "steps", "seconds", "host", "status")
@@ -32,7 +32,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("scene", type=Path, help="scene file (or a shipped case's name)")
     p.add_argument(
-        "-o", "--outdir", type=output_path, help="output folder (default out/ensemble_SCENE)"
+        "-o", "--outdir", type=output_path, help="output folder (default out/ensemble_<scene>)"
     )
     p.add_argument(
         "--realisations", type=count, metavar="N", help="[ensemble] realisations (default 100)"
@@ -54,17 +54,11 @@ def ensemble_command(args: argparse.Namespace) -> int:
     if isinstance(prepared, str):
         print(prepared, file=sys.stderr)
         return EXIT_INPUT
-    raw, scene, criterion, source = prepared
+    raw, scene, criterion, source, outdir, cluster = prepared
     if scene.ensemble is None or not scene.ensemble.vary:
         print(f"dda ensemble: {source}: ensemble.vary: the scene draws no value "
               "(add [[ensemble.vary]] tables, docs/scene.md)", file=sys.stderr)  # fmt: skip
         return EXIT_INPUT
-    default = Path("out") / f"ensemble_{Path(source).stem}"
-    where = output_and_cluster(args, "ensemble", args.outdir or default)
-    if isinstance(where, str):
-        print(where, file=sys.stderr)
-        return EXIT_INPUT
-    outdir, cluster = where
     args.kept_on_interrupt = (
         f"the finished realisations are in {outdir / 'ensemble.csv'}: the same command reuses them"
     )

@@ -13,7 +13,7 @@ from pathlib import Path
 from dda.commands.cli import output_path, positive_int
 from dda.io.fields import SCALARS
 
-EXIT_OK, EXIT_INPUT = 0, 2
+EXIT_OK, EXIT_FAILURE, EXIT_INPUT = 0, 1, 2
 
 
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -51,9 +51,10 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 
 def movie_command(args: argparse.Namespace) -> int:
-    """``dda movie``: 0 with the movie written, 2 on bad input (nothing written)."""
+    """``dda movie``: 0 with the movie written, 2 on bad input (nothing written), 1 when
+    ffmpeg fails (one line with its last message; nothing written)."""
     from dda.io.frame_files import all_frames, read_found_frame
-    from dda.io.movie import MovieError, movie_format, shared_look, write_movie
+    from dda.io.movie import FfmpegError, MovieError, movie_format, shared_look, write_movie
     from dda.io.output_paths import OutputError, check_output_file
     from dda.run.progress import ProgressBar
 
@@ -70,13 +71,17 @@ def movie_command(args: argparse.Namespace) -> int:
         print(f"dda movie: {exc}", file=sys.stderr)
         return EXIT_INPUT
     run = found[0].summary()
-    with ProgressBar(total=len(frames), label=f"movie {output.name}") as bar:
-        count = write_movie(
-            frames, output, look, scalars=args.scalars, fps=args.fps,
-            size=tuple(args.size), show_contacts=not args.no_contacts,
-            scene_title=run.get("title") or "", units=run.get("units"),
-            on_frame=lambda k: bar.update(k, frame=k),
-        )  # fmt: skip
+    try:
+        with ProgressBar(total=len(frames), label=f"movie {output.name}") as bar:
+            count = write_movie(
+                frames, output, look, scalars=args.scalars, fps=args.fps,
+                size=tuple(args.size), show_contacts=not args.no_contacts,
+                scene_title=run.get("title") or "", units=run.get("units"),
+                on_frame=lambda k: bar.update(k, frame=k),
+            )  # fmt: skip
+    except FfmpegError as exc:  # not the input's fault: exit 1, in one line
+        print(f"dda movie: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
     print(f"{output} ({count} frames, {args.size[0]} x {args.size[1]}, {args.fps:g} fps)")
     return EXIT_OK
 

@@ -12,11 +12,15 @@ and the name does not ask for GIF.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import os
-from collections.abc import Callable, Iterable, Mapping, Sequence
+import sys
+import tempfile
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 
@@ -30,6 +34,10 @@ FORMATS = (".mp4", ".gif")
 
 class MovieError(ValueError):
     """A movie that cannot be written as asked (format, size, no frames)."""
+
+
+class FfmpegError(RuntimeError):
+    """ffmpeg failed while writing a movie: one line, the file and ffmpeg's last word."""
 
 
 def mp4_available() -> bool:
@@ -108,8 +116,10 @@ def write_movie(
                 on_frame(k)
 
     with atomic_path(Path(path)) as tmp:
-        writer = _write_mp4 if suffix == ".mp4" else _write_gif
-        count = writer(pictures(), tmp, fps, size)
+        if suffix == ".mp4":
+            count = _write_mp4(pictures(), tmp, fps, size, Path(path))
+        else:
+            count = _write_gif(pictures(), tmp, fps, size)
     if count == 0:
         raise MovieError("no frame to draw")
     return count
@@ -128,20 +138,53 @@ def _write_gif(pictures: Iterable[np.ndarray], path: Path, fps: float, size) -> 
     return len(images)
 
 
-def _write_mp4(pictures: Iterable[np.ndarray], path: Path, fps: float, size) -> int:
-    """MP4 (H.264, yuv420p) through imageio-ffmpeg, one picture at a time."""
+def _write_mp4(pictures: Iterable[np.ndarray], path: Path, fps: float, size, name: Path) -> int:
+    """MP4 (H.264, yuv420p) through imageio-ffmpeg, one picture at a time. ffmpeg's own
+    messages go to a temporary file, not the terminal: when it fails, an
+    :class:`FfmpegError` says so in one line that names ``name`` (the file asked for)
+    and ends with ffmpeg's last message."""
     import imageio_ffmpeg
 
-    writer = imageio_ffmpeg.write_frames(
-        str(path), size, fps=fps, codec="libx264", pix_fmt_out="yuv420p",
-        output_params=["-f", "mp4"], macro_block_size=2, ffmpeg_log_level="error",
-    )  # fmt: skip
-    writer.send(None)
-    count = 0
-    try:
-        for picture in pictures:
-            writer.send(np.ascontiguousarray(picture))
-            count += 1
-    finally:
-        writer.close()
+    with tempfile.TemporaryFile() as said:
+        writer = imageio_ffmpeg.write_frames(
+            str(path), size, fps=fps, codec="libx264", pix_fmt_out="yuv420p",
+            output_params=["-f", "mp4"], macro_block_size=2, ffmpeg_log_level="error",
+        )  # fmt: skip
+        count = 0
+        try:
+            with _child_stderr(said):  # ffmpeg starts here, its stderr the file
+                writer.send(None)
+            for picture in pictures:
+                writer.send(np.ascontiguousarray(picture))
+                count += 1
+            writer.close()
+        except (OSError, RuntimeError) as exc:
+            with contextlib.suppress(OSError, RuntimeError):
+                writer.close()
+            said_last = _last_words(said, exc)
+            raise FfmpegError(f"{name}: ffmpeg could not write the movie ({said_last})") from None
     return count
+
+
+@contextlib.contextmanager
+def _child_stderr(log: IO[bytes]) -> Iterator[None]:
+    """Processes started within the block inherit ``log`` as their standard error (the
+    descriptor 2 of this process is swapped for the block and restored after it)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        os.dup2(log.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _last_words(log: IO[bytes], exc: BaseException) -> str:
+    """The last line ffmpeg wrote to ``log``, else the error's first line."""
+    log.seek(0)
+    lines = [line.strip() for line in log.read().decode("utf-8", "replace").splitlines()]
+    lines = [line for line in lines if line]
+    if lines:
+        return lines[-1]
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0]

@@ -53,8 +53,18 @@ class ProgressBar:
     def __enter__(self) -> ProgressBar:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
+        if kind is None:
+            self.close()
+        else:  # an error ends the bar: no last line before its message
+            self.abandon()
+
+    def abandon(self) -> None:
+        """End the bar without drawing it again (the line drawn in place is ended)."""
+        if not self._closed and self._tty and self._width:
+            self.stream.write("\n")
+            self.stream.flush()
+        self._closed = True
 
     @property
     def fraction(self) -> float:
