@@ -354,7 +354,7 @@ def parse_toml(text: str, source: str) -> dict[str, Any]:
         key = _overwritten_key(text, message)
         if key:
             raise SceneError(source, key, f"given twice ({message})") from None
-        raise SceneError(source, "<toml>", message) from None
+        raise SceneError(source, "<toml>", f"not valid TOML: {message}") from None
 
 
 _AT_LINE = re.compile(r"\(at line (\d+), column \d+\)")
