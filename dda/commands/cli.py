@@ -425,7 +425,11 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
 
 
 def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> int:
-    """The run of :func:`_run_in` into ``writer``: frames as they come, then the summary."""
+    """The run of :func:`_run_in` into ``writer``: frames as they come, then the summary.
+
+    A signal stops the run after the step under way; the summary and the picture follow
+    while the signals are still caught, so a second signal (which stops at once) lands in
+    :func:`_stopped_at_once` and the summary still says ``"interrupted"``."""
     from dda.run.checkpoint import CheckpointPlan
     from dda.run.stop import StopOnSignal
 
@@ -435,12 +439,14 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
         minutes * 60 if minutes else None, at_start=True,
     )  # fmt: skip
     logger.info("running %s into %s (run %s)", args.case, folder.outdir, writer.run_id)
+    result = None  # until the engine returns one
     with StopOnSignal("dda run") as stop:
         try:
             result = dda.simulate(
                 scene, progress=not args.quiet, on_frame=writer.add_frame, keep_frames=False,
                 stop=stop, checkpoints=plan, resume=checkpoint,
             )  # fmt: skip
+            summary = writer.finish(result, scene)
         except dda.SimulationError as exc:
             print(f"dda run: simulation failed: {exc}", file=sys.stderr)
             writer.finish(getattr(exc, "result", None), scene, status="failed", error=str(exc))
@@ -450,22 +456,50 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
             )
             return EXIT_SIMULATION
         except KeyboardInterrupt:
-            writer.finish(None, scene, status="interrupted", error="interrupted by the user")
-            print(f"\ndda run: interrupted; partial output in {folder.outdir}", file=sys.stderr)
-            return stop.exit_code
+            return _stopped_at_once(writer, scene, folder, args, stop, result)
         except OSError as exc:  # a full disk, a file system gone read-only, ...
             return _write_failed(exc, writer, scene, folder, args)
-    summary = writer.finish(result, scene)
     if summary["status"] == "interrupted":
         print(
             f"dda run: stopped at step {summary.get('steps')} ({stop.name}); continue with: "
-            f"dda run {args.case} -o {folder.outdir} --resume",
+            f"{_resume_command(args, folder)}",
             file=sys.stderr,
         )
         return stop.exit_code
     if not args.quiet:
         print(summary_paragraph(summary, folder.outdir))
     return EXIT_OK
+
+
+def _stopped_at_once(writer, scene, folder, args: argparse.Namespace, stop, result) -> int:
+    """A second signal stopped the run at once: its summary is written while further
+    signals are ignored, without the picture (``dda render`` draws it later): the
+    ``result``'s status when the engine had returned (the signal came as the picture was
+    drawn), else ``"interrupted"``; then the command that continues the run."""
+    from dda.run.checkpoint import CheckpointError, read_checkpoint
+
+    with stop.ignoring():
+        if not writer.done:  # (a summary written before the signal stays)
+            writer.image = False
+            status = None if result is not None else "interrupted"
+            writer.finish(result, scene, status=status, error=status and "stopped by a signal")
+        try:
+            step = read_checkpoint(folder.checkpoint_path).step
+        except CheckpointError:  # none left: the run had finished
+            step = None
+    print(f"\ndda run: stopped at once ({stop.name} again); output in {folder.outdir}, "
+          f"no final.png (dda render {folder.outdir} draws it)", file=sys.stderr)  # fmt: skip
+    if step is not None:
+        again = _resume_command(args, folder)
+        print(f"its checkpoint of step {step} is kept; continue with: {again}", file=sys.stderr)
+    elif result is None:
+        print("no checkpoint was written yet: run again with --overwrite", file=sys.stderr)
+    return stop.exit_code
+
+
+def _resume_command(args: argparse.Namespace, folder) -> str:
+    """The command that continues the run in ``folder``."""
+    return f"dda run {args.case} -o {folder.outdir} --resume"
 
 
 def _picture_helper(args: argparse.Namespace):
@@ -500,7 +534,7 @@ def _write_failed(exc: OSError, writer, scene, folder, args: argparse.Namespace)
         return EXIT_FAILURE
     print(
         f"its checkpoint of step {step} is kept: free space, then continue with: "
-        f"dda run {args.case} -o {folder.outdir} --resume",
+        f"{_resume_command(args, folder)}",
         file=sys.stderr,
     )
     return EXIT_FAILURE
