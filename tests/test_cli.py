@@ -339,6 +339,31 @@ def test_progress_bar_in_a_log_writes_about_every_five_percent():
     assert lines[-1].startswith("run [") and "100.0%" in lines[-1] and "step=1000" in lines[-1]
 
 
+def test_the_eta_leaves_out_the_compiling_of_kernels(monkeypatch):
+    """10 s into a run at 1 %, 9 of them compiling kernels: the ETA is 99 x 1 s, not
+    99 x 10 s (the first run after installing read 2:56:11 at its first step)."""
+    from dda.run import progress
+
+    clock, compiled = [100.0], [0.0]
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: clock[0])
+    bar = ProgressBar(1.0, label="run", stream=io.StringIO(), aside=lambda: compiled[0])
+    clock[0], compiled[0] = 110.0, 9.0
+    bar.update(0.01, step=1)
+    assert " 10.0s eta 1:39 " in bar.text()  # 99 s
+    plain = ProgressBar(1.0, label="run", stream=io.StringIO())
+    plain._start = 100.0
+    plain.update(0.01)
+    assert " eta 16:30" in plain.text()  # 990 s: without the clock, all of it
+
+
+def test_an_error_ends_the_bar_without_a_last_line():
+    stream = io.StringIO()
+    with pytest.raises(OSError), ProgressBar(total=10, label="movie", stream=stream) as bar:
+        bar.update(0)
+        raise OSError("broken pipe")
+    assert stream.getvalue().count("movie [") == 1  # the first line only, no closing one
+
+
 def test_progress_bar_on_a_terminal_redraws_in_place():
     stream = FakeTerminal()
     with ProgressBar(total=10, label="run", stream=stream) as bar:

@@ -21,6 +21,7 @@ import argparse
 import dataclasses
 import gc
 import logging
+import math
 import os
 import shutil
 import sys
@@ -613,6 +614,7 @@ def _add_render(subparsers: Any) -> None:
         "the scalars)",
     )  # fmt: skip
     p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
+    add_range_option(p)
     p.add_argument("--step", type=int, help="step of the frame (OUTDIR only; default last)")
     p.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")
     p.add_argument(
@@ -622,12 +624,35 @@ def _add_render(subparsers: Any) -> None:
     p.set_defaults(func=render_command)
 
 
+def add_range_option(parser: argparse.ArgumentParser) -> None:
+    """``--range MIN MAX``: the colour range, in the scene's unit of the quantity."""
+    parser.add_argument(
+        "--range", type=float, nargs=2, metavar=("MIN", "MAX"),
+        help="colour range in the scene's unit of the quantity (Pa, not kPa: "
+        "--range -2e6 0); values beyond it take the end colours (default: the values')",
+    )  # fmt: skip
+
+
+def checked_range(args: argparse.Namespace) -> tuple[float, float] | None:
+    """``args.range``, or a ValueError naming it when it is no range."""
+    if args.range is None:
+        return None
+    low, high = args.range
+    text = f"--range {low:g} {high:g}"
+    if not (math.isfinite(low) and math.isfinite(high)):
+        raise ValueError(f"{text}: give finite numbers")
+    if not low < high:
+        raise ValueError(f"{text}: the first number must be below the second")
+    return float(low), float(high)
+
+
 def render_command(args: argparse.Namespace) -> int:
     """``dda render``: read a frame back from VTU and draw it."""
     from dda.io.frame_files import find_frame, read_found_frame
     from dda.io.output_paths import OutputError, check_output_file
 
     try:
+        clim = checked_range(args)
         found = find_frame(args.source, args.step)
         output = args.output or found.default_png(args.scalars)
         check_output_file(output)
@@ -642,7 +667,7 @@ def render_command(args: argparse.Namespace) -> int:
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
         window_size=tuple(args.size), scene_title=run.get("title") or "",
-        units=run.get("units"),
+        units=run.get("units"), clim=clim,
     )  # fmt: skip
     logger.info("wrote %s", output)
     print(output)

@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from dda.commands.cli import output_path, positive_int
+from dda.commands.cli import add_range_option, checked_range, output_path, positive_int
 from dda.io.fields import SCALARS
 
 EXIT_OK, EXIT_FAILURE, EXIT_INPUT = 0, 1, 2
@@ -22,7 +22,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "movie",
         help="animate a run's frames (MP4, or GIF)",
         description="Draw every frame written by `dda run` into OUTDIR into one movie, "
-        "with one view and one colour range for all frames: MP4 when imageio-ffmpeg is "
+        "with one view and one colour range for all frames (--range, else the values the "
+        "frames hold for two frames or more: a one-frame spike is left out): MP4 when "
+        "imageio-ffmpeg is "
         "installed (pip install 'dda-rock[movie]'), else GIF; -o NAME.gif or NAME.mp4 "
         "chooses.",
     )
@@ -34,6 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         help="movie file, .mp4 or .gif (default: OUTDIR/movie.*)",
     )
     parser.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
+    add_range_option(parser)
     parser.add_argument(
         "--fps", type=_positive_float, default=10.0, help="frames a second (default 10)"
     )
@@ -65,8 +68,9 @@ def movie_command(args: argparse.Namespace) -> int:
         if args.size[0] % 2 or args.size[1] % 2:
             raise MovieError(f"--size {args.size[0]} {args.size[1]}: give even numbers")
         check_output_file(output)
+        clim = checked_range(args)
         frames = [read_found_frame(f) for f in found]
-        look = shared_look(frames, args.scalars)
+        look = shared_look(frames, args.scalars, clim)
     except (FileNotFoundError, ValueError, OutputError) as exc:
         print(f"dda movie: {exc}", file=sys.stderr)
         return EXIT_INPUT
