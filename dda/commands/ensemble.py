@@ -162,7 +162,8 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
     if judged:
         keep = [(v, f) for v, f in zip(values, failed, strict=True) if math.isfinite(v)]
         if keep:
-            ensemble_plot(*zip(*keep, strict=True), label, outdir / "ensemble.png", title)
+            ensemble_plot(*zip(*keep, strict=True), label, outdir / "ensemble.png", title,
+                          factor_of_safety=with_fos)  # fmt: skip
             written.append("ensemble.png")
     written += _failure_pictures(outdir, raw, source, scene, rows, frames, keys)
     summary = {
@@ -215,22 +216,23 @@ def _with_unit(value: float, unit: str) -> str:
 
 
 def _failure_pictures(outdir, raw, source, scene, rows, frames, keys) -> list[str]:
-    """The first three failing realisations at the end of their run, by displacement."""
+    """The first three failing realisations at the end of their run, by displacement:
+    ``failing_K.png``, K the realisation's index (as in ensemble.csv)."""
     from dda.io.images import render_frame
     from dda.stability.ensemble import Realisation, run_realisation
 
     failing = sorted(k for k, r in rows.items() if r["failed"])[:PICTURES]
     names = []
     units = {"length": scene.units.length, "force": scene.units.force, "time": scene.units.time}
-    for n, k in enumerate(failing, 1):
+    for k in failing:
         frame = frames.get(k)
         if frame is None:  # a reused realisation: run it again for its picture
             frame = run_realisation(Realisation(raw, k, source)).get("frame")
         if frame is None:
             continue
         drawn = _drawn(rows[k], keys, scene.units)
-        render_frame(frame, outdir / f"failing_{n}.png", scalars="displacement",
+        render_frame(frame, outdir / f"failing_{k}.png", scalars="displacement",
                      title=f"realisation {k}: {drawn}", scene_title=scene.title,
                      units=units)  # fmt: skip
-        names.append(f"failing_{n}.png")
+        names.append(f"failing_{k}.png")
     return names

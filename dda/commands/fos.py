@@ -180,6 +180,7 @@ class _Runner:
             parsed = _parse_row(row)
             self.rows[round(parsed["factor"], DIGITS)] = parsed
         self.frames: dict[float, Any] = {}
+        self.moving: dict[float, list[dict]] = {}  # the blocks faster than the limit
         self.workers = None
         self.done = 0
 
@@ -193,7 +194,7 @@ class _Runner:
                 yield factor, self.rows[factor]["failed"]
         trials = [Trial(self.raw, f, self.source) for f in todo]
         for row in self.workers.map_unordered(run_trial, trials):
-            frame = row.pop("frame")
+            frame, self.moving[row["factor"]] = row.pop("frame"), row.pop("moving")
             if frame is not None:
                 self.frames[row["factor"]] = frame
             self.store.append(row)
@@ -226,7 +227,8 @@ def _parse_row(row: dict[str, str]) -> dict:
 
 
 def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
-    """fos.png, failure.png (the first failing trial, blocks by displacement), fos.json."""
+    """fos.png, failure.png (the first failing trial, blocks by displacement), fos.json
+    (with the blocks that move at the first failing F)."""
     from dda.io.atomic import write_text
     from dda.io.images import render_frame
     from dda.stability.report import fos_plot
@@ -236,10 +238,12 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
     fos_plot(rows, outcome, criterion.velocity, outdir / "fos.png", scene.title,
              scene.units.velocity)  # fmt: skip
     written = ["fos.csv", "fos.png"]
+    moving = None
     if outcome.fails is not None:
-        frame = runner.frames.get(outcome.fails)
-        if frame is None:  # a reused trial: run it again for its picture
-            frame = run_trial(Trial(runner.raw, outcome.fails, runner.source))["frame"]
+        frame, moving = runner.frames.get(outcome.fails), runner.moving.get(outcome.fails)
+        if frame is None or moving is None:  # a reused trial: run it again for its picture
+            again = run_trial(Trial(runner.raw, outcome.fails, runner.source))
+            frame, moving = again["frame"], again["moving"]
         if frame is not None:
             render_frame(
                 frame, outdir / "failure.png", scalars="displacement",
@@ -263,6 +267,8 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
             "blocks": list(criterion.blocks),
         },
         "trials": len(rows),
+        # at the first failing F: the watched blocks whose mean speed exceeds the limit
+        "moving_blocks": moving,
     }
     write_text(outdir / "fos.json", json.dumps(summary, indent=2) + "\n")
     written.append("fos.json")
