@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
 EXIT_OK = 0
@@ -43,8 +44,8 @@ def case_row(name: str) -> tuple[str, str, str, str]:
     import dda
     import dda.cases
 
-    try:
-        scene = dda.load_scene(dda.cases.text(name))
+    try:  # by path: a scene may name files beside it (a drawing)
+        scene = dda.load_scene(Path(str(dda.cases.folder().joinpath(f"{name}.toml"))))
     except dda.SceneError as exc:
         return name, "?", "?", f"(refused: {exc})"
     analysis = scene.analysis

@@ -383,7 +383,7 @@ def _overwritten_key(text: str, message: str) -> str | None:
 # --------------------------------------------------------------------------- sections
 
 MAX_SIZES_PER_STEP = 1000.0  # an initial velocity may move a block this many model sizes a step
-_ROCK_MASS_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
+_ROCK_MASS_KEYS = ("regions", "joint_sets", "joint_lines", "excavations", "drawing")
 _TOP_KEYS = (
     "title",
     "analysis",
