@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 
@@ -38,14 +39,7 @@ def check_output_dir(path: str | os.PathLike[str]) -> None:
         if reason:
             raise OutputError(path, f"cannot write in it ({reason})")
         return
-    ancestor = next((p for p in path.absolute().parents if p.exists()), None)
-    if ancestor is None:
-        return
-    if not ancestor.is_dir():
-        raise OutputError(path, f"{ancestor} is a file, not a directory")
-    reason = probe_folder(ancestor)
-    if reason:
-        raise OutputError(path, f"cannot create it in {ancestor} ({reason})")
+    _check_creatable(path, path.absolute().parents)
 
 
 def check_output_file(path: str | os.PathLike[str]) -> None:
@@ -54,7 +48,13 @@ def check_output_file(path: str | os.PathLike[str]) -> None:
     path = Path(path)
     if path.is_dir():
         raise OutputError(path, "is a directory, not a file")
-    folder = next((p for p in path.parents if p.exists()), None)
+    _check_creatable(path, path.parents)
+
+
+def _check_creatable(path: Path, parents: Sequence[Path]) -> None:
+    """Raise :class:`OutputError` when ``path`` cannot be made in the first of ``parents``
+    that exists (a file, or a folder that takes no file)."""
+    folder = next((p for p in parents if p.exists()), None)
     if folder is None:
         return
     if not folder.is_dir():
