@@ -20,7 +20,25 @@ class SceneError(ValueError):
         self.source = source
         self.key = key
         self.reason = reason
-        super().__init__(f"{source}: {key}: {reason}")
+        super().__init__(message(source, key, reason))
+
+
+def message(source: str, key: str, reason: str) -> str:
+    """``"source: key: reason"`` as a user reads it. A key in angle brackets stands for the
+    whole file (``<file>``, ``<toml>``, ``<scene>``) and is left out; a source in them
+    (``<text>``, ``<dict>``: no file) reads ``scene text``, ``scene dict``.
+
+    >>> message("slope.toml", "<file>", "no such file")
+    'slope.toml: no such file'
+    >>> message("<dict>", "blocks[0].vertices", "fewer than 3 points")
+    'scene dict: blocks[0].vertices: fewer than 3 points'
+    """
+    where = f"scene {source[1:-1]}" if _placeholder(source) else source
+    return f"{where}: {reason}" if _placeholder(key) or not key else f"{where}: {key}: {reason}"
+
+
+def _placeholder(name: str) -> bool:
+    return len(name) > 2 and name.startswith("<") and name.endswith(">")
 
 
 class SimulationError(RuntimeError):

@@ -124,6 +124,10 @@ EXPECTED = {
     # water's uplift (dry, the blocks stand); DDA gives 0.35941790 (1.3e-8) and the
     # effective normal force W cos 30 - U = 8070.924 N on the upper block's base as 8070.933
     "wet_slope": ({}, block_slide("upper"), 0.3594179, 0.01),
+    # the drawn rock, 672 m2 (a 512 m2 slope on a 160 m2 base), less the tunnel that the
+    # stage at 0.05 s removes: a 5 m circle (19.63 m2) drawn as chords within 1e-3 of the
+    # drawing's size; its three blocks gone at 0.1 s, the 17 left as cut (strains of 1e-5)
+    "drawing_example": ({"duration": 0.1}, total_area, 652.48445, 1e-6),
 }
 
 
@@ -138,7 +142,7 @@ def load_case(name: str, overrides: dict):
         analysis.pop("steps", None)
         analysis.pop("duration", None)
     analysis.update(overrides)
-    return dda.load_scene(raw)
+    return dda.load_scene(raw, str(CASES / f"{name}.toml"))  # files it names found beside it
 
 
 @pytest.mark.parametrize("name", case_names())

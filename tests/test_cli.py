@@ -95,7 +95,7 @@ def test_run_refuses_a_missing_file(tmp_path, monkeypatch, capsys):
 
 
 def test_run_takes_a_shipped_case_by_name_from_any_folder(tmp_path, monkeypatch, capsys):
-    """``dda run sliding_block`` runs the shipped scene (dda.cases) into out/sliding_block,
+    """``dda run sliding_block`` runs the shipped scene (dda.cases) into out/run_sliding_block,
     from a folder without it; a name that is neither a file nor a shipped case is refused
     with the shipped names, exit 2, nothing written."""
     monkeypatch.chdir(tmp_path)
@@ -104,7 +104,7 @@ def test_run_takes_a_shipped_case_by_name_from_any_folder(tmp_path, monkeypatch,
     assert "sliding_blok" in error and "no shipped case" in error and "sliding_block" in error
     assert list(tmp_path.iterdir()) == []
     assert cli.main(["run", "sliding_block", "--quiet"]) == 0
-    summary = json.loads((tmp_path / "out" / "sliding_block" / "summary.json").read_text())
+    summary = json.loads((tmp_path / "out" / "run_sliding_block" / "summary.json").read_text())
     assert summary["status"] == "finished"
 
 
@@ -172,8 +172,8 @@ def test_run_passes_options_to_the_engine(case, monkeypatch, capsys):
     assert cli.main(["run", str(case), "--save-every", "7"]) == 0
     assert seen == {"save_every": 7, "progress": True, "keep_frames": False, "stop": True}
     out = capsys.readouterr().out
-    assert "7 steps" in out and "out/small" in out.replace("\\", "/")
-    assert Path("out/small/final.png").is_file()
+    assert "7 steps" in out and "out/run_small" in out.replace("\\", "/")
+    assert Path("out/run_small/final.png").is_file()
 
 
 # ------------------------------------------------------------------ dda run, real engine
@@ -337,6 +337,31 @@ def test_progress_bar_in_a_log_writes_about_every_five_percent():
     assert 20 <= len(lines) <= 22
     assert "\r" not in stream.getvalue()
     assert lines[-1].startswith("run [") and "100.0%" in lines[-1] and "step=1000" in lines[-1]
+
+
+def test_the_eta_leaves_out_the_compiling_of_kernels(monkeypatch):
+    """10 s into a run at 1 %, 9 of them compiling kernels: the ETA is 99 x 1 s, not
+    99 x 10 s (the first run after installing read 2:56:11 at its first step)."""
+    from dda.run import progress
+
+    clock, compiled = [100.0], [0.0]
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: clock[0])
+    bar = ProgressBar(1.0, label="run", stream=io.StringIO(), aside=lambda: compiled[0])
+    clock[0], compiled[0] = 110.0, 9.0
+    bar.update(0.01, step=1)
+    assert " 10.0s eta 1:39 " in bar.text()  # 99 s
+    plain = ProgressBar(1.0, label="run", stream=io.StringIO())
+    plain._start = 100.0
+    plain.update(0.01)
+    assert " eta 16:30" in plain.text()  # 990 s: without the clock, all of it
+
+
+def test_an_error_ends_the_bar_without_a_last_line():
+    stream = io.StringIO()
+    with pytest.raises(OSError), ProgressBar(total=10, label="movie", stream=stream) as bar:
+        bar.update(0)
+        raise OSError("broken pipe")
+    assert stream.getvalue().count("movie [") == 1  # the first line only, no closing one
 
 
 def test_progress_bar_on_a_terminal_redraws_in_place():

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -31,6 +32,7 @@ SCENES = {
         "save_every = 3", "save_every = 1"
     ),
     "heavier.toml": SMALL_SCENE.replace("density = 2700.0", "density = 2800.0"),
+    "not_toml.toml": SMALL_SCENE.replace("[analysis]", "[analysis"),
 }
 
 # (arguments, exit code, what the one line says); {d} is the test's directory
@@ -48,8 +50,9 @@ REFUSED = [
         2,
         "-o read_only/x: cannot create it in {d}/read_only",
     ),
-    (["run", "a_dir"], 2, "a_dir: <file>: is a directory, not a scene file"),
-    (["run", "absent.toml"], 2, "absent.toml: <file>: no such file"),
+    (["run", "a_dir"], 2, "a_dir: is a directory, not a scene file"),
+    (["run", "absent.toml"], 2, "absent.toml: no such file"),
+    (["run", "not_toml.toml"], 2, "not_toml.toml: not valid TOML: Expected ']' at the end of"),
     (
         ["run", "forever.toml"],
         2,
@@ -81,7 +84,7 @@ REFUSED = [
     (["run", "ok.toml", "--checkpoint-every", "0"], 2, "argument --checkpoint-every: must be a p"),
     (["run", "ok.toml", "--max-output", "-1"], 2, "argument --max-output: must be a finite n"),
     (["cut", "ok.toml", "-o", "a_file/x.toml"], 2, "-o a_file/x.toml: a_file is a file, not a"),
-    (["cut", "no_such_case", "-o", "x.toml"], 2, "dda cut: no_such_case: <file>: no such file"),
+    (["cut", "no_such_case", "-o", "x.toml"], 2, "dda cut: no_such_case: no such file"),
     (["cut", "ok.toml", "-o", "heavier.toml"], 2, "-o heavier.toml: exists; give --overwrite to"),
     (["cut", "ok.toml", "-o", "new.toml", "--png", "a_file"], 2, "--png a_file: exists; give --o"),
     (["render", "a_file"], 2, "dda render: a_file: not a blocks frame file"),
@@ -98,6 +101,7 @@ REFUSED = [
     (["bench", "--sizes", "2"], 130, "dda bench: interrupted"),  # Ctrl-C
     (["tradeoff", "sliding_block", "--serial"], 130, "dda tradeoff: interrupted"),  # Ctrl-C
     (["tradeoff", "sliding_block", "-o", "a_file"], 2, "-o a_file: exists and is not a direc"),
+    (["verify", "nosuchcase"], 2, "case(s): nosuchcase; the cases are al_rate, bolted, bonded,"),
 ]
 
 
@@ -173,6 +177,7 @@ def test_refused_input_exits_with_one_line_naming_it(workdir, capsys, argv, code
     if code == 2:
         assert len(lines) == 1, captured.err
     assert message.format(d=workdir) in lines[-1]  # (after progress lines when interrupted)
+    assert not re.search(r"<[a-z]+>:", lines[-1])  # no placeholder such as <file>: or <toml>:
     assert "Traceback" not in captured.err + captured.out
     assert _listing(workdir) == before  # nothing written, nothing removed
 
@@ -194,5 +199,5 @@ def test_an_unexpected_error_is_one_line_and_its_traceback_comes_with_v(
 
 
 def test_load_scene_of_a_wrong_type_is_a_scene_error():
-    with pytest.raises(dda.SceneError, match="<int>: <scene>: expected a path, TOML text or a"):
+    with pytest.raises(dda.SceneError, match="^scene int: expected a path, TOML text or a"):
         dda.load_scene(123)

@@ -152,8 +152,9 @@ def test_dda_fos_and_ensemble_show_the_cut_of_their_scene(scene_file, capsys, mo
 
     monkeypatch.setattr(cut_bar, "LONG_CUT", 2_000)
     args = argparse.Namespace(
-        scene=scene_file, blocks=None, intact=False, **dict.fromkeys(OVERRIDES)
-    )
+        scene=scene_file, blocks=None, intact=False, **dict.fromkeys(OVERRIDES),
+        outdir=scene_file.parent / "out", serial=True,
+    )  # fmt: skip
     prepared = prepare(args, "fos", reduced=False)
     assert not isinstance(prepared, str), prepared
     assert len(prepared[1].blocks) == 2351

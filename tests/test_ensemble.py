@@ -148,8 +148,27 @@ def test_every_realisation_is_judged_by_the_closed_form(tmp_path, capsys, monkey
     assert (tmp_path / "out/ensemble.png").stat().st_size > 0
     pictures = min(3, summary["failures"])
     assert pictures >= 1
-    for k in range(1, 4):
-        assert (tmp_path / "out" / f"failing_{k}.png").exists() == (k <= pictures)
+    rows = [r.split(",") for r in (tmp_path / "out/ensemble.csv").read_text().splitlines()[1:]]
+    failing = sorted(int(r[0]) for r in rows if r[3] == "True")[:pictures]
+    drawn = sorted(int(p.stem.split("_")[1]) for p in (tmp_path / "out").glob("failing_*.png"))
+    assert drawn == failing  # named by the realisation's index, as in ensemble.csv
+
+
+def test_the_ensemble_picture_counts_whole_realisations_and_marks_f_1(tmp_path, monkeypatch):
+    """Integer ticks on the histogram's count axis (a count of 1.25 means nothing), and
+    with factors of safety a line at F = 1 on the CDF."""
+    from matplotlib.figure import Figure
+
+    from dda.stability.report import ensemble_plot
+
+    figures, save = [], Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda f, *a, **k: (figures.append(f), save(f, *a, **k)))
+    values, failed = [0.8, 1.1, 1.3, 1.35, 2.0], [True, False, False, False, False]
+    ensemble_plot(values, failed, "factor of safety", tmp_path / "e.png", "t", True)
+    histogram, cdf = figures[-1].axes[:2]
+    assert all(float(t).is_integer() for t in histogram.get_yticks())
+    assert any(list(line.get_xdata()) == [1.0, 1.0] for line in cdf.get_lines())
+    assert "F = 1 (fraction below: 0.2)" in [t.get_text() for t in cdf.get_legend().get_texts()]
 
 
 @pytest.mark.slow

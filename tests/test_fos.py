@@ -171,7 +171,13 @@ def test_dda_fos_writes_and_reuses(tmp_path, capsys, monkeypatch):
     again = capsys.readouterr()
     assert again.err.count("reused") == trials
     assert len((tmp_path / "out/fos.csv").read_text().splitlines()) == trials + 1
-    assert json.loads((tmp_path / "out/fos.json").read_text())["fos"] == summary["fos"]
+    rerun = json.loads((tmp_path / "out/fos.json").read_text())
+    assert rerun["fos"] == summary["fos"]
+    # the block that moves at the first failing F, faster than the limit (a reused trial
+    # is run again for it)
+    [moving] = summary["moving_blocks"]
+    assert moving["name"] == "b0" and moving["speed"] > summary["criterion"]["velocity"]
+    assert rerun["moving_blocks"] == summary["moving_blocks"]
     # another scene in the same folder starts afresh
     scene["joints"]["default"]["friction_angle"] = phi_for(30.0, 1.6)
     write_scene(tmp_path / "slope.toml", scene)

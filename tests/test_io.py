@@ -24,9 +24,9 @@ from dda.io import (
     write_summary,
     write_text,
 )
+from dda.io.colour_scale import color_range
 from dda.io.fields import scalar_field, stress_measures
 from dda.io.frame_files import find_frame
-from dda.io.images import color_range
 from dda.io.pvd import PvdIndex, read_pvd_entries
 from dda.io.run_folder import OutputError
 from dda.io.tables import HISTORY_COLUMNS

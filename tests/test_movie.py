@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -71,6 +73,37 @@ def test_one_view_and_one_colour_range_for_the_whole_movie(run_folder):
     np.testing.assert_allclose(look.view, [[0.0, 0.0], [4.0, 6.0]])
     assert look.clim == (-5.0, 0.0)  # syy of the free block over all frames (fixed: no field)
     assert look.force_max == 0.0  # the frames have no contacts
+
+
+def spike_frame(step: int, spike_at: int = 3) -> Frame:
+    """``falling_frame`` with a steady syy of -0.5 MPa, and -11 MPa at one frame (an
+    impact)."""
+    frame = falling_frame(step)
+    syy = -11e6 if step == spike_at else -0.5e6 - 1e3 * step
+    return dataclasses.replace(frame, stresses=np.array([[0.0, 0.0, 0.0], [0.0, syy, 0.0]]))
+
+
+def test_a_one_frame_spike_does_not_set_the_movies_range():
+    """-11 MPa in one frame of eight, about -0.5 MPa steady: the range is the steady one
+    and the bar's arrow announces values below it; held two frames, the spike counts."""
+    frames = [spike_frame(step) for step in range(8)]
+    look = shared_look(frames, "syy")
+    assert look.clim == pytest.approx((-0.507e6, -0.5e6))
+    assert look.scale.extend == "min"
+    held = [*frames[:4], spike_frame(4, spike_at=4), *frames[5:]]  # frames 3 and 4
+    assert shared_look(held, "syy").clim[0] == -11e6
+    at_the_end = [spike_frame(step, spike_at=7) for step in range(8)]
+    assert shared_look(at_the_end, "syy").clim[0] == -11e6  # the last frame's value stays
+
+
+def test_the_movie_takes_a_range(run_folder, tmp_path, capsys):
+    frames = [read_found_frame(f) for f in all_frames(run_folder)]
+    assert shared_look(frames, "syy", (-2.0, 0.0)).clim == (-2.0, 0.0)
+    gif = tmp_path / "ranged.gif"
+    args = ["movie", str(run_folder), "-o", str(gif), "--size", "320", "240"]
+    assert cli.main([*args, "--range", "-2", "0"]) == 0 and gif.is_file()
+    assert cli.main([*args, "--range", "0", "-2"]) == 2
+    assert "--range 0 -2: the first number must be below the second" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

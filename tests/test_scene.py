@@ -392,7 +392,7 @@ def test_bad_input_is_refused_with_its_key(path, value, key):
     assert error.key == key
     assert error.source == "<dict>"
     assert key in str(error)
-    assert str(error).startswith(f"<dict>: {key}: ")
+    assert str(error).startswith(f"scene dict: {key}: ")
 
 
 @pytest.mark.parametrize(

@@ -35,7 +35,7 @@ def test_other_encodings_are_refused_with_the_fix(tmp_path, capsys, encoding, re
     for argv in (["run", str(path), "-o", str(tmp_path / "out")], ["cut", str(path)]):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and f"{path}: <file>: {reason}" in err[0]
+        assert len(err) == 1 and f"{path}: {reason}" in err[0]
         assert "codec" not in err[0]
 
 
@@ -71,6 +71,6 @@ def test_a_path_without_toml_is_read_as_a_path(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "slide.txt").write_text(TEXT)
     assert len(dda.load_scene("slide.txt").blocks) == 2
-    with pytest.raises(dda.SceneError, match="^missing_scene: <file>: no such file$"):
+    with pytest.raises(dda.SceneError, match="^missing_scene: no such file$"):
         dda.load_scene("missing_scene")
     assert dda.load_scene(TEXT).title  # TOML text still works

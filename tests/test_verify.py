@@ -644,6 +644,40 @@ def test_summary_and_refinement_charts(quick_results, refinement, tmp_path):
     assert non_background_fraction(read_image(chart)) > 0.05
 
 
+def test_the_summary_reads_at_full_size(tmp_path, monkeypatch):
+    """32 cases and 20 checked quantities: a row per case and a labelled column per
+    quantity, grouped, at most 2000 px wide, every ratio written in its cell, a failing
+    check in its own colour."""
+    from types import SimpleNamespace
+
+    import matplotlib.pyplot as plt
+
+    from verify.plots import QUANTITY_GROUPS, summary_chart
+
+    quantities = [q for group in QUANTITY_GROUPS.values() for q in group][:20]
+    results = [
+        SimpleNamespace(
+            case=SimpleNamespace(name=f"case{i}"), passed=i != 3,
+            verdicts=[SimpleNamespace(quantity=q, error=10.0 ** -(i % 9) * (3 if i == 3 else 1),
+                                      tolerance=1.0) for q in quantities[i % 5 :: 3]],
+        )
+        for i in range(32)
+    ]  # fmt: skip
+    figures, save = [], plt.Figure.savefig
+    monkeypatch.setattr(
+        plt.Figure, "savefig", lambda f, *a, **k: (figures.append(f), save(f, *a, **k))
+    )
+    image = read_image(summary_chart(results, tmp_path / "summary.png"))
+    assert image.shape[1] <= 2000 and image.shape[0] <= 1500
+    ax = figures[-1].axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == [
+        q for q in quantities if any(v.quantity == q for r in results for v in r.verdicts)
+    ]
+    assert len(ax.get_yticklabels()) == 32 and ax.get_yticklabels()[3].get_text() == "case3  FAIL"
+    cells = sum(len(r.verdicts) for r in results)
+    assert len([t for t in ax.texts if t.get_text() not in ("", *QUANTITY_GROUPS)]) == cells
+
+
 QUICK_CLI = ["--no-images", "--no-convergence", "--no-refinement"]
 
 

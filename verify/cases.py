@@ -114,7 +114,10 @@ def discover(
         known = {c.name: c for c in cases}
         missing = [n for n in names if n not in known]
         if missing:
-            raise KeyError(f"unknown verification case(s): {', '.join(missing)}")
+            raise KeyError(
+                f"unknown verification case(s): {', '.join(missing)}; the cases are "
+                + ", ".join(sorted(known))
+            )
         cases = [known[n] for n in names]
     if quick:
         cases = [c for c in cases if load_expectation(c.expect_path).quick]

@@ -38,8 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-o",
         "--output",
         type=_output_path,
-        default=Path("verify-report"),
-        help="output directory (default: verify-report)",
+        default=Path("out/verify"),
+        help="output directory (default: out/verify)",
     )
     parser.add_argument("--quick", action="store_true", help="only the quick cases")
     parser.add_argument("--no-images", action="store_true", help="skip the pictures")

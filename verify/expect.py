@@ -191,7 +191,7 @@ def load_expectation(path: Path) -> Expectation:
     try:
         raw = tomllib.loads((Path(path) if isinstance(path, str) else path).read_text())
     except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ExpectationError(f"{path}: <toml>: {exc}") from exc
+        raise ExpectationError(f"{path}: not valid TOML: {exc}") from exc
     kind = str(raw.get("kind", "static"))
     if kind not in KINDS:
         raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")

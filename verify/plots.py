@@ -126,26 +126,92 @@ def momentum_picture(result: CaseResult, title: str, path: Path) -> Path:
     return _finish(fig, axes, title, path)
 
 
+# the summary's columns: checked quantities in groups, in this order (others at the end)
+QUANTITY_GROUPS = {
+    "stress and strain": ("stress", "strain", "stress_history"),
+    "position and shape": ("centroid", "vertex", "area", "history", "motion", "closed_form",
+                           "order", "momentum", "ground"),
+    "contact": ("contact_force", "contact_state", "penetration", "al_updates", "overlap",
+                "contact_time", "impact_time", "impact_speed", "rebound"),
+    "energy and fracture": ("energy", "dissipation", "onset"),
+}  # fmt: skip
+RATIO_DECADES = (-8, 1)  # the colour scale of error / tolerance: 1e-8 ... 10
+FAIL_COLOUR = "#d7301f"  # a check beyond its tolerance
+
+
 def summary_chart(results: list[CaseResult], path: Path) -> Path:
-    """Largest error over its tolerance, per case and checked quantity (1: the limit)."""
-    quantities = sorted({v.quantity for r in results for v in r.verdicts})
-    width = 0.8 / max(len(quantities), 1)
-    fig, ax = plt.subplots(figsize=(max(7, 1.1 * len(results)), 5))
-    x = np.arange(len(results))
-    for j, quantity in enumerate(quantities):
-        ratios = []
-        for r in results:
-            verdict = {v.quantity: v for v in r.verdicts}.get(quantity)
-            ratios.append(max(verdict.error / verdict.tolerance, 1e-8) if verdict else np.nan)
-        ax.bar(x - 0.4 + width * (j + 0.5), ratios, width, label=quantity)
-    ax.axhline(1.0, color="black", linewidth=1)
-    ax.set_yscale("log")
-    ax.set_xticks(x, [r.case.name for r in results], rotation=30, ha="right")
-    ax.set_ylabel("largest error / tolerance (1: the limit)")
-    ax.set_title("DDA against FEM or a closed form: every check, every case")
-    ax.legend(fontsize=7, ncol=3)
+    """Largest error over its tolerance of every case (rows) and checked quantity
+    (columns, in groups): a cell per check, coloured by decade from dark green (far
+    within the tolerance) to pale yellow (near it), red beyond it, and labelled with the
+    ratio; blank where a case does
+    not check the quantity. Readable at 100 %: a row per case, the numbers written."""
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
+    columns, groups = _summary_columns(results)
+    ratios = np.full((len(results), len(columns)), np.nan)
+    for i, r in enumerate(results):
+        for v in r.verdicts:
+            ratios[i, columns.index(v.quantity)] = v.error / v.tolerance if v.tolerance else np.nan
+    low, high = RATIO_DECADES
+    edges = np.arange(low, high + 1)
+    within = plt.get_cmap("YlGn_r")(np.linspace(0.0, 0.9, -low))  # dark: far within
+    cmap = ListedColormap([*within, *[FAIL_COLOUR] * high])  # above 1: the check fails
+    norm = BoundaryNorm(edges, cmap.N)
+    shown = np.log10(np.clip(ratios, 10.0**low, 10.0 ** (high - 1e-9)))
+    fig, ax = plt.subplots(figsize=(3.2 + 0.62 * len(columns), 2.6 + 0.3 * len(results)))
+    image = ax.imshow(np.ma.masked_invalid(shown), cmap=cmap, norm=norm, aspect="auto")
+    for (i, j), ratio in np.ndenumerate(ratios):
+        if np.isfinite(ratio):
+            dark = shown[i, j] >= 0.0 or shown[i, j] < low + 4
+            ax.text(j, i, _ratio_text(ratio), ha="center", va="center", fontsize=8,
+                    color="white" if dark else "black")  # fmt: skip
+    ax.set_yticks(range(len(results)), [_case_label(r) for r in results], fontsize=9)
+    ax.set_xticks(range(len(columns)), columns, rotation=50, ha="left", fontsize=9)
+    ax.xaxis.tick_top()
+    ax.set_xticks(np.arange(-0.5, len(columns)), minor=True)
+    ax.set_yticks(np.arange(-0.5, len(results)), minor=True)
+    ax.grid(which="minor", color="white", linewidth=1.5)
+    ax.tick_params(which="minor", length=0)
+    start = 0
+    for name, count in groups:
+        if start:
+            ax.axvline(start - 0.5, color="black", linewidth=1.5)
+        ax.text(start + count / 2 - 0.5, len(results) - 0.2, name, ha="center", va="top",
+                fontsize=9, fontweight="bold")  # fmt: skip
+        start += count
+    ax.set_ylim(len(results) + 0.9, -0.5)
+    bar = fig.colorbar(image, ax=ax, orientation="horizontal", fraction=0.03, pad=0.02,
+                       ticks=edges)  # fmt: skip
+    bar.ax.set_xticklabels([f"1e{e}" if e else "1" for e in edges])
+    bar.set_label("largest error / tolerance (above 1: the check fails; blank: not checked)")
+    ax.set_title("DDA against FEM or a closed form: every check of every case", pad=12)
     fig.tight_layout()
     return save(fig, path, dpi=100)
+
+
+def _summary_columns(results: list[CaseResult]) -> tuple[list[str], list[tuple[str, int]]]:
+    """The checked quantities in :data:`QUANTITY_GROUPS` order, and (group, columns) pairs."""
+    checked = {v.quantity for r in results for v in r.verdicts}
+    known = {q for members in QUANTITY_GROUPS.values() for q in members}
+    columns, groups = [], []
+    grouped = {**QUANTITY_GROUPS, "other": tuple(sorted(checked - known))}
+    for name, members in grouped.items():
+        present = [q for q in members if q in checked]
+        if present:
+            columns += present
+            groups.append((name, len(present)))
+    return columns, groups
+
+
+def _ratio_text(ratio: float) -> str:
+    """A ratio in one or two significant digits: ``3e-04``, ``0.31``, ``1.2``."""
+    if ratio == 0.0:
+        return "0"
+    return f"{ratio:.2g}" if ratio >= 0.01 else f"{ratio:.0e}"
+
+
+def _case_label(result: CaseResult) -> str:
+    return f"{result.case.name}  {'PASS' if result.passed else 'FAIL'}"
 
 
 def save(fig, path: Path, dpi: int) -> Path:

@@ -46,10 +46,15 @@ class SuiteOutput:
 
 
 def check_output(outdir: Path) -> None:
-    """Make ``outdir`` and write a file in it, or raise :class:`OutputError` saying why."""
+    """Raise :class:`OutputError` saying why ``outdir`` cannot be made or written: a file
+    is made (and removed) in it, or in its nearest existing parent; nothing is left."""
+    folder = next((p for p in (outdir, *outdir.absolute().parents) if p.exists()), None)
+    if folder is None:
+        return
+    if not folder.is_dir():
+        raise OutputError(f"-o {outdir}: cannot write there ({folder} is a file, not a folder)")
     try:
-        outdir.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=outdir):
+        with tempfile.TemporaryFile(dir=folder):
             pass
     except OSError as exc:
         reason = exc.strerror or str(exc)
@@ -105,11 +110,13 @@ def run_suite(
     and ``verify_refinement.png``.
     """
     cases = discover(cases_dir, names, quick)
+    if outdir is not None:  # an unwritable report folder first: nothing read or run
+        outdir = Path(outdir)
+        check_output(outdir)
     for case in cases:  # bad input (scene, expectations) is refused before any case runs
         case.load()
     if outdir is not None:
-        outdir = Path(outdir)
-        check_output(outdir)
+        outdir.mkdir(parents=True, exist_ok=True)
     tell = progress or log.info
     drawing = outdir is not None and images
     folder = None if outdir is None else outdir / "images"

@@ -21,6 +21,8 @@ import argparse
 import dataclasses
 import gc
 import logging
+import math
+import os
 import shutil
 import sys
 from collections.abc import Sequence
@@ -206,7 +208,9 @@ def _add_run(subparsers: Any) -> None:
         "case", type=Path,
         help="scene file (TOML), or the name of a shipped case (sliding_block, tunnel, ...)",
     )  # fmt: skip
-    p.add_argument("-o", "--outdir", type=output_path, help="output directory (default out/<case>)")
+    p.add_argument(
+        "-o", "--outdir", type=output_path, help="output directory (default out/run_<case>)"
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary")
     p.add_argument(
         "--save-every", type=positive_int, metavar="N",
@@ -273,6 +277,13 @@ def output_path(text: str) -> Path:
     return Path(text)
 
 
+def default_outdir(command: str, scene: str | os.PathLike[str] | None = None) -> Path:
+    """Where ``command`` writes when given no ``-o``: ``out/<command>_<scene>``, the scene
+    (or case) file's name without its suffix, or ``out/<command>`` for a command of no
+    scene (docs/api.md, "Where the output goes")."""
+    return Path("out") / (f"{command}_{Path(scene).stem}" if scene else command)
+
+
 def non_negative_float(text: str) -> float:
     """argparse type: a finite number of at least 0."""
     try:
@@ -286,16 +297,21 @@ def non_negative_float(text: str) -> float:
 
 def run_command(args: argparse.Namespace) -> int:
     """``dda run``: load, claim OUTDIR, simulate with live output and checkpoints, summarise."""
-    from dda.io.output_paths import OutputError
+    from dda.io.output_paths import OutputError, check_output_dir
     from dda.io.run_folder import RunFolder
     from dda.run.checkpoint import CheckpointError
 
+    outdir = args.outdir or default_outdir("run", args.case)
+    try:
+        check_output_dir(outdir)  # before the scene is read or cut
+    except OutputError as exc:
+        print(f"dda run: -o {exc}", file=sys.stderr)
+        return EXIT_INPUT
     try:
         scene = _run_scene(args)
     except dda.SceneError as exc:
         print(f"dda run: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    outdir = args.outdir or Path("out") / args.case.stem
     mode = "resume" if args.resume else "overwrite" if args.overwrite else "new"
     try:
         folder = RunFolder(outdir, mode)
@@ -410,7 +426,11 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
 
 
 def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> int:
-    """The run of :func:`_run_in` into ``writer``: frames as they come, then the summary."""
+    """The run of :func:`_run_in` into ``writer``: frames as they come, then the summary.
+
+    A signal stops the run after the step under way; the summary and the picture follow
+    while the signals are still caught, so a second signal (which stops at once) lands in
+    :func:`_stopped_at_once` and the summary still says ``"interrupted"``."""
     from dda.run.checkpoint import CheckpointPlan
     from dda.run.stop import StopOnSignal
 
@@ -420,12 +440,14 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
         minutes * 60 if minutes else None, at_start=True,
     )  # fmt: skip
     logger.info("running %s into %s (run %s)", args.case, folder.outdir, writer.run_id)
+    result = None  # until the engine returns one
     with StopOnSignal("dda run") as stop:
         try:
             result = dda.simulate(
                 scene, progress=not args.quiet, on_frame=writer.add_frame, keep_frames=False,
                 stop=stop, checkpoints=plan, resume=checkpoint,
             )  # fmt: skip
+            summary = writer.finish(result, scene)
         except dda.SimulationError as exc:
             print(f"dda run: simulation failed: {exc}", file=sys.stderr)
             writer.finish(getattr(exc, "result", None), scene, status="failed", error=str(exc))
@@ -435,22 +457,50 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
             )
             return EXIT_SIMULATION
         except KeyboardInterrupt:
-            writer.finish(None, scene, status="interrupted", error="interrupted by the user")
-            print(f"\ndda run: interrupted; partial output in {folder.outdir}", file=sys.stderr)
-            return stop.exit_code
+            return _stopped_at_once(writer, scene, folder, args, stop, result)
         except OSError as exc:  # a full disk, a file system gone read-only, ...
             return _write_failed(exc, writer, scene, folder, args)
-    summary = writer.finish(result, scene)
     if summary["status"] == "interrupted":
         print(
             f"dda run: stopped at step {summary.get('steps')} ({stop.name}); continue with: "
-            f"dda run {args.case} -o {folder.outdir} --resume",
+            f"{_resume_command(args, folder)}",
             file=sys.stderr,
         )
         return stop.exit_code
     if not args.quiet:
         print(summary_paragraph(summary, folder.outdir))
     return EXIT_OK
+
+
+def _stopped_at_once(writer, scene, folder, args: argparse.Namespace, stop, result) -> int:
+    """A second signal stopped the run at once: its summary is written while further
+    signals are ignored, without the picture (``dda render`` draws it later): the
+    ``result``'s status when the engine had returned (the signal came as the picture was
+    drawn), else ``"interrupted"``; then the command that continues the run."""
+    from dda.run.checkpoint import CheckpointError, read_checkpoint
+
+    with stop.ignoring():
+        if not writer.done:  # (a summary written before the signal stays)
+            writer.image = False
+            status = None if result is not None else "interrupted"
+            writer.finish(result, scene, status=status, error=status and "stopped by a signal")
+        try:
+            step = read_checkpoint(folder.checkpoint_path).step
+        except CheckpointError:  # none left: the run had finished
+            step = None
+    print(f"\ndda run: stopped at once ({stop.name} again); output in {folder.outdir}, "
+          f"no final.png (dda render {folder.outdir} draws it)", file=sys.stderr)  # fmt: skip
+    if step is not None:
+        again = _resume_command(args, folder)
+        print(f"its checkpoint of step {step} is kept; continue with: {again}", file=sys.stderr)
+    elif result is None:
+        print("no checkpoint was written yet: run again with --overwrite", file=sys.stderr)
+    return stop.exit_code
+
+
+def _resume_command(args: argparse.Namespace, folder) -> str:
+    """The command that continues the run in ``folder``."""
+    return f"dda run {args.case} -o {folder.outdir} --resume"
 
 
 def _picture_helper(args: argparse.Namespace):
@@ -485,7 +535,7 @@ def _write_failed(exc: OSError, writer, scene, folder, args: argparse.Namespace)
         return EXIT_FAILURE
     print(
         f"its checkpoint of step {step} is kept: free space, then continue with: "
-        f"dda run {args.case} -o {folder.outdir} --resume",
+        f"{_resume_command(args, folder)}",
         file=sys.stderr,
     )
     return EXIT_FAILURE
@@ -564,6 +614,7 @@ def _add_render(subparsers: Any) -> None:
         "the scalars)",
     )  # fmt: skip
     p.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
+    add_range_option(p)
     p.add_argument("--step", type=int, help="step of the frame (OUTDIR only; default last)")
     p.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")
     p.add_argument(
@@ -573,12 +624,35 @@ def _add_render(subparsers: Any) -> None:
     p.set_defaults(func=render_command)
 
 
+def add_range_option(parser: argparse.ArgumentParser) -> None:
+    """``--range MIN MAX``: the colour range, in the scene's unit of the quantity."""
+    parser.add_argument(
+        "--range", type=float, nargs=2, metavar=("MIN", "MAX"),
+        help="colour range in the scene's unit of the quantity (Pa, not kPa: "
+        "--range -2e6 0); values beyond it take the end colours (default: the values')",
+    )  # fmt: skip
+
+
+def checked_range(args: argparse.Namespace) -> tuple[float, float] | None:
+    """``args.range``, or a ValueError naming it when it is no range."""
+    if args.range is None:
+        return None
+    low, high = args.range
+    text = f"--range {low:g} {high:g}"
+    if not (math.isfinite(low) and math.isfinite(high)):
+        raise ValueError(f"{text}: give finite numbers")
+    if not low < high:
+        raise ValueError(f"{text}: the first number must be below the second")
+    return float(low), float(high)
+
+
 def render_command(args: argparse.Namespace) -> int:
     """``dda render``: read a frame back from VTU and draw it."""
     from dda.io.frame_files import find_frame, read_found_frame
     from dda.io.output_paths import OutputError, check_output_file
 
     try:
+        clim = checked_range(args)
         found = find_frame(args.source, args.step)
         output = args.output or found.default_png(args.scalars)
         check_output_file(output)
@@ -593,7 +667,7 @@ def render_command(args: argparse.Namespace) -> int:
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
         window_size=tuple(args.size), scene_title=run.get("title") or "",
-        units=run.get("units"),
+        units=run.get("units"), clim=clim,
     )  # fmt: skip
     logger.info("wrote %s", output)
     print(output)

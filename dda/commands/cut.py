@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dda.commands.cli import output_path, positive_int
+from dda.commands.cli import default_outdir, output_path, positive_int
 from dda.errors import SceneError
 from dda.io.atomic import atomic_path, write_text
 from dda.io.output_paths import OutputError, check_output_file
@@ -38,14 +38,21 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "with explicit [[blocks]] (TOML) and a picture of the blocks (PNG).",
     )
     parser.add_argument(
-        "scene", help="scene file (TOML) with [[regions]] and joints, or a shipped case's name"
+        "scene",
+        help="scene file (TOML) with [[regions]] and joints or a [drawing], a shipped case's "
+        "name, or a DXF drawing (its materials and joints from --scene, else from the TOML "
+        "file of the same name beside it)",
     )
+    parser.add_argument(
+        "--scene", dest="props", type=Path, metavar="TOML",
+        help="for a DXF drawing: the scene file of its materials, joints, analysis and "
+        "[drawing] layers (default: DRAWING.toml beside DRAWING.dxf)",
+    )  # fmt: skip
     parser.add_argument(
         "-o",
         "--output",
         type=output_path,
-        default=Path("blocks.toml"),
-        help="TOML file to write (default: blocks.toml)",
+        help="TOML file to write (default: out/cut_<scene>/<scene>.toml)",
     )
     parser.add_argument(
         "--png", type=output_path, default=None, help="picture to write (default: OUTPUT.png)"
@@ -73,10 +80,12 @@ def run_cut(args: argparse.Namespace) -> int:
 
     try:
         args.scene = str(scene_source(Path(args.scene)))  # a file, or a shipped case's name
+        props, drawing = _scene_and_drawing(Path(args.scene), args.props)
     except SceneError as exc:
         sys.stderr.write(f"dda cut: {exc}\n")
         return 2
-    output = Path(args.output)
+    stem = Path(args.scene).stem
+    output = Path(args.output or default_outdir("cut", args.scene) / f"{stem}.toml")
     png = None if args.no_png else Path(args.png) if args.png else output.with_suffix(".png")
     stages = _stage_ends(picture=png is not None)
     with CutBar(Path(args.scene).name, share=stages["cutting"], quiet=args.quiet) as bar:
@@ -84,15 +93,16 @@ def run_cut(args: argparse.Namespace) -> int:
             for path, option in ((output, "-o"), (png, "--png")):
                 if path is not None:
                     _check_output(path, option, Path(args.scene), args.overwrite)
-            cut, scene = _cut(Path(args.scene), args.max_blocks, bar)
-            _check_loadable(scene, str(args.scene))
+            cut, scene = _cut(props, args.max_blocks, bar, drawing)
+            _check_loadable(scene, str(props))
         except (SceneError, OutputError) as exc:
             bar.close()
             log.debug("refused: %s", exc)
             sys.stderr.write(f"dda cut: {exc}\n")
             return 2
         bar.update(stages["checking"], "toml")
-        header = f"# Blocks cut from {args.scene} by `dda cut`: {len(cut.names)} blocks.\n"
+        origin = args.scene if drawing is None else f"{args.scene} with {props}"
+        header = f"# Blocks cut from {origin} by `dda cut`: {len(cut.names)} blocks.\n"
         text = header + dumps(scene)
         if png is not None:  # the picture first: a drawing that fails leaves no scene behind
             from dda.io.fonts import unicode_text
@@ -100,8 +110,9 @@ def run_cut(args: argparse.Namespace) -> int:
 
             bar.update(stages["toml"], "picture")
             png.parent.mkdir(parents=True, exist_ok=True)
+            title = str(scene.get("title", "")) or Path(args.scene).stem
             with atomic_path(png) as tmp, unicode_text():
-                draw_cut(cut, tmp, title=str(scene.get("title", "")) or Path(args.scene).stem)
+                draw_cut(cut, tmp, title=title, removed=removed_by_stages(scene))
             log.info("wrote %s", png)
         output.parent.mkdir(parents=True, exist_ok=True)
         write_text(output, text)
@@ -136,20 +147,46 @@ def _check_output(path: Path, option: str, scene: Path, overwrite: bool) -> None
         raise OutputError(f"{option} {path}", "exists; give --overwrite to replace it")
 
 
-def _cut(path: Path, max_blocks: int | None = None, progress: Progress | None = None):
+def _scene_and_drawing(scene: Path, props: Path | None) -> tuple[Path, Path | None]:
+    """(the scene file to read, the DXF drawing given in its place or None). A drawing's
+    scene is ``--scene``, else the TOML file of the drawing's name beside it."""
+    if scene.suffix.lower() != ".dxf":
+        if props is not None:
+            raise SceneError(str(props), "--scene", "is for a DXF drawing; give the scene alone")
+        return scene, None
+    if not scene.is_file():
+        raise SceneError(str(scene), "<file>", "no such drawing file")
+    props = props or scene.with_suffix(".toml")
+    if not props.is_file():
+        raise SceneError(
+            str(scene), "<file>", f"a drawing needs a scene of its materials and joints: no "
+            f"{props}; give --scene FILE.toml (docs/rock_masses.md, Drawings)",
+        )  # fmt: skip
+    return props, scene
+
+
+def _cut(
+    path: Path, max_blocks: int | None = None, progress: Progress | None = None,
+    drawing: Path | None = None,
+):  # fmt: skip
+    """Cut the scene file ``path`` (its ``[drawing] file`` replaced by ``drawing``)."""
     if path.is_dir():
         raise SceneError(str(path), "<file>", "is a directory, not a scene file")
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such file")
     from dda.scene.format import parse_toml
+    from dda.scene.rockmass.expand import cut_rock_mass
     from dda.scene.text_file import read_scene_text
 
     raw = parse_toml(read_scene_text(path), str(path))
-    from dda.scene.rockmass.expand import cut_rock_mass
-
     if max_blocks is not None and isinstance(raw.get("cutting", {}), dict):
         raw["cutting"] = {**raw.get("cutting", {}), "max_blocks": max_blocks}
-
+    if drawing is not None:
+        table = raw.get("drawing", {})
+        raw["drawing"] = {
+            **(table if isinstance(table, dict) else {}),
+            "file": str(drawing.absolute()),
+        }
     return cut_rock_mass(raw, str(path), progress)
 
 
@@ -161,3 +198,14 @@ def _check_loadable(scene: dict, source: str) -> None:
         load_scene(scene)
     except SceneError as exc:
         raise SceneError(source, exc.key, exc.reason) from None
+
+
+def removed_by_stages(scene: dict) -> set[str]:
+    """The names of the blocks the explicit ``scene``'s stages remove (by name or group)."""
+    groups = scene.get("groups", {})
+    names: set[str] = set()
+    for stage in scene.get("stages", []):
+        for name in stage.get("remove", []) if isinstance(stage, dict) else []:
+            members = groups.get(name) if isinstance(groups, dict) else None
+            names.update(members if isinstance(members, list) else [name])
+    return names

@@ -12,7 +12,7 @@ from typing import Any
 
 from dda.commands.cli import output_path
 from dda.commands.cluster_options import add_cluster_options, count
-from dda.commands.fos import EXIT_INPUT, add_fos_options, output_and_cluster, prepare
+from dda.commands.fos import EXIT_INPUT, add_fos_options, prepare
 
 BASE_COLUMNS = ("realisation", "seed")
 OUTCOME_COLUMNS = ("failed", "speed", "limit", "fos", "steps", "seconds", "host", "status")
@@ -32,7 +32,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("scene", type=Path, help="scene file (or a shipped case's name)")
     p.add_argument(
-        "-o", "--outdir", type=output_path, help="output folder (default out/ensemble_SCENE)"
+        "-o", "--outdir", type=output_path, help="output folder (default out/ensemble_<scene>)"
     )
     p.add_argument(
         "--realisations", type=count, metavar="N", help="[ensemble] realisations (default 100)"
@@ -54,17 +54,11 @@ def ensemble_command(args: argparse.Namespace) -> int:
     if isinstance(prepared, str):
         print(prepared, file=sys.stderr)
         return EXIT_INPUT
-    raw, scene, criterion, source = prepared
+    raw, scene, criterion, source, outdir, cluster = prepared
     if scene.ensemble is None or not scene.ensemble.vary:
         print(f"dda ensemble: {source}: ensemble.vary: the scene draws no value "
               "(add [[ensemble.vary]] tables, docs/scene.md)", file=sys.stderr)  # fmt: skip
         return EXIT_INPUT
-    default = Path("out") / f"ensemble_{Path(source).stem}"
-    where = output_and_cluster(args, "ensemble", args.outdir or default)
-    if isinstance(where, str):
-        print(where, file=sys.stderr)
-        return EXIT_INPUT
-    outdir, cluster = where
     args.kept_on_interrupt = (
         f"the finished realisations are in {outdir / 'ensemble.csv'}: the same command reuses them"
     )
@@ -168,7 +162,8 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
     if judged:
         keep = [(v, f) for v, f in zip(values, failed, strict=True) if math.isfinite(v)]
         if keep:
-            ensemble_plot(*zip(*keep, strict=True), label, outdir / "ensemble.png", title)
+            ensemble_plot(*zip(*keep, strict=True), label, outdir / "ensemble.png", title,
+                          factor_of_safety=with_fos)  # fmt: skip
             written.append("ensemble.png")
     written += _failure_pictures(outdir, raw, source, scene, rows, frames, keys)
     summary = {
@@ -221,22 +216,23 @@ def _with_unit(value: float, unit: str) -> str:
 
 
 def _failure_pictures(outdir, raw, source, scene, rows, frames, keys) -> list[str]:
-    """The first three failing realisations at the end of their run, by displacement."""
+    """The first three failing realisations at the end of their run, by displacement:
+    ``failing_K.png``, K the realisation's index (as in ensemble.csv)."""
     from dda.io.images import render_frame
     from dda.stability.ensemble import Realisation, run_realisation
 
     failing = sorted(k for k, r in rows.items() if r["failed"])[:PICTURES]
     names = []
     units = {"length": scene.units.length, "force": scene.units.force, "time": scene.units.time}
-    for n, k in enumerate(failing, 1):
+    for k in failing:
         frame = frames.get(k)
         if frame is None:  # a reused realisation: run it again for its picture
             frame = run_realisation(Realisation(raw, k, source)).get("frame")
         if frame is None:
             continue
         drawn = _drawn(rows[k], keys, scene.units)
-        render_frame(frame, outdir / f"failing_{n}.png", scalars="displacement",
+        render_frame(frame, outdir / f"failing_{k}.png", scalars="displacement",
                      title=f"realisation {k}: {drawn}", scene_title=scene.title,
                      units=units)  # fmt: skip
-        names.append(f"failing_{n}.png")
+        names.append(f"failing_{k}.png")
     return names

@@ -56,7 +56,9 @@ def register(subparsers: Any) -> None:
         "scene's [fos] keys of the same name.",
     )
     p.add_argument("scene", type=Path, help="scene file (or a shipped case's name)")
-    p.add_argument("-o", "--outdir", type=output_path, help="output folder (default out/fos_SCENE)")
+    p.add_argument(
+        "-o", "--outdir", type=output_path, help="output folder (default out/fos_<scene>)"
+    )
     add_fos_options(p)
     add_cluster_options(p)
     p.set_defaults(func=fos_command)
@@ -91,17 +93,25 @@ def with_overrides(raw: dict, args: argparse.Namespace) -> dict:
 
 
 def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=None):
-    """(raw scene with overrides, loaded scene, criterion, source) or an error line;
-    ``reduced``: the strengths will be reduced (something must be reducible); ``edit``:
-    more overrides, ``edit(raw)`` in place."""
+    """(raw scene with overrides, loaded scene, criterion, source, output folder, cluster)
+    or an error line. The output folder (``-o``, else ``out/<command>_<scene>``) and the
+    cluster options are checked first, before the scene is read or cut; ``reduced``: the
+    strengths will be reduced (something must be reducible); ``edit``: more overrides,
+    ``edit(raw)`` in place."""
     import dda
-    from dda.commands.cli import load_with_progress, scene_source
+    from dda.commands.cli import default_outdir, load_with_progress, scene_source
     from dda.scene import read_scene_file
     from dda.stability.criterion import criterion_of
     from dda.stability.fos import check_reducible
 
     try:
         path = scene_source(args.scene)
+    except dda.SceneError as exc:
+        return f"dda {command}: {exc}"
+    where = output_and_cluster(args, command, args.outdir or default_outdir(command, path))
+    if isinstance(where, str):
+        return where
+    try:
         raw = with_overrides(read_scene_file(path), args)
         if edit is not None:
             edit(raw)
@@ -111,7 +121,7 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
             check_reducible(scene)
     except dda.SceneError as exc:
         return f"dda {command}: {exc}"
-    return raw, scene, criterion, str(path)
+    return (raw, scene, criterion, str(path), *where)
 
 
 def output_and_cluster(args: argparse.Namespace, command: str, outdir: Path):
@@ -137,12 +147,7 @@ def fos_command(args: argparse.Namespace) -> int:
     if isinstance(prepared, str):
         print(prepared, file=sys.stderr)
         return EXIT_INPUT
-    raw, scene, criterion, source = prepared
-    where = output_and_cluster(args, "fos", args.outdir or Path("out") / f"fos_{Path(source).stem}")
-    if isinstance(where, str):
-        print(where, file=sys.stderr)
-        return EXIT_INPUT
-    outdir, cluster = where
+    raw, scene, criterion, source, outdir, cluster = prepared
     args.kept_on_interrupt = (
         f"the finished trials are in {outdir / 'fos.csv'}: the same command reuses them"
     )
@@ -175,6 +180,7 @@ class _Runner:
             parsed = _parse_row(row)
             self.rows[round(parsed["factor"], DIGITS)] = parsed
         self.frames: dict[float, Any] = {}
+        self.moving: dict[float, list[dict]] = {}  # the blocks faster than the limit
         self.workers = None
         self.done = 0
 
@@ -188,7 +194,7 @@ class _Runner:
                 yield factor, self.rows[factor]["failed"]
         trials = [Trial(self.raw, f, self.source) for f in todo]
         for row in self.workers.map_unordered(run_trial, trials):
-            frame = row.pop("frame")
+            frame, self.moving[row["factor"]] = row.pop("frame"), row.pop("moving")
             if frame is not None:
                 self.frames[row["factor"]] = frame
             self.store.append(row)
@@ -221,7 +227,8 @@ def _parse_row(row: dict[str, str]) -> dict:
 
 
 def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
-    """fos.png, failure.png (the first failing trial, blocks by displacement), fos.json."""
+    """fos.png, failure.png (the first failing trial, blocks by displacement), fos.json
+    (with the blocks that move at the first failing F)."""
     from dda.io.atomic import write_text
     from dda.io.images import render_frame
     from dda.stability.report import fos_plot
@@ -231,10 +238,12 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
     fos_plot(rows, outcome, criterion.velocity, outdir / "fos.png", scene.title,
              scene.units.velocity)  # fmt: skip
     written = ["fos.csv", "fos.png"]
+    moving = None
     if outcome.fails is not None:
-        frame = runner.frames.get(outcome.fails)
-        if frame is None:  # a reused trial: run it again for its picture
-            frame = run_trial(Trial(runner.raw, outcome.fails, runner.source))["frame"]
+        frame, moving = runner.frames.get(outcome.fails), runner.moving.get(outcome.fails)
+        if frame is None or moving is None:  # a reused trial: run it again for its picture
+            again = run_trial(Trial(runner.raw, outcome.fails, runner.source))
+            frame, moving = again["frame"], again["moving"]
         if frame is not None:
             render_frame(
                 frame, outdir / "failure.png", scalars="displacement",
@@ -258,6 +267,8 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
             "blocks": list(criterion.blocks),
         },
         "trials": len(rows),
+        # at the first failing F: the watched blocks whose mean speed exceeds the limit
+        "moving_blocks": moving,
     }
     write_text(outdir / "fos.json", json.dumps(summary, indent=2) + "\n")
     written.append("fos.json")

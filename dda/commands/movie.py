@@ -10,10 +10,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from dda.commands.cli import output_path, positive_int
+from dda.commands.cli import add_range_option, checked_range, output_path, positive_int
 from dda.io.fields import SCALARS
 
-EXIT_OK, EXIT_INPUT = 0, 2
+EXIT_OK, EXIT_FAILURE, EXIT_INPUT = 0, 1, 2
 
 
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -22,7 +22,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         "movie",
         help="animate a run's frames (MP4, or GIF)",
         description="Draw every frame written by `dda run` into OUTDIR into one movie, "
-        "with one view and one colour range for all frames: MP4 when imageio-ffmpeg is "
+        "with one view and one colour range for all frames (--range, else the values the "
+        "frames hold for two frames or more: a one-frame spike is left out): MP4 when "
+        "imageio-ffmpeg is "
         "installed (pip install 'dda-rock[movie]'), else GIF; -o NAME.gif or NAME.mp4 "
         "chooses.",
     )
@@ -34,6 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         help="movie file, .mp4 or .gif (default: OUTDIR/movie.*)",
     )
     parser.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
+    add_range_option(parser)
     parser.add_argument(
         "--fps", type=_positive_float, default=10.0, help="frames a second (default 10)"
     )
@@ -51,9 +54,10 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 
 def movie_command(args: argparse.Namespace) -> int:
-    """``dda movie``: 0 with the movie written, 2 on bad input (nothing written)."""
+    """``dda movie``: 0 with the movie written, 2 on bad input (nothing written), 1 when
+    ffmpeg fails (one line with its last message; nothing written)."""
     from dda.io.frame_files import all_frames, read_found_frame
-    from dda.io.movie import MovieError, movie_format, shared_look, write_movie
+    from dda.io.movie import FfmpegError, MovieError, movie_format, shared_look, write_movie
     from dda.io.output_paths import OutputError, check_output_file
     from dda.run.progress import ProgressBar
 
@@ -64,19 +68,24 @@ def movie_command(args: argparse.Namespace) -> int:
         if args.size[0] % 2 or args.size[1] % 2:
             raise MovieError(f"--size {args.size[0]} {args.size[1]}: give even numbers")
         check_output_file(output)
+        clim = checked_range(args)
         frames = [read_found_frame(f) for f in found]
-        look = shared_look(frames, args.scalars)
+        look = shared_look(frames, args.scalars, clim)
     except (FileNotFoundError, ValueError, OutputError) as exc:
         print(f"dda movie: {exc}", file=sys.stderr)
         return EXIT_INPUT
     run = found[0].summary()
-    with ProgressBar(total=len(frames), label=f"movie {output.name}") as bar:
-        count = write_movie(
-            frames, output, look, scalars=args.scalars, fps=args.fps,
-            size=tuple(args.size), show_contacts=not args.no_contacts,
-            scene_title=run.get("title") or "", units=run.get("units"),
-            on_frame=lambda k: bar.update(k, frame=k),
-        )  # fmt: skip
+    try:
+        with ProgressBar(total=len(frames), label=f"movie {output.name}") as bar:
+            count = write_movie(
+                frames, output, look, scalars=args.scalars, fps=args.fps,
+                size=tuple(args.size), show_contacts=not args.no_contacts,
+                scene_title=run.get("title") or "", units=run.get("units"),
+                on_frame=lambda k: bar.update(k, frame=k),
+            )  # fmt: skip
+    except FfmpegError as exc:  # not the input's fault: exit 1, in one line
+        print(f"dda movie: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
     print(f"{output} ({count} frames, {args.size[0]} x {args.size[1]}, {args.fps:g} fps)")
     return EXIT_OK
 

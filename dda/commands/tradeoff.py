@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from dda.commands.cli import output_path
+from dda.commands.cli import default_outdir, output_path
 from dda.commands.cluster_options import add_cluster_options, count, dask_missing
 from dda.io.atomic import write_text
 from dda.io.output_paths import OutputError, check_output_dir
@@ -36,8 +36,8 @@ def register(subparsers: Any) -> None:
         "ratio=0.01' (keys not given keep the case's defaults)",
     )
     p.add_argument(
-        "-o", "--outdir", type=output_path, default=Path("out/tradeoff"),
-        help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff)",
+        "-o", "--outdir", type=output_path,
+        help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff_CASE)",
     )  # fmt: skip
     add_cluster_options(p)
     p.add_argument(
@@ -69,6 +69,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     from dda.tradeoff.report import markdown_table, pareto_plot, write_csv
     from dda.tradeoff.runner import Cluster, SweepInterrupted, Task, add_errors, make_tasks, sweep
 
+    args.outdir = args.outdir or default_outdir("tradeoff", args.case)
     try:
         check_output_dir(args.outdir)
         case = get_case(args.case)

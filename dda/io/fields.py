@@ -48,13 +48,19 @@ SCALARS: dict[str, ScalarInfo] = {
 def unit_name(dimension: str, units: Mapping[str, str] | None = None) -> str:
     """The unit of a dimension in a scene's ``[units]`` (SI where not given).
 
+    ``force_per_length`` is the unit of a force in this 2-D model (contact forces, bolt
+    tensions): per unit thickness of the section, ``N/m``.
+
     >>> unit_name("stress", {"length": "ft", "force": "lb"})
     'lb/ft²'
+    >>> unit_name("force_per_length")
+    'N/m'
     """
     from dda.scene import Units
 
     scene_units = Units(**{k: v for k, v in (units or {}).items() if k in _UNIT_KEYS})
     return {
+        "force_per_length": f"{scene_units.force}/{scene_units.length}",
         "stress": scene_units.stress,
         "length": scene_units.length,
         "velocity": scene_units.velocity,
@@ -73,15 +79,19 @@ PREFIXES = {0: "", 3: "k", 6: "M", 9: "G"}
 def engineering_scale(magnitude: float, unit: str) -> tuple[float, str]:
     """Divisor and name of the unit to show numbers up to ``magnitude`` in.
 
-    SI units of :data:`PREFIXED` take the prefix k, M or G that leaves at most three
-    digits before the point; other units (and small numbers) are kept.
+    SI units of :data:`PREFIXED` (alone or over a length: ``N/m``) take the prefix k, M
+    or G that leaves at most three digits before the point; other units (and small
+    numbers) are kept.
 
     >>> engineering_scale(1.6e6, "Pa")
     (1000000.0, 'MPa')
+    >>> engineering_scale(5450.0, "N/m")
+    (1000.0, 'kN/m')
     >>> engineering_scale(1.6e6, "lb/ft²")
     (1.0, 'lb/ft²')
     """
-    if unit not in PREFIXED or not np.isfinite(magnitude) or magnitude < 1e3:
+    base = unit.split("/", 1)[0]  # N/m: the prefix goes on the N
+    if base not in PREFIXED or not np.isfinite(magnitude) or magnitude < 1e3:
         return 1.0, unit
     exponent = min(9, 3 * int(np.floor(np.log10(magnitude) / 3)))
     return 10.0**exponent, PREFIXES[exponent] + unit

@@ -5,6 +5,7 @@ run`` for a scene with ``[[measure]]``) and the units of ``summary.json``, and
 draws, for each quantity measured (displacement, velocity, stress, contact
 force, bolt force), every component of every measurement against time: a
 title, axes with their units, a legend naming each curve ``name.component``.
+Forces are per metre of the section's thickness (``kN/m``): a 2-D model's forces are.
 """
 
 from __future__ import annotations
@@ -30,10 +31,10 @@ QUANTITIES = {
     "displacement": ("displacement", "length", "displacement of the measurement points"),
     "velocity": ("velocity", "velocity", "velocity of the measurement points"),
     "stress": ("stress (tension positive)", "stress", "stress of the measured points' blocks"),
-    "contact_force": ("contact force", "force",
+    "contact_force": ("contact force", "force_per_length",
                       "contact forces between the measured pairs of blocks "
                       "(N: normal, sum over the contacts; fx, fy: on the first block)"),
-    "bolt_force": ("bolt tension", "force", "tension of the measured bolts"),
+    "bolt_force": ("bolt tension", "force_per_length", "tension of the measured bolts"),
 }  # fmt: skip
 _COMPONENTS = {**POINT_QUANTITIES, **CONTACT_QUANTITIES, **BOLT_QUANTITIES}
 _DPI = 100

@@ -9,8 +9,10 @@ between their end points. The picture has the scene's title,
 axes in the scene's length unit, a colour bar naming the quantity and its
 unit (stresses in kPa, MPa or GPa when large) with ticks that read
 differently from one another, and a legend for the grey, the magenta (with
-the force of the longest mark) and the orange. Stresses that are all below
-1e-6 of their unit (a free block's round-off) are drawn as zero.
+the force of the longest mark, per metre of thickness: ``kN/m``) and the orange.
+Stresses that are all below 1e-6 of their unit (a free block's round-off) are drawn
+as zero, and a field of one value (to round-off) in one colour with that value stated
+(:mod:`dda.io.colour_scale`).
 
 matplotlib is imported when a picture is made, never by ``import dda.io``.
 """
@@ -27,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from dda.io.atomic import atomic_path
+from dda.io.colour_scale import ColourScale, colour_scale
 from dda.io.fields import SCALARS, engineering_scale, scalar_field, unit_name
 from dda.io.fonts import unicode_text
 from dda.result import Frame
@@ -138,13 +141,14 @@ def compose(
     scalars: str = "syy",
     show_contacts: bool = True,
     window_size: tuple[int, int] | None = None,
-    clim: tuple[float, float] | None = None,
+    clim: tuple[float, float] | ColourScale | None = None,
     scene_title: str = "",
     units: Mapping[str, str] | None = None,
     view: np.ndarray | None = None,
     force_max: float | None = None,
 ) -> Any:
-    """The matplotlib ``Figure`` of :func:`render_side_by_side` (arguments as there);
+    """The matplotlib ``Figure`` of :func:`render_side_by_side` (arguments as there;
+    ``clim`` may also be a whole :class:`~dda.io.colour_scale.ColourScale`);
     ``view``: ``[[x_min, y_min], [x_max, y_max]]`` to show instead of the frames' extent
     (a movie keeps one view for all its frames); ``force_max``: the contact force drawn
     longest (default the largest of ``frames``; a movie keeps one scale)."""
@@ -156,7 +160,8 @@ def compose(
     values = [np.where(f.fixed, np.nan, scalar_field(f, scalars)) for f in frames]
     info = SCALARS[scalars]
     values = [_without_round_off(v, info.dimension) for v in values]
-    clim, cmap = color_range(np.concatenate(values), info.signed, clim)
+    scale = clim if isinstance(clim, ColourScale) else None
+    scale = scale or colour_scale(np.concatenate(values), info.signed, clim)
     size = window_size or (700 * len(frames), 600)
     if force_max is None:
         force_max = max((largest_force(f) for f in frames), default=0.0)
@@ -166,13 +171,16 @@ def compose(
         mappable = None
         length = unit_name("length", units)
         for ax, frame, title, value in zip(axes, frames, titles, values, strict=True):
-            mappable = _draw_frame(ax, frame, value, clim, cmap, show_contacts, force_max)
+            mappable = _draw_frame(ax, frame, value, scale, show_contacts, force_max)
             ax.set_title(title or default_title(frame), fontsize=11)
             ax.set_xlabel(f"x ({length})")
             ax.set_ylabel(f"y ({length})")
         _share_view(axes, frames if view is None else None, view)
-        _colour_bar(figure, mappable, axes, clim, info.label, unit_name(info.dimension, units))
-        _legend(figure, frames, show_contacts, force_max, unit_name("force", units))
+        coloured = sum(int(np.isfinite(v).sum()) for v in values)
+        _colour_bar(
+            figure, mappable, axes, scale, info.label, unit_name(info.dimension, units), coloured
+        )
+        _legend(figure, frames, show_contacts, force_max, unit_name("force_per_length", units))
         if scene_title:
             figure.suptitle("\n".join(textwrap.wrap(scene_title, 90)), fontsize=13)
     return figure
@@ -217,44 +225,6 @@ def default_title(frame: Frame) -> str:
     return f"step {frame.step}"
 
 
-def color_range(
-    values: np.ndarray, signed: bool, clim: tuple[float, float] | None = None
-) -> tuple[tuple[float, float], str]:
-    """Colour range and colour map for some values.
-
-    A signed quantity whose values straddle zero gets a range symmetric about
-    zero and a diverging map (white at zero); anything else its own range and
-    a sequential map. A constant value gets a small range around it.
-
-    Parameters
-    ----------
-    values
-        All values that share the range.
-    signed
-        Whether the quantity has a meaningful sign (stress components).
-    clim
-        A range chosen by the caller, kept as given.
-
-    Returns
-    -------
-    (low, high), colour map name
-    """
-    finite = values[np.isfinite(values)]
-    low, high = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
-    if clim is not None:  # the map fits the range given (frames of a movie share both)
-        low, high = float(clim[0]), float(clim[1])
-    diverging = signed and low < 0.0 < high
-    if clim is None:
-        if diverging:
-            bound = max(-low, high)
-            low, high = -bound, bound
-        if high - low <= 1e-12 * max(abs(low), abs(high), 1.0):
-            pad = abs(low) * 1e-3 if low else 1.0  # zero everywhere: a bar of -1..1
-            low, high = low - pad, high + pad
-        clim = (low, high)
-    return (float(clim[0]), float(clim[1])), ("coolwarm" if diverging else "viridis")
-
-
 def distinct_labels(ticks: Sequence[float], max_digits: int = 12) -> list[str]:
     """Tick labels with the fewest significant digits (3 at least) that tell them apart.
 
@@ -283,15 +253,16 @@ def _figure(size: tuple[int, int]) -> Any:
 
 
 def _draw_frame(
-    ax, frame: Frame, values: np.ndarray, clim, cmap, show_contacts: bool, force_max: float
-) -> Any:
+    ax, frame: Frame, values: np.ndarray, scale: ColourScale, show_contacts: bool,
+    force_max: float,
+) -> Any:  # fmt: skip
     """Blocks (coloured or grey), outlines and contact forces on ``ax``; the colour mapping."""
     from matplotlib.collections import LineCollection, PolyCollection
 
     polygons = [np.asarray(v, dtype=float) for v in frame.vertices]
     coloured = PolyCollection(
         [p for p, v in zip(polygons, values, strict=True) if np.isfinite(v)],
-        array=values[np.isfinite(values)], cmap=cmap, clim=clim,
+        array=values[np.isfinite(values)], cmap=_colour_map(scale), clim=scale.clim,
         edgecolors="black", linewidths=0.8,
     )  # fmt: skip
     ax.add_collection(coloured)
@@ -320,17 +291,39 @@ def _share_view(axes, frames: Sequence[Frame] | None, view: np.ndarray | None = 
         ax.autoscale_view()
 
 
-def _colour_bar(figure, mappable, axes, clim, label: str, unit: str) -> None:
-    """A horizontal colour bar; stresses in kPa, MPa or GPa when their numbers are large."""
+def _colour_map(scale: ColourScale) -> Any:
+    """The scale's colour map; one colour (the map's middle) for a field of one value."""
+    from matplotlib import colormaps
+    from matplotlib.colors import ListedColormap
+
+    named = colormaps[scale.cmap]
+    return named if scale.constant is None else ListedColormap([named(0.5)])
+
+
+def _colour_bar(
+    figure, mappable, axes, scale: ColourScale, label: str, unit: str, blocks: int
+) -> None:
+    """A horizontal colour bar; stresses in kPa, MPa or GPa when their numbers are large.
+    A field of one value gets a bar of one colour with that value as its one tick."""
     from matplotlib.ticker import FixedFormatter, FixedLocator, MaxNLocator
 
-    ticks = [t for t in MaxNLocator(6).tick_values(*clim) if clim[0] <= t <= clim[1]]
-    scale, unit = engineering_scale(max(abs(clim[0]), abs(clim[1])), unit)
-    bar = figure.colorbar(mappable, ax=list(axes), orientation="horizontal", shrink=0.7)
+    clim = scale.clim
+    divisor, unit = engineering_scale(max(abs(clim[0]), abs(clim[1])), unit)
+    bar = figure.colorbar(
+        mappable, ax=list(axes), orientation="horizontal", shrink=0.7, extend=scale.extend
+    )
+    text = f"{label} ({unit})"
+    if scale.constant is not None:
+        ticks, labels = [scale.constant], [f"{scale.constant / divisor:.7g}"]
+        if blocks > 1:
+            text += ", one value: the blocks differ by round-off only"
+    else:
+        ticks = [t for t in MaxNLocator(6).tick_values(*clim) if clim[0] <= t <= clim[1]]
+        labels = distinct_labels([t / divisor for t in ticks])
     bar.locator = FixedLocator(ticks)
-    bar.formatter = FixedFormatter(distinct_labels([t / scale for t in ticks]))
+    bar.formatter = FixedFormatter(labels)
     bar.update_ticks()
-    bar.set_label(f"{label} ({unit})")
+    bar.set_label(text)
 
 
 def _legend(
@@ -345,7 +338,9 @@ def _legend(
         handles.append(Patch(facecolor=FIXED_COLOUR, edgecolor="black", label="fixed block"))
     if show_contacts and force_max > 0.0:
         scale, unit = engineering_scale(force_max, force_unit)
-        label = f"contact normal force (length ∝ force; longest {force_max / scale:.3g} {unit})"
+        shown = force_max / scale  # 3 digits, without an exponent below a million
+        number = f"{shown:.0f}" if 1e3 <= shown < 1e6 else f"{shown:.3g}"
+        label = f"contact normal force (length ∝ force; longest {number} {unit})"
         handles.append(Line2D([], [], color=CONTACT_COLOUR, lw=2, label=label))
     if any(f.bolts is not None and len(f.bolts) for f in frames):
         handles.append(Line2D([], [], color=BOLT_COLOUR, lw=2.5, marker="o", label="rock bolt"))

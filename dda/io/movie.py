@@ -3,7 +3,10 @@
 Every picture of a movie has the same view (the extent of the blocks over all its
 frames), the same colour range and the same contact-force scale (over all its
 frames), so that motion and the growth of a stress or a force show as they
-happened; each is titled with its time and step. MP4 (H.264, ``yuv420p``: what
+happened; each is titled with its time and step. The colour range spans the values
+the frames hold for two frames or more (:func:`steady_extremes`): a one-frame spike
+of an impact does not grey out the rest of the movie; it is drawn in the end colour,
+and the bar's arrow says that values lie beyond. MP4 (H.264, ``yuv420p``: what
 browsers and players open) is written through imageio-ffmpeg, which carries its
 own ffmpeg (the optional ``movie`` extra); GIF through Pillow, which matplotlib
 already brings. :func:`movie_format` picks MP4 when imageio-ffmpeg is installed
@@ -12,17 +15,22 @@ and the name does not ask for GIF.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import os
-from collections.abc import Callable, Iterable, Mapping, Sequence
+import sys
+import tempfile
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 
 from dda.io.atomic import atomic_path
+from dda.io.colour_scale import ColourScale, colour_scale
 from dda.io.fields import SCALARS, scalar_field
-from dda.io.images import color_range, compose, extent, largest_force, picture_pixels
+from dda.io.images import compose, extent, largest_force, picture_pixels
 from dda.result import Frame
 
 FORMATS = (".mp4", ".gif")
@@ -30,6 +38,10 @@ FORMATS = (".mp4", ".gif")
 
 class MovieError(ValueError):
     """A movie that cannot be written as asked (format, size, no frames)."""
+
+
+class FfmpegError(RuntimeError):
+    """ffmpeg failed while writing a movie: one line, the file and ffmpeg's last word."""
 
 
 def mp4_available() -> bool:
@@ -60,22 +72,59 @@ def movie_format(path: str | os.PathLike[str] | None) -> str:
 
 @dataclass(frozen=True)
 class MovieLook:
-    """What every picture of a movie shares: colour range, view
+    """What every picture of a movie shares: colour scale, view
     (``[[x_min, y_min], [x_max, y_max]]``) and the contact force drawn longest."""
 
-    clim: tuple[float, float]
+    scale: ColourScale
     view: np.ndarray
     force_max: float
 
+    @property
+    def clim(self) -> tuple[float, float]:
+        """The colour range ``(low, high)``."""
+        return self.scale.clim
 
-def shared_look(frames: Sequence[Frame], scalars: str) -> MovieLook:
-    """The :class:`MovieLook` of ``frames``: the range of ``scalars`` on the free blocks
-    (as :func:`dda.io.images.color_range` makes it), the blocks' extent and the largest
+
+def shared_look(
+    frames: Sequence[Frame], scalars: str, clim: tuple[float, float] | None = None
+) -> MovieLook:
+    """The :class:`MovieLook` of ``frames``: the colour scale of ``scalars`` on the free
+    blocks (``clim`` if given, else the range of :func:`steady_extremes`, as
+    :func:`dda.io.colour_scale.colour_scale` makes it), the blocks' extent and the largest
     contact force, each over all frames."""
-    values = np.concatenate([np.where(f.fixed, np.nan, scalar_field(f, scalars)) for f in frames])
-    clim, _ = color_range(values, SCALARS[scalars].signed)
+    info = SCALARS[scalars]
+    fields = [_free_field(f, scalars) for f in frames]
+    everything = np.concatenate(fields) if fields else np.zeros(0)
+    scale = colour_scale(steady_extremes(fields), info.signed) if clim is None else None
+    if scale is None or scale.constant is None:  # a range: values beyond it are announced
+        scale = colour_scale(everything, info.signed, clim or scale.clim)
     force_max = max((largest_force(f) for f in frames), default=0.0)
-    return MovieLook(clim, extent(frames), force_max)
+    return MovieLook(scale, extent(frames), force_max)
+
+
+def steady_extremes(fields: Sequence[np.ndarray]) -> np.ndarray:
+    """Each frame's lowest and highest value after a running median over three consecutive
+    frames (the first and last frame repeated at the ends): a value reached in a single
+    frame (an impact's spike) is left out, one held for two frames or more, or reached in
+    the first or the last frame, is kept. Frames without a value are skipped."""
+    kept = [v[np.isfinite(v)] for v in fields]
+    kept = [v for v in kept if v.size]
+    if not kept:
+        return np.zeros(0)
+    low = np.array([v.min() for v in kept])
+    high = np.array([v.max() for v in kept])
+    return np.concatenate([_running_median(low), _running_median(high)])
+
+
+def _running_median(series: np.ndarray) -> np.ndarray:
+    """The median of each value and its two neighbours (the ends repeated)."""
+    padded = np.concatenate([series[:1], series, series[-1:]])
+    return np.median(np.stack([padded[:-2], padded[1:-1], padded[2:]]), axis=0)
+
+
+def _free_field(frame: Frame, scalars: str) -> np.ndarray:
+    """``scalars`` of the frame's free blocks (NaN for fixed ones)."""
+    return np.where(frame.fixed, np.nan, scalar_field(frame, scalars))
 
 
 def write_movie(
@@ -100,7 +149,7 @@ def write_movie(
     def pictures():
         for k, frame in enumerate(frames, start=1):
             figure = compose(
-                [frame], [None], scalars, show_contacts, size, look.clim, scene_title, units,
+                [frame], [None], scalars, show_contacts, size, look.scale, scene_title, units,
                 look.view, look.force_max,
             )  # fmt: skip
             yield picture_pixels(figure)
@@ -108,8 +157,10 @@ def write_movie(
                 on_frame(k)
 
     with atomic_path(Path(path)) as tmp:
-        writer = _write_mp4 if suffix == ".mp4" else _write_gif
-        count = writer(pictures(), tmp, fps, size)
+        if suffix == ".mp4":
+            count = _write_mp4(pictures(), tmp, fps, size, Path(path))
+        else:
+            count = _write_gif(pictures(), tmp, fps, size)
     if count == 0:
         raise MovieError("no frame to draw")
     return count
@@ -128,20 +179,53 @@ def _write_gif(pictures: Iterable[np.ndarray], path: Path, fps: float, size) -> 
     return len(images)
 
 
-def _write_mp4(pictures: Iterable[np.ndarray], path: Path, fps: float, size) -> int:
-    """MP4 (H.264, yuv420p) through imageio-ffmpeg, one picture at a time."""
+def _write_mp4(pictures: Iterable[np.ndarray], path: Path, fps: float, size, name: Path) -> int:
+    """MP4 (H.264, yuv420p) through imageio-ffmpeg, one picture at a time. ffmpeg's own
+    messages go to a temporary file, not the terminal: when it fails, an
+    :class:`FfmpegError` says so in one line that names ``name`` (the file asked for)
+    and ends with ffmpeg's last message."""
     import imageio_ffmpeg
 
-    writer = imageio_ffmpeg.write_frames(
-        str(path), size, fps=fps, codec="libx264", pix_fmt_out="yuv420p",
-        output_params=["-f", "mp4"], macro_block_size=2, ffmpeg_log_level="error",
-    )  # fmt: skip
-    writer.send(None)
-    count = 0
-    try:
-        for picture in pictures:
-            writer.send(np.ascontiguousarray(picture))
-            count += 1
-    finally:
-        writer.close()
+    with tempfile.TemporaryFile() as said:
+        writer = imageio_ffmpeg.write_frames(
+            str(path), size, fps=fps, codec="libx264", pix_fmt_out="yuv420p",
+            output_params=["-f", "mp4"], macro_block_size=2, ffmpeg_log_level="error",
+        )  # fmt: skip
+        count = 0
+        try:
+            with _child_stderr(said):  # ffmpeg starts here, its stderr the file
+                writer.send(None)
+            for picture in pictures:
+                writer.send(np.ascontiguousarray(picture))
+                count += 1
+            writer.close()
+        except (OSError, RuntimeError) as exc:
+            with contextlib.suppress(OSError, RuntimeError):
+                writer.close()
+            said_last = _last_words(said, exc)
+            raise FfmpegError(f"{name}: ffmpeg could not write the movie ({said_last})") from None
     return count
+
+
+@contextlib.contextmanager
+def _child_stderr(log: IO[bytes]) -> Iterator[None]:
+    """Processes started within the block inherit ``log`` as their standard error (the
+    descriptor 2 of this process is swapped for the block and restored after it)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        os.dup2(log.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _last_words(log: IO[bytes], exc: BaseException) -> str:
+    """The last line ffmpeg wrote to ``log``, else the error's first line."""
+    log.seek(0)
+    lines = [line.strip() for line in log.read().decode("utf-8", "replace").splitlines()]
+    lines = [line for line in lines if line]
+    if lines:
+        return lines[-1]
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0]

@@ -114,6 +114,7 @@ class RunWriter:
         self.points_path = self.outdir / POINTS_NAME
         self._points_fd: int | None = None
         self._start = time.perf_counter()
+        self.done = False  # the closing summary.json is written (by finish)
 
     @property
     def run_id(self) -> str:
@@ -200,6 +201,7 @@ class RunWriter:
         elif self.picture is not None:
             self.picture.cancel()
         write_summary(self.outdir / SUMMARY_NAME, summary)
+        self.done = True
         if summary["status"] == "finished":
             self.folder.checkpoint_path.unlink(missing_ok=True)
         self.folder.release()

@@ -17,6 +17,7 @@ from __future__ import annotations
 import shutil
 import sys
 import time
+from collections.abc import Callable
 from typing import Any, TextIO
 
 WIDTH = 28  # characters of the bar itself
@@ -35,10 +36,22 @@ class ProgressBar:
         Text in front of the bar.
     stream
         Where to write; default ``sys.stderr`` (looked up when the bar is made).
+    aside
+        A clock of seconds spent on something else than the work (a run's compiling of
+        kernels, :func:`dda.jit.compile_seconds`): what it counts while the bar is shown
+        is left out of the rate the ETA comes from, as it will not come again.
     """
 
-    def __init__(self, total: float, label: str = "", stream: TextIO | None = None) -> None:
+    def __init__(
+        self,
+        total: float,
+        label: str = "",
+        stream: TextIO | None = None,
+        aside: Callable[[], float] | None = None,
+    ) -> None:
         self.total = float(total) if total and total > 0 else 1.0
+        self._aside = aside
+        self._aside_start = aside() if aside is not None else 0.0
         self.label = label
         self.stream = stream if stream is not None else sys.stderr
         self.value = 0.0
@@ -53,8 +66,18 @@ class ProgressBar:
     def __enter__(self) -> ProgressBar:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
+        if kind is None:
+            self.close()
+        else:  # an error ends the bar: no last line before its message
+            self.abandon()
+
+    def abandon(self) -> None:
+        """End the bar without drawing it again (the line drawn in place is ended)."""
+        if not self._closed and self._tty and self._width:
+            self.stream.write("\n")
+            self.stream.flush()
+        self._closed = True
 
     @property
     def fraction(self) -> float:
@@ -102,9 +125,16 @@ class ProgressBar:
         elapsed = time.perf_counter() - self._start
         parts = [f"{self.label} [{bar}] {100 * self.fraction:5.1f}%", _duration(elapsed)]
         if 0.0 < self.fraction < 1.0:
-            parts.append("eta " + _duration(elapsed * (1.0 - self.fraction) / self.fraction))
+            working = elapsed - self.aside_seconds()
+            parts.append("eta " + _duration(working * (1.0 - self.fraction) / self.fraction))
         parts += [f"{name}={_format(value)}" for name, value in self.info.items()]
         return " ".join(parts).strip()
+
+    def aside_seconds(self) -> float:
+        """Seconds counted by ``aside`` since the bar was made (0 without it)."""
+        if self._aside is None:
+            return 0.0
+        return max(self._aside() - self._aside_start, 0.0)
 
     def _draw_in_place(self) -> None:
         # cut to the terminal's width: a longer line wraps, and "\r" then redraws only

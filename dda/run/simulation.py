@@ -455,7 +455,8 @@ def _progress_reporter(progress, model: Model):
         return None
     from dda.run.progress import ProgressBar
 
-    bar = ProgressBar(1.0, label=model.scene.title or "dda")
+    # the ETA leaves out the kernels' compiling (once per installation, at the first steps)
+    bar = ProgressBar(1.0, label=model.scene.title or "dda", aside=compile_seconds)
 
     class _Bar:
         def __call__(self, fraction: float, info: dict) -> None:

@@ -4,17 +4,20 @@
 loop reads before each step (``dda.simulate(..., stop=...)``): the run ends
 after the step under way, writes a checkpoint and its outputs with status
 ``"interrupted"``. A second signal stops at once (``KeyboardInterrupt``);
-what is on disk then is what the last frame and checkpoint wrote. SIGKILL
-cannot be caught: the outputs written per frame are the record then
-(:mod:`dda.io.run_writer`).
+what is on disk then is what the last frame and checkpoint wrote, and the
+caller writes its summary within :meth:`StopOnSignal.ignoring`, where a third
+signal changes nothing. SIGKILL cannot be caught: the outputs written per
+frame are the record then (:mod:`dda.io.run_writer`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 from types import FrameType
 
 log = logging.getLogger(__name__)
@@ -62,6 +65,21 @@ class StopOnSignal:
         for number, handler in self._previous.items():
             signal.signal(number, handler)
         self._previous.clear()
+
+    @contextlib.contextmanager
+    def ignoring(self) -> Iterator[None]:
+        """Within the block SIGINT and SIGTERM are ignored (in the main thread): for the
+        last few writes after a signal stopped the run at once, which a further
+        impatient signal must not cut short."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        handlers = {number: signal.signal(number, signal.SIG_IGN) for number in SIGNALS}
+        try:
+            yield
+        finally:
+            for number, handler in handlers.items():
+                signal.signal(number, handler)
 
     def _handle(self, number: int, frame: FrameType | None) -> None:
         if self.signal is not None:

@@ -345,7 +345,7 @@ def parse_toml(text: str, source: str) -> dict[str, Any]:
         key = _overwritten_key(text, message)
         if key:
             raise SceneError(source, key, f"given twice ({message})") from None
-        raise SceneError(source, "<toml>", message) from None
+        raise SceneError(source, "<toml>", f"not valid TOML: {message}") from None
 
 
 _AT_LINE = re.compile(r"\(at line (\d+), column \d+\)")
@@ -374,7 +374,7 @@ def _overwritten_key(text: str, message: str) -> str | None:
 # --------------------------------------------------------------------------- sections
 
 MAX_SIZES_PER_STEP = 1000.0  # an initial velocity may move a block this many model sizes a step
-_ROCK_MASS_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
+_ROCK_MASS_KEYS = ("regions", "joint_sets", "joint_lines", "excavations", "drawing")
 _TOP_KEYS = (
     "title",
     "analysis",

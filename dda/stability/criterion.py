@@ -127,13 +127,12 @@ class SpeedWatch:
             self._first = np.concatenate([self._first, state])[order]
         self._last = frame
 
-    @property
-    def largest(self) -> float:
-        """s: the largest mean speed of a watched block over the window (0 before the
+    def speeds(self) -> dict[str, float]:
+        """Each watched block's mean speed over the window, by name (empty before the
         window has two frames)."""
         frame = self._last
         if frame is None:
-            return 0.0
+            return {}
         watched = ~np.asarray(frame.fixed, bool)
         if self.criterion.blocks:
             parents = np.array([n.split("/")[0] for n in frame.names])
@@ -142,10 +141,24 @@ class SpeedWatch:
         elapsed = frame.time - first[:, 0]
         watched &= elapsed > 0.0
         if not watched.any():
-            return 0.0
+            return {}
         moved = np.linalg.norm(frame.centroids - first[:, 1:3], axis=1)
         turned = np.abs(frame.rotations - first[:, 3]) * block_radii(frame)
-        return float(((moved + turned)[watched] / elapsed[watched]).max())
+        speed = (moved + turned)[watched] / elapsed[watched]
+        names = [n for n, w in zip(frame.names, watched, strict=True) if w]
+        return dict(zip(names, speed.tolist(), strict=True))
+
+    @property
+    def largest(self) -> float:
+        """s: the largest mean speed of a watched block over the window (0 before the
+        window has two frames)."""
+        return max(self.speeds().values(), default=0.0)
+
+    def moving(self) -> list[dict]:
+        """The watched blocks faster than the limit, fastest first:
+        ``[{"name": ..., "speed": ...}, ...]``."""
+        fast = [(s, n) for n, s in self.speeds().items() if s > self.criterion.velocity]
+        return [{"name": n, "speed": s} for s, n in sorted(fast, reverse=True)]
 
     @property
     def failed(self) -> bool:

@@ -61,10 +61,19 @@ def fos_plot(
 
 
 def ensemble_plot(
-    values: Sequence[float], failed: Sequence[bool], label: str, path: Path, title: str
+    values: Sequence[float],
+    failed: Sequence[bool],
+    label: str,
+    path: Path,
+    title: str,
+    factor_of_safety: bool = False,
 ) -> Path:
-    """Histogram of a drawn value (standing and failing realisations stacked) and its
-    empirical CDF."""
+    """Histogram of a drawn value (standing and failing realisations stacked; whole
+    realisations on the count axis) and its empirical CDF; ``factor_of_safety``: the values
+    are the realisations' factors of safety, and the CDF marks F = 1 (below it a
+    realisation fails)."""
+    from matplotlib.ticker import MaxNLocator
+
     plt = _pyplot()
     values, failed = np.asarray(values, float), np.asarray(failed, bool)
     fig, (ax, cdf) = plt.subplots(1, 2, figsize=(9.6, 4.0), dpi=120)
@@ -73,9 +82,14 @@ def ensemble_plot(
             label=["stands", "fails"], color=["C0", "C3"])  # fmt: skip
     ax.set_xlabel(label)
     ax.set_ylabel("realisations")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: 1, 2, 3, never 1.25
     ax.legend(fontsize=8)
     order = np.sort(values)
     cdf.step(order, np.arange(1, len(order) + 1) / len(order), where="post")
+    if factor_of_safety:
+        below = float(np.mean(values < 1.0))
+        cdf.axvline(1.0, color="C3", lw=1.0, ls="--", label=f"F = 1 (fraction below: {below:.3g})")
+        cdf.legend(fontsize=8, loc="lower right")
     cdf.set_xlabel(label)
     cdf.set_ylabel("fraction of realisations ≤ value")
     for a in (ax, cdf):

@@ -65,8 +65,9 @@ def trial_scene(scene: dda.Scene, factor: float) -> dda.Scene:
 
 def run_trial(trial: Trial) -> dict:
     """Run one trial; its row: factor, failed, speed (the criterion's value), limit,
-    steps, seconds, host, status (``ran`` or the reason the run stopped) and, for a
-    failed trial with ``keep_frame``, ``frame`` (the last frame)."""
+    steps, seconds, host, status (``ran`` or the reason the run stopped), ``moving`` (the
+    watched blocks faster than the limit, :meth:`SpeedWatch.moving`) and, for a failed
+    trial with ``keep_frame``, ``frame`` (the last frame)."""
     scene = dda.load_scene(trial.scene, trial.source)
     criterion = criterion_of(scene)
     watch = SpeedWatch(criterion)
@@ -92,4 +93,5 @@ def run_trial(trial: Trial) -> dict:
         "host": socket.gethostname(),
         "status": status,
         "frame": frame if failed and trial.keep_frame else None,
+        "moving": watch.moving(),
     }

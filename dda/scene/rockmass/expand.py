@@ -2,6 +2,7 @@
 
 The pipeline (Shi's block cutting):
 
+0. a ``[drawing]``: its DXF file read into those keys (:mod:`~dda.scene.rockmass.drawing`);
 1. validate the rock-mass keys (:mod:`~dda.scene.rockmass.parse`);
 2. regions minus excavations (:mod:`~dda.scene.rockmass.domain`);
 3. joint traces (:mod:`~dda.scene.rockmass.traces`);
@@ -41,7 +42,7 @@ from dda.scene.rockmass.traces import Traces, build_traces
 log = logging.getLogger(__name__)
 
 #: keys that make the scene loader call :func:`expand_rock_mass`
-TRIGGER_KEYS = ("regions", "joint_sets", "joint_lines", "excavations")
+TRIGGER_KEYS = ("regions", "joint_sets", "joint_lines", "excavations", "drawing")
 #: every key consumed (and removed) by :func:`expand_rock_mass`
 ROCK_MASS_KEYS = (*TRIGGER_KEYS, "fix", "groups", "cutting")
 LARGE_CUT = 5_000  # estimated blocks above which the cut says it is cutting
@@ -103,7 +104,23 @@ def expand_rock_mass(raw: Mapping[str, Any], source: str, progress: Progress | N
 def cut_rock_mass(
     raw: Mapping[str, Any], source: str, progress: Progress | None = None
 ) -> tuple[CutRockMass, dict]:
-    """Like :func:`expand_rock_mass`, also returning the :class:`CutRockMass`."""
+    """Like :func:`expand_rock_mass`, also returning the :class:`CutRockMass`. A scene
+    with a ``[drawing]`` is read from its DXF file first (:mod:`~dda.scene.rockmass.drawing`);
+    a refusal of a region it drew names the drawing's entity."""
+    if "drawing" not in raw:
+        return _cut(raw, source, progress)
+    from dda.scene.rockmass.drawing import expand_drawing
+
+    drawing = expand_drawing(raw, source)
+    try:
+        return _cut(drawing.raw, source, progress)
+    except SceneError as exc:
+        raise drawing.translated(exc) from None
+
+
+def _cut(
+    raw: Mapping[str, Any], source: str, progress: Progress | None
+) -> tuple[CutRockMass, dict]:
     mass = parse_rock_mass(raw, source)
     domain = build_domain(mass, source)
     estimate = check_block_count(mass, domain, source)

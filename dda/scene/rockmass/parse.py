@@ -43,7 +43,7 @@ JOINT_SET_KEYS = {
 }
 JOINT_LINE_KEYS = {"name", "joint", "points"}
 EXCAVATION_KEYS = {"polygon", "center", "radius", "segments"}
-SELECTOR_KEYS = {"polygon", "touching", "sides", "material", "blocks"}
+SELECTOR_KEYS = {"polygon", "inside", "touching", "sides", "material", "blocks"}
 CUTTING_KEYS = {"min_block_area", "small_blocks", "holes", "name_prefix", "max_blocks"}
 SIDES = ("bottom", "top", "left", "right")
 MAX_CIRCLE_SEGMENTS = 4096
@@ -197,10 +197,12 @@ def _selector(chk: Checker, key: str, table: Any, materials: set[str] | None) ->
     chk.table(table, key, SELECTOR_KEYS)
     if not table:
         chk.fail(key, f"needs one of {', '.join(sorted(SELECTOR_KEYS))}")
-    polygon = touching = material = blocks = None
+    polygon = inside = touching = material = blocks = None
     sides: tuple[str, ...] = ()
     if "polygon" in table:
         polygon = chk.simple_polygon(table["polygon"], f"{key}.polygon")
+    if "inside" in table:
+        inside = chk.simple_polygon(table["inside"], f"{key}.inside")
     if "touching" in table:
         touching = np.array(chk.positions(table["touching"], f"{key}.touching", 2))
     if "sides" in table:
@@ -212,7 +214,7 @@ def _selector(chk: Checker, key: str, table: Any, materials: set[str] | None) ->
     if "blocks" in table:
         names = chk.sequence(table["blocks"], f"{key}.blocks")
         blocks = tuple(chk.text(b, f"{key}.blocks[{i}]") for i, b in enumerate(names))
-    return Selector(key, polygon, touching, sides, material, blocks)
+    return Selector(key, polygon, inside, touching, sides, material, blocks)
 
 
 def _groups(

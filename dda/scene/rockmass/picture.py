@@ -1,7 +1,9 @@
-"""A picture of cut blocks: fill by material, edges coloured by joint set (matplotlib, Agg)."""
+"""A picture of cut blocks: fill by material, edges coloured by joint set or drawing layer,
+blocks a stage removes hatched (matplotlib, Agg)."""
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from pathlib import Path
 
 import numpy as np
@@ -17,14 +19,22 @@ from dda.scene.rockmass.expand import CutRockMass
 FILLS = ("#e8dcc8", "#cfd8dc", "#d7ccc8", "#dcedc8", "#f0e0e8")
 JOINT_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2")
 FIXED_FILL = "#9e9e9e"
+REMOVED_HATCH = "#5d4037"  # the hatching of blocks a stage excavates
 
 
-def draw_cut(cut: CutRockMass, path: str | Path, title: str = "", dpi: int = 150) -> Path:
-    """Write a PNG of the cut blocks; returns the path written."""
+def draw_cut(
+    cut: CutRockMass,
+    path: str | Path,
+    title: str = "",
+    dpi: int = 150,
+    removed: Collection[str] = (),
+) -> Path:
+    """Write a PNG of the cut blocks (``removed``: the names of blocks a stage excavates,
+    drawn hatched); returns the path written."""
     fig = Figure(figsize=(8, 6), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    handles = _fill_blocks(ax, cut) + _draw_edges(ax, cut)
+    handles = _fill_blocks(ax, cut) + _hatch_removed(ax, cut, removed) + _draw_edges(ax, cut)
     fig.legend(
         handles=handles,
         loc="outside lower center",
@@ -54,19 +64,37 @@ def _fill_blocks(ax, cut: CutRockMass) -> list:
     return handles
 
 
+def _hatch_removed(ax, cut: CutRockMass, removed: Collection[str]) -> list:
+    """Hatching over the blocks a stage removes, and its legend entry."""
+    rows = [i for i, name in enumerate(cut.names) if name in set(removed)]
+    if not rows:
+        return []
+    polygons = [cut.blocks.polygon(i) for i in rows]
+    ax.add_collection(
+        PolyCollection(polygons, facecolors="none", edgecolors=REMOVED_HATCH, hatch="////",
+                       linewidths=0.0)
+    )  # fmt: skip
+    return [Patch(facecolor="white", edgecolor=REMOVED_HATCH, hatch="////",
+                  label="excavated by a stage")]  # fmt: skip
+
+
 def _draw_edges(ax, cut: CutRockMass) -> list:
+    """Block edges: black on boundaries, in one colour per joint set, joint line name or
+    drawing layer (traces of one name share it)."""
     b = cut.blocks
     segments = np.stack([b.vertices, b.vertices[next_vertex_index(b.offsets)]], axis=1)
     handles = []
     boundary = b.edge_source < 0
     ax.add_collection(LineCollection(segments[boundary], colors="black", linewidths=0.6))
     handles.append(Line2D([], [], color="black", lw=0.8, label="boundary / default"))
-    for k, name in enumerate(cut.traces.names):
-        on = b.edge_source == k
+    names = list(dict.fromkeys(cut.traces.names))  # in order, once each
+    for k, name in enumerate(names):
+        sources = [i for i, n in enumerate(cut.traces.names) if n == name]
+        on = np.isin(b.edge_source, sources)
         if not on.any():
             continue
         colour = JOINT_COLOURS[k % len(JOINT_COLOURS)]
         ax.add_collection(LineCollection(segments[on], colors=colour, linewidths=1.0))
-        joint = cut.traces.joints[k] or "default"
-        handles.append(Line2D([], [], color=colour, lw=1.2, label=f"{name} ({joint})"))
+        joints = sorted({cut.traces.joints[i] or "default" for i in sources})
+        handles.append(Line2D([], [], color=colour, lw=1.2, label=f"{name} ({', '.join(joints)})"))
     return handles

@@ -26,6 +26,8 @@ def select_blocks(
     if selector.polygon is not None:
         shapely.prepare(selector.polygon)
         mask &= shapely.contains_xy(selector.polygon, centroids[:, 0], centroids[:, 1])
+    if selector.inside is not None:
+        mask &= blocks_inside(vertices, offsets, selector.inside, tolerance)
     if selector.touching is not None:
         line = shapely.LineString(selector.touching)
         mask &= edges_along(vertices, offsets, line, tolerance)
@@ -39,6 +41,17 @@ def select_blocks(
     if not mask.any():
         raise SceneError(source, selector.key, "selects no block")
     return mask
+
+
+def blocks_inside(
+    vertices: np.ndarray, offsets: np.ndarray, polygon: shapely.Polygon, tolerance: float
+) -> np.ndarray:
+    """True for blocks that lie inside ``polygon`` grown by ``tolerance`` (all of them,
+    not only their centroid: a block bent around an opening has its centroid in it)."""
+    rings = shapely.linearrings(vertices, indices=owner_of_vertex(offsets))
+    grown = shapely.buffer(polygon, tolerance, join_style="mitre")
+    shapely.prepare(grown)
+    return shapely.covers(grown, shapely.polygons(rings))
 
 
 def edges_along(

@@ -66,13 +66,14 @@ class Selector:
     """A rule picking blocks (used by ``[[fix]]`` and ``[groups.NAME]``).
 
     A block is selected when it meets every rule given: its centroid inside
-    ``polygon``, an edge along the ``touching`` polyline, an edge on one of
-    the ``sides`` of the rock mass's bounding box, its ``material``, its name
-    in ``blocks``.
+    ``polygon``, all of it inside ``inside`` (to the cut's tolerance), an edge along
+    the ``touching`` polyline, an edge on one of the ``sides`` of the rock mass's
+    bounding box, its ``material``, its name in ``blocks``.
     """
 
     key: str
     polygon: shapely.Polygon | None = None
+    inside: shapely.Polygon | None = None
     touching: np.ndarray | None = None
     sides: tuple[str, ...] = ()
     material: str | None = None

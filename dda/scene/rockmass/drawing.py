@@ -1,0 +1,369 @@
+"""A drawing in: the ``[drawing]`` table of a scene names a DXF file whose layers say what
+is rock, what is fixed, where the joints run and what a stage excavates.
+
+The drawing becomes the rock-mass keys it stands for (docs/rock_masses.md, "Drawings"),
+which the block cutting then handles as if typed:
+
+- closed shapes on the ``blocks`` layer (default ``BLOCKS``) are ``[[regions]]`` of the
+  drawing's material: a shape no joint crosses is one block;
+- closed shapes on the ``fixed`` layer (``FIXED``) are regions too, whose blocks are fixed
+  (a ``[[fix]]`` rule ``inside`` each shape);
+- lines and polylines, open or closed, on the ``joints`` layer (``JOINTS``) are
+  ``[[joint_lines]]``: each cuts the rock it crosses from side to side;
+- closed shapes on the ``excavation`` layer (``EXCAVATION``) cut the rock they cover into
+  regions of their own, whose blocks a stage at ``excavation_time`` removes (the group
+  ``excavation``).
+
+A shape is a LINE, LWPOLYLINE or POLYLINE (arcs of bulges included), CIRCLE, ARC, ELLIPSE or
+SPLINE; curves are drawn as chords within ``arc_tolerance``. Coordinates are multiplied by
+``scale``. Refused, in one line naming the file, the layer and the entity (its DXF
+handle): an open shape where a closed one is needed, a layer the table names that the
+drawing does not have, a drawing whose units (``$INSUNITS``) are not the scene's length
+unit (unless ``scale`` says how to read them), an entity of another kind on a mapped layer.
+
+ezdxf, the maintained DXF reader, is imported only when a scene has a drawing.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+
+from dda.errors import SceneError
+from dda.scene.checks import POSITIVE, Checker
+
+log = logging.getLogger(__name__)
+
+LAYERS = {"blocks": "BLOCKS", "fixed": "FIXED", "joints": "JOINTS", "excavation": "EXCAVATION"}
+DRAWING_KEYS = {*LAYERS, "file", "material", "joint", "excavation_time", "scale", "arc_tolerance"}
+SHAPES = ("LINE", "LWPOLYLINE", "POLYLINE", "CIRCLE", "ARC", "ELLIPSE", "SPLINE")
+EXCAVATION_GROUP = "excavation"
+ARC_TOLERANCE = 1e-3  # default chord tolerance of curves, as a fraction of the drawing's size
+CLOSED = 1e-9  # of the drawing's size: a shape whose ends are this close is closed
+# $INSUNITS codes -> (name, metres); 0 is "unitless": read in the scene's unit
+INSUNITS = {1: ("in", 0.0254), 2: ("ft", 0.3048), 3: ("mi", 1609.344), 4: ("mm", 1e-3),
+            5: ("cm", 1e-2), 6: ("m", 1.0), 7: ("km", 1e3), 10: ("yd", 0.9144),
+            14: ("dm", 0.1)}  # fmt: skip
+METRES = {name: metres for name, metres in INSUNITS.values()}
+
+
+@dataclass(frozen=True)
+class Shape:
+    """One entity of the drawing as points in the scene's length unit."""
+
+    layer: str
+    what: str  # "LWPOLYLINE (handle 2F)"
+    points: np.ndarray  # (k, 2); a closed shape's last point is not repeated
+    closed: bool
+
+
+@dataclass(frozen=True)
+class Expanded:
+    """A scene's drawing made rock-mass keys: the raw scene, and what each region it
+    added was drawn as (``regions[i]`` -> ``"layer BLOCKS: LWPOLYLINE (handle 2F)"``),
+    for messages about them."""
+
+    raw: dict
+    path: Path
+    origins: dict[int, str]
+
+    def translated(self, exc: SceneError) -> SceneError:
+        """``exc`` about a region the drawing added, said of the drawing's entities."""
+        found = re.match(r"regions\[(\d+)\]", exc.key)
+        if not found or int(found.group(1)) not in self.origins:
+            return exc
+        reason = re.sub(
+            r"regions\[(\d+)\]", lambda m: self.origins.get(int(m.group(1)), m.group(0)),
+            exc.reason,
+        )  # fmt: skip
+        return SceneError(str(self.path), self.origins[int(found.group(1))], reason)
+
+
+def expand_drawing(raw: Mapping[str, Any], source: str) -> Expanded:
+    """The raw scene with its ``[drawing]`` replaced by the rock-mass keys it stands for
+    (``regions``, ``joint_lines``, ``fix``, ``groups``, ``stages``; those the scene gives
+    itself are kept, the drawing's added).
+
+    Raises
+    ------
+    SceneError
+        Naming the DXF file (or the scene, for a key of ``[drawing]``), the layer and the
+        entity, and what is wrong.
+    """
+    chk = Checker(source)
+    table = chk.table(raw["drawing"], "drawing", DRAWING_KEYS)
+    if "file" not in table:
+        chk.fail("drawing.file", "missing: the DXF file to read (beside the scene file)")
+    path = drawing_path(chk.text(table["file"], "drawing.file"), source)
+    layers = _layers(chk, table)
+    document = read_dxf(path)
+    scale = _scale(chk, table, document, raw, path)
+    drawn = _entities(document, path, layers)
+    size = scale * _size(drawn, path, layers["blocks"])
+    tolerance = ARC_TOLERANCE * size
+    if "arc_tolerance" in table:
+        tolerance = chk.real(table["arc_tolerance"], "drawing.arc_tolerance", POSITIVE)
+    shapes = [_flattened(*entity, scale, tolerance, size) for entity in drawn]
+    return _rock_mass(chk, raw, table, layers, shapes, path)
+
+
+def drawing_path(name: str, source: str) -> Path:
+    """The DXF file ``name`` of a scene read from ``source``: beside the scene file, or
+    from the current folder for a scene given as text or a dict."""
+    path = Path(name)
+    if path.is_absolute() or source.startswith("<"):
+        return path
+    return Path(source).parent / path
+
+
+def read_dxf(path: Path) -> Any:
+    """The ezdxf document of ``path``, or a SceneError saying why it cannot be read."""
+    import ezdxf
+
+    if not path.is_file():
+        raise SceneError(str(path), "<file>", "no such drawing file")
+    try:
+        return ezdxf.readfile(path)
+    except (OSError, ezdxf.DXFError) as exc:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        reason = f"not a DXF drawing ezdxf can read ({reason})"
+        raise SceneError(str(path), "<file>", reason) from None
+
+
+def _layers(chk: Checker, table: Mapping) -> dict[str, Any]:
+    """Role -> layer name (the joints' layer may be a table of layer -> joint name);
+    the roles the table names explicitly are marked as required ('!' in ``given``)."""
+    layers: dict[str, Any] = {}
+    for role, default in LAYERS.items():
+        value = table.get(role, default)
+        if role == "joints" and isinstance(value, Mapping):
+            layers[role] = {chk.text(k, "drawing.joints"): chk.text(v, f"drawing.joints.{k}")
+                            for k, v in value.items()}  # fmt: skip
+        else:
+            layers[role] = chk.text(value, f"drawing.{role}")
+    layers["given"] = {role for role in LAYERS if role in table}
+    return layers
+
+
+def _scale(chk: Checker, table: Mapping, document: Any, raw: Mapping, path: Path) -> float:
+    """``[drawing] scale``; without it the drawing's ``$INSUNITS`` must be unitless or the
+    scene's length unit."""
+    if "scale" in table:
+        return chk.real(table["scale"], "drawing.scale", POSITIVE)
+    code = int(document.header.get("$INSUNITS", 0) or 0)
+    units = raw.get("units", {})
+    length = units.get("length", "m") if isinstance(units, Mapping) else "m"
+    if code == 0 or code not in INSUNITS or length not in METRES:
+        return 1.0
+    name, metres = INSUNITS[code]
+    if name != length:
+        factor = metres / METRES[length]
+        raise SceneError(
+            str(path),
+            "$INSUNITS",
+            f"the drawing is in {name} ($INSUNITS = {code}) and the scene in {length} "
+            f"([units] length): give [drawing] scale = {factor:g} to read it in {length}, "
+            f"or set $INSUNITS to {length}",
+        )
+    return 1.0
+
+
+def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
+    """(layer, description, ezdxf path) of every model-space entity on a mapped layer; a
+    layer the table names (or the blocks layer) must be in the drawing."""
+    from ezdxf import path as dxf_path
+
+    mapped = _mapped(layers)
+    entities = list(document.modelspace())
+    present = {layer.dxf.name for layer in document.layers} | {e.dxf.layer for e in entities}
+    for role, layer in mapped.items():
+        if (role.split(":")[0] in layers["given"] or role == "blocks") and layer not in present:
+            listed = ", ".join(sorted(present)) or "none"
+            key = f"drawing.{role.split(':')[0]}"
+            raise SceneError(str(path), key, f"no layer {layer!r} in the drawing (its layers: "
+                             f"{listed})")  # fmt: skip
+    wanted = set(mapped.values())
+    drawn = []
+    for entity in entities:
+        layer = entity.dxf.layer
+        if layer not in wanted:
+            continue
+        what = f"{entity.dxftype()} (handle {entity.dxf.handle})"
+        if entity.dxftype() not in SHAPES:
+            reason = f"{what} is not a line, polyline, arc, circle, ellipse or spline"
+            raise SceneError(str(path), f"layer {layer}", f"{reason} (explode block references)")
+        drawn.append((layer, what, dxf_path.make_path(entity)))
+    return drawn
+
+
+def _mapped(layers: dict[str, Any]) -> dict[str, str]:
+    """Role -> layer, with one role ``joints:LAYER`` per layer of a joints table."""
+    mapped = {role: layers[role] for role in LAYERS if role != "joints"}
+    joints = layers["joints"]
+    if isinstance(joints, Mapping):
+        mapped.update({f"joints:{layer}": layer for layer in joints})
+    else:
+        mapped["joints"] = joints
+    return mapped
+
+
+def _size(drawn: list[tuple], path: Path, blocks_layer: str) -> float:
+    """The diagonal of the blocks layer's extent, in drawing units (the length scale of
+    tolerances)."""
+    corners = []
+    for layer, _, geometry in drawn:
+        box = geometry.bbox()
+        if layer == blocks_layer and box.has_data:
+            corners += [(box.extmin.x, box.extmin.y), (box.extmax.x, box.extmax.y)]
+    if not corners:
+        raise SceneError(str(path), f"layer {blocks_layer}", "holds no shape: draw the rock "
+                         "as closed polylines on it")  # fmt: skip
+    return float(np.hypot(*np.ptp(np.array(corners), axis=0))) or 1.0
+
+
+def _flattened(
+    layer: str, what: str, geometry: Any, scale: float, tolerance: float, size: float
+) -> Shape:
+    """An entity's points in the scene's unit (curves as chords within ``tolerance``),
+    without repeated points; closed when its ends meet."""
+    points = np.array([(v.x, v.y) for v in geometry.flattening(tolerance / scale)]) * scale
+    points = points.reshape(-1, 2)
+    keep = np.ones(len(points), bool)
+    keep[1:] = np.any(np.abs(np.diff(points, axis=0)) > CLOSED * size, axis=1)
+    points = points[keep]
+    closed = len(points) > 3 and bool(np.all(np.abs(points[0] - points[-1]) <= CLOSED * size))
+    return Shape(layer, what, points[:-1] if closed else points, closed)
+
+
+def _rock_mass(
+    chk: Checker, raw: Mapping, table: Mapping, layers: dict, shapes: list[Shape], path: Path
+) -> Expanded:
+    """The raw scene with the drawing's regions, joint lines, fixed rules, groups, stage."""
+    rock = _closed(shapes, layers["blocks"], path)
+    fixed = _closed(shapes, layers["fixed"], path)
+    holes = _closed(shapes, layers["excavation"], path)
+    out = {k: v for k, v in raw.items() if k != "drawing"}
+    material = _material(chk, table, raw)
+    dug = shapely.union_all([_polygon(s, path) for s in holes]) if holes else None
+    regions, origins = list(_list(raw, "regions")), {}
+    for shape in rock + fixed:
+        for region in _regions(shape, dug, material, path):
+            origins[len(regions)] = f"layer {shape.layer}: {shape.what}"
+            regions.append(region)
+    out["regions"] = regions
+    out["joint_lines"] = [*_list(raw, "joint_lines"), *_joint_lines(chk, table, layers, shapes)]
+    if fixed:
+        out["fix"] = [*_list(raw, "fix"), *({"inside": s.points.tolist()} for s in fixed)]
+    if holes:
+        out.update(_excavation(chk, raw, table, holes))
+    return Expanded(out, path, origins)
+
+
+def _closed(shapes: list[Shape], layer: str, path: Path) -> list[Shape]:
+    """The shapes of ``layer``, each closed (an open one is refused)."""
+    found = [s for s in shapes if s.layer == layer]
+    for shape in found:
+        if not shape.closed:
+            (x0, y0), (x1, y1) = shape.points[0], shape.points[-1]
+            raise SceneError(
+                str(path),
+                f"layer {layer}",
+                f"{shape.what} is open (from ({x0:.6g}, {y0:.6g}) to ({x1:.6g}, {y1:.6g})): "
+                "a block or an excavation is a closed polyline",
+            )
+    return found
+
+
+def _polygon(shape: Shape, path: Path) -> shapely.Polygon:
+    """A closed shape as a polygon; a shape that crosses itself is refused."""
+    polygon = shapely.Polygon(shape.points)
+    if not polygon.is_valid or polygon.area <= 0.0:
+        raise SceneError(str(path), f"layer {shape.layer}", f"{shape.what} is not a simple "
+                         f"closed shape ({shapely.is_valid_reason(polygon)})")  # fmt: skip
+    return polygon
+
+
+def _regions(shape: Shape, dug: Any, material: str, path: Path) -> list[dict]:
+    """The ``[[regions]]`` of one closed shape: the rock outside the excavations, and (a
+    region of its own, to be removed) the rock inside them."""
+    polygon = _polygon(shape, path)
+    pieces = [polygon] if dug is None else [polygon.difference(dug), polygon.intersection(dug)]
+    regions = []
+    for piece in pieces:
+        for part in shapely.get_parts(piece):
+            if isinstance(part, shapely.Polygon) and part.area > 0.0:
+                regions.append({
+                    "polygon": _ring(part.exterior),
+                    "holes": [_ring(ring) for ring in part.interiors],
+                    "material": material,
+                })  # fmt: skip
+    return regions
+
+
+def _ring(ring: Any) -> list[list[float]]:
+    return np.asarray(ring.coords)[:-1].tolist()
+
+
+def _joint_lines(chk: Checker, table: Mapping, layers: dict, shapes: list[Shape]) -> list[dict]:
+    """A ``[[joint_lines]]`` entry per shape on a joints layer (a closed one back to its
+    start); its joint: the table's ``joint``, or the joint a joints table maps its layer to."""
+    joints = layers["joints"]
+    if isinstance(joints, Mapping):
+        names = dict(joints)
+    else:
+        names = {joints: chk.text(table.get("joint", ""), "drawing.joint")}
+    lines = []
+    for shape in shapes:
+        if shape.layer in names:
+            points = (
+                shape.points if not shape.closed else np.vstack([shape.points, shape.points[:1]])
+            )
+            entry = {"points": points.tolist(), "name": shape.layer}
+            if names[shape.layer]:
+                entry["joint"] = names[shape.layer]
+            lines.append(entry)
+    return lines
+
+
+def _material(chk: Checker, table: Mapping, raw: Mapping) -> str:
+    """``[drawing] material``, or the scene's only material."""
+    if "material" in table:
+        return chk.text(table["material"], "drawing.material")
+    materials = raw.get("materials", {})
+    if isinstance(materials, Mapping) and len(materials) == 1:
+        return next(iter(materials))
+    chk.fail("drawing.material", "missing: which [materials.NAME] the drawn rock is of")
+
+
+def _excavation(chk: Checker, raw: Mapping, table: Mapping, holes: list[Shape]) -> dict:
+    """The groups of the excavated blocks (``excavation``; ``excavation_1``, ... for
+    several shapes) and the stage that removes them."""
+    if "excavation_time" not in table:
+        chk.fail("drawing.excavation_time", f"missing: the drawing has {len(holes)} shape(s) "
+                 "to excavate; give the time of the stage that removes them")  # fmt: skip
+    time = chk.real(table["excavation_time"], "drawing.excavation_time", POSITIVE)
+    names = [EXCAVATION_GROUP] if len(holes) == 1 else [
+        f"{EXCAVATION_GROUP}_{k}" for k in range(1, len(holes) + 1)
+    ]  # fmt: skip
+    groups = raw.get("groups", {})
+    groups = dict(groups) if isinstance(groups, Mapping) else groups
+    if isinstance(groups, dict):
+        for name, shape in zip(names, holes, strict=True):
+            if name in groups:
+                chk.fail(f"groups.{name}", "is the drawing's excavation: name your group otherwise")
+            groups[name] = {"inside": shape.points.tolist()}
+    stages = [*_list(raw, "stages"), {"time": time, "remove": names}]
+    stages.sort(key=lambda s: s.get("time", 0.0) if isinstance(s, Mapping) else 0.0)
+    return {"groups": groups, "stages": stages}
+
+
+def _list(raw: Mapping, key: str) -> list:
+    value = raw.get(key, [])
+    return list(value) if isinstance(value, list) else value
