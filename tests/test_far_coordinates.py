@@ -91,10 +91,15 @@ def test_a_scene_moved_far_away_gives_the_numbers_of_the_scene_moved_back(make, 
             assert relative(a.measurements[name], values) <= 1e-9, name
 
 
+# shipped cases drawn where they are in the ground: a tunnel 300 m down, its section
+# 40 m across (its in-situ field is given in the scene's y, docs/engineering.md)
+AT_DEPTH = {"tunnel_deep": (0.0, -320.0)}
+
+
 def test_a_scene_near_the_origin_is_not_moved():
     for name in dda.cases.names():
         scene = dda.load_scene(dda.cases.folder().joinpath(f"{name}.toml"))
-        assert local_origin(scene) == (0.0, 0.0), name
+        assert local_origin(scene) == AT_DEPTH.get(name, (0.0, 0.0)), name
 
 
 def test_a_scene_whose_rounding_at_1e9_makes_blocks_overlap_is_refused():

@@ -186,7 +186,7 @@ def _announce_compiling() -> None:
                 self.announced = True
                 log.warning(
                     "compiling the kernels this run needs for this machine (each once per "
-                    "installation; numba keeps them in its cache): it may start up to two "
+                    "installation; numba keeps them in its cache): it may start about 1 to 3 "
                     "minutes late"
                 )
             if self.depth == 0:
