@@ -262,6 +262,9 @@ def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> Con
             "jrc": np.array([j.jrc for j in joints]),
             "jcs": np.array([j.jcs for j in joints]),
             "divisor": np.array([j.strength_divisor for j in joints]),
+            "restitution": np.array(
+                [np.nan if j.restitution is None else j.restitution for j in joints]
+            ),
         },
     )
     extent = float(max(blocks.vertices.max(axis=0) - blocks.vertices.min(axis=0)))

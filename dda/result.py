@@ -70,13 +70,15 @@ class Frame:
 
 
 class FractureEvent(NamedTuple):
-    """One block breaking: ``mode`` is "shear" or "tension"."""
+    """One block breaking: ``mode`` is "shear" or "tension"; ``stress`` the parent's
+    (sxx, syy, sxy) that met the criterion, which its children start with."""
 
     step: int
     time: float
     parent: str
     children: tuple[str, ...]
     mode: str
+    stress: tuple[float, ...] = ()
 
 
 class BoltEvent(NamedTuple):

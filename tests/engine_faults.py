@@ -22,6 +22,9 @@ computes something else. The faults:
     2° added to every joint friction angle above zero;
 ``cohesion_dropped``
     every joint's cohesion left out of its friction bound;
+``cohesion_kept``
+    a bond that breaks keeps its cohesion (residual cohesion = peak: a brittle joint
+    made ductile);
 ``tension_dropped``
     every joint's tensile strength left out (a bonded joint holds no tension);
 ``inertia_x0.95``
@@ -53,7 +56,9 @@ computes something else. The faults:
     the stress turned with the block by −r₀ instead of r₀;
 ``pushout_in_velocity``
     the displacement that removes an overlap found at a new contact
-    (dda.contact.push_out, a rarely run correction) counted in the velocity.
+    (dda.contact.push_out, a rarely run correction) counted in the velocity;
+``children_unstressed``
+    the pieces of a broken block start unstressed instead of with its stress.
 
 ``UNCAUGHT`` lists the faults no verification case catches yet (none now), with
 the reason in docs/verification.md; they are not in ``FAULTS`` (which the tests
@@ -68,6 +73,7 @@ from collections.abc import Callable
 import numpy as np
 
 import dda.contact.law as contact_law
+import dda.fracture.fragments as fragments
 import dda.run.simulation as simulation
 import dda.solve.step as step
 import dda.solve.update as update
@@ -103,13 +109,20 @@ def _friction_plus2(model: Model) -> None:
     if model.contact is None:
         return
     joints = model.contact.joints
-    angle = np.arctan(joints.tan_friction)
-    joints.tan_friction = np.where(angle > 0, np.tan(angle + np.radians(2.0)), 0.0)
+    for name in ("tan_friction", "tan_residual"):  # the peak and the residual angle
+        angle = np.arctan(getattr(joints, name))
+        setattr(joints, name, np.where(angle > 0, np.tan(angle + np.radians(2.0)), 0.0))
 
 
 def _drop_cohesion(model: Model) -> None:
     if model.contact is not None:
         model.contact.joints.cohesion = np.zeros_like(model.contact.joints.cohesion)
+
+
+def _keep_cohesion(model: Model) -> None:
+    if model.contact is not None:
+        joints = model.contact.joints
+        joints.residual_cohesion = joints.cohesion.copy()
 
 
 def _drop_tension(model: Model) -> None:
@@ -165,6 +178,7 @@ def _friction_sin(model: Model) -> None:
     if model.contact is not None:
         joints = model.contact.joints
         joints.tan_friction = np.sin(np.arctan(joints.tan_friction))
+        joints.tan_residual = np.sin(np.arctan(joints.tan_residual))
 
 
 def _shear_penalty_tenth(model: Model) -> None:
@@ -209,6 +223,7 @@ MODEL_FAULTS: dict[str, Callable[[Model], None]] = {
     "gravity_one_density": _gravity_with_one_density,
     "friction_plus2": _friction_plus2,
     "cohesion_dropped": _drop_cohesion,
+    "cohesion_kept": _keep_cohesion,
     "tension_dropped": _drop_tension,
     "inertia_x0.95": _scale_inertia,
     "stress_replaced": _stress_replaced,
@@ -329,6 +344,16 @@ def _pushout_in_velocity(monkeypatch) -> None:
     monkeypatch.setattr(simulation, "apply_step", counted)
 
 
+def _children_unstressed(monkeypatch) -> None:
+    inherited = fragments.children_state
+
+    def unstressed(velocity, parent_centroid, parent_stress, centroids):
+        motion, stress = inherited(velocity, parent_centroid, parent_stress, centroids)
+        return motion, np.zeros_like(stress)
+
+    monkeypatch.setattr(fragments, "children_state", unstressed)
+
+
 # faults patched into the engine's modules (not into a built model)
 ENGINE_FAULTS: dict[str, Callable[[object], None]] = {
     "stress_x1.05": _scaled_frame,
@@ -340,6 +365,7 @@ ENGINE_FAULTS: dict[str, Callable[[object], None]] = {
     "rotation_linearised": _rotation_linearised,
     "stress_rotated_backwards": _stress_rotated_backwards,
     "pushout_in_velocity": _pushout_in_velocity,
+    "children_unstressed": _children_unstressed,
 }
 # faults no verification case catches yet (docs/verification.md would say why): none
 UNCAUGHT: tuple[str, ...] = ()

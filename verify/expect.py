@@ -61,6 +61,7 @@ KNOWN_CHECKS = (
     "history",
     "stress_history",
     "onset",
+    "children",
     "motion",
     "area",
     "order",

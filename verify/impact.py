@@ -16,7 +16,11 @@ References of kind ``motion`` (:mod:`verify.motion`), computed from the scene al
     no friction and no damping take any). A contact as stiff as the block
     excites its strain modes and keeps part of the energy in them.
     Shi's velocity update (Newmark β = ½, γ = 1) damps the ringing by about
-    ξ = ω Δt / 4, so 1 − e is first order in ω Δt.
+    ξ = ω Δt / 4, so 1 − e is first order in ω Δt. With a joint's ``restitution`` e₀
+    each landing contact has a dashpot c = 2 ζ √(m p / n) beside its spring
+    (dda/solve/contact_dashpots.py): the reference is then the rigid block on n springs
+    and dashpots under gravity, integrated to 1e-12 (its rebound e₀ itself without
+    gravity), and its time on the springs.
 
     Rows ``impact_time`` (the end of the first step that closed a contact
     against t_f, scale Δt, offset ½ Δt: the contact closes at the end of the step
@@ -29,8 +33,9 @@ References of kind ``motion`` (:mod:`verify.motion`), computed from the scene al
     √(2 g h): free flight keeps ½ |v|² + g u_y, exactly in Shi's scheme under a
     constant acceleration); ``rebound`` (e = √(|v|² + 2 g (u_y + h)) / √(2 g h)
     at the first frame in flight after the contact, component ``e@Δt`` per time
-    step against 1; component ``limit``: e(Δt) + (e(Δt) − e(f Δt)) / (f − 1)
-    between the two finest runs, the limit of a first-order error, against 1)
+    step against 1 (with restitution, the reference's); component ``limit``:
+    e(Δt) + (e(Δt) − e(f Δt)) / (f − 1) between the two finest runs, the limit of a
+    first-order error, against the same)
     and ``order`` (component ``e``: the observed order of 1 − e between the two
     finest runs). Energy rows' scale: m g h.
 ``overlap``
@@ -84,6 +89,7 @@ class Drop:
     mass: float
     landing: int  # n: vertices that land together
     penalty: float  # p of each contact spring
+    restitution: float = 1.0  # e of the joint (1: no dashpot)
 
     @property
     def time(self) -> float:
@@ -102,9 +108,43 @@ class Drop:
 
     @property
     def contact_time(self) -> float:
-        """(π + 2 atan(g / (ω v))) / ω: a rigid block on the springs, under gravity."""
+        """(π + 2 atan(g / (ω v))) / ω: a rigid block on the springs, under gravity;
+        with a dashpot, :meth:`damped_landing`'s."""
+        if self.restitution < 1.0:
+            return self.damped_landing()[0]
         w = self.omega
         return float((np.pi + 2.0 * np.arctan(self.gravity / (w * self.speed))) / w)
+
+    @property
+    def rebound(self) -> float:
+        """The rebound coefficient of the rigid block: 1 on undamped springs, else
+        :meth:`damped_landing`'s."""
+        return 1.0 if self.restitution >= 1.0 else self.damped_landing()[1]
+
+    def damped_landing(self) -> tuple[float, float]:
+        """(time on the springs, rebound speed / impact speed) of the rigid block on n
+        springs p and dashpots c = 2 ζ √(m p / n), ζ = −ln e / √(π² + ln² e), under gravity:
+        m ẍ = −n p x − n c ẋ + m g from x = 0, ẋ = v until x is 0 again (integrated to
+        1e-12; e itself without gravity)."""
+        from scipy.integrate import solve_ivp
+
+        log_e = np.log(self.restitution) if self.restitution > 0 else -np.inf
+        zeta = 1.0 if self.restitution <= 0 else -log_e / np.sqrt(np.pi**2 + log_e**2)
+        k = self.landing * self.penalty
+        c = 2.0 * zeta * np.sqrt(k * self.mass)
+        m, g = self.mass, self.gravity
+
+        def motion(_t, y):
+            return [y[1], (-k * y[0] - c * y[1]) / m + g]
+
+        def leaves(_t, y):
+            return y[0]
+
+        leaves.terminal, leaves.direction = True, -1
+        span = 10.0 * np.pi / self.omega
+        out = solve_ivp(motion, (0.0, span), [0.0, self.speed], events=leaves, rtol=1e-12,
+                        atol=1e-14 * self.height, max_step=0.01 / self.omega)  # fmt: skip
+        return float(out.t_events[0][0]), float(-out.y_events[0][0][1] / self.speed)
 
 
 def drop_of(scene: Scene, block: int) -> Drop:
@@ -118,12 +158,17 @@ def drop_of(scene: Scene, block: int) -> Drop:
     lossy = any(j.friction_angle or j.cohesion for j in scene.joints.values())
     if lossy or scene.materials[b.material].damping:
         raise ExpectationError(f"{where}: frictionless joints and no material damping")
+    restitutions = {j.restitution for j in scene.joints.values()}
+    if len(restitutions) > 1:
+        raise ExpectationError(f"{where}: one restitution (or none) for every joint")
     height, landing = landing_height(scene, block)
     if not height > 0.0:
         raise ExpectationError(f"{where}: the block's lowest vertices above a level fixed base")
     penalty = scene.contact.penalty or 10.0 * max(m.young for m in scene.materials.values())
     g = -float(a.gravity[1])
-    drop = Drop(height, g, block_mass(scene, block), landing, float(penalty))
+    e = restitutions.pop()
+    drop = Drop(height, g, block_mass(scene, block), landing, float(penalty),
+                1.0 if e is None else float(e))  # fmt: skip
     if strain_frequency(scene, block) < STIFF_BLOCK * drop.omega:
         raise ExpectationError(
             f"{where}: a block whose strain modes are {STIFF_BLOCK:g} times as fast as its "
@@ -307,20 +352,20 @@ def drop_rows(
             Row("impact_time", name, f"t@{dt:g}", start, drop.time, dt, offset=dt / 2),
             Row("contact_time", name, f"t@{dt:g}", end - start, drop.contact_time, dt),
             Row("impact_speed", name, f"v@{dt:g}", speed, drop.speed, drop.speed),
-            Row("rebound", name, f"e@{dt:g}", e[factor], 1.0, 1.0),
+            Row("rebound", name, f"e@{dt:g}", e[factor], drop.rebound, 1.0),
         ]
-        series["errors"][factor]["e"] = abs(1.0 - e[factor])
+        series["errors"][factor]["e"] = abs(drop.rebound - e[factor])
     factors = sorted(tracks)
     limit = float("nan")
     if len(factors) > 1:
         fine, coarse = factors[0], factors[1]
         ratio = coarse / fine
         limit = e[fine] + (e[fine] - e[coarse]) / (ratio - 1.0)
-        order = observed_order(1.0 - e[coarse], 1.0 - e[fine], ratio)
+        order = observed_order(drop.rebound - e[coarse], drop.rebound - e[fine], ratio)
         series["orders"]["e"] = order
         expected = float("nan") if expectation.order is None else expectation.order
         rows.append(Row("order", name, "e", order, expected, 1.0))
-    rows.append(Row("rebound", name, "limit", limit, 1.0, 1.0))
+    rows.append(Row("rebound", name, "limit", limit, drop.rebound, 1.0))
     series["rebound"] = {"e": e, "limit": limit}
     return rows
 

@@ -18,7 +18,9 @@ here from the scene alone (``reference`` in the expectation file):
     the block sticks while |T| ≤ tan φ N + c L and otherwise slides with
     a = (T − sign T · tan φ N) / m along t (the cohesion is lost once it
     slips): u = ½ a t² t, r = 0. Shi's scheme is exact for a constant
-    acceleration.
+    acceleration. On a brittle joint (residual cohesion below the peak) a
+    rectangular block holds only if its two base corners do, one after the other
+    (:func:`brittle_holds`: the uphill corner, less pressed, slips first).
 ``rocking``
     a rectangular block resting on one corner of its base, tilted by θ0 from
     standing on a level fixed base (Housner's rocking block), released from rest;
@@ -136,9 +138,35 @@ def slide(scene: Scene, block: int, times: np.ndarray) -> Motion:
     joint = interface.joint
     bound = np.tan(np.radians(joint.friction_angle)) * max(pressing, 0.0)
     holds = abs(drive) <= bound + joint.cohesion * interface.length
+    if holds and joint.residual_cohesion < joint.cohesion:
+        holds = brittle_holds(scene, block, joint, pressing, drive, tangent)
     a = 0.0 if holds else (drive - np.sign(drive) * bound) / block_mass(scene, block)
     u = np.outer(0.5 * a * times**2, tangent)
     return Motion(u, np.zeros(len(times)), np.ones(len(times), bool), {"friction": bound})
+
+
+def brittle_holds(scene: Scene, block: int, joint, pressing: float, drive: float,
+                  tangent: np.ndarray) -> bool:  # fmt: skip
+    """Whether a rectangular block on a brittle joint (its residual cohesion below its
+    cohesion: a contact that slips loses it) holds on its two base corners.
+
+    A rigid block of base L and height h (along and across the interface) standing on
+    its base's two corners carries N = W_n / 2 ∓ W_t h / (2L) on the uphill and downhill
+    corner (moment about its centroid) and, on equal shear springs, F = W_t / 2 on each.
+    The uphill corner slips once W_t / 2 > tan φ N_up + c L / 2 and loses its cohesion;
+    its friction tan φ N_up left, the downhill corner must carry W_t − tan φ N_up on
+    tan φ N_down + c L / 2, or slips too: the block then slides on friction alone.
+    (Residual cohesion and tensile strength are taken as zero, the default.)"""
+    vertices = np.asarray(scene.blocks[block].vertices, dtype=float)
+    along = vertices @ tangent
+    across = vertices @ np.array([-tangent[1], tangent[0]])
+    length, height = float(np.ptp(along)), float(np.ptp(across))
+    tan_phi, share = np.tan(np.radians(joint.friction_angle)), joint.cohesion * length / 2.0
+    lever = abs(drive) * height / (2.0 * length)
+    uphill, downhill = pressing / 2.0 - lever, pressing / 2.0 + lever
+    if abs(drive) / 2.0 <= tan_phi * max(uphill, 0.0) + share:
+        return True
+    return abs(drive) - tan_phi * max(uphill, 0.0) <= tan_phi * downhill + share
 
 
 def dissipation_rows(scene: Scene, result: Result) -> list[Row]:

@@ -195,12 +195,33 @@ def run_fracture(
     factor = common_factor(scene, result.frames[before].time)
     fem = watch.run("fem", solve_fem, scene, options, load_factor=factor)
     rows = compare(side, fem, expectation) + onset_rows(result, scene, onset, expectation)
+    rows += children_rows(result)
     series = {
         "onset": {scene.blocks[i].name: f for i, f in onset.factors.items()},
         "broke": broken_factors(result, scene),
         "factor_before": factor,
     }
     return KindResult(side, fem, rows, watch.seconds, onset, series)
+
+
+def children_rows(result: Result) -> list[Row]:
+    """Rows ``children``: each piece of the first break in the first frame at or after
+    its step against the stress its parent met the criterion with (they start with it:
+    a DDA block's stress is constant, docs/fracture.md); scale the largest of that."""
+    if not result.fracture_events:
+        return []
+    event = result.fracture_events[0]
+    frame = next((f for f in result.frames if f.step >= event.step), None)
+    parent = np.asarray(event.stress, float)
+    if frame is None or parent.size != 3:
+        return []
+    scale = float(np.abs(parent).max()) or 1.0
+    rows = []
+    for child in event.children:
+        stress = frame.stresses[frame.block(child)]
+        rows += [Row("children", child, name, float(value), float(expected), scale)
+                 for name, value, expected in zip(STRESS, stress, parent, strict=True)]  # fmt: skip
+    return rows
 
 
 def frame_before_break(result: Result) -> int:

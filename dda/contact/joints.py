@@ -32,7 +32,8 @@ class JointTable:
     ) -> None:
         """``residual``: per joint, optional ``friction_angle``, ``cohesion``, ``tensile``
         (the residual strengths; defaults: the peak angle, 0, 0), ``barton`` (bool),
-        ``jrc``, ``jcs`` and ``divisor`` (Barton–Bandis; :class:`JointProperties`)."""
+        ``jrc``, ``jcs`` and ``divisor`` (Barton–Bandis; :class:`JointProperties`) and
+        ``restitution`` (e, NaN for none: :mod:`dda.solve.contact_dashpots`)."""
         self.names = names
         self.tan_friction = np.tan(np.radians(friction_angle))
         self.cohesion = np.asarray(cohesion, float)
@@ -48,6 +49,7 @@ class JointTable:
         self.jrc = np.asarray(residual.get("jrc", np.zeros(count)), float)
         self.jcs = np.asarray(residual.get("jcs", np.zeros(count)), float)
         self.divisor = np.asarray(residual.get("divisor", np.ones(count)), float)
+        self.restitution = np.asarray(residual.get("restitution", np.full(count, np.nan)), float)
         self.factor = 1.0
         self.default = names.index("default")
         keys = (
@@ -63,6 +65,11 @@ class JointTable:
     def _pair_keys(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         lo, hi = np.minimum(a, b), np.maximum(a, b)
         return lo.astype(np.int64) * (1 << 31) + hi
+
+    @property
+    def has_restitution(self) -> bool:
+        """Some joint has a coefficient of restitution (its contacts get dashpots)."""
+        return bool(np.any(np.isfinite(self.restitution)))
 
     @property
     def has_friction(self) -> bool:

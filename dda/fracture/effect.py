@@ -130,8 +130,13 @@ class FractureEffect(Effect):
                 fragments.append(pieces)
                 events.append(
                     FractureEvent(
-                        int(ctx.step), float(ctx.time), blocks.names[row], pieces.names, mode
-                    )
+                        int(ctx.step),
+                        float(ctx.time),
+                        blocks.names[row],
+                        pieces.names,
+                        mode,
+                        tuple(float(x) for x in blocks.stress[row]),
+                    )  # fmt: skip
                 )
         if not fragments:
             return blocks, []

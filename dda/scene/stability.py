@@ -32,6 +32,7 @@ from dda.scene.checks import (
     real,
     table_list,
 )
+from dda.scene.joints import JRC, RESTITUTION
 
 STABILITY_KEYS = ("fos", "ensemble")
 # a trial fails when its watched blocks move faster, over the last `window` of the trial,
@@ -87,6 +88,12 @@ _JOINT_VALUES = {
     "friction_angle": ANGLE,
     "cohesion": NON_NEGATIVE,
     "tensile_strength": NON_NEGATIVE,
+    "residual_friction_angle": ANGLE,
+    "residual_cohesion": NON_NEGATIVE,
+    "residual_tensile_strength": NON_NEGATIVE,
+    "jrc": JRC,
+    "jcs": POSITIVE,
+    "restitution": RESTITUTION,
 }
 _JOINT_SET_VALUES = {
     "dip": ANY,
@@ -259,8 +266,8 @@ def _target(
             return _JOINT_SET_VALUES[name], name in _ORIENTATIONS
     chk.fail(
         key,
-        f"cannot draw {target!r}: expected joints.NAME.friction_angle|cohesion|"
-        "tensile_strength or joint_sets[i].dip|spacing|offset|trace_length|bridge_length",
+        f"cannot draw {target!r}: expected joints.NAME.{'|'.join(_JOINT_VALUES)} or "
+        "joint_sets[i].dip|spacing|offset|trace_length|bridge_length",
     )
 
 

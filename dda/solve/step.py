@@ -46,6 +46,7 @@ from dda.solve.assembly import (
     subtract_contact_forces,
 )
 from dda.solve.band_system import BandOrder, BandSystem, band_kernels, band_pays
+from dda.solve.contact_dashpots import contact_dashpots
 from dda.solve.dense_system import DENSE_ROWS, DenseSystem
 from dda.solve.linsolve import ReusingSolver, block_ordering, systems_choice
 from dda.solve.low_rank import StepUpdates
@@ -590,7 +591,14 @@ def solve_step(
             rows.penetration, rows.slip = gaps_after(
                 rows, contacts.block_a, contacts.block_b, ctx.prescribed
             )
-        joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
+        joint_rows = cm.joints.rows_for(blocks, contacts)
+        joints = cm.joints.properties(joint_rows, rows.length)
+        if cm.joints.has_restitution and not ctx.static:  # dashpots beside the springs
+            dashpots = contact_dashpots(
+                contacts, rows, cm.joints.restitution[joint_rows],
+                model.inertia.masses(blocks)[:, 0, 0], blocks.fixed, ctx.dt, law.shear_ratio,
+            )  # fmt: skip
+            couplings = PairSprings.join([couplings, dashpots])
 
     def neighbours():
         return pattern_neighbours(blocks, contacts, cm)

@@ -70,12 +70,35 @@ def set_value(raw: dict, key: str, value: float) -> None:
     raw.setdefault(table, {}).setdefault(name, {})[field] = value
 
 
+# a residual strength and the peak it may not exceed (dda.scene.joints)
+_PEAKS = {
+    "residual_friction_angle": "friction_angle",
+    "residual_cohesion": "cohesion",
+    "residual_tensile_strength": "tensile_strength",
+}
+
+
+def _residuals_within_peaks(raw: dict) -> None:
+    """A residual strength drawn (or left) above its joint's drawn peak is taken equal to
+    it: a joint loses strength as it slips, and the realisation stays a scene."""
+    joints = raw.get("joints")
+    if not isinstance(joints, dict):
+        return
+    for joint in joints.values():
+        if not isinstance(joint, dict) or joint.get("model") == "barton-bandis":
+            continue
+        for residual, peak in _PEAKS.items():
+            if residual in joint and joint[residual] > joint.get(peak, 0.0):
+                joint[residual] = joint.get(peak, 0.0)
+
+
 def realise(raw: Mapping[str, Any], ensemble: EnsembleSettings, index: int) -> tuple[dict, dict]:
     """(the raw scene of realisation ``index``, its drawn values)."""
     out = copy.deepcopy(dict(raw))
     values = drawn_values(ensemble, index)
     for key, value in values.items():
         set_value(out, key, value)
+    _residuals_within_peaks(out)
     sets = out.get("joint_sets")
     if isinstance(sets, list) and sets:
         sequence = np.random.SeedSequence(ensemble.seed, spawn_key=(index, 1))
