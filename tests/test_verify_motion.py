@@ -7,6 +7,7 @@ import pytest
 
 import dda
 from verify.al_rate import predicted_solves
+from verify.block import free_block
 from verify.cases import discover
 from verify.impact import (
     deepest_vertex,
@@ -17,7 +18,6 @@ from verify.impact import (
     strain_frequency,
 )
 from verify.motion import (
-    free_block,
     observed_order,
     rocking,
     slide,

@@ -31,10 +31,11 @@ import numpy as np
 
 import dda
 from dda import Scene
+from verify.block import block_mass, free_block
 from verify.compare import Row
 from verify.expect import ExpectationError
 from verify.interfaces import find_interfaces
-from verify.motion import applied_force, block_mass, free_block
+from verify.motion import applied_force
 
 
 def predicted_solves(scene: Scene) -> tuple[int, float]:

@@ -26,9 +26,9 @@ import numpy as np
 import shapely
 
 from dda import Scene
+from verify.block import Motion, block_mass
 from verify.expect import ExpectationError
 from verify.geometry import polygon_centroid
-from verify.motion import Motion, block_mass
 
 # the bolt's line passes within this fraction of the block's size of its centroid
 THROUGH = 1e-9

@@ -33,9 +33,10 @@ import numpy as np
 import shapely
 
 from dda import Result, Scene
+from verify.block import block_mass
 from verify.compare import Row
 from verify.expect import ExpectationError
-from verify.motion import Track, block_mass, energy_rows, run_record, stress_rows
+from verify.motion import Track, energy_rows, run_record, stress_rows
 
 
 def check_scene(scene: Scene) -> None:

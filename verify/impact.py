@@ -66,10 +66,11 @@ import shapely
 from scipy.linalg import eigh
 
 from dda import Scene
+from verify.block import Motion, block_mass, free_block
 from verify.compare import Row
 from verify.expect import Expectation, ExpectationError
 from verify.geometry import polygon_centroid
-from verify.motion import Motion, Track, block_mass, elasticity, free_block, observed_order
+from verify.motion import Track, elasticity, observed_order
 
 # vertices within this fraction of the block's size of its lowest point land together
 LEVEL = 1e-9

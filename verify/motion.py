@@ -56,43 +56,12 @@ from scipy.linalg import polar
 
 from dda import Result, Scene
 from dda.result import OPEN
+from verify.block import Motion, block_mass, free_block
 from verify.compare import STRESS, Row, vector_in_frame
 from verify.expect import Expectation, ExpectationError
 from verify.geometry import polygon_centroid
 from verify.interfaces import find_interfaces
 from verify.water import uniform_under_table, water_force
-
-
-@dataclass(frozen=True)
-class Motion:
-    """The reference of one block at given times."""
-
-    u: np.ndarray  # (t, 2) centroid displacement
-    r: np.ndarray  # (t,) rotation
-    valid: np.ndarray  # (t,) bool: the reference holds at that time
-    events: dict  # named times (impact), for the report
-    # the energy rows' scale (rows ``energy``: E − E0 − W at every step); None: no rows
-    energy_scale: float | None = None
-
-
-def free_block(scene: Scene) -> int:
-    """The index of the scene's one free block (motion references follow one block)."""
-    free = [i for i, b in enumerate(scene.blocks) if not b.fixed]
-    if len(free) != 1:
-        raise ExpectationError(f"{scene.source}: a motion case needs exactly one free block")
-    return free[0]
-
-
-def block_mass(scene: Scene, block: int) -> float:
-    """ρ A of a scene block."""
-    b = scene.blocks[block]
-    area = abs(float(_shoelace(np.asarray(b.vertices, dtype=float))))
-    return scene.materials[b.material].density * area
-
-
-def _shoelace(v: np.ndarray) -> float:
-    x, y = v[:, 0], v[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
 def applied_force(scene: Scene, block: int) -> np.ndarray:

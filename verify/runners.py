@@ -27,6 +27,7 @@ import numpy as np
 import dda
 from dda import Result, Scene
 from verify.al_rate import al_update_rows
+from verify.block import free_block
 from verify.bolt import REFERENCES as BOLT_REFERENCES
 from verify.collisions import momentum_rows
 from verify.compare import STRESS, VECTOR, Row, compare, tensor_in_frame, vector_in_frame
@@ -42,7 +43,6 @@ from verify.motion import (
     REFERENCES,
     Track,
     dissipation_rows,
-    free_block,
     motion_rows,
     with_time_step,
 )

@@ -39,10 +39,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from dda import Result, Scene
+from verify.block import Motion
 from verify.compare import Row
 from verify.expect import ExpectationError
 from verify.interfaces import find_interfaces
-from verify.motion import Motion
 
 # the pulse's ramp down may last at most this fraction of its length
 RAMP = 1e-6

@@ -23,6 +23,7 @@ import numpy as np
 import shapely
 
 from dda import Scene
+from verify.block import Motion, block_mass
 from verify.expect import ExpectationError
 from verify.interfaces import find_interfaces
 
@@ -76,8 +77,6 @@ def kinked_table(scene: Scene, block: int, times: np.ndarray):
     (rtol 1e-11) from rest; u_y = 0 (the base carries the weight less the buoyancy,
     which must not lift the block) and r = 0 (the base's contacts carry the moment)."""
     from scipy.integrate import solve_ivp
-
-    from verify.motion import Motion, block_mass
 
     interfaces = [i for i in find_interfaces(scene) if block in i.pair]
     g = np.asarray(scene.analysis.gravity, dtype=float)
