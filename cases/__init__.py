@@ -3,7 +3,7 @@
 In a source tree they are the ``cases/`` folder; installed, they live inside
 the package and are read with :mod:`importlib.resources`, so they work from a
 wheel as from a clone. ``cases/verify`` holds the verification suite's scenes
-and expectations (:mod:`verify.cases`).
+and expectations (:mod:`verify.harness.cases`).
 
 >>> import dda, dda.cases
 >>> scene = dda.load_scene(dda.cases.text("sliding_block"))

@@ -39,8 +39,8 @@ WORK = [
     "dda.tradeoff.runner.sweep",
     "dda.io.frame_files.read_found_frame",
     "dda.io.history_plots.plot_histories",
-    "verify.cases.run_case",
-    "verify.cases.Case.load",
+    "verify.harness.cases.run_case",
+    "verify.harness.cases.Case.load",
 ]
 
 

@@ -13,15 +13,15 @@ import pytest
 import shapely
 
 import dda
-from verify import fields
-from verify.cases import discover, run_case
-from verify.contact import penalty_of
-from verify.convergence import convergence_study, observed_rates
-from verify.expect import load_expectation
-from verify.fem import FemOptions, solve_fem
-from verify.geometry import insert_points_on_edges
-from verify.interfaces import find_interfaces
-from verify.mesh import mesh_blocks
+from verify.comparison.expect import load_expectation
+from verify.fem import fields
+from verify.fem.contact import penalty_of
+from verify.fem.geometry import insert_points_on_edges
+from verify.fem.interfaces import find_interfaces
+from verify.fem.mesh import mesh_blocks
+from verify.fem.statics import FemOptions, solve_fem
+from verify.harness.cases import discover, run_case
+from verify.studies.convergence import convergence_study, observed_rates
 
 RHO, G, E, NU = 2700.0, 9.81, 5.0e9, 0.25
 
@@ -321,7 +321,7 @@ def test_fem_augmented_lagrangian_closes_to_the_tolerance():
 
 def test_fem_dynamics_is_the_engines_integrator():
     """Free fall is exact; a stiff block on two springs follows the scheme's recurrence."""
-    from verify.dynamics import integrate
+    from verify.fem.dynamics import integrate
 
     dt, steps, k, v0 = 0.004, 60, 1e6, (0.3, 0.1)
     raw = {
@@ -354,7 +354,7 @@ def test_fem_dynamics_is_the_engines_integrator():
 
 
 def test_fracture_criterion_has_the_papers_numbers():
-    from verify.fracture import Strength, fails
+    from verify.fem.fracture import Strength, fails
 
     rock = Strength(1.78e5, 39.1, 0.85e5)  # psf, the paper's rock
     assert rock.slope == pytest.approx(4.415296, rel=1e-6)
@@ -369,7 +369,7 @@ def test_fracture_criterion_has_the_papers_numbers():
 
 
 def test_block_strain_from_vertices_is_free_of_rotation():
-    from verify.dda_side import block_strain
+    from verify.comparison.dda_side import block_strain
 
     square = np.array(rectangle(0, 0, 1, 1), dtype=float)
     strain = np.array([[1e-3, 2e-4], [2e-4, -5e-4]])  # exx, exy / exy, eyy
@@ -449,7 +449,7 @@ def test_verify_uses_only_the_engines_public_api():
     import verify
 
     allowed = {"dda", "dda.scene", "dda.result", "dda.cases"}  # dda.cases: the shipped files
-    for path in Path(verify.__file__).parent.glob("*.py"):
+    for path in Path(verify.__file__).parent.rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("dda"):
                 assert node.module in allowed, (path.name, node.module)
@@ -475,13 +475,13 @@ def test_fem_side_reads_nothing_from_the_engine(monkeypatch):
 
 @pytest.fixture(scope="module")
 def refinement():
-    from verify.refinement import refinement_study
+    from verify.studies.refinement import refinement_study
 
     return refinement_study(ks=(1, 2, 4))
 
 
 def test_refinement_findings_hold_up_to_k_4(refinement):
-    from verify.refinement import findings
+    from verify.studies.refinement import findings
 
     points, references = refinement
     failed = [(f.body, f.claim, f.value) for f in findings(points) if not f.passed]
@@ -493,7 +493,7 @@ def test_refinement_findings_hold_up_to_k_4(refinement):
 
 def test_rigidly_bonded_squares_lock(refinement):
     """Documented: squares bonded at their corners cannot bend, whatever k."""
-    from verify.refinement import series_run
+    from verify.studies.refinement import series_run
 
     points, _ = refinement
     for body in ("cantilever", "l_shape"):
@@ -504,7 +504,7 @@ def test_rigidly_bonded_squares_lock(refinement):
 @pytest.mark.slow
 def test_refinement_to_k_16():
     """Triangles converge at P1's orders (cantilever 1.8, L 1.5 over the last doubling)."""
-    from verify.refinement import findings, observed_orders, refinement_study
+    from verify.studies.refinement import findings, observed_orders, refinement_study
 
     points, _ = refinement_study()
     assert all(f.passed for f in findings(points))
@@ -554,7 +554,7 @@ def assert_data_in_every_panel(image: np.ndarray, rows: int, columns: int, top: 
 
 def colour_at(image: np.ndarray, result, row: int, column: int, point, half: int = 6):
     """Median colour of a small square around a scene point in a field picture's panel."""
-    from verify.field_layout import HEADER, layout
+    from verify.pictures.field_layout import HEADER, layout
 
     frame = layout(result)
     width, height = frame.panel
@@ -568,14 +568,14 @@ def colour_at(image: np.ndarray, result, row: int, column: int, point, half: int
 @pytest.fixture(scope="module")
 def self_weight_picture(quick_results, tmp_path_factory):
     """The field picture of self_weight, rendered once (pyvista, off screen)."""
-    from verify.images import case_image
+    from verify.pictures.images import case_image
 
     folder = tmp_path_factory.mktemp("pictures")
     return case_image(quick_results["self_weight"], folder / "verify_self_weight.png")
 
 
 def test_field_picture_is_a_png_of_sensible_size_with_data_in_every_panel(self_weight_picture):
-    from verify.field_layout import HEADER
+    from verify.pictures.field_layout import HEADER
 
     assert self_weight_picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     image = read_image(self_weight_picture)
@@ -604,7 +604,7 @@ def test_difference_panels_have_a_fixed_tolerance_scale_and_mark_unchecked_block
     """A stress difference of +tol/2 takes the colour at 3/4 of the ±tol colour map
     (RdBu_r(0.75) = (228, 128, 102); a scale of ±2 tol would give (251, 204, 180)); a
     block the centroid check leaves out is light grey (#d9d9d9), not white."""
-    from verify.images import case_image
+    from verify.pictures.images import case_image
 
     result = quick_results["self_weight"]
     tolerance = result.expectation.checks["stress"].tolerance
@@ -629,14 +629,14 @@ def test_difference_panels_have_a_fixed_tolerance_scale_and_mark_unchecked_block
 
 
 def test_history_picture_shows_data_in_every_panel(quick_results, tmp_path):
-    from verify.images import case_image
+    from verify.pictures.images import case_image
 
     path = case_image(quick_results["released"], tmp_path / "verify_released.png")
     assert_data_in_every_panel(read_image(path), 2, 2)
 
 
 def test_summary_and_refinement_charts(quick_results, refinement, tmp_path):
-    from verify.images import refinement_chart, summary_chart
+    from verify.pictures.images import refinement_chart, summary_chart
 
     chart = summary_chart(list(quick_results.values()), tmp_path / "summary.png")
     assert non_background_fraction(read_image(chart)) > 0.02
@@ -652,7 +652,7 @@ def test_the_summary_reads_at_full_size(tmp_path, monkeypatch):
 
     import matplotlib.pyplot as plt
 
-    from verify.plots import QUANTITY_GROUPS, summary_chart
+    from verify.pictures.plots import QUANTITY_GROUPS, summary_chart
 
     quantities = [q for group in QUANTITY_GROUPS.values() for q in group][:20]
     results = [

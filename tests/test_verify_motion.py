@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 import dda
-from verify.al_rate import predicted_solves
-from verify.block import free_block
-from verify.cases import discover
-from verify.impact import (
+from verify.fem.turn import turned_scene
+from verify.harness.cases import discover
+from verify.references.al_rate import predicted_solves
+from verify.references.block import free_block
+from verify.references.impact import (
     deepest_vertex,
     drop_of,
     free_fall,
@@ -17,7 +18,7 @@ from verify.impact import (
     placed,
     strain_frequency,
 )
-from verify.motion import (
+from verify.references.motion import (
     observed_order,
     rocking,
     slide,
@@ -25,7 +26,6 @@ from verify.motion import (
     vertex_motion,
     with_time_step,
 )
-from verify.turn import turned_scene
 
 CASES = {c.name: c for c in discover()}
 
@@ -129,9 +129,9 @@ def test_motion_case_reports_its_dt_study_and_draws_its_picture(tmp_path):
 
 
 def test_motion_expectations_are_checked_on_loading(tmp_path):
-    from verify.expect import MOTION_REFERENCES, ExpectationError, load_expectation
-    from verify.runners import MOTION_REFERENCES as REFERENCES
-    from verify.runners import SYSTEM_REFERENCES
+    from verify.comparison.expect import MOTION_REFERENCES, ExpectationError, load_expectation
+    from verify.harness.runners import MOTION_REFERENCES as REFERENCES
+    from verify.harness.runners import SYSTEM_REFERENCES
 
     assert set(MOTION_REFERENCES) == set(REFERENCES) | set(SYSTEM_REFERENCES)
     path = tmp_path / "x.expect.toml"
@@ -148,8 +148,8 @@ def test_a_case_runs_under_its_own_engine_settings(tmp_path, monkeypatch):
     restored after; any other variable is refused on loading."""
     import os
 
-    from verify.cases import engine_environment
-    from verify.expect import ExpectationError, load_expectation
+    from verify.comparison.expect import ExpectationError, load_expectation
+    from verify.harness.cases import engine_environment
 
     path = tmp_path / "x.expect.toml"
     path.write_text('quick = true\n[environment]\nPATH = "/tmp"\n')
@@ -190,7 +190,7 @@ def test_drop_reference_is_the_rigid_block_on_its_springs():
 def test_drop_reference_refuses_what_would_take_energy_or_has_no_base():
     from dataclasses import replace
 
-    from verify.expect import ExpectationError
+    from verify.comparison.expect import ExpectationError
 
     scene = scene_of("drop")
     block = free_block(scene)
@@ -209,7 +209,7 @@ def test_drop_reference_refuses_what_would_take_energy_or_has_no_base():
 def test_overlap_reference_measures_the_drawn_overlap():
     from dataclasses import replace
 
-    from verify.expect import ExpectationError
+    from verify.comparison.expect import ExpectationError
 
     scene = scene_of("overlap")
     block = free_block(scene)
@@ -309,7 +309,7 @@ def test_drop_limit_is_one_for_the_block_with_its_strain_modes():
 
 
 def test_newmark_reference_slides_the_block_by_newmarks_d_relative_to_the_base():
-    from verify.shaking import ground_displacement, newmark
+    from verify.references.shaking import ground_displacement, newmark
 
     scene = scene_of("shaken")
     t = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
@@ -327,8 +327,8 @@ def test_newmark_reference_slides_the_block_by_newmarks_d_relative_to_the_base()
 
 
 def test_water_force_is_gamma_area_normal_to_a_table_parallel_to_the_slope():
-    from verify.motion import applied_force
-    from verify.water import uniform_under_table, water_force
+    from verify.references.motion import applied_force
+    from verify.references.water import uniform_under_table, water_force
 
     scene = scene_of("wet_slide")
     block = free_block(scene)
@@ -348,7 +348,7 @@ def test_water_force_is_gamma_area_normal_to_a_table_parallel_to_the_slope():
 def test_a_partly_wet_block_has_no_slide_reference():
     from dataclasses import replace
 
-    from verify.expect import ExpectationError
+    from verify.comparison.expect import ExpectationError
 
     scene = scene_of("wet_slide")
     low = replace(scene.water, table=((-20.0, 0.0), (20.0, 0.0)))
@@ -357,7 +357,7 @@ def test_a_partly_wet_block_has_no_slide_reference():
 
 
 def test_bolt_reference_oscillates_about_f0_over_k_with_period_two_pi_root_m_over_k():
-    from verify.bolt import bolt
+    from verify.references.bolt import bolt
 
     scene = scene_of("bolted")
     motion = bolt(scene, free_block(scene), np.array([0.0, 0.25, 0.5, 1.0]))

@@ -16,8 +16,8 @@ from __future__ import annotations
 import pytest
 
 from tests.engine_faults import FAULTS, UNCAUGHT, apply_fault
-from verify.cases import discover, run_case
-from verify.expect import load_expectation
+from verify.comparison.expect import load_expectation
+from verify.harness.cases import discover, run_case
 
 CASES = {case.name: case for case in discover()}
 QUICK = [case.name for case in discover(quick=True)]

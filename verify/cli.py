@@ -78,7 +78,7 @@ def register(subparsers) -> None:
 def run_verify(args: argparse.Namespace) -> int:
     """Run the suite, print the table, write the report; non-zero when a check fails."""
     from dda import SceneError
-    from verify.expect import ExpectationError
+    from verify.comparison.expect import ExpectationError
     from verify.report import format_console
     from verify.suite import OutputError, run_suite
 

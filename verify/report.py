@@ -7,8 +7,8 @@ import math
 from dataclasses import asdict
 from pathlib import Path
 
-from verify.cases import CaseError, CaseResult
-from verify.convergence import ConvergencePoint, observed_rates
+from verify.harness.cases import CaseError, CaseResult
+from verify.studies.convergence import ConvergencePoint, observed_rates
 
 
 def verdict_table(results: list[CaseResult]) -> list[list[str]]:
@@ -165,7 +165,7 @@ def _shown(row, expectation) -> bool:
 
 def refinement_section(refinement) -> list[str]:
     """Markdown for the block-refinement study: findings, errors and observed orders."""
-    from verify.refinement import observed_orders
+    from verify.studies.refinement import observed_orders
 
     lines = ["## Block refinement (DDA blocks with locked joints against the continuum)", ""]
     lines += _markdown_table(

@@ -11,16 +11,16 @@ from pathlib import Path
 
 import numpy as np
 
-from verify.cases import CaseError, CaseResult, discover, run_case
-from verify.convergence import ConvergencePoint, convergence_study
-from verify.drawing import Painter
-from verify.refinement import Finding, RefinementPoint, findings, refinement_study
+from verify.harness.cases import CaseError, CaseResult, discover, run_case
+from verify.pictures.drawing import Painter
 from verify.report import write_json, write_markdown
+from verify.studies.convergence import ConvergencePoint, convergence_study
+from verify.studies.refinement import Finding, RefinementPoint, findings, refinement_study
 
 log = logging.getLogger(__name__)
 
 
-# the case pictures a forked child draws while the suite goes on (verify.drawing)
+# the case pictures a forked child draws while the suite goes on (verify.pictures.drawing)
 PICTURES_PER_CHILD = 5
 
 
@@ -130,7 +130,7 @@ def run_suite(
         if result is not None:
             results.append(result)
             if drawing:
-                from verify.images import case_image
+                from verify.pictures.images import case_image
 
                 path = folder / f"verify_{case.name}.png"
                 batch.append(partial(case_image, result, path))
@@ -139,7 +139,7 @@ def run_suite(
         if len(batch) == PICTURES_PER_CHILD:  # drawn while the next cases run
             painter.submit(batch)
             batch = []
-    painter.submit(batch)  # the last ones while the studies run (verify.drawing)
+    painter.submit(batch)  # the last ones while the studies run (verify.pictures.drawing)
     points = []
     if convergence:
         tell("FEM convergence study")
@@ -153,7 +153,7 @@ def run_suite(
         return output
     summary = None
     if drawing:
-        from verify.images import refinement_chart, summary_chart
+        from verify.pictures.images import refinement_chart, summary_chart
 
         if refined:
             drawn.append(refinement_chart(refined.points, folder / "verify_refinement.png"))

@@ -1,0 +1,223 @@
+"""What a verification case expects: ``cases/verify/NAME.expect.toml``.
+
+The scene file stays an ordinary scene (the loader refuses unknown keys);
+its expectations live beside it::
+
+    summary = "One block under self-weight on a fixed base"
+    quick = true                # part of the quick suite (default test run)
+    kind = "static"             # "static" | "dynamic" | "fracture"
+    component = "syy"           # stress component shown in the picture
+    frame = 0.0                 # degrees: components along a rotated frame
+    catches = ["young_x0.97"]   # engine faults this case must catch (tests)
+    [environment]               # optional: the engine's DDA_* settings for this case
+    DDA_SYSTEMS = "sparse"      # (set while the case runs, restored after)
+    [fem]
+    size = 0.125                # element size (default: mesh.default_size)
+    order = 2
+    turn = -34.38               # optional: the FEM model is the scene turned by this
+    about = [0.5, 2.0]          # (degrees) about this point (verify.fem.turn)
+    [checks.stress]             # one table per checked quantity
+    tolerance = 1e-4            # largest |error| allowed (see verify.comparison.compare)
+    why = "..."                 # why this agreement is expected
+    blocks = ["block"]          # optional: only these blocks (or interfaces touching
+                                # them) or vertices ("block[2]")
+    components = ["syy"]        # optional: only these components
+    [offsets]                   # predicted DDA − FEM, "quantity.item.component"
+    "centroid.block.uy" = 1.7658e-6
+    [closed_form]               # exact block stresses or strains for both sides,
+    "block.syy" = -26487.0      # "block.component"
+    [dda_closed_form]           # exact block stresses or strains of the DDA alone
+    [notes]                     # optional: why a reported quantity is not checked
+    vertex = "..."
+
+A ``motion`` case (:mod:`verify.references.motion`) has no FEM side: ``reference`` names
+its closed form ("free", "slide", "rocking"; "drop", "overlap" of
+:mod:`verify.references.impact`; "momentum": the conservation laws of many colliding blocks,
+:mod:`verify.references.collisions`, run at the scene's time step only), ``time_steps`` the
+factors of the scene's time step it is run at (e.g. [4, 2, 1]; 1 is the scene
+as written and gives the compared rows) and ``order`` the order of accuracy in
+Δt the rows ``order`` are compared with.
+
+A quantity without a ``[checks.NAME]`` table is reported but not checked.
+Every check states why; a tolerance above 1 % must say why it is that large
+(the test suite enforces a non-empty ``why``).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+KNOWN_CHECKS = (
+    "stress",
+    "strain",
+    "centroid",
+    "vertex",
+    "contact_force",
+    "penetration",
+    "contact_state",
+    "closed_form",
+    "history",
+    "stress_history",
+    "onset",
+    "children",
+    "motion",
+    "area",
+    "order",
+    "al_updates",
+    "energy",
+    "impact_time",
+    "contact_time",
+    "impact_speed",
+    "rebound",
+    "momentum",
+    "overlap",
+    "ground",
+    "dissipation",
+)
+KINDS = ("static", "dynamic", "fracture", "motion")
+# the closed forms of verify.references.motion, verify.references.impact,
+# verify.references.shaking and verify.references.bolt, and the conservation laws of
+# verify.references.collisions
+MOTION_REFERENCES = (
+    "free",
+    "slide",
+    "rocking",
+    "drop",
+    "overlap",
+    "newmark",
+    "newmark_record",
+    "bolt",
+    "momentum",
+    "kinked_table",
+)
+
+
+class ExpectationError(ValueError):
+    """An expectation file that cannot be used; the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """A tolerance on one quantity and the reason for it."""
+
+    quantity: str
+    tolerance: float
+    why: str
+    blocks: tuple[str, ...] = ()  # only rows of these blocks (default: all)
+    components: tuple[str, ...] = ()  # only these components (default: all)
+
+    def applies_to(self, item: str, component: str = "") -> bool:
+        """Whether a row (item "block", "block[k]" or "a|b", component) is checked.
+
+        ``blocks`` may name blocks (all their rows and their interfaces' rows)
+        or single vertices ("block[2]").
+        """
+        if self.components and component not in self.components:
+            return False
+        if not self.blocks or item in self.blocks:
+            return True
+        return any(name in self.blocks for name in item.split("[")[0].split("|"))
+
+
+@dataclass(frozen=True)
+class Expectation:
+    """The expectations of one verification case."""
+
+    summary: str
+    quick: bool = False
+    kind: str = "static"
+    component: str = "syy"
+    frame: float = 0.0
+    catches: tuple[str, ...] = ()
+    fem_size: float | None = None
+    fem_order: int = 2
+    # the FEM model is the scene turned by fem_turn degrees about fem_about: the state
+    # the engine is to come to rest in after a large rotation (verify.fem.turn)
+    fem_turn: float = 0.0
+    fem_about: tuple[float, float] = (0.0, 0.0)
+    checks: dict[str, Check] = field(default_factory=dict)
+    offsets: dict[str, float] = field(default_factory=dict)
+    closed_form: dict[str, float] = field(default_factory=dict)
+    dda_closed_form: dict[str, float] = field(default_factory=dict)
+    notes: dict[str, str] = field(default_factory=dict)  # why a quantity is not checked
+    # kind "motion" (verify.references.motion): the closed form, the time-step factors, the order
+    reference: str = ""
+    time_steps: tuple[int, ...] = (1,)
+    order: float | None = None
+    environment: dict[str, str] = field(default_factory=dict)  # DDA_* variables of the run
+
+
+def _environment(path: Path, table: dict) -> dict[str, str]:
+    """The ``[environment]`` table: the engine's own ``DDA_*`` variables only."""
+    for name in table:
+        if not name.startswith("DDA_"):
+            raise ExpectationError(f"{path}: environment.{name}: only DDA_* variables")
+    return {name: str(value) for name, value in table.items()}
+
+
+def _check(path: Path, name: str, table: dict) -> Check:
+    if name not in KNOWN_CHECKS:
+        raise ExpectationError(f"{path}: checks.{name}: unknown quantity (known: {KNOWN_CHECKS})")
+    if not str(table.get("why", "")).strip():
+        raise ExpectationError(f"{path}: checks.{name}: 'why' is required")
+    if "tolerance" not in table:
+        raise ExpectationError(f"{path}: checks.{name}: 'tolerance' is required")
+    return Check(
+        name,
+        float(table["tolerance"]),
+        str(table["why"]).strip(),
+        tuple(table.get("blocks", ())),
+        tuple(table.get("components", ())),
+    )
+
+
+def _check_motion(path: Path, raw: dict) -> None:
+    """A motion case names a known closed form and time-step factors that include 1."""
+    reference = raw.get("reference")
+    if reference not in MOTION_REFERENCES:
+        raise ExpectationError(
+            f"{path}: reference: {reference!r} is not one of {MOTION_REFERENCES}"
+        )
+    factors = raw.get("time_steps", [1])
+    if not all(isinstance(f, int) and f >= 1 for f in factors) or 1 not in factors:
+        raise ExpectationError(
+            f"{path}: time_steps: {factors!r}: positive whole factors of the scene's "
+            "time step, 1 among them"
+        )
+
+
+def load_expectation(path: Path) -> Expectation:
+    """Read and check an expectation file."""
+    try:
+        raw = tomllib.loads((Path(path) if isinstance(path, str) else path).read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ExpectationError(f"{path}: not valid TOML: {exc}") from exc
+    kind = str(raw.get("kind", "static"))
+    if kind not in KINDS:
+        raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")
+    fem = raw.get("fem", {})
+    if kind == "motion":
+        _check_motion(path, raw)
+    return Expectation(
+        summary=str(raw.get("summary", "")),
+        quick=bool(raw.get("quick", False)),
+        kind=kind,
+        component=str(raw.get("component", "syy")),
+        frame=float(raw.get("frame", 0.0)),
+        catches=tuple(raw.get("catches", ())),
+        fem_size=fem.get("size"),
+        fem_order=int(fem.get("order", 2)),
+        fem_turn=float(fem.get("turn", 0.0)),
+        fem_about=tuple(float(x) for x in fem.get("about", (0.0, 0.0))),
+        checks={name: _check(path, name, t) for name, t in raw.get("checks", {}).items()},
+        offsets={k: float(v) for k, v in raw.get("offsets", {}).items()},
+        closed_form={k: float(v) for k, v in raw.get("closed_form", {}).items()},
+        dda_closed_form={k: float(v) for k, v in raw.get("dda_closed_form", {}).items()},
+        notes={k: str(v).strip() for k, v in raw.get("notes", {}).items()},
+        reference=str(raw.get("reference", "")),
+        time_steps=tuple(int(f) for f in raw.get("time_steps", (1,))),
+        order=None if raw.get("order") is None else float(raw["order"]),
+        environment=_environment(path, raw.get("environment", {})),
+    )
