@@ -95,7 +95,7 @@ EXPECTED = {
     "paper_uniaxial_fracture": ({}, block_syy("rock"), -2.6460e5, 0.02),
     # the cut blocks tile the rock (1900 m2; 849.87794 m2 around the tunnel) and change
     # area only by the strain of their first steps (3 steps of 2 ms, uncut; the full runs
-    # are in tests/stability/test_rock_masses.py): they start loaded (the equilibrium
+    # are in tests/standing/test_rock_masses.py): they start loaded (the equilibrium
     # start: stressed, at the scene's geometry), so only the wedges that cannot stand
     # move. The tunnel's +1.1e-4 m2 is a regression number (it was -5.5e-3 m2 when the
     # mass started unloaded and compressed under its weight)

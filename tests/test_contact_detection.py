@@ -22,7 +22,7 @@ from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_geometry
 from dda.model import build
 from tests.helpers import rectangle
-from tests.stability.scenes import base, block, scene
+from tests.standing.scenes import base, block, scene
 
 
 def brute_force_pairs(boxes: np.ndarray) -> np.ndarray:

@@ -21,7 +21,7 @@ from dda.commands import cli
 from dda.scene import Distribution, EnsembleSettings
 from dda.stability.ensemble import wilson
 from dda.stability.sampling import draw, drawn_values, realise
-from tests.stability.incline import incline_scene
+from tests.standing.incline import incline_scene
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 THETA, MEAN, STD = 30.0, 33.0, 3.0

@@ -24,7 +24,7 @@ from dda.stability.fos import factor_of_safety
 from dda.stability.search import bracket, next_factors, outcome
 from dda.stability.strength_reduction import reduce_strengths, reduced_angle
 from tests.helpers import G
-from tests.stability.incline import ROCK_1E9, incline_scene
+from tests.standing.incline import ROCK_1E9, incline_scene
 
 TOLERANCE = 0.02  # on FoS (issue 39, acceptance 1 and 2)
 WEIGHT = ROCK_1E9["density"] * G * 1.0  # every block here has 1 m² (per unit thickness)

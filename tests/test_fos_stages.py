@@ -19,7 +19,7 @@ from dda.stability.criterion import criterion_of
 from dda.stability.fos import factor_of_safety
 from dda.stability.trial import Trial, run_trial, trial_scene
 from tests.helpers import rectangle, rotated
-from tests.stability.incline import incline_scene
+from tests.standing.incline import incline_scene
 
 THETA, FOS = 30.0, 1.3
 PHI = math.degrees(math.atan(FOS * math.tan(math.radians(THETA))))

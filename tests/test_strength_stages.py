@@ -21,8 +21,8 @@ import pytest
 import dda
 from dda.errors import SceneError
 from tests.helpers import G
-from tests.stability.checks import check_energy
-from tests.stability.incline import incline_scene
+from tests.standing.checks import check_energy
+from tests.standing.incline import incline_scene
 
 THETA, PHI = 30.0, 40.0
 DT, STAGE, DURATION = 1.0 / 128.0, 0.125, 0.5

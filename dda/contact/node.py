@@ -38,7 +38,7 @@ counted (x, y and the mates filling the gaps) must lie within ``tight`` (the
 contact tolerance) of x and of y. Among fragments that have moved apart by
 a millimetre, corners paired within the vertex radius do not fill each
 other's gaps, and dropping such pairs let fragments of the pile in
-tests/stability run into each other (steps gaining up to 5e4 J).
+tests/standing run into each other (steps gaining up to 5e4 J).
 """
 
 from __future__ import annotations

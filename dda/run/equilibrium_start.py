@@ -26,7 +26,7 @@ the state of the scene's geometry under its loads at t = 0:
   springs (fixed points, rock bolts) the stretch of D* (``Effect.preload``).
 
 A block that can stand is in equilibrium from t = 0, to the regulariser and the
-solve's tolerance (the stick matrix of tests/stability/test_stick_slip.py moves by
+solve's tolerance (the stick matrix of tests/standing/test_stick_slip.py moves by
 1e-13 to 2e-8 m in 0.5 s), at any Δt, penalty and contact method. A block that
 cannot (it slides, topples, falls) gets from the limit the forces of rigid contact
 at the instant of its release (its D* grows without bound, ~ load / regulariser,

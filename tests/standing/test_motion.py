@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tests.helpers import ROCK, G, rectangle
-from tests.stability.checks import run_checked
-from tests.stability.scenes import base, block, regular_polygon, scene
+from tests.standing.checks import run_checked
+from tests.standing.scenes import base, block, regular_polygon, scene
 
 
 def test_free_block_spins_ten_revolutions():

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tests.helpers import ROCK, rectangle
-from tests.stability.checks import run_checked
-from tests.stability.scenes import base, block, scene
+from tests.standing.checks import run_checked
+from tests.standing.scenes import base, block, scene
 
 STIFF = {"density": 2700.0, "young": 5.0e10, "poisson": 0.25}
 SOFT = {"density": 2700.0, "young": 5.0e6, "poisson": 0.25}

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tests.helpers import rectangle
-from tests.stability.checks import run_checked
-from tests.stability.scenes import base, block, diamond, placed, scene
+from tests.standing.checks import run_checked
+from tests.standing.scenes import base, block, diamond, placed, scene
 
 H = np.sqrt(0.5)
 

@@ -1,6 +1,6 @@
 """Stick is exact and sliding is exact at every time step, penalty and contact method.
 
-The scenes (tests/stability/incline.py): a 1 x 1 m block (E = 1e9 Pa) released from
+The scenes (tests/standing/incline.py): a 1 x 1 m block (E = 1e9 Pa) released from
 rest on a 30° slope, with the engine's default physics (the equilibrium start,
 dda.run.equilibrium_start; the blocks' material damping, dda.effects.damping).
 
@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 import dda
-from tests.stability.incline import (
+from tests.standing.incline import (
     METHODS,
     STEPS,
     incline_scene,
@@ -171,7 +171,7 @@ def test_the_mid_systems_chord_rules_keep_stick_slip_and_energy(dt, monkeypatch)
     solves, not what it converges to — the block at 0.95 stands within its settlement,
     at 1.05 it slides as the closed form (1e-4 relative), and neither gains energy."""
     import dda.solve.newton
-    from tests.stability.incline import largest_gain
+    from tests.standing.incline import largest_gain
 
     monkeypatch.setattr(dda.solve.newton, "MID_ROWS", 0)  # every dynamic step: mid rules
     stand = dda.simulate(incline_scene(0.95, dt, 0.5))
@@ -204,7 +204,7 @@ def test_every_solve_path_of_a_small_model_keeps_stick_slip_and_energy(path, dt,
     import dda.solve.band_system
     import dda.solve.step
     from dda.solve.band_system import BandSystem
-    from tests.stability.incline import largest_gain
+    from tests.standing.incline import largest_gain
 
     calls = {"pass": [], "step": []}
     compiled_pass, compiled_step = BandSystem.minimise, dda.solve.band_step.solve_on_band

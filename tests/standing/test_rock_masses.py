@@ -1,4 +1,4 @@
-"""The shipped rock masses run their full duration with every stability check.
+"""The shipped rock masses run their full duration with every check of checks.py.
 
 tests/test_cases.py runs them for a few steps; here the whole run (slow, ~10-50 s each):
 finite values, no cut step, penetrations within the AL tolerance, no energy above E₀ + W, areas
@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import dda
-from tests.stability.checks import run_checked
+from tests.standing.checks import run_checked
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 

@@ -6,14 +6,14 @@ import pytest
 
 import dda
 from tests.helpers import ROCK, rectangle
-from tests.stability.checks import (
+from tests.standing.checks import (
     DIAGNOSTIC,
     check_areas,
     check_energy,
     check_finite,
     run_checked,
 )
-from tests.stability.scenes import base, block, scene
+from tests.standing.scenes import base, block, scene
 
 
 def test_a_step_that_cannot_settle_stops_with_the_step_time_and_reason():

@@ -189,7 +189,7 @@ def test_the_ringing_wall_gains_no_energy_on_band_systems(size, monkeypatch):
     assert largest_gain(result) <= SLACK
 
 
-# the runs of the stick matrix (tests/stability/test_stick_slip.py, the same cached runs)
+# the runs of the stick matrix (tests/standing/test_stick_slip.py, the same cached runs)
 STICK = [
     (ratio, dt, pf, method)
     for ratio in (0.5, 0.8, 0.95)
@@ -208,7 +208,7 @@ def test_a_block_standing_on_a_slope_gains_no_energy(ratio, dt, pf, method):
     """The stick matrix's blocks (started loaded, materially damped): kinetic + potential
     + strain + contact ≤ E₀ + W + 1e-3 E₀ at every step (measured: at most 1.5e-9 E₀,
     at p = E)."""
-    from tests.stability.incline import largest_gain as gain
-    from tests.stability.incline import run
+    from tests.standing.incline import largest_gain as gain
+    from tests.standing.incline import run
 
     assert gain(run(ratio, dt, 0.5, pf, method)) <= SLACK

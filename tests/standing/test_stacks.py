@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tests.helpers import ROCK, G
-from tests.stability.checks import run_checked
-from tests.stability.scenes import arch, column, scene
+from tests.standing.checks import run_checked
+from tests.standing.scenes import arch, column, scene
 
 
 def test_column_of_twenty_blocks_settles():
