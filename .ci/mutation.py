@@ -72,37 +72,40 @@ MODULES = [
     "dda/effects/water.py",
 ]
 
-_MOTION = ["tests/test_integrator.py", "tests/test_energy.py"]
-_EFFECTS = ["tests/test_effects.py"]
+_MOTION = ["tests/solve/test_integrator.py", "tests/run/test_energy.py"]
+_EFFECTS = ["tests/effects/test_effects.py"]
 _CASE = "tests/test_cases.py::test_case_runs_and_matches_stored_number[{}]"  # a shipped case
 # stage 2: the unit tests of each module (a fast subset, seconds to a minute)
 TESTS = {
     "dda/contact/law.py": [
-        "tests/test_contact_law.py",
-        "tests/test_augmented_lagrangian.py",
-        "tests/test_law_kernels.py",
+        "tests/contact/test_law.py",
+        "tests/contact/test_augmented_lagrangian.py",
+        "tests/contact/test_law_kernels.py",
     ],
     # the law's compiled twins against its numpy bodies
     "dda/contact/law_kernels.py": [
-        "tests/test_law_kernels.py",
-        "tests/test_augmented_lagrangian.py",
+        "tests/contact/test_law_kernels.py",
+        "tests/contact/test_augmented_lagrangian.py",
     ],
-    "dda/contact/potential.py": ["tests/test_contact_potential.py", "tests/test_newton.py"],
+    "dda/contact/potential.py": ["tests/contact/test_potential.py", "tests/solve/test_newton.py"],
     "dda/solve/integrator.py": _MOTION,
     "dda/solve/update.py": _MOTION,
     "dda/kinematics.py": _MOTION + _EFFECTS,
     # the springs between two blocks (rock bolts) are assembled here too
-    "dda/solve/assembly.py": ["tests/test_assembly.py", "tests/test_bolts.py"],
+    "dda/solve/assembly.py": ["tests/solve/test_assembly.py", "tests/effects/test_bolts.py"],
     # the compiled Newton pieces against their numpy oracles
-    "dda/solve/dense_system.py": ["tests/test_dense_system.py"],
-    "dda/solve/contact_pieces.py": ["tests/test_band_newton.py"],
-    "dda/solve/line_step.py": ["tests/test_line_step.py"],
-    "dda/solve/band_newton.py": ["tests/test_band_newton.py"],
-    "dda/solve/band_system.py": ["tests/test_band_newton.py"],
-    "dda/effects/pair_springs.py": _EFFECTS + ["tests/test_bolts.py", _CASE.format("bolted_block")],
-    "dda/effects/bolts.py": _EFFECTS + ["tests/test_bolts.py", _CASE.format("bolted_block")],
-    "dda/effects/seismic.py": _EFFECTS + ["tests/test_seismic.py", _CASE.format("seismic_slope")],
-    "dda/effects/water.py": _EFFECTS + ["tests/test_water.py", _CASE.format("wet_slope")],
+    "dda/solve/dense_system.py": ["tests/solve/test_dense_system.py"],
+    "dda/solve/contact_pieces.py": ["tests/solve/test_band_newton.py"],
+    "dda/solve/line_step.py": ["tests/solve/test_line_step.py"],
+    "dda/solve/band_newton.py": ["tests/solve/test_band_newton.py"],
+    "dda/solve/band_system.py": ["tests/solve/test_band_newton.py"],
+    "dda/effects/pair_springs.py": _EFFECTS
+    + ["tests/effects/test_bolts.py", _CASE.format("bolted_block")],
+    "dda/effects/bolts.py": _EFFECTS
+    + ["tests/effects/test_bolts.py", _CASE.format("bolted_block")],
+    "dda/effects/seismic.py": _EFFECTS
+    + ["tests/effects/test_seismic.py", _CASE.format("seismic_slope")],
+    "dda/effects/water.py": _EFFECTS + ["tests/effects/test_water.py", _CASE.format("wet_slope")],
 }
 
 # operators left out: arithmetic turned into a bit operation (a TypeError on floats,

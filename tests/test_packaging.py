@@ -97,7 +97,7 @@ def test_the_wheel_installed_in_a_fresh_venv_verifies_and_sweeps(tmp_path):
     assert str(site) in where and "sliding_block" in where
     dda_command = venv / "bin" / "dda"
     # one FEM comparison and one motion case from the wheel's own verify cases (the whole
-    # quick suite runs in tests/test_verify.py)
+    # quick suite runs in tests/verify/test_verify.py)
     verify = [dda_command, "verify", "self_weight", "rocking", "--no-refinement", "-o", "report"]
     report = run(verify, work)
     assert (work / "report" / "report.md").is_file(), report

@@ -5,7 +5,7 @@ those of :mod:`dda.contact.formulas` (the same functions, compiled), in the same
 (so the same numbers: every value is an elementwise result; the norms and sums over
 the contacts stay numpy's, at the call site). The law's functions call them where the
 kernels are used (:func:`dda.jit.compiled`) and keep their numpy bodies as the oracle
-(tests/test_law_kernels.py). Piece numbers as :mod:`dda.contact.potential`'s.
+(tests/contact/test_law_kernels.py). Piece numbers as :mod:`dda.contact.potential`'s.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ numbered so that every contact's (and bolt's) two blocks lie close
 between two blocks in contact, plus 5. Products with G and Gᵀ are O(12 m), with K₀
 O(36 n).
 
-The numpy :func:`dda.solve.newton.minimise` is its oracle (tests/test_band_newton.py):
+The numpy :func:`dda.solve.newton.minimise` is its oracle (tests/solve/test_band_newton.py):
 the two agree to rounding (sums in another order).
 """
 

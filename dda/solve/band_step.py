@@ -8,7 +8,7 @@ update (:mod:`dda.contact.law`: the forces and friction bounds, eq. 7's augmenta
 and the variable penalty, broken bonds, the Anderson mixing of the bounds), then the
 record of the step's contact states and the friction's dissipation — runs here as one
 kernel, with the same operations in the same order as the Python loop, which stays its
-oracle (``tests/test_band_step.py``). The norms and sums over the contacts are the
+oracle (``tests/solve/test_band_step.py``). The norms and sums over the contacts are the
 kernel's own (a sum in another order than numpy's pairwise one) and the Anderson
 least squares is numba's ``eigh``: the two loops agree to rounding.
 

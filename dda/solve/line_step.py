@@ -17,7 +17,7 @@ call, with the compiled kernels the numpy path calls one by one: the gaps of
 :mod:`dda.contact.rows` (for the rates), the force sum of
 :mod:`dda.solve.assembly` and the line search. It is used when the kernels are and K₀
 is block-diagonal (no rock bolts); the numpy lines in
-:func:`dda.solve.newton.minimise` are its oracle (tests/test_line_step.py).
+:func:`dda.solve.newton.minimise` are its oracle (tests/solve/test_line_step.py).
 """
 
 from __future__ import annotations

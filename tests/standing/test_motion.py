@@ -61,7 +61,7 @@ def test_polygon_rolls_ten_revolutions():
     with perfectly plastic impacts and 15.9 with none lost. It rolled 10.95 in 7 s
     (6.3e4 J lost) while AL multipliers within the tolerance were augmented every step,
     an integral action against the damping (the soft stack of
-    tests/test_augmented_lagrangian.py gained energy from it); since, 9.4 in 7 s
+    tests/contact/test_augmented_lagrangian.py gained energy from it); since, 9.4 in 7 s
     (7.9e4 J lost) and 11.0 in 8 s."""
     result = run_checked(rolling(8.0))
     assert result.final.rotations[1] < -10 * 2 * np.pi

@@ -1,0 +1,333 @@
+"""Joints that behave like rock joints: residual strength and Barton–Bandis
+(dda/scene/joints.py, dda/contact/formulas.py, dda/contact/strength.py).
+
+Closed forms on a block sliding on a plane at θ (weight W, base length L):
+
+- Barton–Bandis: a = g (sin θ − cos θ tan φ_mob), φ_mob = φr + JRC log10(JCS / σn),
+  σn = W cos θ / L;
+- strength reduction: FoS = (c L + W cos θ tan φ) / (W sin θ) for a ductile Coulomb joint
+  (residual = peak), τ(σn) L / (W sin θ) for Barton–Bandis;
+- residual friction: a block set sliding loses its peak strength at once and slides as
+  a = g (sin θ − cos θ tan φr), from its initial speed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import dda
+from dda.contact import formulas
+from dda.contact.strength import JointProperties
+from dda.errors import SceneError
+from dda.stability.fos import factor_of_safety
+from tests.helpers import G
+from tests.stability.test_fos import (
+    TOLERANCE,
+    WEIGHT,
+    block_on_plane,
+    cohesion_for,
+    limit_equilibrium,
+)
+
+ROCK = {"density": 2700.0, "young": 5e9, "poisson": 0.25}
+
+
+def slab_and_block(theta: float, length: float, height: float, joint: dict, **analysis) -> dict:
+    """A block ``length`` x ``height`` 4 m up a fixed slab at θ, released from its
+    equilibrium start; Δt = 0.01 s, 1 s unless ``analysis`` says otherwise."""
+    th = math.radians(theta)
+    t, n = np.array([math.cos(th), math.sin(th)]), np.array([-math.sin(th), math.cos(th)])
+    slab = [0.5 * -n, 10 * t - 0.5 * n, 10 * t, np.zeros(2)]
+    p0 = 4 * t
+    block = [p0, p0 + length * t, p0 + length * t + height * n, p0 + height * n]
+    return {
+        "analysis": {"time_step": 0.01, "duration": 1.0, "gravity": [0, -G], "save_every": 10,
+                     **analysis},
+        "contact": {"method": "augmented-lagrangian", "penalty": 5e10, "tolerance": 1e-6},
+        "materials": {"rock": dict(ROCK)},
+        "joints": {"default": joint},
+        "blocks": [
+            {"name": "slope", "material": "rock", "fixed": True,
+             "vertices": [[float(x), float(y)] for x, y in slab]},
+            {"name": "slider", "material": "rock",
+             "vertices": [[float(x), float(y)] for x, y in block]},
+        ],
+    }  # fmt: skip
+
+
+def mobilised_angle(jrc: float, jcs: float, residual: float, sigma_n: float) -> float:
+    """φr + JRC log10(JCS / σn), degrees (within the formula's range here)."""
+    return residual + jrc * math.log10(jcs / sigma_n)
+
+
+BB = {"model": "barton-bandis", "jrc": 5.0, "jcs": 2.0e4, "residual_friction_angle": 20.0}
+
+
+def energy_excess(result: dda.Result) -> float:
+    h = result.history
+    e0 = result.summary["initial_energy"]
+    return float(np.max(h["total_energy"] - e0 - h["external_work"]) / e0)
+
+
+@pytest.mark.parametrize("height", [0.05, 0.02])
+def test_a_block_on_a_barton_bandis_joint_slides_as_the_closed_form(height):
+    """2 m long, thin (its base loaded evenly), θ = 35°: travel ½ a t² within 1e-4
+    relative (measured 1.7e-5 and 4.2e-6), and no energy gained."""
+    theta, length = 35.0, 2.0
+    result = dda.simulate(dda.load_scene(slab_and_block(theta, length, height, BB)))
+    sigma_n = ROCK["density"] * G * height * math.cos(math.radians(theta))
+    phi = math.radians(mobilised_angle(5.0, 2.0e4, 20.0, sigma_n))
+    th = math.radians(theta)
+    expected = 0.5 * G * (math.sin(th) - math.cos(th) * math.tan(phi))
+    travel = float(np.linalg.norm(result.final.displacements[1]))
+    assert travel == pytest.approx(expected, rel=1e-4)
+    assert energy_excess(result) <= 1e-9
+
+
+def test_a_block_set_sliding_slides_on_the_residual_friction():
+    """Peak φ = 40° would hold it on 30°; given 0.5 m/s down the plane it slips at once,
+    the joint falls to φr = 20° and the block accelerates at g (sin θ − cos θ tan φr):
+    travel v0 t + ½ a t² within 1e-3 (its first step starts on the peak strength)."""
+    theta, v0 = 30.0, 0.5
+    joint = {"friction_angle": 40.0, "residual_friction_angle": 20.0}
+    raw = slab_and_block(theta, 1.0, 0.5, joint)
+    th = math.radians(theta)
+    raw["blocks"][1]["velocity"] = [-v0 * math.cos(th), -v0 * math.sin(th), 0.0]  # downhill
+    result = dda.simulate(dda.load_scene(raw))
+    a = G * (math.sin(th) - math.cos(th) * math.tan(math.radians(20.0)))
+    travel = float(np.linalg.norm(result.final.displacements[1]))
+    assert travel == pytest.approx(v0 + 0.5 * a, rel=1e-3)
+    assert energy_excess(result) <= 1e-9
+
+
+def test_the_residual_strength_defaults_give_the_brittle_joint():
+    """residual_* absent: the joint of today (tan φr = tan φ, c_r = T_r = 0), to the bit."""
+    given = dda.load_scene(slab_and_block(30.0, 1.0, 0.5, {"friction_angle": 25.0,
+                                                           "cohesion": 1e4}))  # fmt: skip
+    joint = given.joints["default"]
+    assert (joint.residual_angle, joint.residual_cohesion, joint.residual_tensile_strength) == (
+        25.0, 0.0, 0.0,
+    )  # fmt: skip
+    written = dict(slab_and_block(30.0, 1.0, 0.5, {"friction_angle": 25.0, "cohesion": 1e4}))
+    written["joints"]["default"].update(residual_friction_angle=25.0, residual_cohesion=0.0)
+    a, b = dda.simulate(given), dda.simulate(dda.load_scene(written))
+    assert np.array_equal(a.final.displacements, b.final.displacements)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("ductile", "expected"), [(True, 1.5), (False, 1.2864)])
+def test_a_ductile_joint_gives_the_limit_equilibrium_factor_of_safety(ductile, expected):
+    """The tall block of docs/stability.md (1 x 1 m at 40°, φ = 25°, c = 16,077 Pa, limit
+    equilibrium 1.5): with residual = peak the contacts keep their cohesion as they slip
+    and dda fos meets limit equilibrium within 0.02; the brittle default gives today's
+    1.2864 (its uphill contact slips first and loses its bond)."""
+    theta, phi = 40.0, 25.0
+    cohesion = cohesion_for(theta, phi, 1.5, 1.0)
+    scene = block_on_plane(theta, phi, cohesion, 1.0)
+    if ductile:
+        scene["joints"]["default"].update(residual_cohesion=cohesion, residual_friction_angle=phi)
+    answer, _ = factor_of_safety(scene)
+    assert limit_equilibrium(theta, phi, cohesion, 1.0) == pytest.approx(1.5, rel=1e-12)
+    assert abs(answer.fos - expected) <= (TOLERANCE if ductile else 1e-4), answer
+
+
+@pytest.mark.slow
+def test_barton_bandis_factor_of_safety_is_its_shear_strength_over_the_driving_stress():
+    """A 4 x 0.25 m slab at 30° (its base loaded evenly): FoS = τ(σn) L / (W sin θ),
+    τ(σn) = σn tan φ_mob, σn = W cos θ / L, within 0.02."""
+    theta, length = 30.0, 4.0
+    scene = block_on_plane(theta, 0.0, length=length)
+    scene["joints"]["default"] = {"model": "barton-bandis", "jrc": 8.0, "jcs": 5.0e5,
+                                  "residual_friction_angle": 25.0}  # fmt: skip
+    th = math.radians(theta)
+    sigma_n = WEIGHT * math.cos(th) / length
+    phi = math.radians(mobilised_angle(8.0, 5.0e5, 25.0, sigma_n))
+    expected = sigma_n * math.tan(phi) * length / (WEIGHT * math.sin(th))
+    answer, _ = factor_of_safety(scene)
+    assert abs(answer.fos - expected) <= TOLERANCE, (answer, expected)
+
+
+def props(**given) -> JointProperties:
+    base = {"friction": np.array([0.5]), "cohesion": np.array([10.0]), "tensile": np.array([5.0])}
+    return JointProperties(**{k: np.asarray(v) for k, v in {**base, **given}.items()})
+
+
+def test_the_friction_bound_is_peak_while_intact_and_residual_after():
+    joint = props(residual_friction=np.array([0.2]), residual_cohesion=np.array([1.0]))
+    intact = formulas.friction_bound(joint, slice(None), np.array([100.0]), np.array([True]))
+    broken = formulas.friction_bound(joint, slice(None), np.array([100.0]), np.array([False]))
+    assert (intact[0], broken[0]) == (0.5 * 100 + 10, 0.2 * 100 + 1)
+    assert formulas.tension_held(joint, slice(None), np.array([False]))[0] == 0.0
+
+
+def test_the_barton_bandis_angle_is_held_between_the_residual_and_70_degrees():
+    """σn → 0: the mobilised angle caps at 70° (b → 0 with N); σn ≥ JCS: φr."""
+    joint = props(
+        barton=np.array([True]), jrc=np.array([20.0]), jcs_length=np.array([1e6]),
+        residual_angle=np.radians([30.0]), cohesion=np.array([0.0]), divisor=np.array([2.0]),
+    )  # fmt: skip
+    normal = np.array([1e-3, 1e5, 1e6, 1e7])
+    joint = JointProperties(**{k: np.repeat(v, 4) if isinstance(v, np.ndarray) else v
+                               for k, v in joint.__dict__.items()})  # fmt: skip
+    bound = formulas.friction_bound(joint, slice(None), normal, np.ones(4, bool))
+    expected = normal * np.tan(np.radians([70.0, 50.0, 30.0, 30.0])) / 2.0
+    np.testing.assert_allclose(bound, expected, rtol=1e-12)
+
+
+REFUSED = [
+    ({"model": "barton-bandis", "jrc": 5.0, "jcs": 1e5}, "residual_friction_angle",
+     "is required by model = 'barton-bandis'"),
+    ({**BB, "friction_angle": 30.0}, "friction_angle", "is a key of model = 'coulomb'"),
+    ({"friction_angle": 30.0, "jrc": 3.0}, "jrc", "is a key of model = 'barton-bandis'"),
+    ({"friction_angle": 30.0, "residual_friction_angle": 35.0}, "residual_friction_angle",
+     "above the peak friction_angle"),
+    ({"cohesion": 1e4, "residual_cohesion": 2e4}, "residual_cohesion", "above"),
+    ({**BB, "jrc": 25.0}, "jrc", "must be in [0, 20]"),
+    ({**BB, "jcs": 0.0}, "jcs", "must be > 0"),
+    ({"friction_angle": 30.0, "model": "mohr"}, "model", "unknown value 'mohr'"),
+    ({"friction_angle": 30.0, "restitution": 1.5}, "restitution", "must be in [0, 1]"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("joint", "key", "words"), REFUSED)
+def test_bad_joint_keys_are_refused_with_their_key(joint, key, words):
+    with pytest.raises(SceneError) as caught:
+        dda.load_scene(slab_and_block(30.0, 1.0, 0.5, joint))
+    assert caught.value.key == f"joints.default.{key}", str(caught.value)
+    assert words in str(caught.value)
+
+
+# --------------------------------------------------------------------------- restitution
+
+
+def test_the_damping_ratio_gives_the_coefficient_of_restitution():
+    """ζ = −ln e / √(π² + ln² e), and back: e = exp(−ζ π / √(1 − ζ²))."""
+    from dda.solve.contact_dashpots import damping_ratio
+
+    e = np.array([1e-6, 0.1, 0.5, 0.9, 1.0])
+    zeta = damping_ratio(e)
+    np.testing.assert_allclose(np.exp(-zeta * np.pi / np.sqrt(1 - zeta**2)), e, rtol=1e-12)
+    assert damping_ratio(np.array([0.0]))[0] == 1.0
+
+
+def dropped(restitution: float, time_step: float, height: float) -> dict:
+    """A 1 m block ``height`` above a level base: contacts 5e8 N/m (the impact lasts
+    7.4 ms, gravity 1 % of the contact force's change), strain modes 20 times as fast
+    (E = 5e10 Pa), the trapezoidal update (γ = ½: no numerical damping), no friction."""
+    return {
+        "analysis": {"time_step": time_step, "duration": 0.5, "gravity": [0, -G],
+                     "save_every": 1, "plane": "stress", "newmark_gamma": 0.5},
+        "contact": {"method": "penalty", "penalty": 5e8},
+        "materials": {"rock": {**ROCK, "young": 5e10, "damping": 0.0}},
+        "joints": {"default": {"friction_angle": 0.0, "restitution": restitution}},
+        "blocks": [
+            {"name": "base", "material": "rock", "fixed": True,
+             "vertices": [[-1, -1], [2, -1], [2, 0], [-1, 0]]},
+            {"name": "block", "material": "rock",
+             "vertices": [[0, height], [1, height], [1, 1 + height], [0, 1 + height]]},
+        ],
+    }  # fmt: skip
+
+
+@pytest.mark.slow
+def test_a_block_dropped_on_a_level_base_rebounds_to_e_squared_h():
+    """e = 0.5 from 0.4 m: the first apex at e² h = 0.1 m within 3 % at Δt = 0.1, 0.05 and
+    0.025 ms (measured 0.9869, 0.9974, 0.9914 of it; 1.5 % of it is gravity's, the rigid
+    block on springs and dashpots under gravity rising to 0.985), within 5 % from one Δt
+    to the next, and never above E0 + W."""
+    e, height = 0.5, 0.4
+    apexes = []
+    for time_step in (1e-4, 5e-5, 2.5e-5):
+        result = dda.simulate(dda.load_scene(dropped(e, time_step, height)))
+        lift = np.array([f.displacements[1][1] for f in result.frames])
+        apexes.append(height + lift[np.argmin(lift) :].max())
+        assert energy_excess(result) <= 1e-9
+    ratios = np.array(apexes) / (e * e * height)
+    assert np.all(np.abs(ratios - 1.0) <= 0.03), ratios
+    assert np.all(np.abs(np.diff(ratios)) <= 0.05), ratios
+
+
+def dropped_on_a_slope(restitution: float, time_step: float, theta: float = 20.0) -> dict:
+    """A 2 x 0.04 m slab 0.1 m (normal) above a fixed slope at θ, φ = 40° (inside its
+    friction), contacts 5e7 N/m, stiff blocks (E = 5e11 Pa), the trapezoidal update."""
+    th = math.radians(theta)
+    t, n = np.array([math.cos(th), math.sin(th)]), np.array([-math.sin(th), math.cos(th)])
+    slab = [-3 * t - 0.5 * n, 3 * t - 0.5 * n, 3 * t, -3 * t]
+    p0 = 0.1 * n - t
+    block = [p0, p0 + 2 * t, p0 + 2 * t + 0.04 * n, p0 + 0.04 * n]
+    return {
+        "analysis": {"time_step": time_step, "duration": 1.2, "gravity": [0, -G],
+                     "save_every": 1, "plane": "stress", "newmark_gamma": 0.5},
+        "contact": {"method": "penalty", "penalty": 5e7},
+        "materials": {"rock": {**ROCK, "young": 5e11, "damping": 0.0}},
+        "joints": {"default": {"friction_angle": 40.0, "restitution": restitution}},
+        "blocks": [
+            {"name": "slope", "material": "rock", "fixed": True,
+             "vertices": [[float(x), float(y)] for x, y in slab]},
+            {"name": "block", "material": "rock",
+             "vertices": [[float(x), float(y)] for x, y in block]},
+        ],
+    }  # fmt: skip
+
+
+@pytest.mark.slow
+def test_a_block_dropped_on_a_slope_inside_its_friction_drifts_and_stops():
+    """e = 0.3 on 20°: the rigid closed form, each bounce's flight from rest along the
+    slope, drifts 2 vn² sin θ / (g cos² θ) · e² / (1 − e²) = 14.4 mm. The model drifts
+    79 %, 83 %, 85 % of it at Δt = 0.2, 0.1, 0.05 ms (checked: within 25 % at the two
+    finest, within 5 % of each other), stops, and gains no energy. The rest is what the
+    rigid form leaves out: the contact's rebound a little under e at these Δt, the shear
+    spring's give-back as the contact unloads (1.8 % of the tangential speed, its
+    dashpot overdamped) and the turns the friction's moment gives the slab on its later
+    landings (docs/contact.md)."""
+    e, theta = 0.3, 20.0
+    th = math.radians(theta)
+    speed = math.sqrt(2 * G * 0.1 / math.cos(th))
+    normal = speed * math.cos(th)
+    rigid = 2 * normal**2 * math.sin(th) / (G * math.cos(th) ** 2) * e * e / (1 - e * e)
+    along, across = np.array([math.cos(th), math.sin(th)]), np.array([-math.sin(th), math.cos(th)])
+    drifts = []
+    for time_step in (1e-4, 5e-5):
+        result = dda.simulate(dda.load_scene(dropped_on_a_slope(e, time_step, theta)))
+        moved = np.array([f.displacements[1] for f in result.frames])
+        landed = int(np.argmax(moved @ across <= -0.1))
+        drifts.append(abs(moved[-1] @ along - moved[landed] @ along) / rigid)
+        assert np.linalg.norm(result.final.velocities[1][:2]) < 1e-6
+        assert energy_excess(result) <= 1e-9
+    assert all(0.75 <= d <= 1.25 for d in drifts), drifts
+    assert abs(drifts[1] - drifts[0]) <= 0.05, drifts
+
+
+def test_an_ensemble_draws_the_new_joint_keys_and_keeps_residuals_within_peaks():
+    """Every new key can be drawn; a residual drawn above its peak is taken as the peak
+    (a joint loses strength as it slips), so the realisation stays a scene."""
+    from dda.stability.sampling import realise
+
+    joint = {"friction_angle": 30.0, "cohesion": 1e4, "residual_cohesion": 5e3,
+             "restitution": 0.5}  # fmt: skip
+    raw = slab_and_block(30.0, 1.0, 0.5, joint)
+    raw["ensemble"] = {"vary": [
+        {"key": "joints.default.residual_cohesion", "distribution": "uniform",
+         "low": 0.0, "high": 2e4},
+        {"key": "joints.default.residual_friction_angle", "distribution": "uniform",
+         "low": 10.0, "high": 30.0},
+        {"key": "joints.default.restitution", "distribution": "uniform",
+         "low": 0.2, "high": 0.8},
+    ]}  # fmt: skip
+    scene = dda.load_scene(raw)
+    for index in range(20):
+        realised, values = realise(raw, scene.ensemble, index)
+        joint = dda.load_scene(realised).joints["default"]
+        assert joint.residual_cohesion == min(values["joints.default.residual_cohesion"], 1e4)
+        assert 0.2 <= joint.restitution <= 0.8
+    barton = slab_and_block(30.0, 1.0, 0.5, dict(BB))
+    barton["ensemble"] = {"vary": [
+        {"key": "joints.default.jrc", "distribution": "normal", "mean": 5.0, "std": 2.0},
+        {"key": "joints.default.jcs", "distribution": "lognormal", "mean": 2e4, "std": 5e3},
+    ]}  # fmt: skip
+    drawn = dda.load_scene(barton)
+    assert [d.key for d in drawn.ensemble.vary] == ["joints.default.jrc", "joints.default.jcs"]
+    assert drawn.ensemble.vary[0].high == 20.0  # cut to JRC's range

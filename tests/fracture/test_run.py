@@ -1,0 +1,343 @@
+"""The fracture effect in the engine: breaking blocks, the new BlockSet, whole runs."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+import dda
+from dda.effects.base import StepContext
+from dda.fracture.criterion import strength_numbers
+from dda.model import build
+
+CASE = Path(__file__).resolve().parents[2] / "cases" / "paper_uniaxial_fracture.toml"
+S0, PHI, T0 = 1.78e5, 39.1, 0.85e5  # the paper's rock, psf and degrees
+N_PHI, C0, SIGMA1C = strength_numbers(S0, math.radians(PHI), T0)
+HALF_ANGLE = 45.0 - PHI / 2  # shear planes to sigma1, degrees (25.45)
+ROCK = {"density": 4.0405, "young": 1.0e8, "poisson": 0.25}
+STRONG = {**ROCK, "cohesion": S0, "friction_angle": PHI, "tensile_strength": T0}
+
+
+def rect(x0: float, y0: float, x1: float, y1: float) -> list[list[float]]:
+    return [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+
+
+def assert_valid_blocks(frame: dda.Frame) -> None:
+    assert np.all(np.isfinite(frame.centroids)) and np.all(np.isfinite(frame.stresses))
+    for ring in frame.vertices:
+        assert np.all(np.isfinite(ring))
+        polygon = shapely.Polygon(ring)
+        assert polygon.is_valid and polygon.area > 0.0
+        x, y = ring[:, 0], ring[:, 1]
+        assert np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) > 0.0  # CCW
+
+
+def edge_angles(ring: np.ndarray) -> np.ndarray:
+    """Direction of every edge, degrees in [0, 180)."""
+    e = np.roll(ring, -1, axis=0) - ring
+    return np.degrees(np.arctan2(e[:, 1], e[:, 0])) % 180.0
+
+
+def crack_angles_from_vertical(rings: list[np.ndarray], axis_tol: float = 5.0) -> np.ndarray:
+    """Angles (deg, signed, from the y axis) of the edges that are not near x or y (cracks)."""
+    angles = np.concatenate([edge_angles(r) for r in rings])
+    from_vertical = (angles - 90.0 + 90.0) % 180.0 - 90.0
+    axis_aligned = (np.abs(from_vertical) < axis_tol) | (
+        np.abs(np.abs(from_vertical) - 90) < axis_tol
+    )
+    return from_vertical[~axis_aligned]
+
+
+# ------------------------------------------------------ the effect on its own
+
+
+def effect_scene(edge_joints=None) -> dict:
+    """Three free blocks far apart: 'a' and 'b' breakable, 'c' not."""
+    a = {"name": "a", "material": "rock", "vertices": rect(0, 0, 1.6, 4.0)}
+    if edge_joints:
+        a["edge_joints"] = edge_joints
+    return {
+        "analysis": {"mode": "static", "time_step": 0.01, "steps": 1},
+        "materials": {"rock": STRONG, "plain": ROCK},
+        "joints": {"crack": {"friction_angle": 30.0}, "rough": {"friction_angle": 40.0}},
+        "fracture": {"joint": "crack"},
+        "blocks": [
+            a,
+            {"name": "b", "material": "rock", "vertices": rect(10, 0, 11.6, 4.0)},
+            {"name": "c", "material": "plain", "vertices": rect(20, 0, 21.6, 4.0)},
+        ],
+    }
+
+
+def effect_and_blocks(raw: dict):
+    model = build(dda.load_scene(raw))
+    return model.fracture, model.blocks.copy(), list(model.scene.joints)
+
+
+CTX = StepContext(dt=0.01, time=0.5, step=7, static=True)
+
+
+def test_only_failing_breakable_blocks_break_in_shear_into_four():
+    effect, blocks, joints = effect_and_blocks(effect_scene())
+    blocks.stress[:] = [[0.0, -1.02 * C0, 0.0], [0.0, -0.98 * C0, 0.0], [0.0, -10 * C0, 0.0]]
+    new, events = effect.after_step(blocks, CTX)
+    assert [(e.step, e.time, e.parent, e.mode) for e in events] == [(7, 0.5, "a", "shear")]
+    assert events[0].children == ("a/1", "a/2", "a/3", "a/4")
+    assert new.names == ["b", "c", "a/1", "a/2", "a/3", "a/4"]
+    assert new.ids.tolist() == [1, 2, 3, 4, 5, 6]
+    assert new.area[2:].sum() == pytest.approx(1.6 * 4.0, rel=1e-12)
+    np.testing.assert_array_equal(new.stress[2:], np.tile(blocks.stress[0], (4, 1)))
+    np.testing.assert_array_equal(new.material[2:], [0, 0, 0, 0])
+    assert not new.fixed.any()
+    # the two planes through the centroid at ±(45° − φ/2) to sigma1 (the y axis)
+    rings = [new.polygon(k) for k in range(2, 6)]
+    cracks = crack_angles_from_vertical(rings)
+    np.testing.assert_allclose(np.sort(np.unique(np.round(cracks, 9))), [-HALF_ANGLE, HALF_ANGLE])
+
+
+def test_crack_edges_get_the_crack_joint_and_old_edges_keep_theirs():
+    effect, blocks, joints = effect_and_blocks(effect_scene(["rough", "", "rough", ""]))
+    blocks.stress[0] = [0.0, -1.02 * C0, 0.0]
+    new, _ = effect.after_step(blocks, CTX)
+    crack, rough = joints.index("crack"), joints.index("rough")
+    for k in range(2, 6):
+        ring = new.polygon(k)
+        joint = new.edge_joint[new.offsets[k] : new.offsets[k + 1]]
+        angles = edge_angles(ring)
+        horizontal = np.isclose(angles % 180, 0.0, atol=1e-6) | np.isclose(angles, 180.0)
+        vertical = np.isclose(angles, 90.0, atol=1e-6)
+        assert np.all(joint[horizontal] == rough)  # bottom and top edges of 'a'
+        assert np.all(joint[vertical] == -1)  # its sides: the default joint
+        assert np.all(joint[~horizontal & ~vertical] == crack)
+
+
+def test_pieces_keep_the_parent_motion():
+    effect, blocks, _ = effect_and_blocks(effect_scene())
+    blocks.stress[0] = [0.0, -1.02 * C0, 0.0]
+    blocks.velocity[0] = [1.0, -2.0, 0.3, 1e-3, -2e-3, 5e-4]
+    blocks.rotation[0] = 0.2
+    new, _ = effect.after_step(blocks, CTX)
+    mass = new.area[2:]
+    momentum = (mass[:, None] * new.velocity[2:, :2]).sum(axis=0)
+    np.testing.assert_allclose(momentum, blocks.area[0] * blocks.velocity[0, :2], rtol=1e-12)
+    np.testing.assert_array_equal(new.velocity[2:, 2:], np.tile(blocks.velocity[0, 2:], (4, 1)))
+    np.testing.assert_array_equal(new.rotation[2:], 0.2)
+
+
+def test_one_split_per_step_and_ids_never_reused():
+    effect, blocks, _ = effect_and_blocks(effect_scene())
+    blocks.stress[0] = [0.0, -1.02 * C0, 0.0]
+    first, _ = effect.after_step(blocks, CTX)
+    assert first.count == 6  # the children are judged at the next step only
+    second, events = effect.after_step(first, StepContext(0.01, 0.51, 8, True))
+    assert {e.parent for e in events} == {"a/1", "a/2", "a/3", "a/4"}  # inherited stress
+    assert all(len(set(e.children)) == len(e.children) for e in events)
+    assert len(set(second.ids.tolist())) == second.count
+    assert second.ids[2:].min() > first.ids.max()
+    assert second.area[2:].sum() == pytest.approx(1.6 * 4.0, rel=1e-12)
+    assert all(name.count("/") == 2 for name in second.names[2:])
+
+
+def test_tension_splits_across_the_pull():
+    effect, blocks, joints = effect_and_blocks(effect_scene())
+    blocks.stress[:2] = [[1.02 * T0, 0.0, 0.0], [0.98 * T0, 0.0, 0.0]]
+    new, events = effect.after_step(blocks, CTX)
+    assert [(e.parent, e.mode, len(e.children)) for e in events] == [("a", "tension", 2)]
+    crack = joints.index("crack")
+    for k in (2, 3):
+        ring = new.polygon(k)
+        is_crack = new.edge_joint[new.offsets[k] : new.offsets[k + 1]] == crack
+        assert is_crack.sum() == 1
+        start, end = ring[is_crack][0], np.roll(ring, -1, axis=0)[is_crack][0]
+        np.testing.assert_allclose([start[0], end[0]], [0.8, 0.8])  # along y through the centroid
+        assert abs(start[1] - end[1]) == pytest.approx(4.0)
+
+
+@pytest.mark.parametrize(
+    "min_area",
+    [
+        2.0,  # 'b' (6.4 ft²) is cut, but its pieces are too small to stand alone
+        3.3,  # 'b' is smaller than two pieces of min_area: not even cut
+    ],
+)
+def test_fixed_blocks_and_too_small_blocks_stay_whole(min_area):
+    raw = effect_scene()
+    raw["blocks"][0]["fixed"] = True
+    raw["fracture"]["min_area"] = min_area
+    effect, blocks, _ = effect_and_blocks(raw)
+    blocks.stress[:2] = [0.0, -2.0 * C0, 0.0]
+    new, events = effect.after_step(blocks, CTX)
+    assert events == [] and new is blocks
+
+
+# ------------------------------------------------------ runs through the engine
+
+
+def platen_scene(ratio: float, steps: int = 8) -> dict:
+    """Rock 1.6 x 4 between frictionless platens, static, mean stress ratio x C0."""
+    force = ratio * C0 * 1.6 / 2
+    return {
+        "analysis": {"mode": "static", "time_step": 0.01, "steps": steps, "save_every": 1},
+        "materials": {"rock": STRONG, "platen": ROCK},
+        "joints": {"crack": {"friction_angle": 30.0}},
+        "fracture": {"joint": "crack"},
+        "blocks": [
+            {
+                "name": "bottom",
+                "material": "platen",
+                "fixed": True,
+                "vertices": rect(-1, 0, 1, 1.4),
+            },
+            {"name": "rock", "material": "rock", "vertices": rect(-0.8, 1.4, 0.8, 5.4)},
+            {"name": "top", "material": "platen", "vertices": rect(-1, 5.4, 1, 6.8)},
+        ],
+        "loads": [
+            {"block": "top", "point": [-0.4, 6.8], "force": [0.0, -force]},
+            {"block": "top", "point": [0.4, 6.8], "force": [0.0, -force]},
+        ],
+    }
+
+
+def test_uniaxial_compression_through_platens_breaks_in_shear_above_c0():
+    result = dda.simulate(platen_scene(1.02))
+    first = result.fracture_events[0]
+    assert (first.parent, first.mode, len(first.children)) == ("rock", "shear", 4)
+    frame = next(f for f in result.frames if f.step == first.step)
+    rings = [frame.vertices[frame.block(name)] for name in first.children]
+    cracks = crack_angles_from_vertical(rings)
+    assert len(cracks) >= 4
+    assert np.all(np.abs(np.abs(cracks) - HALF_ANGLE) < 0.5)
+    for f in result.frames:
+        assert_valid_blocks(f)
+
+
+def test_uniaxial_compression_below_c0_does_not_break():
+    result = dda.simulate(platen_scene(0.98))
+    assert result.fracture_events == []
+    rock = result.final.block("rock")
+    # the mean stress settled at 2 % below C0 (less 0.18 %: the rock got wider)
+    assert result.final.stresses[rock, 1] == pytest.approx(-0.98 * C0, rel=3e-3)
+
+
+def test_a_loaded_block_that_breaks_in_shear_gives_its_load_to_one_of_its_pieces():
+    """The load point moves to the piece that holds it, though the pieces differ in shape."""
+    force = 1.05 * C0 * 1.6
+    scene = {
+        "analysis": {"mode": "static", "time_step": 0.01, "steps": 3, "save_every": 1},
+        "materials": {"rock": STRONG},
+        "joints": {"crack": {"friction_angle": 30.0}},
+        "fracture": {"joint": "crack"},
+        "blocks": [
+            {"name": "base", "material": "rock", "fixed": True, "vertices": rect(-1, -1, 2.6, 0)},
+            {"name": "rock", "material": "rock", "vertices": rect(0, 0, 1.6, 4.0)},
+        ],
+        "loads": [{"block": "rock", "point": [0.8, 4.0], "force": [0.0, -force]}],
+    }
+    result = dda.simulate(scene)
+    first = result.fracture_events[0]
+    assert (first.parent, first.mode, len(first.children)) == ("rock", "shear", 4)
+    frame = next(f for f in result.frames if f.step == first.step)
+    assert len({len(frame.vertices[frame.block(name)]) for name in first.children}) > 1
+    for f in result.frames:
+        assert_valid_blocks(f)
+
+
+def bar_scene(ratio: float) -> dict:
+    """A free 4 x 1 bar pulled at both ends by ratio x T0 (static)."""
+    force = ratio * T0 * 1.0
+    return {
+        "analysis": {"mode": "static", "time_step": 0.01, "steps": 3, "save_every": 1},
+        "materials": {"rock": STRONG},
+        "joints": {"crack": {"friction_angle": 30.0}},
+        "fracture": {"joint": "crack"},
+        "blocks": [{"name": "bar", "material": "rock", "vertices": rect(0, 0, 4, 1)}],
+        "loads": [
+            {"block": "bar", "point": [4.0, 0.5], "force": [force, 0.0]},
+            {"block": "bar", "point": [0.0, 0.5], "force": [-force, 0.0]},
+        ],
+    }
+
+
+def test_bar_pulled_beyond_t0_splits_in_two_across_the_pull():
+    result = dda.simulate(bar_scene(1.02))
+    assert [(e.parent, e.mode, len(e.children)) for e in result.fracture_events] == [
+        ("bar", "tension", 2)
+    ]
+    frame = next(f for f in result.frames if f.step == result.fracture_events[0].step)
+    left, right = sorted(frame.vertices, key=lambda r: r[:, 0].mean())
+    assert shapely.Polygon(left).area == pytest.approx(2.0, rel=1e-2)
+    cut = left[np.isclose(left[:, 0], left[:, 0].max(), atol=1e-3)]
+    assert len(cut) == 2  # the new face of the left half is one straight edge ...
+    angle = math.degrees(math.atan2(*np.abs(np.diff(cut, axis=0))[0]))
+    assert angle < 0.5  # ... across the pull (along y) within 0.5°
+    for f in result.frames:
+        assert_valid_blocks(f)
+
+
+def test_bar_pulled_below_t0_stays_whole():
+    result = dda.simulate(bar_scene(0.98))
+    assert result.fracture_events == []
+    assert result.final.stresses[0, 0] == pytest.approx(0.98 * T0, rel=1e-2)
+
+
+# ------------------------------------------------------ the paper's Fig. 3
+
+
+def fig3(load_factor: float = 1.0, steps: int | None = None) -> dict:
+    raw = tomllib.loads(CASE.read_text())
+    for load in raw["loads"]:
+        load["force"] = [f * load_factor for f in load["force"]]
+    if steps is not None:
+        raw["analysis"]["steps"] = steps
+    return raw
+
+
+def test_paper_fig3_runs_to_the_end_with_valid_blocks():
+    """The paper's numbers: 120 steps (~3 s). The rock does not reach the criterion.
+
+    The nominal stress is 2 x 157.5 klb / 1.6 ft = 1.97e5 psf = 0.26 C0; the
+    suddenly applied load overshoots to about twice that (0.50 C0 at step
+    ~20) and platen friction adds confinement, so (22) and (23) are never met.
+    """
+    result = dda.simulate(fig3())
+    assert result.summary["status"] == "finished" and result.final.step == 120
+    for f in result.frames:
+        assert_valid_blocks(f)
+    peak = max(-f.stresses[f.block("rock"), 1] for f in result.frames)
+    assert 0.4 * C0 < peak < 0.6 * C0
+    assert result.fracture_events == []
+
+
+@pytest.mark.slow
+def test_paper_fig3_on_frictionless_platens_with_three_times_the_load_breaks_in_shear():
+    """Without platen friction the rock is in uniaxial compression (sigma3 = 0).
+
+    Three times the paper's loads give a static 3 x 0.26 C0 = 0.79 C0; applied
+    suddenly, the rock overshoots towards twice that, so it must reach C0 on
+    the way up and break there in shear (eq. 22 with sigma3 = 0), along the two
+    planes at 45 - phi/2 = 25.45 deg to the load, and the pieces run on.
+
+    With the paper's 30 deg platen friction the rock stays whole at 3x:
+    docs/fracture.md gives the confinement and why it is left without a test.
+    """
+    raw = fig3(3.0)
+    raw["joints"]["default"]["friction_angle"] = 0.0
+    result = dda.simulate(raw)
+    first = result.fracture_events[0]
+    assert first.parent == "rock" and first.mode == "shear"
+    before = next(f for f in result.frames if f.step == first.step - 1)
+    sxx, syy, _ = before.stresses[before.block("rock")]
+    assert abs(sxx) < 0.05 * C0  # no confinement
+    assert 0.85 * C0 < -syy < C0  # intact just below C0, on the way up
+    broken = next(f for f in result.frames if f.step == first.step)
+    rings = [broken.vertices[broken.block(name)] for name in first.children]
+    cracks = np.unique(np.round(crack_angles_from_vertical(rings), 6))
+    np.testing.assert_allclose(cracks, [-HALF_ANGLE, HALF_ANGLE], atol=1.0)
+    assert result.summary["status"] == "finished" and result.final.step == 120
+    for f in result.frames:
+        assert_valid_blocks(f)

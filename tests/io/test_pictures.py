@@ -1,0 +1,170 @@
+"""What the pictures say: units with prefixes, forces per metre, the contact-force scale, no
+colour bar of round-off, a field of one value in one colour, a range given, whole titles,
+text in any script without warnings."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import warnings
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from dda.io.fields import engineering_scale
+from dda.io.images import render_frame
+from tests.io.test_io import make_frame
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """The figures saved while the test runs (Figure.savefig still writes them)."""
+    figures, save = [], Figure.savefig
+
+    def keep(figure, *args, **kwargs):
+        figures.append(figure)
+        return save(figure, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    return figures
+
+
+def colour_bar(figure):
+    axes = figure.axes[-1]  # the colour bar's
+    return axes.get_xlabel(), [t.get_text() for t in axes.get_xticklabels()]
+
+
+def legend(figure) -> list[str]:
+    return [t.get_text() for t in figure.legends[0].get_texts()]
+
+
+@pytest.mark.parametrize(
+    ("magnitude", "unit", "expected"),
+    [(1.6e6, "Pa", (1e6, "MPa")), (8e5, "Pa", (1e3, "kPa")), (999.0, "Pa", (1.0, "Pa")),
+     (3e10, "Pa", (1e9, "GPa")), (4e12, "Pa", (1e9, "GPa")), (5.7e6, "N", (1e6, "MN")),
+     (1.6e6, "lb/ft²", (1.0, "lb/ft²")), (float("nan"), "Pa", (1.0, "Pa")),
+     (5.45e3, "N/m", (1e3, "kN/m")), (3.2e3, "lb/ft", (1.0, "lb/ft"))],
+)  # fmt: skip
+def test_large_si_numbers_take_a_prefix(magnitude, unit, expected):
+    assert engineering_scale(magnitude, unit) == expected
+
+
+def test_stresses_of_megapascals_read_in_mpa(tmp_path, drawn):
+    frame = make_frame((4, 4, 4))
+    frame = dataclasses.replace(frame, stresses=np.array([[0, -1.6e6, 0], [0, -0.8e6, 0]] * 2)[:3])
+    render_frame(frame, tmp_path / "f.png", scalars="syy")
+    label, ticks = colour_bar(drawn[-1])
+    assert label == "stress yy (MPa)"
+    assert "-1.5" in ticks and not any("e+" in t for t in ticks)  # was -1.5e+06 (Pa)
+
+
+def test_the_contact_marks_have_a_scale_shared_by_the_frames(tmp_path, drawn):
+    render_frame(make_frame((4, 4)), tmp_path / "f.png")
+    assert "contact normal force (length ∝ force; longest 2 kN/m)" in legend(drawn[-1])
+
+
+def test_a_free_blocks_round_off_stress_is_drawn_as_zero(tmp_path, drawn):
+    frame = make_frame((4, 4), contacts=False)
+    frame = dataclasses.replace(frame, stresses=np.array([[0, 0, 0], [2e-10, -8e-10, 3e-10]]))
+    render_frame(frame, tmp_path / "f.png", scalars="syy")
+    label, ticks = colour_bar(drawn[-1])
+    assert label == "stress yy (Pa)" and "0" in ticks
+    assert not any("e-" in t for t in ticks)  # not ±8e-10: a bar of -1..1 Pa
+
+
+def test_text_in_any_script_draws_without_warnings(tmp_path, drawn, caplog):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a glyph warning would fail the test
+        with caplog.at_level(logging.INFO, logger="dda.io.fonts"):
+            render_frame(make_frame((4, 4)), tmp_path / "f.png", scene_title="斜面 Hang")
+    assert drawn[-1].get_suptitle() == "斜面 Hang"
+    from dda.io.fonts import installed_fallbacks
+
+    if installed_fallbacks() == ["DejaVu Sans"]:  # no font with these glyphs here
+        assert "no installed font draws" in caplog.text and "Noto Sans CJK" in caplog.text
+
+
+def test_plot_titles_wrap_and_the_unit_is_said_once(tmp_path, drawn):
+    from dda.io.history_plots import _draw
+
+    time = np.linspace(0.0, 1.0, 11)
+    curves = {"crown.N": 1.9e5 + 0 * time, "crown.fx": 1.5e5 + 0 * time}
+    title = "Circular tunnel excavated in stages, then bolted"
+    _draw(tmp_path / "c.png", time, curves, "contact_force", title, None)
+    ax = drawn[-1].axes[0]
+    assert ax.get_ylabel() == "contact force (kN/m)"  # 2-D: per metre of thickness
+    lines = ax.get_title().splitlines()
+    assert len(lines) > 1 and max(len(line) for line in lines) <= 80
+    assert " ".join(lines).startswith(title + ": contact forces between")
+    assert max(abs(y) for line in ax.get_lines() for y in line.get_ydata()) == pytest.approx(190)
+
+
+def _two_free_blocks(syy: tuple[float, float]):
+    frame = make_frame((4, 4, 4))  # block 0 fixed, 1 and 2 free
+    stresses = np.zeros((3, 3))
+    stresses[1:, 1] = syy
+    return dataclasses.replace(frame, stresses=stresses)
+
+
+def _block_colours(figure) -> np.ndarray:
+    """The face colours of the coloured blocks (the first collection of the axes)."""
+    return figure.axes[0].collections[0].get_facecolors()[:, :3]
+
+
+def test_a_field_of_one_value_to_round_off_is_one_colour_with_the_value_stated(tmp_path, drawn):
+    """The wet slope's two blocks, syy -7.4975557 and -7.4975551 kPa: one colour, the value
+    on the bar, not full purple against full yellow."""
+    render_frame(_two_free_blocks((-7497.5557, -7497.5551)), tmp_path / "f.png", scalars="syy")
+    figure = drawn[-1]
+    colours = _block_colours(figure)
+    assert len(colours) == 2 and np.array_equal(colours[0], colours[1])
+    label, ticks = colour_bar(figure)
+    assert label == "stress yy (kPa), one value: the blocks differ by round-off only"
+    assert ticks == ["-7.497555"]
+    import matplotlib.image  # the picture itself: one colour at both blocks' middles
+
+    image = matplotlib.image.imread(tmp_path / "f.png")[..., :3]
+    middles = figure.axes[0].transData.transform(make_frame((4, 4, 4)).centroids[1:])
+    rows, columns = (image.shape[0] - middles[:, 1]).astype(int), middles[:, 0].astype(int)
+    left, right = image[rows, columns]
+    assert np.array_equal(left, right) and not np.all(left > 0.95)  # one colour, not white
+
+
+def test_a_field_that_varies_still_spans_the_map(tmp_path, drawn):
+    render_frame(_two_free_blocks((-7497.0, -7000.0)), tmp_path / "f.png", scalars="syy")
+    colours = _block_colours(drawn[-1])
+    assert np.abs(colours[0] - colours[1]).max() > 0.5  # the map's two ends
+    assert len(colour_bar(drawn[-1])[1]) > 2
+
+
+def test_one_block_is_one_colour_with_its_value(tmp_path, drawn):
+    frame = make_frame((4, 4))  # one free block
+    frame = dataclasses.replace(frame, stresses=np.array([[0, 0, 0], [0, -322.35, 0]]))
+    render_frame(frame, tmp_path / "f.png", units={"length": "ft", "force": "lb"})
+    assert colour_bar(drawn[-1]) == ("stress yy (lb/ft²)", ["-322.35"])
+
+
+def test_a_range_given_is_kept_and_values_beyond_it_are_announced(tmp_path, drawn):
+    frame = _two_free_blocks((-9000.0, -7000.0))
+    render_frame(frame, tmp_path / "f.png", scalars="syy", clim=(-8000.0, -7500.0))
+    figure = drawn[-1]
+    blocks = figure.axes[0].collections[0]
+    assert blocks.get_clim() == (-8000.0, -7500.0)
+    assert blocks.colorbar.extend == "both"  # arrows: values below and above the range
+
+
+def test_render_takes_a_range(tmp_path, monkeypatch, capsys, drawn):
+    from dda.commands import cli
+    from dda.io import RunWriter
+
+    monkeypatch.chdir(tmp_path)
+    writer = RunWriter("run", image=False)
+    writer.add_frame(_two_free_blocks((-9000.0, -7000.0)))
+    writer.finish()
+    assert cli.main(["render", "run", "-o", "r.png", "--range", "-8000", "-7500"]) == 0
+    assert drawn[-1].axes[0].collections[0].get_clim() == (-8000.0, -7500.0)
+    assert cli.main(["render", "run", "-o", "bad.png", "--range", "1", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["dda render: --range 1 1: the first number must be below the second"]
+    assert not (tmp_path / "bad.png").exists()

@@ -1,0 +1,1 @@
+"""Tests of dda/scene/rockmass/: rock masses cut into blocks, their drawings."""

@@ -1,0 +1,197 @@
+"""Drawings in: a scene's ``[drawing]`` (or ``dda cut drawing.dxf``) reads a DXF file's layers
+as blocks, fixed blocks, joint traces and an excavation (docs/rock_masses.md, "Drawings").
+
+The shipped example (cases/drawing_example.dxf) is what tests/drawings.py builds with ezdxf;
+a drawing round-trips to the very blocks of the same geometry typed as a rock mass; bad
+drawings are refused in one line, exit 2, nothing written."""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+import dda
+from dda.commands import cli
+from dda.scene.rockmass import cut_rock_mass
+from tests import drawings
+
+CASES = Path(__file__).resolve().parents[3] / "cases"
+EXAMPLE = CASES / "drawing_example.toml"
+
+
+def example_raw() -> dict:
+    return tomllib.loads(EXAMPLE.read_text())
+
+
+def blocks_of(raw: dict, source: str) -> list[np.ndarray]:
+    cut, _ = cut_rock_mass(raw, source)
+    return [cut.blocks.polygon(i) for i in range(len(cut.names))]
+
+
+def test_the_shipped_drawing_is_the_one_the_builder_makes(tmp_path):
+    """cases/drawing_example.dxf, rebuilt by tests/drawings.py, cuts into the same blocks
+    (the file itself carries creation times, so it is compared by what it gives)."""
+    rebuilt = drawings.example_drawing(tmp_path / "drawing_example.dxf")
+    raw = example_raw()
+    shipped = blocks_of(raw, str(EXAMPLE))
+    raw["drawing"]["file"] = str(rebuilt)
+    again = blocks_of(raw, str(EXAMPLE))
+    assert len(shipped) == len(again) == 20
+    for a, b in zip(shipped, again, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_a_drawing_round_trips_to_the_blocks_of_the_same_geometry_typed(tmp_path):
+    """The example without its curve (a polygon in place of the tunnel's circle): the
+    drawing gives, vertex for vertex, the blocks, fixed blocks, group and stage of the
+    same polygons and lines typed as [[regions]], [[joint_lines]], [[fix]] and [groups]."""
+    import ezdxf
+
+    tunnel = [(29.0, 6.0), (33.0, 6.0), (33.0, 10.0), (29.0, 10.0)]
+    document = ezdxf.new("R2010")
+    document.header["$INSUNITS"] = 6
+    space = document.modelspace()
+    space.add_lwpolyline(drawings.SLOPE, close=True, dxfattribs={"layer": "BLOCKS"})
+    space.add_lwpolyline(drawings.BASE, close=True, dxfattribs={"layer": "FIXED"})
+    for start, end in drawings.BEDDING + drawings.CROSS:
+        space.add_line(start, end, dxfattribs={"layer": "JOINTS"})
+    space.add_lwpolyline(drawings.KINKED, dxfattribs={"layer": "JOINTS"})
+    space.add_lwpolyline(tunnel, close=True, dxfattribs={"layer": "EXCAVATION"})
+    document.saveas(tmp_path / "section.dxf")
+    drawn = example_raw()
+    drawn["drawing"]["file"] = str(tmp_path / "section.dxf")
+    cut, scene = cut_rock_mass(drawn, str(EXAMPLE))
+
+    typed = {k: v for k, v in example_raw().items() if k != "drawing"}
+    rock = shapely.Polygon(drawings.SLOPE)
+    hole = shapely.Polygon(tunnel)
+    outside = rock.difference(hole)
+    typed["regions"] = [
+        {"polygon": _ring(outside.exterior), "holes": [_ring(r) for r in outside.interiors]},
+        {"polygon": [list(p) for p in tunnel]},
+        {"polygon": [list(p) for p in drawings.BASE]},
+    ]
+    lines = [[list(a), list(b)] for a, b in drawings.BEDDING + drawings.CROSS]
+    lines.append([list(p) for p in drawings.KINKED])
+    typed["joint_lines"] = [{"points": p, "joint": "bedding", "name": "JOINTS"} for p in lines]
+    typed["fix"] = [*typed["fix"], {"inside": [list(p) for p in drawings.BASE]}]
+    typed["groups"] = {"excavation": {"inside": [list(p) for p in tunnel]}}
+    typed["stages"] = [{"time": 0.05, "remove": ["excavation"]}]
+    cut_typed, scene_typed = cut_rock_mass(typed, "typed")
+
+    assert len(cut.names) == len(cut_typed.names) > 10
+    for i in range(len(cut.names)):
+        np.testing.assert_array_equal(cut.blocks.polygon(i), cut_typed.blocks.polygon(i))
+    np.testing.assert_array_equal(cut.fixed, cut_typed.fixed)
+    assert scene["groups"] == scene_typed["groups"] and scene["stages"] == scene_typed["stages"]
+    assert len(scene["groups"]["excavation"]) == 3  # the tunnel cut by a bedding and a cross joint
+
+
+def _ring(ring) -> list[list[float]]:
+    return np.asarray(ring.coords)[:-1].tolist()
+
+
+def test_the_example_reads_its_layers(tmp_path):
+    """Blocks from BLOCKS and FIXED (the base and the sides fixed), the joints of JOINTS
+    with the bedding's friction on their edges, the tunnel's circle as chords within the
+    arc tolerance, its blocks removed by the stage at 0.05 s."""
+    scene = dda.load_scene(EXAMPLE)
+    assert len(scene.blocks) == 20 and sum(b.fixed for b in scene.blocks) == 7
+    tunnel = [b for b in scene.blocks if b.name in scene.groups["excavation"]]
+    area = sum(shapely.Polygon(b.vertices).area for b in tunnel)
+    sagitta = 1e-3 * math.hypot(40.0, 24.0)  # ARC_TOLERANCE of the drawing's size
+    assert math.pi * 2.5**2 - 2 * math.pi * 2.5 * sagitta < area < math.pi * 2.5**2
+    assert scene.stages[0].time == 0.05 and set(scene.stages[0].remove) == {b.name for b in tunnel}
+    bedding = [j for b in scene.blocks for j in b.edge_joints if j == "bedding"]
+    assert len(bedding) > 20
+
+
+def test_dda_cut_reads_a_drawing_with_the_scene_of_its_name(tmp_path, monkeypatch, capsys):
+    """``dda cut drawing.dxf -o blocks.toml``: the materials and joints from drawing.toml
+    beside it (or --scene); the explicit scene runs, the picture shows the tunnel hatched."""
+    monkeypatch.chdir(tmp_path)
+    drawings.example_drawing(tmp_path / "section.dxf")
+    assert cli.main(["cut", "section.dxf", "-o", "blocks.toml"]) == 2
+    assert "give --scene FILE.toml" in capsys.readouterr().err
+    assert not (tmp_path / "blocks.toml").exists()
+    raw = EXAMPLE.read_text().replace('file = "drawing_example.dxf"', 'file = "elsewhere.dxf"')
+    (tmp_path / "section.toml").write_text(raw)
+    assert cli.main(["cut", "section.dxf", "-o", "blocks.toml"]) == 0
+    assert capsys.readouterr().out.strip() == "blocks.toml: 20 blocks, 7 fixed"
+    assert Path("blocks.png").stat().st_size > 0
+    explicit = dda.load_scene("blocks.toml")
+    assert len(explicit.blocks) == 20 and explicit.stages[0].remove
+    assert cli.main(["cut", "section.dxf", "--scene", str(EXAMPLE), "-o", "b2.toml"]) == 0
+
+
+# ------------------------------------------------------------------------ refused
+
+
+def _scene_for(tmp_path: Path, dxf: Path, **drawing) -> Path:
+    raw = EXAMPLE.read_text().replace('file = "drawing_example.dxf"', f'file = "{dxf.name}"')
+    extra = "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in drawing.items())
+    path = tmp_path / "scene.toml"
+    path.write_text(raw.replace("[drawing]\n", "[drawing]\n" + extra))
+    return path
+
+
+SQUARE = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
+
+
+@pytest.mark.parametrize(
+    ("make", "drawing", "message"),
+    [
+        (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=False), {},
+         "layer BLOCKS: LWPOLYLINE (handle 30) is open (from (0, 0) to (0, 10)): a block or "
+         "an excavation is a closed polyline"),
+        (lambda p: drawings.drawing_with(p, "ROCK", SQUARE, closed=True), {},
+         "drawing.blocks: no layer 'BLOCKS' in the drawing (its layers: 0, Defpoints, ROCK)"),
+        (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=True), {"joints": "FAULTS"},
+         "drawing.joints: no layer 'FAULTS' in the drawing"),
+        (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=True, units=4), {},
+         "$INSUNITS: the drawing is in mm ($INSUNITS = 4) and the scene in m ([units] "
+         "length): give [drawing] scale = 0.001 to read it in m"),
+        (lambda p: p.write_text("not a drawing"), {}, "not a DXF drawing ezdxf can read"),
+    ],
+    ids=["open polyline", "no blocks layer", "a named layer missing", "units", "not DXF"],
+)  # fmt: skip
+def test_a_bad_drawing_is_refused_in_one_line(tmp_path, monkeypatch, capsys, make, drawing,
+                                              message):  # fmt: skip
+    monkeypatch.chdir(tmp_path)
+    make(tmp_path / "bad.dxf")
+    scene = _scene_for(tmp_path, tmp_path / "bad.dxf", **drawing)
+    before = sorted(os.listdir(tmp_path))
+    for argv in (["cut", str(scene), "-o", "out.toml"], ["run", str(scene), "-o", "out"]):
+        assert cli.main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and message in err[0] and "Traceback" not in err[0], err
+        assert "bad.dxf" in err[0]
+    assert sorted(os.listdir(tmp_path)) == before  # nothing written
+
+
+def test_a_scale_reads_a_drawing_in_other_units(tmp_path):
+    """The example drawn in millimetres: refused as it is, read with scale = 0.001."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    document.header["$INSUNITS"] = 4
+    space = document.modelspace()
+    square = [(1000.0 * x, 1000.0 * y) for x, y in SQUARE]
+    space.add_lwpolyline(square, close=True, dxfattribs={"layer": "BLOCKS"})
+    space.add_line((-1000.0, 5000.0), (11000.0, 5000.0), dxfattribs={"layer": "JOINTS"})
+    document.saveas(tmp_path / "mm.dxf")
+    scene = _scene_for(tmp_path, tmp_path / "mm.dxf", scale=0.001)
+    text = (
+        scene.read_text()
+        .replace("excavation_time = 0.05", "")
+        .replace('"left", "right"', '"bottom"')
+    )
+    scene.write_text(text)
+    loaded = dda.load_scene(scene)
+    assert sorted(shapely.Polygon(b.vertices).area for b in loaded.blocks) == [50.0, 50.0]

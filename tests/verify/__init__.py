@@ -1,0 +1,1 @@
+"""Tests of verify/, the FEM verification harness, and of its catching engine faults."""
