@@ -68,3 +68,13 @@ def projectile_scene(omega: float = 0.0) -> dict:
             }
         ],
     }
+
+
+def use_policy(monkeypatch, **changes) -> None:
+    """Runs started from now take the step policy's defaults with ``changes``
+    (:class:`dda.solve.policy.StepPolicy`), e.g. ``band_work=0.0``: no band systems."""
+    import dataclasses
+
+    import dda.solve.policy as policy
+
+    monkeypatch.setattr(policy, "DEFAULT", dataclasses.replace(policy.DEFAULT, **changes))

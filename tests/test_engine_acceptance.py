@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dda
-from tests.helpers import ROCK, G, projectile_scene, rectangle, slope_scene
+from tests.helpers import ROCK, G, projectile_scene, rectangle, slope_scene, use_policy
 
 
 def test_projectile_is_exact_for_constant_acceleration():
@@ -44,12 +44,10 @@ def test_the_sliding_block_error_does_not_grow_as_the_time_step_shrinks(
     more ("huge": plain chord steps to 0.99, the friction bounds follow every solve),
     here forced on the two-block scene (measured: −2.6e-7, 7.1e-6, −8.4e-7 m large;
     1.5e-7, 8.4e-6, 2.6e-7 m huge)."""
-    import dda.solve.newton
-
     if size != "small":
-        monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)
+        use_policy(monkeypatch, large_rows=0)
     if size == "huge":
-        monkeypatch.setattr(dda.solve.newton, "HUGE_ROWS", 0)
+        use_policy(monkeypatch, large_rows=0, huge_rows=0)
     theta = np.radians(30.0)
     result = dda.simulate(slope_scene(20.0, time_step=time_step))
     moved = np.linalg.norm(result.final.displacements[1])

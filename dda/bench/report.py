@@ -8,7 +8,7 @@ import subprocess
 from collections.abc import Iterable
 
 from dda.bench.run import STAGES, Measurement
-from dda.solve.linsolve import THREADS_VARIABLE, solver_threads
+from dda.solve.policy import THREADS_VARIABLE, current_policy
 
 SHORT = {
     "contact_search": "search",
@@ -46,7 +46,7 @@ def _threads_said() -> str:
     threads as it runs (:mod:`dda.solve.thread_policy`), not this one."""
     if not os.environ.get(THREADS_VARIABLE, "").strip():
         return f"solver threads by the thread policy ({THREADS_VARIABLE} unset)"
-    threads = solver_threads()
+    threads = current_policy().solver_threads()
     return f"{threads} solver thread{'s' if threads > 1 else ''} ({THREADS_VARIABLE})"
 
 

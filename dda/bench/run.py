@@ -21,6 +21,7 @@ import dda
 from dda.bench.scenes import wall_scene
 from dda.jit import numba_enabled, run_work
 from dda.solve.linsolve import new_pardiso_handle, pardiso_available
+from dda.solve.policy import current_policy
 
 log = logging.getLogger(__name__)
 
@@ -119,7 +120,9 @@ def _measure(
             warm = wall_scene(size, method=method, steps=warm_steps, start=start)
             dda.simulate(dda.load_scene(warm))
         if pardiso_available():
-            new_pardiso_handle()  # finding the MKL library is a one-off cost too
+            new_pardiso_handle(
+                current_policy().solver_threads()
+            )  # finding the MKL library is a one-off cost too
     scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps, start=start))
     began = time.perf_counter()
     first_step = [float("nan")]

@@ -41,7 +41,10 @@ from dda.solve.linsolve import (
     pardiso_available,
     pcg,
 )
+from dda.solve.policy import DEFAULT, current_policy
 from dda.solve.step import _effect_terms, _stiffness
+
+PCG_SETTINGS = (DEFAULT.pcg_tolerance, DEFAULT.max_pcg_iterations)  # the runs' PCG
 
 
 def best_of(function: Callable[[], object], repeat: int = 3) -> float:
@@ -192,15 +195,19 @@ def stage_rows(columns: int) -> list[tuple[str, float]]:
     rows_out.append(
         (
             "PCG on a perturbed K with the old SuperLU factor",
-            best_of(lambda: pcg(nearby, rhs, superlu.solve)),
+            best_of(lambda: pcg(nearby, rhs, superlu.solve, *PCG_SETTINGS)),
         )
     )
     if pardiso_available():
+        threads = current_policy().solver_threads()
         pardiso = PardisoFactorisation(k)
         rows_out.append(
-            ("factorise, PARDISO numeric phase (analysis kept)", best_of(lambda: pardiso.factor(k)))
+            (
+                "factorise, PARDISO numeric phase (analysis kept)",
+                best_of(lambda: pardiso.factor(k, threads)),
+            )
         )
-        pardiso.factor(k)
+        pardiso.factor(k, threads)
         rows_out.append(("solve, PARDISO", best_of(lambda: pardiso.solve(rhs))))
     return rows_out
 

@@ -82,12 +82,10 @@ def _main(argv: list[str]) -> int:
     if not hasattr(args, "func"):
         parser.print_help(sys.stderr)
         return EXIT_INPUT
-    from dda.solve.linsolve import solver_choice, solver_threads, systems_choice
+    from dda.solve.policy import StepPolicy
 
     try:
-        solver_threads()
-        solver_choice()
-        systems_choice()
+        StepPolicy.from_environment()  # DDA_THREADS, DDA_SOLVER, DDA_SYSTEMS
     except ValueError as exc:
         print(f"dda: {exc}", file=sys.stderr)
         return EXIT_INPUT
@@ -508,9 +506,9 @@ def _picture_helper(args: argparse.Namespace):
     when the run draws and may have a second core: the solver would get two threads
     (``DDA_THREADS``, else the cores the other processes leave idle); else None."""
     from dda.io.picture_process import PictureProcess
-    from dda.solve.linsolve import solver_threads
+    from dda.solve.policy import current_policy
 
-    if args.no_picture or solver_threads() < 2:
+    if args.no_picture or current_policy().solver_threads() < 2:
         return None
     return PictureProcess.start()
 

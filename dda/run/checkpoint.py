@@ -22,14 +22,14 @@ scene the same way and refuses a checkpoint whose entries differ from what
 the run holds (written by another version of dda). The engine has no random
 numbers, so there is no generator state to keep.
 
+- ``solver/...``: the run's linear cache (:class:`dda.solve.step.LinearCache`: the block
+  pattern, the springs of the factorised K, the band numbering), the matrix its solver
+  had factorised, which a resumed run factorises again, and what the solver learned
+  (:meth:`dda.solve.linsolve.ReusingSolver.learned`).
+
 Not in a checkpoint: the model (rebuilt from the scene, which must match the
-fingerprint) and the linear solver's cache (block pattern, factorisation;
-:func:`dda.solve.step.linear_cache`), which a resumed run rebuilds at its first
-step. A resumed run therefore factorises where the uninterrupted one re-used
-a factorisation through PCG (to a relative residual of 1e-13), and may
-choose another block ordering: it agrees with the uninterrupted run to
-round-off, not to the bit, unless the cache plays no part (docs/runs.md
-gives the measured differences).
+fingerprint) and the step's policy (:class:`dda.solve.policy.StepPolicy`), read from
+the resumed run's environment.
 """
 
 from __future__ import annotations
@@ -60,11 +60,13 @@ log = logging.getLogger(__name__)
 # the layout of a checkpoint; raised when the run's state gains an entry that an older
 # checkpoint cannot have (2: the blocks' last acceleration, for [analysis] newmark_gamma;
 # 3: the contact search's reach, dda.contact.reach; 4: the count of Newton iterations;
-# 5: the blocks' mass areas, the material damping, the equilibrium start's preloads)
-FORMAT = 5
+# 5: the blocks' mass areas, the material damping, the equilibrium start's preloads;
+# 6: the solver's state by the names of ReusingSolver.learned)
+FORMAT = 6
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
-NOT_SAVED = ("model",)  # run attributes rebuilt from the scene
+NOT_SAVED = ("model", "linear")  # run attributes rebuilt from the scene, or saved apart
+CACHE_NOT_SAVED = ("solver", "policy")  # the linear cache's: saved apart, or the environment's
 RUN_CONTROL = ("save_every", "checkpoint_every", "max_steps")  # not part of the fingerprint
 NAMED_TUPLES = {"FractureEvent": FractureEvent, "BoltEvent": BoltEvent}  # result types in lists
 _SCALARS = (np.generic, bool, int, float, str, type(None))
@@ -242,7 +244,7 @@ def capture(run: Any, wall_seconds: float = 0.0) -> Checkpoint:
     for name, value in vars(run).items():
         if name not in NOT_SAVED:
             saver.save(value, f"run/{name}")
-    _save_solver(saver, run.model)
+    _save_solver(saver, run.linear)
     meta = {
         "format": FORMAT,
         "step": int(run.step),
@@ -271,7 +273,7 @@ def restore(run: Any, checkpoint: Checkpoint) -> None:
         for name, value in list(vars(run).items()):
             if name not in NOT_SAVED:
                 setattr(run, name, loader.load(value, f"run/{name}"))
-        _restore_solver(loader, run.model)
+        _restore_solver(loader, run.linear)
     except (KeyError, ValueError, TypeError, AttributeError, ImportError) as exc:
         reason = f"cannot restore the run's state ({exc})"
         raise CheckpointError(checkpoint.source, reason) from None
@@ -280,46 +282,37 @@ def restore(run: Any, checkpoint: Checkpoint) -> None:
 
 # --------------------------------------------------------------------------- solver cache
 
-SOLVER_STATE = ("_key", "_stale", "pcg_iterations", "pcg_solves")  # what the solver learned
 
-
-def _save_solver(saver: _Saver, model: Any) -> None:
-    """The linear cache (:func:`dda.solve.step.linear_cache`): its pattern and springs as
-    they are, and the factorised matrix, which :func:`_restore_solver` factorises again."""
-    from dda.solve.step import linear_cache
-
-    cache = linear_cache(model)
+def _save_solver(saver: _Saver, cache: Any) -> None:
+    """The run's linear cache (:class:`dda.solve.step.LinearCache`): its pattern and
+    springs as they are, what its solver learned, and the factorised matrix, which
+    :func:`_restore_solver` factorises again."""
     for name, value in _attributes(cache):
-        if name != "solver":
+        if name not in CACHE_NOT_SAVED:
             saver.save(value, f"solver/cache/{name}")
-    solver = cache.solver
-    for name in SOLVER_STATE:
-        saver.save(getattr(solver, name), f"solver/{name}")
-    k = solver.factored
+    for name, value in cache.solver.learned().items():
+        saver.save(value, f"solver/{name}")
+    k = cache.solver.factored
     matrix = None if k is None else {"data": k.data, "indices": k.indices, "indptr": k.indptr,
                                      "shape": list(k.shape)}  # fmt: skip
     saver.save(matrix, "solver/factored")
 
 
-def _restore_solver(loader: _Loader, model: Any) -> None:
+def _restore_solver(loader: _Loader, cache: Any) -> None:
     """The interrupted run's linear cache, its matrix factorised again (the same numbers
     with a deterministic solver): the resumed run's solves repeat the uninterrupted one's."""
     import scipy.sparse as sp
 
-    from dda.solve.step import linear_cache
-
-    cache = linear_cache(model)
     for name, value in _attributes(cache):
-        if name != "solver":
+        if name not in CACHE_NOT_SAVED:
             setattr(cache, name, loader.load(value, f"solver/cache/{name}"))
-    state = {name: loader.load(None, f"solver/{name}") for name in SOLVER_STATE}
+    learned = {name: loader.load(None, f"solver/{name}") for name in cache.solver.learned()}
     matrix = loader.load(None, "solver/factored")
+    k = None
     if matrix is not None:
         shape = tuple(matrix["shape"])
         k = sp.csc_matrix((matrix["data"], matrix["indices"], matrix["indptr"]), shape=shape)
-        cache.solver.refactor(k, state["_key"], state["_stale"])
-    cache.solver.pcg_iterations = state["pcg_iterations"]
-    cache.solver.pcg_solves = state["pcg_solves"]
+    cache.solver.resume(learned, k)
 
 
 # --------------------------------------------------------------------------- walking

@@ -16,7 +16,8 @@ import numpy as np
 import scipy
 
 from dda.jit import numba_enabled
-from dda.solve.linsolve import pardiso_available, solver_threads
+from dda.solve.linsolve import pardiso_available
+from dda.solve.policy import current_policy
 
 
 def environment() -> dict[str, Any]:
@@ -29,7 +30,7 @@ def environment() -> dict[str, Any]:
         "numba": _version("numba") if numba_enabled() else None,
         "sparse_solver": "pardiso" if pardiso_available() else "superlu",
         "pypardiso": _version("pypardiso") if pardiso_available() else None,
-        "threads": solver_threads(),
+        "threads": current_policy().solver_threads(),
         "mkl_cbwr": os.environ.get("MKL_CBWR"),
         "machine": platform.machine(),
     }

@@ -30,13 +30,9 @@ from dda.run.stages import apply_due_stages, set_strengths
 from dda.scene import Scene
 from dda.scene.limits import check_run_size
 from dda.scene.local_frame import local_origin, translated
-from dda.solve.linsolve import (
-    single_threaded_blas,
-    solver_choice,
-    solver_threads,
-    systems_choice,
-)
-from dda.solve.step import StepSolution, solve_step
+from dda.solve.linsolve import single_threaded_blas
+from dda.solve.policy import StepPolicy, current_policy
+from dda.solve.step import LinearCache, StepSolution, solve_step
 from dda.solve.timing import StageTimer
 from dda.solve.update import apply_step, vertex_displacements
 
@@ -53,8 +49,10 @@ HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_wor
 class _Run:
     """Mutable state of one run (kept out of the public API)."""
 
-    def __init__(self, model: Model) -> None:
+    def __init__(self, model: Model, policy: StepPolicy | None = None) -> None:
         self.model = model
+        # the step's policy (the environment's by default), block pattern and solver
+        self.linear = LinearCache(current_policy() if policy is None else policy)
         self.blocks: BlockSet = model.blocks.copy()
         self.contacts = ContactSet.empty()
         self.kept_pairs = KeptPairs()
@@ -121,7 +119,7 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
     ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
     if m.ground is not None:  # fixed blocks that follow the ground: their step is known
         ctx.prescribed = m.ground.prescribed(run.blocks, ctx)
-    solution = solve_step(m, run.blocks, start.copy(), ctx, run.timer)
+    solution = solve_step(m, run.blocks, start.copy(), ctx, run.timer, run.linear)
     if ctx.prescribed is not None:
         solution.d = solution.d + ctx.prescribed
     run.iterations += solution.iterations
@@ -334,14 +332,13 @@ def run(
     SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
     """
     start = wallclock.perf_counter()
-    solver_threads()  # a bad DDA_THREADS, DDA_SOLVER or DDA_SYSTEMS stops the run at once
-    solver_choice()
-    systems_choice()
+    policy = StepPolicy.from_environment()  # a bad DDA_THREADS, DDA_SOLVER or DDA_SYSTEMS:
+    # ValueError at once
     check_run_size(scene)
     origin = local_origin(scene)  # far from (0, 0): compute about the model's centre
     local = translated(scene, origin)
     model = build(local)
-    state = _Run(model)
+    state = _Run(model, policy)
     if resume is not None:
         check_scene(resume, scene)  # it compares the scene as the run holds it
         restore(state, resume)

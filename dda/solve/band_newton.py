@@ -29,6 +29,7 @@ import numpy as np
 
 from dda.contact.line_search import _line_minimum_kernel
 from dda.jit import Lapack, kernel
+from dda.solve.band_arguments import PassOutcome
 from dda.solve.contact_pieces import (
     _add_contact_energy,
     _offsets,
@@ -37,7 +38,6 @@ from dda.solve.contact_pieces import (
     _same_springs,
     _springs,
 )
-from dda.solve.newton import RELATIVE_TOLERANCE
 
 # what the kernel's ``state`` array holds: whether ``band`` is a factorisation of the K of
 # ``springs``, the factorisations the kernel made, and 1 once LAPACK found a K not
@@ -74,8 +74,12 @@ def _gather(columns, normal_rows, normal, shear_rows, shear, size):
     return out
 
 
-def _base_product(blocks, bolt_columns, bolt_rows, bolt_k, x):
-    """K₀ x: the (n, 6, 6) diagonal ``blocks`` and the bolts' springs k_b r_b r_bᵀ."""
+def _base_product(geometry, x):
+    """K₀ x: the (n, 6, 6) diagonal blocks and the bolts' springs k_b r_b r_bᵀ
+    (``geometry``: a :class:`~dda.solve.band_arguments.BandGeometry`)."""
+    blocks, bolt_columns, bolt_rows, bolt_k = (
+        geometry.blocks, geometry.bolt_columns, geometry.bolt_rows, geometry.bolt_k
+    )  # fmt: skip
     out = np.empty(x.shape[0])
     for b in range(blocks.shape[0]):
         for r in range(6):
@@ -106,18 +110,19 @@ def _add_band_springs(band, columns, normal_rows, kn, shear_rows, ks):
                     band[column, row - column] += an * normal_rows[c, e] + as_ * shear_rows[c, e]
 
 
-def _band_factorise(
-    blocks, bolt_columns, bolt_rows, bolt_k, columns, normal_rows, shear_rows, kn, ks, band
-):
+def _band_factorise(geometry, kn, ks, band):
     """``band`` = L of K = K₀ + Σ kn r_n r_nᵀ + ks r_s r_sᵀ = L Lᵀ in lower band
     storage; returns LAPACK's INFO (0: done; > 0: K is not positive definite)."""
+    blocks, bolt_rows, bolt_k = geometry.blocks, geometry.bolt_rows, geometry.bolt_k
     band[:, :] = 0.0
     for b in range(blocks.shape[0]):
         for q in range(6):
             for r in range(q, 6):
                 band[6 * b + q, r - q] = blocks[b, r, q]
-    _add_band_springs(band, bolt_columns, bolt_rows, bolt_k, bolt_rows, np.zeros_like(bolt_k))
-    _add_band_springs(band, columns, normal_rows, kn, shear_rows, ks)
+    _add_band_springs(
+        band, geometry.bolt_columns, bolt_rows, bolt_k, bolt_rows, np.zeros_like(bolt_k)
+    )
+    _add_band_springs(band, geometry.columns, geometry.normal_rows, kn, geometry.shear_rows, ks)
     n, width = band.shape
     numbers = np.array([n, width - 1, width, 0], np.int32)  # N, KD, LDAB, INFO
     uplo = np.array([_LOWER], np.uint8)
@@ -142,10 +147,12 @@ def _band_solve(band, rhs):
     return x
 
 
-def _residual(
-    forces, columns, normal_rows, shear_rows, lam_n, p, tension, lam_t, ps, bound, kd, g, s
-):
-    """(∇Π, ‖K₀D‖ + ‖contact forces‖ + ‖F₀‖) at the point whose K₀D, g, s are given."""
+def _residual(geometry, terms, kd, g, s):
+    """(∇Π, ‖K₀D‖ + ‖contact forces‖ + ‖F₀‖) at the point whose K₀D, g, s are given
+    (``terms``: a :class:`~dda.solve.band_arguments.BandTerms`)."""
+    lam_n, p, tension, lam_t, ps, bound = terms
+    forces, columns = geometry.forces, geometry.columns
+    normal_rows, shear_rows = geometry.normal_rows, geometry.shear_rows
     m = g.shape[0]
     normal_force, shear_force = np.empty(m), np.empty(m)
     for c in range(m):
@@ -157,43 +164,41 @@ def _residual(
     return residual, scale
 
 
-def _band_minimise(
-    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows,
-    g0, s0, lam_n, p, tension, lam_t, ps, bound, friction,
-    d, g, s, have_gaps, first_normal, first_shear, have_first,
-    max_solves, max_steps, rate, chord_first, conjugate,
-    band, springs, state,
-):  # fmt: skip
+def _band_minimise(geometry, terms, friction, start, rules, factor):
     """Compiled :func:`dda.solve.newton.minimise` on band systems (module docstring).
 
-    ``d``, ``g``, ``s``: the start and its gaps (copied, not changed; the gaps computed
-    here unless ``have_gaps``); ``band``,
-    ``springs`` (2, m), ``state``: the kept factorisation, the springs of its K and
-    :data:`HAS_FACTOR` / :data:`FACTORISATIONS` / :data:`FAILED` (updated in place).
-    ``max_steps`` < 0: no limit. Returns (D, g, s, Newton iterations, chord steps,
-    converged, chord_next, finite).
+    ``geometry``, ``terms``: a :class:`~dda.solve.band_arguments.BandGeometry` and
+    :class:`~dda.solve.band_arguments.BandTerms`; ``start``: a
+    :class:`~dda.solve.band_arguments.PassStart` (copied, not changed; its gaps computed
+    here unless ``have_gaps``); ``rules``: a :class:`~dda.solve.band_arguments.PassRules`
+    (``max_steps`` < 0: no limit); ``factor``: the kept
+    :class:`~dda.solve.band_arguments.Factor`, its ``state`` :data:`HAS_FACTOR` /
+    :data:`FACTORISATIONS` / :data:`FAILED` updated in place. Returns a
+    :class:`~dda.solve.band_arguments.PassOutcome`.
     """
-    m, n = g0.shape[0], d.shape[0]
-    d = d.copy()
-    if have_gaps:
-        g, s = g.copy(), s.copy()
+    columns, normal_rows, shear_rows = geometry.columns, geometry.normal_rows, geometry.shear_rows
+    forces, g0, s0 = geometry.forces, geometry.g0, geometry.s0
+    lam_n, p, tension, lam_t, ps, bound = terms
+    band, springs, state = factor
+    max_solves, max_steps, rate = rules.max_solves, rules.max_steps, rules.rate
+    m, n = g0.shape[0], start.d.shape[0]
+    d = start.d.copy()
+    if start.have_gaps:
+        g, s = start.g.copy(), start.s.copy()
     else:
         g = g0 + _along(columns, normal_rows, d)
         s = s0 + _along(columns, shear_rows, d)
-    kd = _base_product(blocks, bolt_columns, bolt_rows, bolt_k, d)
+    kd = _base_product(geometry, d)
     normal, shear = np.empty(m, np.int8), np.empty(m, np.int8)
     other_normal, other_shear = np.empty(m, np.int8), np.empty(m, np.int8)
-    have_pieces = have_first
-    if have_first:
+    have_pieces = start.have_pieces
+    if have_pieces:
         for c in range(m):
-            normal[c], shear[c] = first_normal[c], first_shear[c]
+            normal[c], shear[c] = start.normal[c], start.shear[c]
     gradient = np.zeros(n)
     have_gradient = False
-    if chord_first:
-        gradient, _ = _residual(
-            forces, columns, normal_rows, shear_rows, lam_n, p, tension, lam_t, ps, bound,
-            kd, g, s,
-        )  # fmt: skip
+    if rules.chord_first:
+        gradient, _ = _residual(geometry, terms, kd, g, s)
         have_gradient = True
     solves = chords = 0
     last_direction, last_gradient, last_preconditioned = np.zeros(n), np.zeros(n), np.zeros(n)
@@ -204,7 +209,7 @@ def _band_minimise(
             preconditioned = _band_solve(band, gradient)
             direction = -preconditioned
             chords += 1
-            if conjugate and have_last:
+            if rules.conjugate and have_last:
                 scale = last_preconditioned @ last_gradient
                 if scale > 0.0:
                     beta = max(0.0, (preconditioned @ (gradient - last_gradient)) / scale)
@@ -222,13 +227,10 @@ def _band_minimise(
             _springs(p, ps, friction, normal, shear, kn, ks)
             if not (state[HAS_FACTOR] == 1 and _same_springs(kn, ks, springs)):
                 state[HAS_FACTOR] = 0
-                info = _band_factorise(
-                    blocks, bolt_columns, bolt_rows, bolt_k, columns, normal_rows, shear_rows,
-                    kn, ks, band,
-                )  # fmt: skip
+                info = _band_factorise(geometry, kn, ks, band)
                 if info != 0:
                     state[FAILED] = 1
-                    return d, g, s, solves, chords, False, False, False
+                    return PassOutcome(d, g, s, solves, chords, False, False, False)
                 for c in range(m):
                     springs[0, c], springs[1, c] = kn[c], ks[c]
                 state[HAS_FACTOR] = 1
@@ -239,18 +241,18 @@ def _band_minimise(
             rhs = forces - _gather(columns, normal_rows, offset_n, shear_rows, offset_t, n)
             target = _band_solve(band, rhs)
             if not np.all(np.isfinite(target)):
-                return target, g, s, solves, chords, False, False, False
+                return PassOutcome(target, g, s, solves, chords, False, False, False)
             g_target = g0 + _along(columns, normal_rows, target)
             s_target = s0 + _along(columns, shear_rows, target)
             _pieces(
                 lam_n, p, tension, lam_t, ps, bound, g_target, s_target, other_normal, other_shear
             )
             if _same_pieces(ps, bound, normal, shear, other_normal, other_shear):
-                return target, g_target, s_target, solves, chords, True, False, True
+                return PassOutcome(target, g_target, s_target, solves, chords, True, False, True)
             direction = target - d
             have_pieces = False
             dg, ds = g_target - g, s_target - s
-        kp = _base_product(blocks, bolt_columns, bolt_rows, bolt_k, direction)
+        kp = _base_product(geometry, direction)
         a = direction @ (kd - forces)
         curvature = direction @ kp
         alpha, _ = _line_minimum_kernel(
@@ -260,29 +262,24 @@ def _band_minimise(
         g = g + alpha * dg
         s = s + alpha * ds
         kd = kd + alpha * kp
-        residual, scale = _residual(
-            forces, columns, normal_rows, shear_rows, lam_n, p, tension, lam_t, ps, bound,
-            kd, g, s,
-        )  # fmt: skip
+        residual, scale = _residual(geometry, terms, kd, g, s)
         size = np.linalg.norm(residual)
-        if size <= RELATIVE_TOLERANCE * scale:
-            return d, g, s, solves, chords, True, False, True
+        if size <= rules.tolerance * scale:
+            return PassOutcome(d, g, s, solves, chords, True, False, True)
         shrunk = (not have_gradient) or size <= rate * np.linalg.norm(gradient)
         if shrunk:
             gradient, have_gradient = residual, True
         else:
             have_gradient = False
-    return d, g, s, solves, chords, False, have_gradient, True
+    return PassOutcome(d, g, s, solves, chords, False, have_gradient, True)
 
 
-def _potential(
-    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows,
-    g0, s0, lam_n, p, tension, lam_t, ps, bound, d,
-):  # fmt: skip
+def _potential(geometry, terms, d):
     """Π(D) = ½ DᵀK₀D − F₀ᵀD + Σ φn(g) + Σ φt(s) (:func:`dda.solve.newton.potential`)."""
-    value = d @ (0.5 * _base_product(blocks, bolt_columns, bolt_rows, bolt_k, d) - forces)
-    g = g0 + _along(columns, normal_rows, d)
-    s = s0 + _along(columns, shear_rows, d)
+    value = d @ (0.5 * _base_product(geometry, d) - geometry.forces)
+    g = geometry.g0 + _along(geometry.columns, geometry.normal_rows, d)
+    s = geometry.s0 + _along(geometry.columns, geometry.shear_rows, d)
+    lam_n, p, tension, lam_t, ps, bound = terms
     return _add_contact_energy(value, lam_n, p, tension, lam_t, ps, bound, g, s)
 
 

@@ -28,15 +28,18 @@ from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.jit import floats, kernel
 from dda.result import LOCKED, OPEN, SLIDING
 from dda.solve import band_newton, contact_pieces
-
-# the Python loop instead of this kernel (the tests compare the two)
-USE_KERNEL = True
+from dda.solve.band_arguments import (
+    BandContacts,
+    BandTerms,
+    LawSettings,
+    LoopRules,
+    PassRules,
+    PassStart,
+    StepOutcome,
+)
 
 DEPTH = BoundIteration.DEPTH
 MIXING = BoundIteration.MIXING
-
-# what the kernel's integer outcome holds
-SOLVES, CHORDS, CONVERGED, FINITE, FAILED = 0, 1, 2, 3, 4
 
 terms_kernel = law_kernels.terms_kernel
 forces_and_bounds_kernel = law_kernels.forces_and_bounds_kernel
@@ -130,23 +133,31 @@ def _dissipation(shear_base, shear_penalty, bound, s):
     return work
 
 
-def _band_step(
-    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows, shear_rows, g0, s0,
-    intact, strength, breakable, normal_multiplier, shear_multiplier, penalty,
-    fresh, state, direction, last_normal, penetration,
-    friction, augmented, shear_ratio, tolerance, shrink_target, max_penalty, growth,
-    friction_tolerance,
-    velocity_step, dynamic, budget, between_bounds, guessed_solves, rate, chord_first,
-    conjugate, band, springs, factor_state,
-):  # fmt: skip
+def _band_step(geometry, contacts, law, loop, velocity_step, factor):
     """The outer loop of :func:`dda.solve.step.solve_step` on band systems (module
-    docstring); the vectors in band order, the contacts' arrays not changed. Returns
-    (D, g, s, intact, λn, p, state, slide direction, N, F, dissipation, outcome): the
-    contacts' new data (what :func:`dda.contact.law.update` and
-    :func:`dda.contact.law.record` write; the carried λt is F) and the integers :data:`SOLVES`,
-    :data:`CHORDS`, :data:`CONVERGED`, :data:`FINITE`, :data:`FAILED`."""
+    docstring); the vectors in band order, the contacts' arrays not changed.
+
+    ``geometry``: a :class:`~dda.solve.band_arguments.BandGeometry`; ``contacts``: the
+    contacts' :class:`~dda.solve.band_arguments.BandContacts`; ``law``:
+    :class:`~dda.solve.band_arguments.LawSettings`; ``loop``:
+    :class:`~dda.solve.band_arguments.LoopRules`; ``velocity_step``: v₀Δt; ``factor``: the
+    kept :class:`~dda.solve.band_arguments.Factor`. Returns a
+    :class:`~dda.solve.band_arguments.StepOutcome`: the contacts' new data (what
+    :func:`dda.contact.law.update` and :func:`dda.contact.law.record` write; the carried
+    λt is F) and the counts."""
+    g0, s0, forces = geometry.g0, geometry.s0, geometry.forces
+    strength, breakable, fresh, state = (
+        contacts.strength, contacts.breakable, contacts.fresh, contacts.state
+    )  # fmt: skip
+    direction, last_normal, penetration = (
+        contacts.direction, contacts.last_normal, contacts.penetration
+    )  # fmt: skip
+    normal_multiplier, shear_multiplier = contacts.normal_multiplier, contacts.shear_multiplier
+    penalty = contacts.penalty
+    friction, augmented, friction_tolerance = law.friction, law.augmented, law.friction_tolerance
+    budget = loop.budget
     m, n = g0.shape[0], forces.shape[0]
-    intact = intact.copy()
+    intact = contacts.intact.copy()
     normal_force, shear_force = last_normal.copy(), np.zeros(m)
     new_state, new_direction = state.copy(), direction.copy()
     bound = _first_bounds(
@@ -156,54 +167,44 @@ def _band_step(
     history = 0
     d, g, s = np.zeros(n), g0.copy(), s0.copy()
     previous_g, has_previous = g0.copy(), False
-    outcome = np.zeros(5, np.int64)
     solves = chords = 0
-    goes_on = False
+    goes_on = converged = finite = failed = False
     none = np.zeros(m, np.int8)
     dissipated = 0.0
     while solves < budget:
         terms_penalty = penalty  # the terms' p: the law's update makes a new array
         normal_base, tension, shear_base, shear_penalty, bounds = terms_kernel(
-            intact, strength, normal_multiplier, shear_multiplier, penalty, shear_ratio, bound,
-            friction,
+            intact, strength, normal_multiplier, shear_multiplier, penalty, law.shear_ratio,
+            bound, friction,
         )  # fmt: skip
+        terms = BandTerms(normal_base, penalty, tension, shear_base, shear_penalty, bounds)
         first = solves == 0
         first_normal, first_shear = none, none
         if first:
-            if dynamic:
-                here = potential_kernel(
-                    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows,
-                    shear_rows, g0, s0, normal_base, penalty, tension, shear_base,
-                    shear_penalty, bounds, d,
-                )  # fmt: skip
-                moving = potential_kernel(
-                    blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows,
-                    shear_rows, g0, s0, normal_base, penalty, tension, shear_base,
-                    shear_penalty, bounds, velocity_step,
-                )  # fmt: skip
+            if loop.dynamic:
+                here = potential_kernel(geometry, terms, d)
+                moving = potential_kernel(geometry, terms, velocity_step)
                 if not np.isnan(here) and (np.isnan(moving) or moving < here):
                     d = velocity_step.copy()
-            g = g0 + _along(columns, normal_rows, d)
-            s = s0 + _along(columns, shear_rows, d)
+            g = g0 + _along(geometry.columns, geometry.normal_rows, d)
+            s = s0 + _along(geometry.columns, geometry.shear_rows, d)
             first_normal, first_shear = _remembered(
                 normal_base, penalty, tension, shear_base, shear_penalty, bounds, g, s, state,
                 direction,
             )  # fmt: skip
         inner = -1
         if friction:
-            inner = guessed_solves if _guessing(bound) else between_bounds
-        chord_start = chord_first and goes_on and chords < budget
+            inner = loop.guessed_solves if _guessing(bound) else loop.between_bounds
+        chord_start = loop.chord_first and goes_on and chords < budget
+        rules = PassRules(
+            budget - solves, inner, loop.rate, chord_start, loop.conjugate, loop.tolerance
+        )
+        start = PassStart(d, g, s, True, first_normal, first_shear, first)
         d, g, s, pass_solves, pass_chords, pass_converged, chord_next, finite = (
-            band_minimise_kernel(
-                blocks, bolt_columns, bolt_rows, bolt_k, forces, columns, normal_rows,
-                shear_rows, g0, s0, normal_base, penalty, tension, shear_base, shear_penalty,
-                bounds, friction, d, g, s, True, first_normal, first_shear, first,
-                budget - solves, inner, rate, chord_start,
-                conjugate, band, springs, factor_state,
-            )
-        )  # fmt: skip
-        if factor_state[band_newton.FAILED]:
-            outcome[FAILED] = 1
+            band_minimise_kernel(geometry, terms, friction, start, rules, factor)
+        )
+        if factor.state[band_newton.FAILED]:
+            failed = True
             break
         goes_on = pass_converged or chord_next
         solves += pass_solves
@@ -230,8 +231,8 @@ def _band_step(
         if augmented:
             new_n, new_t, new_p, count, _ = augment_kernel(
                 normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
-                previous_g, has_previous, fresh, penetration, shear_multiplier, tolerance,
-                shrink_target, max_penalty, growth,
+                previous_g, has_previous, fresh, penetration, shear_multiplier, law.tolerance,
+                law.shrink_target, law.max_penalty, law.growth,
             )  # fmt: skip
             normal_multiplier, shear_multiplier = new_n, new_t
             if has_previous:
@@ -248,13 +249,12 @@ def _band_step(
                     settled = False
         normal_force = normal
         if settled:
-            outcome[CONVERGED] = 1
+            converged = True
             break
         bound, history = _advance(bound, target, points, residuals, history)
         previous_g, has_previous = g, True
-    outcome[SOLVES], outcome[CHORDS] = solves, chords
-    if finite and not outcome[FAILED]:
-        outcome[FINITE] = 1
+    finite = finite and not failed
+    if finite:
         if friction:
             dissipated = _dissipation(shear_base, shear_penalty, bounds, s)
         new_state, normal_multiplier, new_direction, normal_force, shear_force = (
@@ -263,9 +263,9 @@ def _band_step(
                 normal_multiplier, friction_tolerance,
             )
         )  # fmt: skip
-    return (
+    return StepOutcome(
         d, g, s, intact, normal_multiplier, penalty, new_state, new_direction, normal_force,
-        shear_force, dissipated, outcome,
+        shear_force, dissipated, solves, chords, converged, finite, failed,
     )  # fmt: skip
 
 
@@ -294,37 +294,42 @@ def solve_on_band(system, loop) -> tuple[np.ndarray, int, int, bool, float] | No
     definite (the Python loop then solves the step, on the fallback systems).
     """
     contacts, joints, law, rules = loop.contacts, loop.joints, loop.law, loop.rules
-    band, springs, factor_state = system.kernel_state
-    made = int(factor_state[band_newton.FACTORISATIONS])
+    factor = system.factor
+    made = int(factor.state[band_newton.FACTORISATIONS])
     velocity_step = loop.blocks.velocity[system.order] * loop.ctx.dt
-    arguments = (
-        *system.kernel_geometry(),
+    start = BandContacts(
         np.ascontiguousarray(contacts.intact, np.bool_), joints.kernel_strength(),
         np.ascontiguousarray(joints.breakable, np.bool_), floats(contacts.normal_multiplier),
         floats(contacts.shear_multiplier), floats(contacts.penalty),
         np.ascontiguousarray(contacts.fresh, np.bool_),
         np.ascontiguousarray(contacts.state, np.int8), floats(contacts.slide_direction),
         floats(contacts.normal_force), floats(contacts.penetration),
+    )  # fmt: skip
+    settings = LawSettings(
         bool(law.friction), bool(law.augmented), float(law.shear_ratio), float(law.tolerance),
         float(law.shrink_target), float(law.max_penalty), float(law.penalty_growth),
         float(law.friction_tolerance),
-        floats(velocity_step.ravel()), not loop.ctx.static, int(loop.budget),
-        int(loop.between_bounds), int(loop.guessed_bound_solves), float(rules.rate),
-        bool(rules.chord_first), bool(rules.conjugate), band, springs, factor_state,
+    )  # fmt: skip
+    loop_rules = LoopRules(
+        not loop.ctx.static, int(loop.budget), int(loop.between_bounds),
+        int(loop.guessed_bound_solves), float(rules.rate), bool(rules.chord_first),
+        bool(rules.conjugate), float(loop.policy.newton_tolerance),
     )  # fmt: skip
     with loop.timer("solve"):  # the passes and the law between them
-        out = band_step_kernel(*arguments)
-    system.count_factorisations(int(factor_state[band_newton.FACTORISATIONS]) - made)
-    d, g, s, intact, normal_multiplier, penalty = out[:6]
-    state, direction, normal_force, shear_force, dissipated, outcome = out[6:]
-    if outcome[FAILED]:
+        out = band_step_kernel(
+            system.geometry, start, settings, loop_rules, floats(velocity_step.ravel()), factor
+        )
+    system.count_factorisations(int(factor.state[band_newton.FACTORISATIONS]) - made)
+    if out.failed:
         system.restart()
         return None
-    if outcome[FINITE]:
-        contacts.intact, contacts.penalty = intact, penalty
-        contacts.normal_multiplier, contacts.shear_multiplier = normal_multiplier, shear_force
-        contacts.state, contacts.slide_direction = state, direction
-        contacts.normal_force, contacts.shear_force = normal_force, shear_force
-        contacts.penetration, contacts.slip = g, s
-    converged = bool(outcome[CONVERGED])
-    return system.spread(d), int(outcome[SOLVES]), int(outcome[CHORDS]), converged, dissipated
+    if out.finite:
+        contacts.intact, contacts.penalty = out.intact, out.penalty
+        contacts.normal_multiplier, contacts.shear_multiplier = (
+            out.normal_multiplier,
+            out.shear_force,
+        )
+        contacts.state, contacts.slide_direction = out.state, out.direction
+        contacts.normal_force, contacts.shear_force = out.normal_force, out.shear_force
+        contacts.penetration, contacts.slip = out.g, out.s
+    return system.spread(out.d), out.solves, out.chords, out.converged, out.dissipated

@@ -7,10 +7,12 @@ their graph — K is a band matrix of half-width kd = 6 × (the largest distance
 between two such blocks) + 5, factorised by LAPACK in about n kd² flops, and a whole
 Newton pass is one compiled call (:mod:`dda.solve.band_newton`). A step takes this
 path where the kernels are used and the factorisation's n kd² stays within
-:data:`BAND_WORK` (measured, docs/benchmarks.md), whatever the model's size.
+the policy's ``band_work`` (:class:`dda.solve.policy.StepPolicy`), whatever the model's
+size.
 
 The numbering is kept from step to step (:class:`BandOrder`) while the blocks are
-the same and it keeps kd within :data:`REORDER_GROWTH` of the kd it was made with.
+the same and it keeps kd within the policy's ``reorder_growth`` of the kd it was made
+with.
 """
 
 from __future__ import annotations
@@ -19,17 +21,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from dda.jit import compiled, kernel
-from dda.solve import band_newton
+from dda.jit import compiled, floats, kernel
+from dda.solve import band_newton, band_step
+from dda.solve.band_arguments import BandGeometry, BandTerms, Factor, PassRules, PassStart
 from dda.solve.dense_system import contact_columns
 from dda.solve.newton import NewtonResult
-
-# largest n kd² of a band system (a factorisation's flops): above it the sparse path
-# (measured with the step's loop compiled, docs/benchmarks.md: the 25 x 25 wall, 9.0e7,
-# is 10-20 % faster in band, the 30 x 30, 1.85e8, 27 % slower)
-BAND_WORK = 1e8
-# a numbering is made again when the band it gives has grown past this factor of its own
-REORDER_GROWTH = 1.5
+from dda.solve.policy import DEFAULT
 
 
 def band_order(
@@ -83,22 +80,24 @@ class Numbering(NamedTuple):
 
 
 class BandOrder:
-    """The band numbering kept between steps (module docstring)."""
+    """The band numbering kept between steps (module docstring); ``reorder_growth``: the
+    policy's (:class:`dda.solve.policy.StepPolicy`)."""
 
-    def __init__(self) -> None:
+    def __init__(self, reorder_growth: float = DEFAULT.reorder_growth) -> None:
+        self.reorder_growth = reorder_growth
         self.position: np.ndarray | None = None
         self._fixed: np.ndarray | None = None
         self._made_width = 0
 
     def numbering(self, fixed, block_a, block_b, bolt_i, bolt_j) -> Numbering:
         """This step's :class:`Numbering` in the kept numbering, or in a new one when the
-        blocks changed or the band grew past :data:`REORDER_GROWTH` of its first kd."""
+        blocks changed or the band grew past ``reorder_growth`` times its first kd."""
         new = not self._numbers(fixed)
         if new:
             self._fixed = fixed.copy()
             self.position = band_order(fixed, block_a, block_b, bolt_i, bolt_j)
         made = self._in_order(block_a, block_b, bolt_i, bolt_j)
-        if not new and made.width > REORDER_GROWTH * self._made_width:
+        if not new and made.width > self.reorder_growth * self._made_width:
             self.position = band_order(fixed, block_a, block_b, bolt_i, bolt_j)
             made, new = self._in_order(block_a, block_b, bolt_i, bolt_j), True
         if new:
@@ -153,13 +152,9 @@ def _columns(position, block_i, block_j):
 _columns_kernel = kernel(_columns)
 
 
-def band_pays(free_rows: int, width: int) -> bool:
-    """Whether a system of ``free_rows`` unknowns and half-width ``width`` is held in band."""
-    return free_rows * width * width <= BAND_WORK
-
-
 class BandSystem:
-    """One step's systems in band storage; :meth:`minimise` is one compiled call.
+    """One step's systems in band storage (a :class:`dda.solve.systems.StepSystems`);
+    :meth:`minimise` is one compiled call, :meth:`solve_loop` the whole outer loop.
 
     Built only where the band kernel is used (:func:`dda.jit.compiled`). ``couplings``:
     the springs between blocks (rock bolts), or None. Should LAPACK find a K not
@@ -167,6 +162,9 @@ class BandSystem:
     ``fallback`` system that ``make_fallback()`` returns (dense or sparse), which the
     numpy Newton drives.
     """
+
+    compiled_passes = True
+    sums_by_rows = True
 
     def __init__(
         self, fixed, block_a, block_b, rows, base_k, base_f, friction, couplings, numbering,
@@ -180,7 +178,10 @@ class BandSystem:
         self.normal_rows = np.ascontiguousarray(np.concatenate([rows.normal_i, rows.normal_j], 1))
         self.shear_rows = np.ascontiguousarray(np.concatenate([rows.shear_i, rows.shear_j], 1))
         self.g0, self.s0 = rows.penetration, rows.slip
-        self.bolts = _bolts(couplings, bolt_columns)
+        self.geometry = BandGeometry(
+            self.blocks, *_bolts(couplings, bolt_columns), self.forces, self.columns,
+            self.normal_rows, self.shear_rows, floats(self.g0), floats(self.s0),
+        )  # fmt: skip
         self.size, self.width = len(self.forces), width
         self.friction, self.timer, self.shape = friction, timer, base_f.shape
         self._make_fallback = make_fallback
@@ -190,25 +191,20 @@ class BandSystem:
 
     def restart(self) -> None:
         """No factorisation kept: the next pass factorises its K."""
-        self._state = (
+        self._state = Factor(
             np.zeros((self.size, self.width + 1)),
             np.full((2, len(self.g0)), np.nan),
             np.zeros(3, np.int64),
         )
 
     @property
-    def kernel_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(band, springs, state): the kept factorisation, the springs of its K and
-        :mod:`dda.solve.band_newton`'s state flags, which the kernels update in place."""
+    def factor(self) -> Factor:
+        """The kept factorisation, the springs of its K and :mod:`dda.solve.band_newton`'s
+        state flags, which the kernels update in place."""
         return self._state
 
-    def kernel_geometry(self) -> tuple:
-        """The kernels' arguments that do not change within the step: K₀'s blocks, the
-        bolts, F₀, the contacts' columns and rows, and g₀, s₀."""
-        return (*self._fixed_arrays(), self.g0, self.s0)
-
     def count_factorisations(self, made: int) -> None:
-        """Count ``made`` factorisations of a kernel given :attr:`kernel_state`."""
+        """Count ``made`` factorisations of a kernel given :attr:`factor`."""
         self._own_factorisations += made
 
     @property
@@ -227,29 +223,32 @@ class BandSystem:
         chord_first: bool = False,
         start_gaps=None,
         conjugate: bool = False,
+        tolerance: float = DEFAULT.newton_tolerance,
     ) -> NewtonResult | None:
         """:func:`dda.solve.newton.minimise` in one compiled call, or None once LAPACK
         found K not positive definite (the numpy Newton on the fallback system)."""
         if self._fallback is not None:
             return None
-        band, springs, state = self._state
-        x = np.ascontiguousarray(start[self.order].ravel(), np.float64)
+        state = self._state.state
         have_gaps = start_gaps is not None
         gaps = start_gaps if have_gaps else (self.g0, self.s0)  # else computed by the kernel
         first = first_pieces is not None
         none = np.zeros(len(self.g0), np.int8)
         normal_piece, shear_piece = first_pieces if first else (none, none)
         made = int(state[band_newton.FACTORISATIONS])
-        arguments = (
-            *self._fixed_arrays(), self.g0, self.s0, *terms.kernel_arrays(), self.friction,
-            x, *(np.ascontiguousarray(a, np.float64) for a in gaps), have_gaps,
+        begin = PassStart(
+            floats(start[self.order].ravel()), floats(gaps[0]), floats(gaps[1]), have_gaps,
             np.ascontiguousarray(normal_piece, np.int8),
             np.ascontiguousarray(shear_piece, np.int8), first,
+        )  # fmt: skip
+        rules = PassRules(
             int(max_solves), -1 if max_steps is None else int(max_steps), float(rate),
-            bool(chord_first), bool(conjugate), band, springs, state,
+            bool(chord_first), bool(conjugate), float(tolerance),
         )  # fmt: skip
         with self.timer("solve"):  # K, its factorisations and solves: the "solve" stage
-            out = band_newton.band_minimise_kernel(*arguments)
+            out = band_newton.band_minimise_kernel(
+                self.geometry, band_terms(terms), self.friction, begin, rules, self._state
+            )
         self._own_factorisations += int(state[band_newton.FACTORISATIONS]) - made
         if state[band_newton.FAILED]:
             self._fallback = self._make_fallback()
@@ -262,12 +261,20 @@ class BandSystem:
 
     def better_start(self, terms, candidates: list[np.ndarray]) -> np.ndarray:
         """:func:`dda.solve.newton.better_start` by the compiled Π."""
-        arrays = (*self._fixed_arrays(), self.g0, self.s0, *terms.kernel_arrays())
+        frozen = band_terms(terms)
         values = [
-            band_newton.potential_kernel(*arrays, np.ascontiguousarray(d[self.order].ravel()))
+            band_newton.potential_kernel(self.geometry, frozen, floats(d[self.order].ravel()))
             for d in candidates
         ]
         return candidates[int(np.argmin(values))]
+
+    def solve_loop(self, loop) -> tuple[np.ndarray, int, int, bool, float] | None:
+        """The step's outer loop in one compiled call (:func:`dda.solve.band_step.solve_on_band`)
+        unless the loop's policy asks for the Python loop (``band_loop_compiled``); None
+        then, or when LAPACK found a K not positive definite."""
+        if not loop.policy.band_loop_compiled:
+            return None
+        return band_step.solve_on_band(self, loop)
 
     def gaps(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(g, s) after the step ``d`` (n, 6), summed as the compiled passes sum them."""
@@ -287,14 +294,6 @@ class BandSystem:
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         return self._fallback.contact_vector(normal, shear)
 
-    def _fixed_arrays(self) -> tuple:
-        """K₀'s blocks, the bolts, F₀ and the contacts' columns and rows: the kernels'
-        arguments that do not change within the step."""
-        return (
-            self.blocks, *self.bolts, self.forces, self.columns, self.normal_rows,
-            self.shear_rows,
-        )  # fmt: skip
-
     def spread(self, x: np.ndarray) -> np.ndarray:
         """(n, 6) unknowns of every block from the band-ordered vector ``x``."""
         out = np.zeros(self.shape)
@@ -309,6 +308,12 @@ def _bolts(couplings, columns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     rows = np.concatenate([couplings.row_i, couplings.row_j], axis=1)
     stiffness = np.asarray(couplings.stiffness, np.float64)
     return columns, np.ascontiguousarray(rows, np.float64), stiffness
+
+
+def band_terms(terms) -> BandTerms:
+    """The kernels' :class:`~dda.solve.band_arguments.BandTerms` of a
+    :class:`dda.contact.potential.ContactTerms`."""
+    return BandTerms(*terms.kernel_arrays())
 
 
 def band_kernels() -> bool:

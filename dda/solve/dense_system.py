@@ -1,9 +1,10 @@
 """A small step's linear systems held dense: K = K₀ + Gᵀ diag(k) G, Cholesky by LAPACK.
 
-Below :data:`DENSE_ROWS` unknowns a step's systems are cheaper held as dense
-matrices than on a sparse block pattern: the contacts' gradient rows over the
-free blocks' unknowns form one dense matrix per kind, G (m, 6 n_free), made
-once a step (the rows are fixed within it), and each Newton iteration's
+Below the policy's ``dense_system_rows`` unknowns (:class:`dda.solve.policy.StepPolicy`)
+a step's systems are cheaper held as dense matrices than on a sparse block pattern: the
+contacts' gradient rows over the free blocks' unknowns form one dense matrix per kind,
+G (m, 6 n_free), made once a step (the rows are fixed within it), and each Newton
+iteration's
 
     K = K₀ + G_nᵀ diag(k_n) G_n + G_sᵀ diag(k_s) G_s + G_bᵀ diag(k_b) G_b,
     F = F₀ − G_nᵀ N₀ − G_sᵀ T₀
@@ -28,12 +29,7 @@ import numpy as np
 
 from dda.effects.pair_springs import PairSprings
 from dda.solve.linsolve import DenseFactorisation
-from dda.solve.newton import NumpyPasses
-
-# largest number of free unknowns held dense (30 blocks): a dense Cholesky costs n³/3
-# flops against the block pattern's set-up; CPU a step, interleaved runs: the 5x5 wall
-# (150 unknowns) 10-15 % less held dense, the 6x6 (210) even, the 8x8 (384) 1.9x more
-DENSE_ROWS = 180
+from dda.solve.systems import NumpyPasses
 
 
 def gradient_matrix(

@@ -29,40 +29,12 @@ import scipy.sparse as sp
 from scipy.linalg import lapack
 from threadpoolctl import ThreadpoolController
 
-from dda.solve import thread_policy
 from dda.solve.pardiso_call import PardisoCall
+from dda.solve.policy import StepPolicy, current_policy
 
 log = logging.getLogger(__name__)
 
-RELATIVE_TOLERANCE = 1e-13  # PCG stops at ‖F - K x‖ ≤ this · ‖F‖ (a direct solve's level)
-MAX_PCG_ITERATIONS = 12  # beyond this a new factorisation is cheaper (and is made)
-# PCG iterations that cost as much as a factorisation, per backend: measured on
-# the wall benchmark (SuperLU up to 10x10 blocks: 9-12; PARDISO at 30x30: 3-4).
-# Fixed numbers rather than timings taken during the run, so that a run's
-# result never depends on how busy the machine was.
-# A dense factorisation costs about 5 of its back-substitutions and a PCG iteration's Python
-# ~0.03 ms on top: PCG does not pay (budget 0, it is not tried).
-PCG_BUDGET = {"superlu": MAX_PCG_ITERATIONS, "pardiso": 3, "dense": 0}
-# A factorisation grows faster with the size than a back-substitution: at 60,000 rows
-# (100x100 wall) PARDISO's factorisation and solve cost ~5.5 back-substitutions.
-PARDISO_LARGE = 20_000  # rows from which the larger budget applies
-PCG_BUDGET_PARDISO_LARGE = 5
-REFRESH_AFTER = 4  # a solve that needed more iterations marks the factor stale
-# up to this many rows: a dense Cholesky. 150 rows (5x5 wall): 0.07 ms against SuperLU's
-# 0.22-0.32 (its set-up dominates); 294 rows: 0.30 against 0.55-0.63, but each solve then
-# costs 0.045 against 0.029 and PCG on a kept factorisation no longer pays
-DENSE_MAX_SIZE = 240
-# larger systems: PARDISO. It factorises 4-5x faster than SuperLU from 600 rows up (10x10
-# wall: 0.38 against 1.7 ms; tunnel case, 1200 rows: 0.45 against 2.5 ms) and solves as
-# fast, but analyses each new pattern; at 294 rows (7x7 wall, 100 steps, one thread, six
-# interleaved runs) the run takes 7.5-10.5 ms a step against SuperLU's 9.2-12.2. SuperLU
-# factorises where PARDISO is not installed (or DDA_SOLVER asks for it)
-PARDISO_MIN_SIZE = DENSE_MAX_SIZE + 1
-THREADS_VARIABLE = "DDA_THREADS"  # environment variable: threads of PARDISO's factorisation
-SOLVER_VARIABLE, SOLVER_CHOICES = "DDA_SOLVER", ("pardiso", "superlu")  # sparse solver
-# every step's systems on the sparse block pattern (the path of large models), whatever
-# the model's size: for checking that path on small models (dda verify's cradle_sparse)
-SYSTEMS_VARIABLE, SYSTEMS_CHOICES = "DDA_SYSTEMS", ("sparse",)
+PARDISO_CHOICE = "pardiso"
 
 
 class Factorisation:
@@ -102,7 +74,7 @@ class DenseFactorisation:
     """K = L Lᵀ by LAPACK's dense Cholesky (``dpotrf``), for small K.
 
     n³/3 flops and no sparse set-up: at 150 rows 0.07 ms against SuperLU's
-    0.22-0.32 ms (:data:`DENSE_MAX_SIZE`). Should LAPACK find K not positive
+    0.22-0.32 ms (the policy's ``dense_factor_rows``). Should LAPACK find K not positive
     definite by round-off (a nearly singular K), SuperLU factorises it, as it
     did before there was a dense path (``permc_spec`` is its ordering). ``matrix``
     is sparse, or a dense array (the small steps' dense systems), left as it is.
@@ -144,7 +116,7 @@ class PardisoFactorisation:
     def __init__(self, matrix: sp.spmatrix, handle=None) -> None:
         self.size = matrix.shape[0]
         if handle is None:
-            handle = new_pardiso_handle()
+            handle = new_pardiso_handle(current_policy().solver_threads())
         else:
             handle.set_phase(-1)
             handle._call_pardiso(sp.csr_matrix((0, 0)), np.zeros(0))
@@ -164,10 +136,10 @@ class PardisoFactorisation:
     def _upper_values(self, matrix: sp.spmatrix) -> np.ndarray:
         return np.asarray(matrix.data)[self._upper]
 
-    def factor(self, matrix: sp.spmatrix) -> None:
-        """Numeric factorisation of a matrix with the analysed pattern, on the threads
-        :func:`solver_threads` gives now."""
-        _set_mkl_threads(self._solver.libmkl, solver_threads())
+    def factor(self, matrix: sp.spmatrix, threads: int) -> None:
+        """Numeric factorisation of a matrix with the analysed pattern, on ``threads``
+        (:meth:`dda.solve.policy.StepPolicy.solver_threads`)."""
+        _set_mkl_threads(self._solver.libmkl, threads)
         self._call.set_values(self._upper_values(matrix))
         self._call(22, np.zeros(self.size))
 
@@ -182,11 +154,11 @@ class PardisoFactorisation:
 _PARDISO_PROTOTYPE = None  # first handle made: later ones copy it (loading MKL takes a while)
 
 
-def new_pardiso_handle():
+def new_pardiso_handle(threads: int):
     """A PARDISO solver handle for symmetric positive definite matrices (defaults unset).
 
-    The calling thread's MKL threads are set to :func:`solver_threads` each time
-    (MKL keeps the count per thread: a dask worker's task threads differ).
+    The calling thread's MKL threads are set to ``threads`` each time (MKL keeps the
+    count per thread: a dask worker's task threads differ).
     """
     global _PARDISO_PROTOTYPE
     if _PARDISO_PROTOTYPE is None:
@@ -194,34 +166,12 @@ def new_pardiso_handle():
         import pypardiso
 
         _PARDISO_PROTOTYPE = pypardiso.PyPardisoSolver(mtype=2)  # real SPD
-    _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, solver_threads())
+    _set_mkl_threads(_PARDISO_PROTOTYPE.libmkl, threads)
     handle = copy.copy(_PARDISO_PROTOTYPE)  # shares the library, not the solver state
     handle.pt = np.zeros_like(_PARDISO_PROTOTYPE.pt)
     handle.iparm = np.zeros_like(_PARDISO_PROTOTYPE.iparm)
     handle.perm = np.zeros(0, dtype=np.int32)
     return handle
-
-
-def solver_threads() -> int:
-    """Threads for PARDISO: ``DDA_THREADS`` if set, else the cores the machine can give
-    now (:mod:`dda.solve.thread_policy`: the usable cores less those other processes
-    kept busy over the last second).
-
-    On the idle 2-core benchmark machine two threads factorise the 30x30 wall's K in
-    4.3 ms instead of 9.5; with another process busy on one core, one thread is the
-    faster (docs/benchmarks.md). ``DDA_THREADS=1`` makes a run repeat bit for bit;
-    processes that share the cores (``dda tradeoff``'s workers) set it.
-
-    Raises
-    ------
-    ValueError : ``DDA_THREADS`` is not a positive integer
-    """
-    text = os.environ.get(THREADS_VARIABLE, "").strip()
-    if not text:
-        return thread_policy.POLICY.threads()
-    if not text.isdigit() or int(text) < 1:
-        raise ValueError(f"{THREADS_VARIABLE}={text!r}: expected a positive integer (threads)")
-    return int(text)
 
 
 @contextmanager
@@ -232,7 +182,7 @@ def single_threaded_blas() -> Iterator[None]:
     16 x 16 capacitance matrices), but a vector of 60,000 numbers wakes
     OpenBLAS's threads, which then spin on the cores PARDISO's threads solve
     on (at 10,000 blocks a back-substitution took twice as long). MKL, which
-    PARDISO uses, keeps its own count (:func:`solver_threads`).
+    PARDISO uses, keeps its own count (:meth:`dda.solve.policy.StepPolicy.solver_threads`).
     """
     with ThreadpoolController().select(internal_api="openblas").limit(limits=1):
         yield
@@ -263,7 +213,7 @@ def _point_pypardiso_at_mkl() -> None:
 
 
 def _set_mkl_threads(library, threads: int) -> None:
-    """Threads of this thread's MKL calls (see :func:`solver_threads`)."""
+    """Threads of this thread's MKL calls (:meth:`dda.solve.policy.StepPolicy.solver_threads`)."""
     try:
         set_threads = library.MKL_Set_Num_Threads_Local
     except AttributeError:  # pragma: no cover - older MKL
@@ -273,46 +223,17 @@ def _set_mkl_threads(library, threads: int) -> None:
     set_threads(threads)
 
 
-def pardiso_available() -> bool:
-    """True when ``pypardiso`` is installed and ``DDA_SOLVER`` does not ask for SuperLU.
+def pardiso_available(policy: StepPolicy | None = None) -> bool:
+    """True when ``pypardiso`` is installed and the policy's ``DDA_SOLVER`` does not ask
+    for SuperLU (``policy``: the environment's when None).
 
-    Nothing is imported: pypardiso (and MKL) load when a system of
-    ``PARDISO_MIN_SIZE`` rows is first factorised, so small runs never pay for them.
+    Nothing is imported: pypardiso (and MKL) load when a system of more than
+    ``dense_factor_rows`` rows is first factorised, so small runs never pay for them.
     """
-    if solver_choice() == "superlu":
+    policy = current_policy() if policy is None else policy
+    if policy.solver == "superlu":
         return False
     return importlib.util.find_spec("pypardiso") is not None
-
-
-def solver_choice() -> str:
-    """``DDA_SOLVER`` (lower case, blanks stripped): "pardiso", "superlu" or "" (not set:
-    PARDISO when installed).
-
-    Raises
-    ------
-    ValueError : any other value (a misspelt choice would otherwise go unnoticed)
-    """
-    text = os.environ.get(SOLVER_VARIABLE, "").strip().lower()
-    if text and text not in SOLVER_CHOICES:
-        choices = " or ".join(SOLVER_CHOICES)
-        raise ValueError(f"{SOLVER_VARIABLE}={text!r}: expected {choices} (or leave it unset)")
-    return text
-
-
-def systems_choice() -> str:
-    """``DDA_SYSTEMS`` (lower case, blanks stripped): "sparse" (every step's systems on
-    the sparse block pattern) or "" (not set: band, dense or sparse by the step's size
-    and whether the kernels are used, :mod:`dda.solve.step`).
-
-    Raises
-    ------
-    ValueError : any other value
-    """
-    text = os.environ.get(SYSTEMS_VARIABLE, "").strip().lower()
-    if text and text not in SYSTEMS_CHOICES:
-        choices = " or ".join(SYSTEMS_CHOICES)
-        raise ValueError(f"{SYSTEMS_VARIABLE}={text!r}: expected {choices} (or leave it unset)")
-    return text
 
 
 def block_ordering(nfree: int, pairs: np.ndarray) -> np.ndarray:
@@ -353,8 +274,8 @@ def pcg(
     matrix: sp.spmatrix,
     rhs: np.ndarray,
     preconditioner: Callable[[np.ndarray], np.ndarray],
-    tolerance: float = RELATIVE_TOLERANCE,
-    max_iterations: int = MAX_PCG_ITERATIONS,
+    tolerance: float,
+    max_iterations: int,
 ) -> tuple[np.ndarray, int, bool]:
     """Preconditioned conjugate gradients for symmetric positive definite K x = F.
 
@@ -406,41 +327,41 @@ class ReusingSolver:
     matrix that was factorised, and by PCG preconditioned with the kept
     factorisation when it is a newer one; if PCG does not converge within
     ``max_iterations`` and :attr:`pcg_budget` (the iterations that cost as much
-    as a factorisation, ``PCG_BUDGET``), factorise K and solve directly. A solve that needed
-    more than ``refresh_after`` iterations marks the factorisation stale: the
-    next new matrix is factorised. A caller that knows the new K is far from
-    the factorised one (many contacts changed state) says ``similar=False``
-    and skips the PCG attempt.
+    as a factorisation, :meth:`~dda.solve.policy.StepPolicy.pcg_budget`), factorise K
+    and solve directly. A solve that needed more than ``refresh_after`` iterations
+    marks the factorisation stale: the next new matrix is factorised. A caller that
+    knows the new K is far from the factorised one (many contacts changed state) says
+    ``similar=False`` and skips the PCG attempt.
 
     The factorisation is PARDISO's (numeric phase only, analysis once per
-    pattern) when ``pypardiso`` is installed and K has at least
-    ``PARDISO_MIN_SIZE`` rows, else SuperLU's (:func:`pardiso_available`).
-    Chosen automatically (``backend=None``), a K of at most ``DENSE_MAX_SIZE``
+    pattern) when ``pypardiso`` is installed and K has more than the policy's
+    ``dense_factor_rows`` rows, else SuperLU's (:func:`pardiso_available`).
+    Chosen automatically (``backend=None``), a K of at most ``dense_factor_rows``
     rows gets a dense Cholesky instead, and every new K is factorised.
 
     Parameters
     ----------
     permc_spec : SuperLU column ordering ("NATURAL" when K comes pre-ordered)
-    tolerance, max_iterations, refresh_after : PCG settings (see module constants)
     backend : "pardiso", "superlu" (for every size they cover) or None
         (dense for small K, then PARDISO when available)
+    policy : the PCG settings, the dense size and the solver's threads
+        (:class:`dda.solve.policy.StepPolicy`; the environment's when None)
     """
 
     def __init__(
         self,
         permc_spec: str = "NATURAL",
-        tolerance: float = RELATIVE_TOLERANCE,
-        max_iterations: int = MAX_PCG_ITERATIONS,
-        refresh_after: int = REFRESH_AFTER,
         backend: str | None = None,
+        policy: StepPolicy | None = None,
     ) -> None:
+        self.policy = current_policy() if policy is None else policy
         self.permc_spec = permc_spec
-        self.tolerance = tolerance
-        self.max_iterations = max_iterations
-        self.refresh_after = refresh_after
+        self.tolerance = self.policy.pcg_tolerance
+        self.max_iterations = self.policy.max_pcg_iterations
+        self.refresh_after = self.policy.refresh_after
         self.automatic = backend is None  # small K: dense
         if backend is None:
-            backend = "pardiso" if pardiso_available() else "superlu"
+            backend = PARDISO_CHOICE if pardiso_available(self.policy) else "superlu"
         self.backend = backend
         self._factor: Factorisation | DenseFactorisation | PardisoFactorisation | None = None
         self._factored: sp.spmatrix | None = None
@@ -456,18 +377,28 @@ class ReusingSolver:
         """Forget the factorisation (the next solve factorises)."""
         self._factor, self._factored, self._key, self._analysed_key = None, None, None, None
 
-    def refactor(self, matrix: sp.csc_matrix, key: object, stale: bool = False) -> None:
-        """Make ``matrix``, of pattern ``key``, the kept factorisation, as a run had it.
+    def learned(self) -> dict[str, object]:
+        """What the solver learned that a resumed run needs (:mod:`dda.run.checkpoint`):
+        the kept factorisation's pattern key, whether it is stale, and the PCG counts."""
+        return {
+            "key": self._key,
+            "stale": self._stale,
+            "pcg_iterations": self.pcg_iterations,
+            "pcg_solves": self.pcg_solves,
+        }
 
-        A run resumed from a checkpoint (:mod:`dda.run.checkpoint`) factorises the
-        matrix the interrupted run had factorised: its next solves (PCG on
-        that factorisation) repeat those of the uninterrupted run. Counts of
-        factorisations and PCG iterations are left as they were.
-        """
-        made = self.factorisations
-        self.reset()
-        self._factorise(matrix, key)
-        self._stale, self.factorisations = stale, made
+    def resume(self, learned: dict[str, object], matrix: sp.csc_matrix | None) -> None:
+        """The state :meth:`learned` gave, with ``matrix`` (the one the interrupted run had
+        factorised, or None) factorised again: the resumed run's next solves (PCG on that
+        factorisation) repeat those of the uninterrupted run. The count of
+        factorisations is left as it was."""
+        if matrix is not None:
+            made = self.factorisations
+            self.reset()
+            self._factorise(matrix, learned["key"])
+            self._stale, self.factorisations = bool(learned["stale"]), made
+        self.pcg_iterations = int(learned["pcg_iterations"])
+        self.pcg_solves = int(learned["pcg_solves"])
 
     @property
     def pcg_budget(self) -> int:
@@ -476,13 +407,11 @@ class ReusingSolver:
         At most ``max_iterations``; 0 or 1 means PCG does not pay (then it is not tried).
         """
         if isinstance(self._factor, DenseFactorisation):
-            budget = PCG_BUDGET["dense"]
-        elif isinstance(self._factor, PardisoFactorisation):
-            large = self._factor.size >= PARDISO_LARGE
-            budget = PCG_BUDGET_PARDISO_LARGE if large else PCG_BUDGET["pardiso"]
-        else:
-            budget = PCG_BUDGET["superlu"]
-        return min(self.max_iterations, budget)
+            return self.policy.pcg_budget("dense", self._factor.size)
+        if isinstance(self._factor, PardisoFactorisation):
+            return self.policy.pcg_budget("pardiso", self._factor.size)
+        size = 0 if self._factored is None else self._factored.shape[0]
+        return self.policy.pcg_budget("superlu", size)
 
     def solve_many(self, columns: np.ndarray) -> np.ndarray:
         """X (n, r) with K_f X = B, K_f the factorised matrix."""
@@ -538,15 +467,16 @@ class ReusingSolver:
             return self._factor.solve(rhs)
 
     def _factorise(self, matrix: sp.csc_matrix, key: object) -> None:
-        if self.backend == "pardiso" and matrix.shape[0] >= PARDISO_MIN_SIZE:
+        dense_rows = self.policy.dense_factor_rows
+        if self.backend == PARDISO_CHOICE and matrix.shape[0] > dense_rows:
             fresh = not isinstance(self._factor, PardisoFactorisation)
             if fresh or key is None or key != self._analysed_key:
                 if self._handle is None:
-                    self._handle = new_pardiso_handle()
+                    self._handle = new_pardiso_handle(self.policy.solver_threads())
                 self._factor = PardisoFactorisation(matrix, self._handle)
                 self._analysed_key = key
-            self._factor.factor(matrix)
-        elif self.automatic and 0 < matrix.shape[0] <= DENSE_MAX_SIZE:
+            self._factor.factor(matrix, self.policy.solver_threads())
+        elif self.automatic and 0 < matrix.shape[0] <= dense_rows:
             self._factor = DenseFactorisation(matrix, self.permc_spec)
         else:
             self._factor = Factorisation(matrix, self.permc_spec)

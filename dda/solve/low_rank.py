@@ -28,15 +28,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from dda.contact.rows import ContactRows
+from dda.solve import policy as step_policy
 from dda.solve.assembly import BLOCK, BlockPattern
-from dda.solve.linsolve import RELATIVE_TOLERANCE, pcg
-
-MAX_COLUMNS = 16  # changed springs beyond which a new factorisation is cheaper (30x30 wall)
-# smaller K: no gain (a factorisation costs ~6 back-substitutions there, and each one
-# here carries Python's overhead): 10x10 wall (600 rows) even or 7 % slower, tunnel case
-# (1200 rows) 5 % faster, 20x20 (2400) 8 %, 30x30 (5400) 17-20 %
-MIN_ROWS = 1000
-PCG_ITERATIONS = 3  # with the exact inverse of K_f + U c Uᵀ, PCG ends in one
+from dda.solve.linsolve import pcg
+from dda.solve.policy import StepPolicy
 
 
 class StepUpdates:
@@ -50,6 +45,8 @@ class StepUpdates:
     rows : the step's contact rows
     block_a, block_b : (m,) blocks of each contact
     solve_many : X = K_f⁻¹ B for an (n, r) array B
+    policy : ``low_rank_min_rows``, ``low_rank_columns``, ``low_rank_pcg_iterations``
+        and ``pcg_tolerance`` (:class:`dda.solve.policy.StepPolicy`; its defaults when None)
     """
 
     def __init__(
@@ -61,7 +58,9 @@ class StepUpdates:
         block_a: np.ndarray,
         block_b: np.ndarray,
         solve_many: Callable[[np.ndarray], np.ndarray],
+        policy: StepPolicy | None = None,
     ) -> None:
+        self.policy = step_policy.DEFAULT if policy is None else policy
         self.factored = factored
         self.springs = springs
         self.pattern = pattern
@@ -78,8 +77,8 @@ class StepUpdates:
 
     def applies(self, factored: sp.spmatrix | None, pattern: BlockPattern) -> bool:
         """True while K_f is the kept factorisation and K has K_f's pattern (matrix order),
-        for K of at least ``MIN_ROWS`` rows."""
-        big = self._size >= MIN_ROWS
+        for K of at least the policy's ``low_rank_min_rows`` rows."""
+        big = self._size >= self.policy.low_rank_min_rows
         return big and factored is self.factored and pattern is self.pattern
 
     def changes(self, springs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -89,11 +88,15 @@ class StepUpdates:
 
     def solve(self, matrix: sp.spmatrix, rhs: np.ndarray, springs: np.ndarray) -> np.ndarray | None:
         """x with K x = F by PCG preconditioned with (K_f + U c Uᵀ)⁻¹; None when the
-        change has more than ``MAX_COLUMNS`` springs or PCG does not converge."""
+        change has more than the policy's ``low_rank_columns`` springs or PCG does not
+        converge."""
         precondition = self._preconditioner(matrix, springs)
         if precondition is None:
             return None
-        x, _, converged = pcg(matrix, rhs, precondition, RELATIVE_TOLERANCE, PCG_ITERATIONS)
+        policy = self.policy
+        x, _, converged = pcg(
+            matrix, rhs, precondition, policy.pcg_tolerance, policy.low_rank_pcg_iterations
+        )
         return x if converged else None
 
     def _preconditioner(self, matrix, springs) -> Callable[[np.ndarray], np.ndarray] | None:
@@ -102,7 +105,7 @@ class StepUpdates:
         if self._last is not None and self._last[0] is matrix:
             return self._last[1]
         kind, contact, change = self.changes(springs)
-        if len(change) == 0 or len(change) > MAX_COLUMNS:
+        if len(change) == 0 or len(change) > self.policy.low_rank_columns:
             return None
         at, values = self._columns(kind, contact)
         z = self._inverse_columns(kind, contact, at, values)

@@ -29,8 +29,8 @@ which on a quadratic is conjugate gradients preconditioned by K_f: it
 converges in about as many steps as K_f has contact springs of other pieces
 than Π's, where steepest descent in the K_f metric creeps. The line search is
 exact, so ∇Π·p_prev = 0 and p is a descent direction (checked; else β = 0).
-It has also converged when the gradient of Π is within ``RELATIVE_TOLERANCE``
-of the forces that make it up.
+It has also converged when the gradient of Π is within the policy's
+``newton_tolerance`` of the forces that make it up (:class:`dda.solve.policy.StepPolicy`).
 """
 
 from __future__ import annotations
@@ -48,86 +48,9 @@ from dda.contact.rows import ContactRows, gaps_after
 from dda.effects.pair_springs import PairSprings
 from dda.jit import compiled
 from dda.solve import line_step
+from dda.solve.policy import DEFAULT
 
 log = logging.getLogger(__name__)
-
-RELATIVE_TOLERANCE = 1e-4  # ‖∇Π‖ against ‖K₀D‖ + ‖F₀‖ + ‖contact forces‖
-# a chord step that leaves more than this fraction of ‖∇Π‖ is followed by a Newton
-# iteration (the 30x30 wall: 0.25 measured no better)
-CHORD_RATE = 0.5
-# ... and in systems of this many rows or more, where a factorisation costs many
-# back-substitutions and a Newton iteration's other work, conjugated chord steps go on
-# while each leaves at most this fraction (interleaved dda bench runs, two each: 30x30
-# wall 29.7 / 28.8 -> 26.6 / 25.2 ms/step with 1.95 factorisations a step instead of
-# 3.4; at 0.95 27.7-28.2 with 2.3; unconjugated at 0.97 it was 10 % slower than at
-# 0.85; 20x20, 2,400 rows, 16.2 / 15.1 -> 14.4 / 12.9 with 1.9 instead of 4.0; 10x10,
-# 600 rows, 7.15 / 7.07 -> 7.34 / 7.48 with 3.0 instead of 5.0. The 265-block tunnel,
-# 1,590 rows, is no faster with conjugated chord steps at 0.99 (four runs each: 8.1 s
-# -> 8.2 s) and slower with a pass starting with a chord step, so smaller systems keep
-# plain chord steps at CHORD_RATE)
-LARGE_CHORD_RATE, LARGE_ROWS = 0.99, 2_000
-# ... and from this many rows (below LARGE_ROWS), in dynamic steps, the same:
-# conjugated chord steps and a pass on new bounds starting with one, while each leaves
-# at most this fraction. The 265-block tunnel (1,590 rows; its hard steps are many
-# passes on friction bounds whose pieces flip) takes 4.73 Newton iterations a step
-# instead of 6.39 (1 thread; 3.75 instead of 6.17 with 2) and 14.7 linear solves
-# instead of 11.1, at about the same CPU time (three interleaved runs each, loaded
-# machine: 15.5 / 17.5 / 17.6 s against 15.1 / 17.5 / 14.8 s); the staged tunnel
-# 2.03 instead of 2.82. At 0.7 it was 5.98, at 0.99 4.08 with 18.9 solves
-MID_CHORD_RATE, MID_ROWS = 0.85, 1_000
-# ... and from this many rows, where a factorisation costs tens of chord steps, the
-# friction bounds follow the normal forces after every solve and chord steps go on
-# while they make any headway (interleaved dda bench runs against the conjugated rules
-# above, two each: 50x50 wall, 15,000 rows, 99.0/105.3 against 93.5/87.8 ms/step;
-# 60x60, 21,600 rows, 153.7/176.7 against 145.0/159.1; 70x70, 29,400 rows, 176.0/191.7
-# against 184.1/203.0; 100x100 503.5/545.7 against 527.0/567.7)
-HUGE_CHORD_RATE, HUGE_ROWS = 0.99, 25_000
-# Band systems, whose Newton passes and law updates run compiled (dda.solve.band_step),
-# pay for a factorisation with about ten chord steps at any size: in dynamic steps they
-# take the mid rules below MID_ROWS and the large ones from there (CPU ms a step, one
-# solver thread, three interleaved runs each, medians, small / mid / large rules:
-# 3 x 3 wall 1.41 / 1.19 / 1.48, 5 x 5 1.79 / 1.66 / 1.75, 7 x 7 2.42 / 1.87 / 2.40,
-# 10 x 10 5.75 / 5.05 / 5.04, the rock slope 3.29 / 2.85 / 2.68; from 1,000 rows, mid /
-# large: 15 x 15 13.4 / 11.4, the tunnel 20.3 / 19.0)
-
-
-@dataclass(frozen=True)
-class SizeRules:
-    """How a step of a system of a given size spends its linear solves.
-
-    rate : chord steps go on while each leaves at most this fraction of ‖∇Π‖
-    chord_first : a pass on new friction bounds or multipliers that goes on from an
-        unfinished one, or from a converged one the law's update moved, starts with a
-        chord step (``minimise(chord_first=True)``), not a Newton iteration
-    bounds_every_solve : the friction bounds follow the normal forces after every
-        linear solve (else after a few, :data:`dda.solve.step.INNER_SOLVES`)
-    conjugate : successive chord steps are conjugated (``minimise(conjugate=True)``)
-    """
-
-    rate: float
-    chord_first: bool
-    bounds_every_solve: bool
-    conjugate: bool = False
-
-
-def size_rules(rows: int, dynamic: bool = True, band: bool = False) -> SizeRules:
-    """The :class:`SizeRules` of a system of ``rows`` unknowns: the larger the system,
-    the more back-substitutions a factorisation costs, and the longer chord steps pay.
-    ``dynamic``: False for static steps (and the equilibrium start's pseudo-steps), which
-    move blocks much further than a time step and keep the small systems' rules up to
-    ``LARGE_ROWS`` (with the mid rules the tunnel's start did not settle with two
-    solver threads). ``band``: the step's systems are band systems, their passes
-    compiled: dynamic steps take the mid rules below ``MID_ROWS``, the large ones from
-    there."""
-    if rows >= HUGE_ROWS:
-        return SizeRules(HUGE_CHORD_RATE, chord_first=True, bounds_every_solve=True)
-    if rows >= LARGE_ROWS or (band and dynamic and rows >= MID_ROWS):
-        return SizeRules(
-            LARGE_CHORD_RATE, chord_first=True, bounds_every_solve=False, conjugate=True
-        )
-    if (rows >= MID_ROWS or band) and dynamic:
-        return SizeRules(MID_CHORD_RATE, chord_first=True, bounds_every_solve=False, conjugate=True)
-    return SizeRules(CHORD_RATE, chord_first=False, bounds_every_solve=False)
 
 
 @dataclass(frozen=True)
@@ -217,11 +140,12 @@ def minimise(
     iterates: list | None = None,
     chord: ChordSolver | None = None,
     max_steps: int | None = None,
-    rate: float = CHORD_RATE,
+    rate: float = DEFAULT.chord_rate,
     chord_first: bool = False,
     start_gaps: tuple[np.ndarray, np.ndarray] | None = None,
     conjugate: bool = False,
     forces_from_rows: bool = False,
+    tolerance: float = DEFAULT.newton_tolerance,
 ) -> NewtonResult:
     """Minimise Π from ``start`` with at most ``max_solves`` Newton iterations and
     at most ``max_steps`` iterations in all (Newton iterations and chord steps).
@@ -235,15 +159,18 @@ def minimise(
     is the chord direction −K_f⁻¹ ∇Π(D): one back-substitution, no assembly and
     no factorisation, and a descent direction for any positive definite K_f.
     Chord steps go on while each shrinks ‖∇Π‖ to at most ``rate`` of what it was
-    (:func:`size_rules`); then a Newton iteration again. ``chord_first``: the first
-    direction is the chord direction at ``start`` too (a pass that goes on from where
-    the last one stopped, on slightly other contact data: the kept factorisation
-    still fits it). ``start_gaps``: (g, s) at ``start`` when the caller has them.
+    (:meth:`dda.solve.policy.StepPolicy.size_rules`); then a Newton iteration again.
+    ``chord_first``: the first direction is the chord direction at ``start`` too (a
+    pass that goes on from where the last one stopped, on slightly other contact data:
+    the kept factorisation still fits it). ``start_gaps``: (g, s) at ``start`` when the
+    caller has them.
     ``conjugate``: successive chord steps are conjugated (:func:`_conjugated`).
     ``iterates``: a list to which every iterate D is appended (diagnostics).
     ``forces_from_rows``: ``contact_vector`` is Σ N∇g + Σ F∇s over ``geometry``'s rows
     and blocks, so that each line step may be the compiled one
     (:mod:`dda.solve.line_step`, where the kernels are used and K₀ is block-diagonal).
+    ``tolerance``: converged once ‖∇Π‖ is within this fraction of the forces that make it
+    up (the policy's ``newton_tolerance``).
     """
     lines_compiled = (
         forces_from_rows and quadratic.couplings is None and compiled(line_step.line_step_kernel)
@@ -299,25 +226,12 @@ def minimise(
             size = np.linalg.norm(residual)
         if iterates is not None:
             iterates.append(d)
-        if size <= RELATIVE_TOLERANCE * scale:
+        if size <= tolerance * scale:
             return NewtonResult(d, solves, True, chords, gaps=(g, s))
         log.debug("Newton %d, chord %d: α = %.3g", solves, chords, alpha)
         shrunk = gradient is None or size <= rate * np.linalg.norm(gradient)
         gradient = residual if chord is not None and shrunk else None
     return NewtonResult(d, solves, False, chords, gradient is not None, (g, s))
-
-
-class NumpyPasses:
-    """Systems whose Newton passes are :func:`minimise`'s: no compiled pass, no compiled
-    start (the band systems' are, :class:`dda.solve.band_system.BandSystem`)."""
-
-    def minimise(self, *args, **kwargs) -> None:
-        """None: the caller runs :func:`minimise` on this system."""
-        return None
-
-    def better_start(self, terms, candidates) -> None:
-        """None: :func:`better_start` chooses the start."""
-        return None
 
 
 def _compiled_line_step(quadratic, geometry, terms, d, g, s, kd, direction, rates):

@@ -2,9 +2,10 @@
 
 A step's linear systems take one of three forms: in band storage where the kernels
 are used and the band is narrow enough (:mod:`dda.solve.band_system`; a Newton pass
-is one compiled call), else, for the numpy Newton, dense up to
-:data:`~dda.solve.dense_system.DENSE_ROWS` unknowns (:mod:`dda.solve.dense_system`),
-else on a sparse block pattern (every step, with ``DDA_SYSTEMS=sparse``), as follows.
+is one compiled call), else, for the numpy Newton, dense up to the policy's
+``dense_system_rows`` unknowns (:mod:`dda.solve.dense_system`,
+:class:`dda.solve.policy.StepPolicy`), else on a sparse block pattern (every step,
+with ``DDA_SYSTEMS=sparse``), as follows.
 K changes only when contact pieces or penalties change; between such
 changes every Newton iteration, augmentation (AL) or friction update re-uses
 K and only rebuilds F. Across steps, while the contact graph is the same, the block
@@ -34,7 +35,6 @@ from dda.effects.base import StepContext
 from dda.effects.pair_springs import PairSprings
 from dda.model import Model
 from dda.result import LOCKED, OPEN, SLIDING
-from dda.solve import band_step
 from dda.solve.assembly import (
     BLOCK,
     BlockPattern,
@@ -45,20 +45,14 @@ from dda.solve.assembly import (
     reassemble,
     subtract_contact_forces,
 )
-from dda.solve.band_system import BandOrder, BandSystem, band_kernels, band_pays
+from dda.solve.band_system import BandOrder, BandSystem, band_kernels
 from dda.solve.contact_dashpots import contact_dashpots
-from dda.solve.dense_system import DENSE_ROWS, DenseSystem
-from dda.solve.linsolve import ReusingSolver, block_ordering, systems_choice
+from dda.solve.dense_system import DenseSystem
+from dda.solve.linsolve import ReusingSolver, block_ordering
 from dda.solve.low_rank import StepUpdates
-from dda.solve.newton import (
-    BlockQuadratic,
-    ContactGeometry,
-    NumpyPasses,
-    SizeRules,
-    better_start,
-    minimise,
-    size_rules,
-)
+from dda.solve.newton import BlockQuadratic, ContactGeometry, better_start, minimise
+from dda.solve.policy import SizeRules, StepPolicy, current_policy
+from dda.solve.systems import NumpyPasses, StepSystems
 from dda.solve.timing import StageTimer
 
 
@@ -81,37 +75,28 @@ class StepSolution:
     newton_iterations: int = 0
 
 
-MAX_CHANGED_FOR_PCG = 6  # contact springs changed since the factorisation: PCG still pays
-
-
-# Newton iterations and chord steps on one set of friction bounds before the bounds
-# follow the normal forces (measured, tunnel 0.3 s / 50x50 wall: 3 gives 24 solves a
-# step and no cut step / 152 ms a step; 2 gives 30 and one cut step / 147 ms)
-INNER_SOLVES = 3
-# ... and on a step's first bounds while some are a guess (contacts found touching, no
-# force known): measured on the tunnel, the staged tunnel and the slope (solves a step,
-# cut steps): 3 gives 21.0, 10.3, 4.37 and 3 cuts (one of them the tunnel's step 1);
-# 6 gives 17.7, 13.6, 4.46 and 1 (the tunnel's step 71, bounds that stall); to
-# convergence 18.9, 14.5, 4.42 and 1 (the staged tunnel's step 1, out of iterations)
-GUESSED_BOUND_SOLVES = 6
-SPARE_PAIRS = 1.25  # a new pattern keeps the old one's pairs up to this many per needed pair
-NEIGHBOUR_MARGIN = 0.1  # a new pattern holds the pairs of boxes this close (x search distance)
-
-
 @dataclass
 class LinearCache:
-    """What a run keeps between steps: the current block pattern and the solver.
+    """What a run keeps between steps: its :class:`~dda.solve.policy.StepPolicy`, the
+    current block pattern, the solver and the band numbering.
 
     ``coefficients`` are the contact spring constants (normal and shear) of
-    the factorised K: a new K whose springs differ in more than
-    ``MAX_CHANGED_FOR_PCG`` contacts is a high-rank change, re-factorised
+    the factorised K: a new K whose springs differ in more than the policy's
+    ``max_changed_for_pcg`` contacts is a high-rank change, re-factorised
     at once instead of trying PCG first.
     """
 
+    policy: StepPolicy = field(default_factory=current_policy)
     pattern: BlockPattern | None = None
-    solver: ReusingSolver = field(default_factory=ReusingSolver)
+    solver: ReusingSolver = None  # type: ignore[assignment]  # made from the policy
     coefficients: tuple[np.ndarray, np.ndarray] | None = None  # sorted contact keys, springs
-    band: BandOrder = field(default_factory=BandOrder)  # the band systems' block numbering
+    band: BandOrder = None  # type: ignore[assignment]  # the band systems' block numbering
+
+    def __post_init__(self) -> None:
+        if self.solver is None:
+            self.solver = ReusingSolver(policy=self.policy)
+        if self.band is None:
+            self.band = BandOrder(self.policy.reorder_growth)
 
     def pattern_for(
         self,
@@ -129,7 +114,7 @@ class LinearCache:
         still lands on one of its blocks; else a new one. A new pattern also
         holds the pairs of blocks ``neighbours()`` returns (pairs of blocks
         close enough to come into contact soon) and the old pattern's pairs
-        (up to ``SPARE_PAIRS`` per needed pair): contacts come and go at the
+        (up to the policy's ``spare_pairs`` per needed pair): contacts come and go at the
         search distance, and each new pattern costs an ordering and an analysis.
         ``coupled``: pairs of blocks (block_i, block_j) that springs join (rock
         bolts): the pattern holds them always.
@@ -152,7 +137,7 @@ class LinearCache:
             extra.append(free_pairs(rows, *coupled))
         if kept is not None and np.array_equal(kept._fixed, fixed):
             needed = len(free_pairs(rows, block_a, block_b))
-            if len(kept.pairs) <= SPARE_PAIRS * max(needed, 1):
+            if len(kept.pairs) <= self.policy.spare_pairs * max(needed, 1):
                 extra.append(kept.pairs)
         spare = np.concatenate(extra) if extra else None
         self.pattern = BlockPattern(fixed, block_a, block_b, block_ordering, spare, active)
@@ -160,10 +145,13 @@ class LinearCache:
         return self.pattern
 
 
-def pattern_neighbours(blocks: BlockSet, contacts: ContactSet, settings) -> np.ndarray:
+def pattern_neighbours(
+    blocks: BlockSet, contacts: ContactSet, settings, margin: float
+) -> np.ndarray:
     """Block pairs a new pattern holds beside those of the closed contacts.
 
-    The pairs of boxes within ``NEIGHBOUR_MARGIN`` of the search distance
+    The pairs of boxes within ``margin`` (the policy's ``neighbour_margin``) of the
+    search distance
     (blocks that may come into contact soon), less the pairs with no contact
     whose corners meet at a node that other blocks fill
     (:func:`dda.contact.narrow.separated_blocks`): those get no contact while
@@ -171,7 +159,7 @@ def pattern_neighbours(blocks: BlockSet, contacts: ContactSet, settings) -> np.n
     walls these are the diagonal neighbours, half the block pairs; without
     them a factorisation of the 30x30 wall costs a third less.
     """
-    near = candidate_pairs(blocks, NEIGHBOUR_MARGIN * settings.search_distance)  # i < j
+    near = candidate_pairs(blocks, margin * settings.search_distance)  # i < j
     search, radius, tight = settings.search_distance, settings.vertex_radius, settings.law.tolerance
     apart = separated_blocks(blocks, near, search, radius, tight)  # i < j
 
@@ -180,15 +168,6 @@ def pattern_neighbours(blocks: BlockSet, contacts: ContactSet, settings) -> np.n
 
     no_contact = np.setdiff1d(key(*apart.T), key(contacts.block_a, contacts.block_b))
     return near[~np.isin(key(*near.T), no_contact)]
-
-
-def linear_cache(model: Model) -> LinearCache:
-    """The run's :class:`LinearCache`, kept on the model (one model per run)."""
-    cache = model.__dict__.get("_linear_cache")
-    if cache is None:
-        cache = LinearCache()
-        model.__dict__["_linear_cache"] = cache
-    return cache
 
 
 def _couplings(model: Model, blocks: BlockSet, ctx: StepContext) -> PairSprings | None:
@@ -261,7 +240,8 @@ def _similar(cache: LinearCache, keys: np.ndarray, springs: np.ndarray) -> bool:
         found = old_keys[at] == keys
         same = found & np.all(old_springs[:, at] == springs, axis=0)
         changed = (len(keys) - int(same.sum())) + (len(old_keys) - int(found.sum()))
-    return changed <= MAX_CHANGED_FOR_PCG and changed + 2 <= cache.solver.pcg_budget
+    limit = cache.policy.max_changed_for_pcg
+    return changed <= limit and changed + 2 <= cache.solver.pcg_budget
 
 
 def _forces(base_forces, contacts, rows, coefficients):
@@ -369,6 +349,7 @@ class _PieceSystem(NumpyPasses):
                 contacts.block_a,
                 contacts.block_b,
                 cache.solver.solve_many,
+                cache.policy,
             )
         return d
 
@@ -394,13 +375,14 @@ def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, 
     enough: :mod:`dda.solve.band_system`), else None."""
     free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
     narrowest = cache.band.made_width(blocks.fixed)
-    if not (cache.solver.automatic and band_pays(free_rows_count, narrowest) and band_kernels()):
+    pays = cache.policy.band_pays
+    if not (cache.solver.automatic and pays(free_rows_count, narrowest) and band_kernels()):
         return None
     none = np.zeros(0, np.int64)
     bolts = (none, none) if couplings is None else (couplings.block_i, couplings.block_j)
     with timer("assembly"):
         numbering = cache.band.numbering(blocks.fixed, contacts.block_a, contacts.block_b, *bolts)
-        if not band_pays(free_rows_count, numbering.width):
+        if not pays(free_rows_count, numbering.width):
             return None
         return BandSystem(
             blocks.fixed, contacts.block_a, contacts.block_b, rows, base_k, base_f,
@@ -453,19 +435,23 @@ class _StepLoop:
     rows: ContactRows
     joints: JointProperties
     law: ContactLaw
-    system: BandSystem | DenseSystem | _PieceSystem
+    system: StepSystems
     budget: int
     rules: SizeRules
     ctx: StepContext
     timer: StageTimer
     quadratic: BlockQuadratic
+    policy: StepPolicy
 
-    guessed_bound_solves = GUESSED_BOUND_SOLVES
+    @property
+    def guessed_bound_solves(self) -> int:
+        """Newton iterations and chord steps on a step's first bounds while some are a guess."""
+        return self.policy.guessed_bound_solves
 
     @property
     def between_bounds(self) -> int:
         """Newton iterations and chord steps on one set of bounds."""
-        return 1 if self.rules.bounds_every_solve else INNER_SOLVES
+        return 1 if self.rules.bounds_every_solve else self.policy.inner_solves
 
     def solve(self) -> tuple[np.ndarray, int, int, bool, float]:
         """(D, Newton iterations, chord steps, converged, friction's dissipation); the
@@ -478,8 +464,8 @@ class _StepLoop:
             self.system, self.budget, self.rules, self.ctx, self.timer
         )  # fmt: skip
         with timer("contact_law"):
-            by_rows = isinstance(system, BandSystem)  # as the compiled loop sums them
-            bounds = BoundIteration(_first_bounds(contacts, rows, joints, law), by_rows)
+            first = _first_bounds(contacts, rows, joints, law)
+            bounds = BoundIteration(first, system.sums_by_rows)  # as the compiled loop sums
         quadratic = self.quadratic
         geometry = ContactGeometry(rows, contacts.block_a, contacts.block_b)
         d = np.zeros((blocks.count, 6))
@@ -503,7 +489,9 @@ class _StepLoop:
                     if start is None:
                         start = better_start(quadratic, geometry, terms, candidates)
                     d = start
-                gaps = system.gaps(d) if isinstance(system, BandSystem) else geometry.at(d)
+                gaps = system.gaps(d)
+                if gaps is None:
+                    gaps = geometry.at(d)
                 guess = _remembered_pieces(contacts, terms, *gaps)
             inner = None
             if law.friction:
@@ -514,6 +502,7 @@ class _StepLoop:
                 "chord_first": rules.chord_first and goes_on and chords < budget,
                 "start_gaps": gaps,
                 "conjugate": rules.conjugate,
+                "tolerance": self.policy.newton_tolerance,
             }
             newton = system.minimise(terms, d, budget - solves, guess, **rule)  # or None
             if newton is None:
@@ -556,6 +545,7 @@ def solve_step(
     contacts: ContactSet,
     ctx: StepContext,
     timer: StageTimer,
+    cache: LinearCache | None = None,
 ) -> StepSolution:
     """Minimise the step's incremental potential (:mod:`dda.solve.newton`).
 
@@ -566,8 +556,13 @@ def solve_step(
     assembled and solved quadratic; not the chord steps between them) counts
     against ``[contact] max_iterations``; a step that does not settle within
     them is not converged (the caller cuts Δt).
+
+    ``cache``: the run's :class:`LinearCache` (its policy, and the pattern,
+    factorisation and band numbering kept from the last step); None for a step on its
+    own (a new one, of the environment's policy).
     """
-    cache = linear_cache(model)
+    cache = LinearCache() if cache is None else cache
+    policy = cache.policy
     factorisations_before = cache.solver.factorisations
     with timer("assembly"):
         base_k, base_f = _effect_terms(model, blocks, ctx)
@@ -601,7 +596,7 @@ def solve_step(
             couplings = PairSprings.join([couplings, dashpots])
 
     def neighbours():
-        return pattern_neighbours(blocks, contacts, cm)
+        return pattern_neighbours(blocks, contacts, cm, policy.neighbour_margin)
 
     free_rows_count = BLOCK * int(np.count_nonzero(~blocks.fixed))
 
@@ -611,7 +606,7 @@ def solve_step(
         )
 
     def numpy_system():  # the systems of the numpy Newton: dense when small, else sparse
-        if not (cache.solver.automatic and free_rows_count <= DENSE_ROWS):
+        if not (cache.solver.automatic and free_rows_count <= policy.dense_system_rows):
             return sparse_system()
         with timer("assembly"):
             return DenseSystem(
@@ -619,7 +614,8 @@ def solve_step(
                 law.friction, couplings, timer,
             )  # fmt: skip
 
-    if systems_choice() == "sparse":  # DDA_SYSTEMS: the large models' path at every size
+    system: StepSystems
+    if policy.systems == "sparse":  # DDA_SYSTEMS: the large models' path at every size
         system = sparse_system()
     else:
         system = _band_system(
@@ -627,15 +623,12 @@ def solve_step(
         )
         system = system or numpy_system()
     budget = model.scene.contact.max_iterations
-    band = isinstance(system, BandSystem)
-    rules = size_rules(free_rows_count, dynamic=not ctx.static, band=band)
+    rules = policy.size_rules(free_rows_count, not ctx.static, system.compiled_passes)
     loop = _StepLoop(
         blocks, contacts, rows, joints, law, system, budget, rules, ctx, timer,
-        BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings),
+        BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings), policy,
     )  # fmt: skip
-    solved = None
-    if band and band_step.USE_KERNEL:
-        solved = band_step.solve_on_band(system, loop)  # None: LAPACK failed, the loop redoes it
+    solved = system.solve_loop(loop)  # compiled; None: in Python (or LAPACK failed: redone)
     if solved is None:
         solved = loop.solve()
     d, solves, chords, converged, dissipated = solved

@@ -29,7 +29,7 @@ import numpy as np
 
 import dda
 from dda.parallel import Cluster, Workers
-from dda.solve.linsolve import THREADS_VARIABLE
+from dda.solve.policy import THREADS_VARIABLE
 from dda.tradeoff.cases import Case, model_size, relative_error
 from dda.tradeoff.grid import Setting
 

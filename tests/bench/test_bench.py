@@ -101,11 +101,11 @@ def test_warm_up_loads_the_compiled_kernels():
     """The benchmark's warm-up does enough work (blocks x steps) for the kernels to load,
     on a wall with sparse systems and one with dense ones (dda.solve.dense_system), so
     that a size's ms/step does not carry their one-off loading."""
-    from dda.solve.dense_system import DENSE_ROWS
+    from dda.solve.policy import DEFAULT
 
     assert all((size**2 + 1) * steps >= MIN_WORK for size, steps in WARM_UPS)
-    assert 6 * min(size**2 for size, _ in WARM_UPS) <= DENSE_ROWS
-    assert 6 * max(size**2 for size, _ in WARM_UPS) > DENSE_ROWS
+    assert 6 * min(size**2 for size, _ in WARM_UPS) <= DEFAULT.dense_system_rows
+    assert 6 * max(size**2 for size, _ in WARM_UPS) > DEFAULT.dense_system_rows
 
 
 def test_repeat_keeps_the_fastest_run(monkeypatch, capsys):

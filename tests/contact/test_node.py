@@ -15,7 +15,8 @@ from dda.contact.contact_set import ContactSet
 from dda.contact.node import ANGLE_FILL
 from dda.contact.pipeline import refresh_contacts
 from dda.model import build
-from dda.solve.step import NEIGHBOUR_MARGIN, pattern_neighbours
+from dda.solve.policy import DEFAULT
+from dda.solve.step import pattern_neighbours
 
 
 def corners(starts_deg, spans_deg):
@@ -166,8 +167,13 @@ def test_a_new_pattern_leaves_out_blocks_that_meet_only_at_filled_nodes():
     model = build(dda.load_scene(wall_scene(3, 3)))
     blocks, settings = model.blocks, model.contact
     contacts = refresh_contacts(blocks, ContactSet.empty(), settings)
-    near = candidate_pairs(blocks, NEIGHBOUR_MARGIN * settings.search_distance)
-    held = {tuple(p) for p in np.sort(pattern_neighbours(blocks, contacts, settings), axis=1)}
+    near = candidate_pairs(blocks, DEFAULT.neighbour_margin * settings.search_distance)
+    held = {
+        tuple(p)
+        for p in np.sort(
+            pattern_neighbours(blocks, contacts, settings, DEFAULT.neighbour_margin), axis=1
+        )
+    }
     diagonal = {tuple(p) for p in np.sort(near, axis=1)} - held
     assert (len(near), len(held), len(diagonal)) == (23, 15, 8)
     centroids = blocks.centroid
@@ -175,5 +181,10 @@ def test_a_new_pattern_leaves_out_blocks_that_meet_only_at_filled_nodes():
         assert np.allclose(np.abs(centroids[a] - centroids[b]), 1.0)  # one block across
     a, b = sorted(diagonal)[0]
     contacts.block_a[0], contacts.block_b[0] = a, b  # pretend the node opened
-    held = {tuple(p) for p in np.sort(pattern_neighbours(blocks, contacts, settings), axis=1)}
+    held = {
+        tuple(p)
+        for p in np.sort(
+            pattern_neighbours(blocks, contacts, settings, DEFAULT.neighbour_margin), axis=1
+        )
+    }
     assert (a, b) in held and len(held) == 16

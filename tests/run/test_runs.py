@@ -34,6 +34,7 @@ from dda.run.checkpoint import (
     read_checkpoint,
     write_checkpoint,
 )
+from tests.helpers import use_policy
 
 ROOT = Path(__file__).resolve().parents[2]
 SLOPE = ROOT / "cases" / "rock_slope.toml"
@@ -136,15 +137,14 @@ def test_a_checkpoint_holds_every_field_of_the_run_state(tmp_path, systems, monk
     linear cache's state is saved too: the band systems' block numbering, and the
     sparse systems' factorised matrix."""
     from dda.run import simulation
-    from dda.solve import band_system
 
     if systems == "sparse":
-        monkeypatch.setattr(band_system, "BAND_WORK", 0.0)
+        use_policy(monkeypatch, band_work=0.0)
     state = simulation._Run(dda.run.simulation.build(slope_scene(5)))
     simulation._advance(state)
     checkpoint = capture(state)
     keys = set(checkpoint.arrays) | set(checkpoint.meta["state"])
-    assert {f"run/{name}" for name in vars(state)} - keys == {"run/model"}
+    assert {f"run/{name}" for name in vars(state)} - keys == {"run/model", "run/linear"}
     for kind, prefix in ((BlockSet, "run/blocks"), (ContactSet, "run/contacts")):
         saved = {k.split("/")[2] for k in keys if k.startswith(prefix + "/")}
         assert saved == {f.name for f in dataclasses.fields(kind)}

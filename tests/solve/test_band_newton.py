@@ -13,10 +13,12 @@ from dda.bench.scenes import wall_scene
 from dda.contact.potential import ContactTerms
 from dda.effects.pair_springs import PairSprings
 from dda.solve import band_newton, band_system
-from dda.solve.band_system import BandOrder, BandSystem, band_order, half_width
+from dda.solve.band_system import BandOrder, BandSystem, band_order, band_terms, half_width
 from dda.solve.dense_system import DenseSystem, contact_columns
 from dda.solve.newton import BlockQuadratic, ContactGeometry, minimise, potential
+from dda.solve.policy import StepPolicy
 from dda.solve.timing import StageTimer
+from tests.helpers import use_policy
 from tests.solve.test_dense_system import Rows
 
 pytestmark = pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
@@ -162,15 +164,11 @@ def test_the_band_potential_is_the_numpy_one(seed):
     steps = [
         np.where(fixed[:, None], 0.0, rng.normal(scale=0.1, size=base_f.shape)) for _ in (0, 1)
     ]
-    arrays = (terms.normal_base, terms.penalty, terms.tension, terms.shear_base)
-    arrays += (terms.shear_penalty, terms.bound)
     with jit.run_work(1, 1e9):
         for d in steps:
             value = band_newton.potential_kernel(
-                system.blocks, *system.bolts, system.forces, system.columns, system.normal_rows,
-                system.shear_rows, system.g0, system.s0, *arrays,
-                np.ascontiguousarray(d[system.order].ravel()),
-            )  # fmt: skip
+                system.geometry, band_terms(terms), np.ascontiguousarray(d[system.order].ravel())
+            )
             assert value == pytest.approx(potential(quadratic, geometry, terms, d), rel=1e-12)
         chosen = system.better_start(terms, steps)
     values = [potential(quadratic, geometry, terms, d) for d in steps]
@@ -214,9 +212,11 @@ def test_a_run_on_band_systems_is_the_numpy_newtons_run(monkeypatch, method):
         made.append(self.size)
 
     monkeypatch.setattr(BandSystem, "__init__", counted)
-    rules = dda.solve.step.size_rules  # the rules of numpy systems of its size, in both
+    rules = StepPolicy.size_rules  # the rules of numpy systems of its size, in both
     monkeypatch.setattr(
-        dda.solve.step, "size_rules", lambda rows, dynamic=True, band=False: rules(rows, dynamic)
+        StepPolicy,
+        "size_rules",
+        lambda self, rows, dynamic=True, band=False: rules(self, rows, dynamic),
     )
 
     def run(steps):
@@ -249,7 +249,7 @@ def test_a_band_too_wide_to_pay_is_numbered_once(monkeypatch):
     """With BAND_WORK at 1.5e7, the 20 x 20 wall (2,400 unknowns, kd 125: n kd² = 3.8e7)
     runs on the sparse systems; its band numbering is made at the first step and not
     again."""
-    monkeypatch.setattr(band_system, "BAND_WORK", 1.5e7)
+    use_policy(monkeypatch, band_work=1.5e7)
     numberings = []
     made = band_system.band_order
 

@@ -17,9 +17,11 @@ from dda.effects.base import StepContext
 from dda.result import LOCKED, OPEN, SLIDING
 from dda.solve import band_newton, band_step
 from dda.solve.dense_system import DenseSystem
-from dda.solve.newton import BlockQuadratic, size_rules
+from dda.solve.newton import BlockQuadratic
+from dda.solve.policy import DEFAULT
 from dda.solve.step import _StepLoop
 from dda.solve.timing import StageTimer
+from tests.helpers import use_policy
 from tests.solve.test_band_newton import band_twin, random_problem
 from tests.test_cases import load_case
 
@@ -78,8 +80,9 @@ def random_loop(seed: int, augmented: bool, static: bool, indefinite: bool = Fal
     blocks = SimpleNamespace(count=len(fixed), fixed=fixed, velocity=velocity)
     ctx = StepContext(dt=0.1, time=0.1, step=1, static=static)
     return _StepLoop(
-        blocks, contacts, rows, joints, law, system, 60, size_rules(60, not static, band=True), ctx,
-        StageTimer(), BlockQuadratic(base_k, base_f, ~fixed, None),
+        blocks, contacts, rows, joints, law, system, 60,
+        DEFAULT.size_rules(60, not static, band=True), ctx, StageTimer(),
+        BlockQuadratic(base_k, base_f, ~fixed, None), DEFAULT,
     )  # fmt: skip
 
 
@@ -118,7 +121,7 @@ def test_a_k_not_positive_definite_leaves_the_step_to_the_python_loop():
         assert band_step.solve_on_band(loop.system, loop) is None
         for name in WRITTEN:
             np.testing.assert_array_equal(getattr(loop.contacts, name), getattr(before, name))
-        state = loop.system.kernel_state[2]
+        state = loop.system.factor.state
         assert state[band_newton.FAILED] == 0 and state[band_newton.HAS_FACTOR] == 0
         d, *_ = loop.solve()
     assert np.all(np.isfinite(d))
@@ -126,7 +129,7 @@ def test_a_k_not_positive_definite_leaves_the_step_to_the_python_loop():
 
 def run(scene, compiled: bool, monkeypatch) -> tuple[dda.Result, int]:
     """The run, and the steps the compiled loop solved."""
-    monkeypatch.setattr(band_step, "USE_KERNEL", compiled)
+    use_policy(monkeypatch, band_loop_compiled=compiled)
     solved = []
     solve = band_step.solve_on_band
 

@@ -9,6 +9,7 @@ import numpy as np
 import dda
 import dda.solve.step
 from dda.bench.scenes import wall_scene
+from tests.helpers import use_policy
 
 
 def test_chord_steps_save_factorisations_and_change_no_answer(monkeypatch):
@@ -35,7 +36,7 @@ def test_passes_that_start_with_a_chord_step_still_end(monkeypatch):
     a chord step when asked to start with one, else one Newton iteration."""
     import dda.solve.newton
 
-    monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)  # every system counts as large
+    use_policy(monkeypatch, large_rows=0)  # every system counts as large
     passes = []
 
     def never_settles(*args, **kwargs):
@@ -64,7 +65,7 @@ def test_in_large_systems_a_pass_after_a_converged_one_starts_with_a_chord_step(
 
     def passes_after_converged(large: bool) -> list[bool]:
         if large:
-            monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)  # every system counts as large
+            use_policy(monkeypatch, large_rows=0)  # every system counts as large
         after, minimise, last = [], dda.solve.step.minimise, {"converged": False}
 
         def recording(*args, **kwargs):

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import dda
-import dda.solve.step as step_module
-from dda.solve import band_system, dense_system
 from dda.solve.dense_system import DenseSystem
+from dda.solve.policy import DEFAULT
 from dda.solve.timing import StageTimer
+from tests.helpers import use_policy
 
 CASES = "cases/{}.toml"
 
@@ -106,12 +106,12 @@ def test_a_run_with_dense_systems_is_the_sparse_run(monkeypatch, name):
     """Shipped cases of a few blocks (contacts opening, sliding; a bolt; water; the
     augmented Lagrangian): the dense systems give the sparse path's run, vertices to
     1e-9 of the model's size (band systems off: the paths of the numpy Newton)."""
-    monkeypatch.setattr(band_system, "BAND_WORK", 0.0)
+    use_policy(monkeypatch, band_work=0.0)
     dense, dense_stress, dense_summary = final_state(name)
-    monkeypatch.setattr(step_module, "DENSE_ROWS", 0)  # every system on its block pattern
+    use_policy(monkeypatch, dense_system_rows=0)  # every system on its block pattern
     sparse, sparse_stress, sparse_summary = final_state(name)
     np.testing.assert_allclose(dense, sparse, rtol=0, atol=1e-9 * np.abs(sparse).max())
-    # Newton stops within RELATIVE_TOLERANCE (1e-4) of ∇Π's scale: two solves of a step
+    # Newton stops within newton_tolerance (1e-4) of ∇Π's scale: two solves of a step
     # that differ in round-off agree to that (stresses: E times the strain's difference)
     scale = max(np.abs(sparse_stress).max(), 1.0)
     np.testing.assert_allclose(dense_stress, sparse_stress, rtol=0, atol=1e-4 * scale)
@@ -120,4 +120,4 @@ def test_a_run_with_dense_systems_is_the_sparse_run(monkeypatch, name):
 
 def test_the_threshold_is_below_where_dense_stops_paying():
     """Dense Cholesky costs n³/3: the threshold stays where it was measured to pay."""
-    assert 150 <= dense_system.DENSE_ROWS <= 240
+    assert 150 <= DEFAULT.dense_system_rows <= 240

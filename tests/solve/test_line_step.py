@@ -9,10 +9,11 @@ import dda
 from dda import jit
 from dda.bench.scenes import wall_scene
 from dda.contact.line_search import line_minimum
-from dda.solve import band_system, line_step, newton
+from dda.solve import line_step, newton
 from dda.solve.dense_system import DenseSystem
 from dda.solve.newton import BlockQuadratic, ContactGeometry, minimise
 from dda.solve.timing import StageTimer
+from tests.helpers import use_policy
 from tests.solve.test_band_newton import random_problem
 
 pytestmark = pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
@@ -85,7 +86,7 @@ def test_a_sparse_run_with_compiled_lines_is_the_numpy_run(monkeypatch):
     """The 7 x 7 wall (294 unknowns) on the sparse systems (band systems off), 40 steps:
     the same solves and factorisations, vertices within 1e-9 of the wall's size; the
     kernel did the lines."""
-    monkeypatch.setattr(band_system, "BAND_WORK", 0.0)
+    use_policy(monkeypatch, band_work=0.0)
     scene = dda.load_scene(wall_scene(7, steps=40))
     calls = []
     kernel = line_step.line_step_kernel

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import subprocess
 import sys
@@ -14,8 +15,12 @@ import scipy.sparse as sp
 import dda
 import dda.solve.linsolve as linsolve
 from dda.bench.scenes import wall_scene
+from dda.solve import thread_policy
 from dda.solve.linsolve import Factorisation, ReusingSolver, block_ordering, pcg
+from dda.solve.policy import DEFAULT, StepPolicy
 from dda.solve.step import _keyed_springs
+
+SETTINGS = (DEFAULT.pcg_tolerance, DEFAULT.max_pcg_iterations)  # the runs' PCG
 
 
 def spd_matrix(seed: int, n: int = 60, density: float = 0.08) -> sp.csc_matrix:
@@ -45,7 +50,7 @@ def test_pcg_with_an_old_factorisation_equals_the_direct_solve():
     change = sp.diags(1.0 + 1e-3 * rng.random(60))
     k_new = sp.csc_matrix(change @ k_old @ change)  # a slightly different SPD matrix
     f = rng.normal(size=60)
-    x, iterations, ok = pcg(k_new, f, Factorisation(k_old).solve)
+    x, iterations, ok = pcg(k_new, f, Factorisation(k_old).solve, *SETTINGS)
     direct = Factorisation(k_new).solve(f)
     assert ok and iterations <= 6
     np.testing.assert_allclose(x, direct, rtol=1e-10, atol=1e-12 * np.abs(direct).max())
@@ -54,7 +59,7 @@ def test_pcg_with_an_old_factorisation_equals_the_direct_solve():
 def test_pcg_with_the_exact_factorisation_takes_one_application():
     k = spd_matrix(5)
     f = np.ones(60)
-    x, iterations, ok = pcg(k, f, Factorisation(k).solve)
+    x, iterations, ok = pcg(k, f, Factorisation(k).solve, *SETTINGS)
     assert ok and iterations == 1
 
 
@@ -74,7 +79,8 @@ def test_reusing_solver_factorises_only_when_needed():
 
 
 def test_reusing_solver_refactorises_when_pcg_does_not_converge():
-    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", max_iterations=2, backend="superlu")
+    policy = dataclasses.replace(DEFAULT, max_pcg_iterations=2)
+    solver = ReusingSolver(permc_spec="MMD_AT_PLUS_A", backend="superlu", policy=policy)
     k = spd_matrix(7)
     f = np.ones(60)
     solver.solve(k, f, key=1)
@@ -118,17 +124,18 @@ def test_automatic_solver_uses_a_dense_cholesky_for_small_k_and_never_pcg(monkey
     x = solver.solve(near, f, key="graph")
     assert solver.factorisations == 2 and solver.pcg_solves == 0
     assert np.linalg.norm(near @ x - f) <= 1e-13 * np.linalg.norm(f)
-    monkeypatch.setattr(linsolve, "DENSE_MAX_SIZE", 59)
+    solver.policy = dataclasses.replace(solver.policy, dense_factor_rows=59)
     solver.solve(k, f, key="graph")
     assert not isinstance(solver._factor, linsolve.DenseFactorisation)
 
 
 def test_pardiso_backend_equals_superlu(monkeypatch):
     pytest.importorskip("pypardiso")
-    monkeypatch.setattr(linsolve, "PARDISO_MIN_SIZE", 0)
     k = spd_matrix(9)
     f = np.linspace(-1.0, 1.0, 60)
-    pardiso = ReusingSolver(backend="pardiso")
+    pardiso = ReusingSolver(
+        backend="pardiso", policy=dataclasses.replace(DEFAULT, dense_factor_rows=0)
+    )
     x = pardiso.solve(k, f, key="graph")
     np.testing.assert_allclose(x, Factorisation(k).solve(f), rtol=1e-10, atol=1e-14)
     near = sp.csc_matrix(k * (1 + 1e-3))  # same pattern: numeric phase only
@@ -147,7 +154,7 @@ def test_pardiso_solves_without_iterative_refinement():
     for _ in range(2):
         factor = linsolve.PardisoFactorisation(k, handle)
         handle = factor._solver
-        factor.factor(k)
+        factor.factor(k, 1)
         x = factor.solve(f)
         assert factor._solver.iparm[6] == 0  # refinement steps performed (output)
         assert np.linalg.norm(k @ x - f) <= 1e-13 * np.linalg.norm(f)
@@ -155,27 +162,28 @@ def test_pardiso_solves_without_iterative_refinement():
 
 def test_solver_threads_follow_dda_threads_or_the_thread_policy(monkeypatch):
     monkeypatch.delenv("DDA_THREADS", raising=False)
-    monkeypatch.setattr(linsolve.thread_policy.POLICY, "threads", lambda: 7)
-    assert linsolve.solver_threads() == 7
+    monkeypatch.setattr(thread_policy.POLICY, "threads", lambda: 7)
+    assert StepPolicy.from_environment().solver_threads() == 7
     monkeypatch.setenv("DDA_THREADS", " 3 ")
-    assert linsolve.solver_threads() == 3
+    assert StepPolicy.from_environment().solver_threads() == 3
     monkeypatch.setenv("DDA_THREADS", "1.5")
     with pytest.raises(ValueError, match="DDA_THREADS='1.5'"):
-        linsolve.solver_threads()
+        StepPolicy.from_environment()
     with pytest.raises(ValueError, match="DDA_THREADS"):
         dda.simulate(wall_scene(2, steps=1))  # refused before the run starts
 
 
 def test_the_solver_choice_is_pardiso_superlu_or_unset(monkeypatch):
     monkeypatch.setenv("DDA_SOLVER", " SuperLU ")
-    assert linsolve.solver_choice() == "superlu" and not linsolve.pardiso_available()
+    policy = StepPolicy.from_environment()
+    assert policy.solver == "superlu" and not linsolve.pardiso_available(policy)
     monkeypatch.setenv("DDA_SOLVER", "super-lu")
     with pytest.raises(ValueError, match="DDA_SOLVER='super-lu'"):
         linsolve.pardiso_available()
     with pytest.raises(ValueError, match="DDA_SOLVER"):
         dda.simulate(wall_scene(2, steps=1))  # refused before the run starts
     monkeypatch.delenv("DDA_SOLVER")
-    assert linsolve.solver_choice() == ""
+    assert StepPolicy.from_environment().solver == ""
 
 
 def test_dda_systems_sparse_puts_every_step_on_the_block_pattern(monkeypatch):
@@ -194,7 +202,7 @@ def test_dda_systems_sparse_puts_every_step_on_the_block_pattern(monkeypatch):
 
         monkeypatch.setattr(system, "__init__", counted)
     monkeypatch.setenv("DDA_SYSTEMS", " Sparse ")
-    assert linsolve.systems_choice() == "sparse"
+    assert StepPolicy.from_environment().systems == "sparse"
     with dda.jit.run_work(10, 1e6):
         dda.simulate(wall_scene(3, steps=5))
     assert made == {"band": 0, "sparse": 5}
@@ -202,21 +210,22 @@ def test_dda_systems_sparse_puts_every_step_on_the_block_pattern(monkeypatch):
     with pytest.raises(ValueError, match="DDA_SYSTEMS='dense'"):
         dda.simulate(wall_scene(2, steps=1))
     monkeypatch.delenv("DDA_SYSTEMS")
-    assert linsolve.systems_choice() == ""
+    assert StepPolicy.from_environment().systems == ""
 
 
 def test_pardiso_allows_more_pcg_iterations_on_large_systems(monkeypatch):
     """A factorisation grows faster with the size than a back-substitution: the
-    budget is 3 PCG iterations below PARDISO_LARGE rows, 5 from there on."""
+    budget is 3 PCG iterations below pardiso_large_rows, 5 from there on."""
     pytest.importorskip("pypardiso")
-    monkeypatch.setattr(linsolve, "PARDISO_MIN_SIZE", 0)
     k = spd_matrix(11)
-    solver = ReusingSolver(backend="pardiso")
+    solver = ReusingSolver(
+        backend="pardiso", policy=dataclasses.replace(DEFAULT, dense_factor_rows=0)
+    )
     solver.solve(k, np.ones(60), key="graph")
     assert solver.pcg_budget == 3
-    monkeypatch.setattr(linsolve, "PARDISO_LARGE", 60)
+    solver.policy = dataclasses.replace(solver.policy, pardiso_large_rows=60)
     assert solver.pcg_budget == 5
-    assert ReusingSolver(backend="superlu").pcg_budget == linsolve.MAX_PCG_ITERATIONS
+    assert ReusingSolver(backend="superlu").pcg_budget == DEFAULT.max_pcg_iterations
 
 
 def test_dissimilar_matrix_is_factorised_without_pcg():
@@ -276,7 +285,7 @@ def test_direct_pardiso_calls_solve_many_columns_and_report_errors():
 
     k = spd_matrix(41)
     factor = linsolve.PardisoFactorisation(k)
-    factor.factor(k)
+    factor.factor(k, 1)
     columns = np.random.default_rng(3).normal(size=(k.shape[0], 5))
     many = factor.solve_many(columns)
     assert many.shape == columns.shape and many.flags.c_contiguous
@@ -285,4 +294,4 @@ def test_direct_pardiso_calls_solve_many_columns_and_report_errors():
     np.testing.assert_allclose(many[:, 2], factor.solve(columns[:, 2]), rtol=1e-12, atol=1e-15)
     indefinite = sp.csc_matrix(k - 2.0 * k.shape[0] * sp.eye(k.shape[0]))
     with pytest.raises(PyPardisoError):
-        factor.factor(indefinite)
+        factor.factor(indefinite, 1)

@@ -10,18 +10,19 @@ import numpy as np
 import pytest
 
 import dda
-import dda.solve.low_rank as low_rank
 import dda.solve.step
 from dda.bench.scenes import wall_scene
 from dda.solve.assembly import BlockPattern, assemble
 from dda.solve.linsolve import Factorisation
 from dda.solve.low_rank import StepUpdates
+from dda.solve.policy import DEFAULT
+from tests.helpers import use_policy
 
 
 @pytest.fixture(autouse=True)
 def any_size(monkeypatch):
     """These systems are small: solve through the updates whatever the size."""
-    monkeypatch.setattr(low_rank, "MIN_ROWS", 0)
+    use_policy(monkeypatch, low_rank_min_rows=0)
 
 
 def contact_system(seed: int, n: int = 12, m: int = 60):
@@ -100,7 +101,7 @@ def test_many_or_no_changed_springs_are_left_to_a_factorisation():
     f = np.ones(k_f.shape[0])
     assert updates.solve(k_f, f, springs) is None
     many = springs * 2.0
-    assert np.count_nonzero(many != springs) > low_rank.MAX_COLUMNS
+    assert np.count_nonzero(many != springs) > DEFAULT.low_rank_columns
     assert updates.solve(stiffness(pattern, diagonal, fixed, rows, many), f, many) is None
 
 
@@ -111,7 +112,7 @@ def test_a_wall_runs_the_same_with_fewer_factorisations(monkeypatch):
     monkeypatch.setattr(dda.solve.step._PieceSystem, "chord", lambda self, residual: None)
     scene = dda.load_scene(wall_scene(6, steps=20))
     with_updates = dda.simulate(scene)
-    monkeypatch.setattr(low_rank, "MAX_COLUMNS", 0)
+    use_policy(monkeypatch, low_rank_columns=0)
     without = dda.simulate(scene)
     assert with_updates.summary["iterations_per_step"] == without.summary["iterations_per_step"]
     assert with_updates.summary["factorisations"] < 0.8 * without.summary["factorisations"]

@@ -16,7 +16,7 @@ import pytest
 
 import dda
 import dda.solve.step
-from tests.helpers import ROCK, G, rectangle
+from tests.helpers import ROCK, G, rectangle, use_policy
 
 SLACK = 1e-3
 
@@ -122,7 +122,7 @@ def test_the_ringing_wall_gains_no_energy_through_chord_steps(monkeypatch):
         return result
 
     monkeypatch.setattr(dda.solve.step, "minimise", counting)
-    monkeypatch.setattr(dda.solve.band_system, "BAND_WORK", 0.0)  # the sparse systems
+    use_policy(monkeypatch, band_work=0.0)  # the sparse systems
     result = dda.simulate(dda.load_scene(wall_scene(10, steps=100)))
     assert sum(chords) > 100  # measured: 433 chord steps in 100 steps; largest gain −1.3e-7 E₀
     assert result.summary["cut_steps"] == 0
@@ -140,9 +140,9 @@ def test_the_ringing_wall_gains_no_energy_with_the_large_systems_chord_rules(siz
     gain −8.4e-12 E₀ both."""
     from dda.bench.scenes import wall_scene
 
-    monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)  # every system counts as large
+    use_policy(monkeypatch, large_rows=0)  # every system counts as large
     if size == "huge":
-        monkeypatch.setattr(dda.solve.newton, "HUGE_ROWS", 0)
+        use_policy(monkeypatch, large_rows=0, huge_rows=0)
     chord_first = []
     minimise = dda.solve.step.minimise
 
@@ -151,7 +151,7 @@ def test_the_ringing_wall_gains_no_energy_with_the_large_systems_chord_rules(siz
         return minimise(*args, **kwargs)
 
     monkeypatch.setattr(dda.solve.step, "minimise", counting)
-    monkeypatch.setattr(dda.solve.band_system, "BAND_WORK", 0.0)  # the sparse systems
+    use_policy(monkeypatch, band_work=0.0)  # the sparse systems
     result = dda.simulate(dda.load_scene(wall_scene(10, steps=100)))
     assert sum(chord_first) > 100
     assert result.summary["cut_steps"] == 0
@@ -171,7 +171,7 @@ def test_the_ringing_wall_gains_no_energy_on_band_systems(size, monkeypatch):
     from dda.bench.scenes import wall_scene
 
     if size == "large":
-        monkeypatch.setattr(dda.solve.newton, "LARGE_ROWS", 0)
+        use_policy(monkeypatch, large_rows=0)
     passes = []  # (solved, chord steps) of each step's compiled loop
     compiled_step = dda.solve.band_step.solve_on_band
 

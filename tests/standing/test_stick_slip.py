@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 import dda
+from tests.helpers import use_policy
 from tests.standing.incline import (
     METHODS,
     STEPS,
@@ -167,13 +168,13 @@ def test_why_an_elastic_block_sliding_on_friction_needs_damping():
 def test_the_mid_systems_chord_rules_keep_stick_slip_and_energy(dt, monkeypatch):
     """The chord rules of dynamic steps in systems of 1,000-2,000 rows (a pass on new
     friction bounds starts with a chord step, conjugated chord steps to 0.85 of ‖∇Π‖;
-    dda.solve.newton.MID_ROWS) forced on the incline: they change how a step spends its
+    the policy's mid_rows) forced on the incline: they change how a step spends its
     solves, not what it converges to — the block at 0.95 stands within its settlement,
     at 1.05 it slides as the closed form (1e-4 relative), and neither gains energy."""
     import dda.solve.newton
     from tests.standing.incline import largest_gain
 
-    monkeypatch.setattr(dda.solve.newton, "MID_ROWS", 0)  # every dynamic step: mid rules
+    use_policy(monkeypatch, mid_rows=0)  # every dynamic step: mid rules
     stand = dda.simulate(incline_scene(0.95, dt, 0.5))
     assert_stands(stand, settlement(0.95, 10.0))
     slide = dda.simulate(incline_scene(1.05, dt, 1.0))
@@ -222,11 +223,11 @@ def test_every_solve_path_of_a_small_model_keeps_stick_slip_and_energy(path, dt,
     monkeypatch.setattr(BandSystem, "minimise", counted_pass)
     monkeypatch.setattr(dda.solve.band_step, "solve_on_band", counted_step)
     if path == "band, compiled Newton":
-        monkeypatch.setattr(dda.solve.band_step, "USE_KERNEL", False)
+        use_policy(monkeypatch, band_loop_compiled=False)
     if not path.startswith("band"):
-        monkeypatch.setattr(dda.solve.band_system, "BAND_WORK", 0.0)
+        use_policy(monkeypatch, band_work=0.0)
     if path == "block pattern, numpy Newton":
-        monkeypatch.setattr(dda.solve.step, "DENSE_ROWS", 0)
+        use_policy(monkeypatch, band_work=0.0, dense_system_rows=0)
     stand = dda.simulate(incline_scene(0.95, dt, 0.5))
     slide = dda.simulate(incline_scene(1.05, dt, 1.0))
     used = {"band, compiled step": "step", "band, compiled Newton": "pass"}.get(path)
