@@ -46,6 +46,8 @@ MAX_CUTS = 40  # halvings of one step before the run gives up
 GROWTH = 1.5  # time-step growth per accepted step, back up to the maximum after a cut
 MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
 BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
+# summary["start"] of a run whose equilibrium start did not settle
+UNSETTLED_START = "unloaded (the equilibrium start did not settle)"
 # energy columns of Result.history (dda.run.energy): stored terms, their total, work of the loads
 HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_work")
 
@@ -79,6 +81,7 @@ class _Run:
         self.start = "unloaded"  # how the run started (dda.run.equilibrium_start)
         self.compiled_before = compile_seconds()  # the run's share goes in its summary
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
+        self.start_seconds = 0.0  # its wall seconds (the contacts found at t = 0 included)
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -148,9 +151,10 @@ def _equilibrium_start(run: _Run) -> None:
     _touching_at_start(run)
     with run.timer("start"):
         settled = settle(m, run.blocks, run.contacts, run.timer)
+    run.start_seconds = wallclock.perf_counter() - started
     if settled is None:
         run.contacts = ContactSet.empty()  # step 1 finds them afresh, as an unloaded start
-        run.start = "unloaded (the equilibrium start did not settle)"
+        run.start = UNSETTLED_START
         return
     run.contacts = settled.contacts
     run.blocks.stress = settled.stress
@@ -162,7 +166,7 @@ def _equilibrium_start(run: _Run) -> None:
         "equilibrium start: %d contacts loaded, %d Newton iterations, %.2f s",
         int(np.count_nonzero(settled.contacts.state != OPEN)),
         settled.newton_iterations,
-        wallclock.perf_counter() - started,
+        run.start_seconds,
     )
 
 
@@ -484,6 +488,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "max_iterations_step": state.max_iterations_step,
         "start": state.start,
         "start_newton_iterations": state.start_newton_iterations,
+        "start_seconds": round(state.start_seconds, 6),
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
         "search_redos": state.search_redos,
