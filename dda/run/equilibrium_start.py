@@ -40,8 +40,10 @@ at the instant of its release (its D* grows without bound, ~ load / regulariser,
 and is never applied): a sliding block starts with N = W cos θ and F = tan φ N, and
 follows ½ g (sin θ − cos θ tan φ) t² from t = 0 (to 3e-8 relative at 1 s).
 
-If a pseudo-step does not settle within ``BUDGET_FACTOR`` × ``[contact]
-max_iterations`` Newton iterations, the run starts unloaded: a warning, and both
+A pseudo-step that does not settle within ``BUDGET_FACTOR`` × ``[contact]
+max_iterations`` Newton iterations is tried again at a larger regulariser, halfway back
+(geometrically) to the last one that settled. If that fails ``RETRIES`` times in a row,
+the run starts unloaded: a warning, and both
 ``summary["start"]`` and the closing line of ``dda run`` say so (no shipped case and
 no ``dda bench`` wall from 10 × 10 to 60 × 60 comes to that).
 """
@@ -76,9 +78,14 @@ RELATIVE_REGULARISER = 1e-8
 # each solve's regulariser is this fraction of the last one's, so each solve starts
 # from the pieces and friction bounds of one that changed fewer of them
 REGULARISER_STEP = 0.1
+# ... the last one as it comes out of those steps (RELATIVE_REGULARISER to round-off)
+LAST_REGULARISER = RELATIVE_REGULARISER * (1.0 + 1e-9)
 # Newton iterations each pseudo-step may take, as a multiple of the scene's
 # [contact] max_iterations (a pseudo-step moves the blocks much further than a step)
 BUDGET_FACTOR = 5
+# a pseudo-step that does not settle within its budget is tried again at a larger
+# regulariser (``_backed_off``), up to this many times in a row
+RETRIES = 3
 # the blocks stand once a solve's regulariser forces ‖r M ΔD‖, the static residual at
 # its end, are within this fraction of the loads ‖F₀‖: as close to the limit as the
 # last regulariser takes a block that stands
@@ -123,17 +130,24 @@ def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTim
     free = ~blocks.fixed
     d = np.zeros((blocks.count, 6))
     current, newton = start.copy(), 0
-    for fraction in _regularisers():
+    fraction, settled, failed = FIRST_REGULARISER, None, 0  # r_i / (E_i / m_i)
+    while True:
         scale = fraction * stiffness
         solution = limit.solve(blocks, _restarted(start, current), scale, d, timer)
         newton += solution.newton_iterations
         if not solution.converged or not np.all(np.isfinite(solution.d)):
-            log.warning("the equilibrium start did not settle: the run starts unloaded")
-            return None
+            failed += 1
+            if failed > RETRIES:
+                log.warning("the equilibrium start did not settle: the run starts unloaded")
+                return None
+            fraction = _backed_off(fraction, settled)
+            continue
+        failed = 0
         step = np.where(free[:, None], solution.d, 0.0)
         d, current = d + step, solution.contacts
-        if limit.stands(scale, step):
+        if limit.stands(scale, step) or fraction <= LAST_REGULARISER:
             break
+        settled, fraction = fraction, max(fraction * REGULARISER_STEP, RELATIVE_REGULARISER)
     for effect in model.effects:
         effect.preload(blocks, d)
     loaded = _loaded(contacts, touching, current, start.penetration)
@@ -190,11 +204,13 @@ class _Limit:
         return bool(np.linalg.norm(held) <= STANDING * self.loads)
 
 
-def _regularisers() -> np.ndarray:
-    """r_i / (E_i / m_i) of the pseudo-steps: from ``FIRST_REGULARISER`` down by
-    ``REGULARISER_STEP`` each, the last ``RELATIVE_REGULARISER`` exactly."""
-    decades = np.log(FIRST_REGULARISER / RELATIVE_REGULARISER) / -np.log(REGULARISER_STEP)
-    return np.geomspace(FIRST_REGULARISER, RELATIVE_REGULARISER, int(np.ceil(decades - 1e-9)) + 1)
+def _backed_off(fraction: float, settled: float | None) -> float:
+    """The regulariser (over E / m) to try again a pseudo-step at ``fraction`` that did not
+    settle: halfway back (geometrically) to ``settled``, the last one that did, or
+    tenfold for the first pseudo-step (a larger regulariser changes fewer pieces)."""
+    if settled is None:
+        return fraction / REGULARISER_STEP
+    return float(np.sqrt(fraction * settled))
 
 
 def _context(model: Model) -> StepContext:
