@@ -60,3 +60,44 @@ def test_the_start_does_not_depend_on_the_time_step(monkeypatch):
     first = coarse.frames[0].contacts, fine.frames[0].contacts
     np.testing.assert_array_equal(first[0].normal_force, first[1].normal_force)
     np.testing.assert_array_equal(first[0].shear_force, first[1].shear_force)
+
+
+def _failing(monkeypatch, calls: set[int]) -> list[float]:
+    """As :func:`_regularisers`, the pseudo-steps whose number (from 0) is in ``calls``
+    reported as not settled."""
+    seen = _regularisers(monkeypatch)
+    solve = equilibrium_start.solve_step
+
+    def failing(model, blocks, contacts, ctx, timer):
+        solution = solve(model, blocks, contacts, ctx, timer)
+        if len(seen) - 1 in calls:
+            solution.converged = False
+        return solution
+
+    monkeypatch.setattr(equilibrium_start, "solve_step", failing)
+    return seen
+
+
+def test_a_pseudo_step_that_does_not_settle_is_tried_again_at_a_larger_regulariser(
+    monkeypatch,
+):
+    """The first, tenfold; a later one, halfway back (geometrically) to the last that
+    settled; the start goes on from there."""
+    seen = _failing(monkeypatch, {0, 3})
+    result = dda.simulate(incline_scene(1.05, 1e-3, 1e-3))
+    assert result.summary["start"] == "equilibrium"
+    first = equilibrium_start.FIRST_REGULARISER
+    assert seen[:4] == pytest.approx([first, 10 * first, first, first / 10])
+    assert seen[4] == pytest.approx(first / 10**0.5)
+    assert seen[5] == pytest.approx(first / 10**1.5)
+
+
+def test_a_start_that_never_settles_starts_unloaded_and_says_so(monkeypatch):
+    """After ``RETRIES`` tries in a row: the run goes on from the unloaded start, and its
+    summary says why."""
+    from dda.run.simulation import UNSETTLED_START
+
+    _failing(monkeypatch, set(range(equilibrium_start.RETRIES + 1)))
+    result = dda.simulate(incline_scene(0.5, 1e-3, 1e-3))
+    assert result.summary["status"] == "finished"
+    assert result.summary["start"] == UNSETTLED_START
