@@ -67,10 +67,10 @@ from dda.solve.timing import StageTimer
 log = logging.getLogger(__name__)
 
 # the first solve's regulariser over each block's E_i / m_i (Newton iterations of the
-# whole start against the run's own 2/Δt², measured: 10 x 10 wall 38 / 97, 20 x 20
-# 52 / 122, 40 x 40 168 / 271, the tunnel 468 / 559, the rock slope 83 / 159; 1e-3 and
-# 1e-4 were as good on the small walls, worse on the large ones, and 1e-4 did not
-# settle the tunnel with the numpy twins; docs/contact.md)
+# whole start against the run's own 2/Δt², one solver thread: 20 x 20 wall 52 / 103,
+# 40 x 40 168 / 223, the tunnel 422 / 583, the rock slope 82 / 129; 1e-3 and 1e-4 did
+# better on some and worse on others, and 1e-4 did not settle the tunnel with the numpy
+# twins: docs/contact.md, "What the equilibrium start costs")
 FIRST_REGULARISER = 1e-2
 # the last regulariser's stiffness over each block's Young's modulus: small enough that
 # the forces are those of the limit (to this fraction)
