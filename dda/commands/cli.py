@@ -570,6 +570,7 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     if summary.get("max_penetration") is not None:
         length = unit_name("length", units)
         text += f" Largest penetration {_number(summary['max_penetration'])} {length}."
+    text += _start_sentence(summary)
     if summary.get("iterations") is not None:
         text += f" {summary['iterations']} solves"
         newton = summary.get("newton_iterations")
@@ -586,6 +587,20 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     if summary.get("bolts") is not None:
         text += f" {len(summary.get('bolt_events') or ())} of {summary['bolts']} bolts broke."
     return text + f"\nOutput ({summary.get('frames_written', 0)} frames): {outdir}"
+
+
+def _start_sentence(summary: dict[str, Any]) -> str:
+    """How the run started: the equilibrium start's cost, or that it did not settle and
+    the run started unloaded (:mod:`dda.run.equilibrium_start`); nothing for a run that
+    asked for the unloaded start or resumed."""
+    start = summary.get("start")
+    if start == "equilibrium":
+        newton = summary.get("start_newton_iterations")
+        seconds = _number(summary.get("start_seconds"), ".3g")
+        return f" Equilibrium start: {newton} Newton iterations, {seconds} s."
+    if start is not None and start.startswith("unloaded ("):
+        return " The equilibrium start did not settle: the run started unloaded."
+    return ""
 
 
 def _number(value: Any, fmt: str = ".6g") -> str:

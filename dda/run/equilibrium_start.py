@@ -12,11 +12,18 @@ the loaded one, so by default (``start = "equilibrium"``) a dynamic run starts f
 the state of the scene's geometry under its loads at t = 0:
 
 * D* minimises the step's potential with the inertia term 2M/Δt² replaced by a
-  regulariser r_i M_i, lowered tenfold a pseudo-step (``REGULARISER_STEP``) from the
-  run's own 2/Δt² down to ``RELATIVE_REGULARISER`` of each block's E_i / m_i: the
+  regulariser r_i M_i, lowered tenfold a pseudo-step (``REGULARISER_STEP``) from
+  ``FIRST_REGULARISER`` to ``RELATIVE_REGULARISER`` of each block's E_i / m_i: the
   limit of a static step as Δt → ∞, reached by continuation (each pseudo-step starts
   from the pieces and friction bounds of the last; one solve at the final regulariser
-  changes too many contact pieces at once to converge in a jointed rock mass).
+  changes too many contact pieces at once to converge in a jointed rock mass). The
+  first regulariser holds the blocks at 1 % of their elastic stiffness, whatever the
+  run's Δt: the loads go into the contacts in that first solve, while the regulariser
+  still holds the blocks that will slide. The continuation stops early once a
+  pseudo-step has moved the blocks by nothing that matters: its regulariser forces
+  ‖r M ΔD‖, the static residual at its end, within ``STANDING`` of the loads (every
+  block stands; one that cannot goes on moving by about its unbalanced load / r, and
+  takes the continuation to the last regulariser).
   The gaps are linear in D (paper eqs. 9-13), so the pseudo-steps accumulate D* with
   the geometry of t = 0.
 * The blocks are not moved. The contacts that touch at t = 0 carry the forces of D*
@@ -33,9 +40,12 @@ at the instant of its release (its D* grows without bound, ~ load / regulariser,
 and is never applied): a sliding block starts with N = W cos θ and F = tan φ N, and
 follows ½ g (sin θ − cos θ tan φ) t² from t = 0 (to 3e-8 relative at 1 s).
 
-If a pseudo-step does not settle within ``BUDGET_FACTOR`` × ``[contact]
-max_iterations`` Newton iterations, the run starts unloaded (a warning, and
-``summary["start"]`` says so).
+A pseudo-step that does not settle within ``BUDGET_FACTOR`` × ``[contact]
+max_iterations`` Newton iterations is tried again at a larger regulariser, halfway back
+(geometrically) to the last one that settled. If that fails ``RETRIES`` times in a row,
+the run starts unloaded: a warning, and both
+``summary["start"]`` and the closing line of ``dda run`` say so (no shipped case and
+no ``dda bench`` wall from 10 × 10 to 60 × 60 comes to that).
 """
 
 from __future__ import annotations
@@ -56,16 +66,30 @@ from dda.solve.timing import StageTimer
 
 log = logging.getLogger(__name__)
 
+# the first solve's regulariser over each block's E_i / m_i (Newton iterations of the
+# whole start against the run's own 2/Δt², one solver thread: 20 x 20 wall 52 / 103,
+# 40 x 40 168 / 223, the tunnel 422 / 583, the rock slope 82 / 129; 1e-3 and 1e-4 did
+# better on some and worse on others, and 1e-4 did not settle the tunnel with the numpy
+# twins: docs/contact.md, "What the equilibrium start costs")
+FIRST_REGULARISER = 1e-2
 # the last regulariser's stiffness over each block's Young's modulus: small enough that
 # the forces are those of the limit (to this fraction)
 RELATIVE_REGULARISER = 1e-8
-# each solve's regulariser is this fraction of the last one's (Δt of the pseudo-step
-# grows tenfold): the first is the run's own inertia term 2M/Δt², so each solve starts
+# each solve's regulariser is this fraction of the last one's, so each solve starts
 # from the pieces and friction bounds of one that changed fewer of them
 REGULARISER_STEP = 0.1
+# ... the last one as it comes out of those steps (RELATIVE_REGULARISER to round-off)
+LAST_REGULARISER = RELATIVE_REGULARISER * (1.0 + 1e-9)
 # Newton iterations each pseudo-step may take, as a multiple of the scene's
 # [contact] max_iterations (a pseudo-step moves the blocks much further than a step)
 BUDGET_FACTOR = 5
+# a pseudo-step that does not settle within its budget is tried again at a larger
+# regulariser (``_backed_off``), up to this many times in a row
+RETRIES = 3
+# the blocks stand once a solve's regulariser forces ‖r M ΔD‖, the static residual at
+# its end, are within this fraction of the loads ‖F₀‖: as close to the limit as the
+# last regulariser takes a block that stands
+STANDING = RELATIVE_REGULARISER
 
 
 class Proximal(Effect):
@@ -101,43 +125,97 @@ def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTim
     springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``)."""
     touching = np.flatnonzero(contacts.state != OPEN)
     start = contacts.subset(touching)
-    contact = model.contact
-    if contact is not None:
-        contact = replace(contact, law=replace(contact.law, augmented=False))
-    kept = [e for e in model.effects if not isinstance(e, Inertia)]
-    budget = BUDGET_FACTOR * model.scene.contact.max_iterations
-    scene = replace(model.scene, contact=replace(model.scene.contact, max_iterations=budget))
-    ctx = StepContext(dt=model.max_time_step, time=0.0, step=0, static=True)
-    linear = sum(
-        (k for e in kept if (k := e.stiffness(blocks, ctx)) is not None),
-        np.zeros((blocks.count, 6, 6)),
-    )
-    masses = model.inertia.masses(blocks)
-    scale = np.full(blocks.count, 2.0 / model.max_time_step**2)
-    floor = RELATIVE_REGULARISER * _young(model)[blocks.material] / masses[:, 0, 0]
-    free = ~blocks.fixed[:, None]
+    limit = _Limit.of(model, blocks)
+    stiffness = _young(model)[blocks.material] / limit.masses[:, 0, 0]  # E_i / m_i
+    free = ~blocks.fixed
     d = np.zeros((blocks.count, 6))
     current, newton = start.copy(), 0
+    fraction, settled, failed = FIRST_REGULARISER, None, 0  # r_i / (E_i / m_i)
     while True:
-        offset = -np.einsum("nij,nj->ni", linear, d)
-        effects = [Proximal(masses, scale, offset), *kept]
-        limit = replace(model, scene=scene, effects=effects, contact=contact)
-        ctx.prescribed = d
-        solution = solve_step(limit, blocks, _restarted(start, current), ctx, timer)
+        scale = fraction * stiffness
+        solution = limit.solve(blocks, _restarted(start, current), scale, d, timer)
         newton += solution.newton_iterations
         if not solution.converged or not np.all(np.isfinite(solution.d)):
-            log.warning("the equilibrium start did not settle: the run starts unloaded")
-            return None
-        d = d + np.where(free, solution.d, 0.0)
-        current = solution.contacts
-        if np.all(scale <= floor):
+            failed += 1
+            if failed > RETRIES:
+                log.warning("the equilibrium start did not settle: the run starts unloaded")
+                return None
+            fraction = _backed_off(fraction, settled)
+            continue
+        failed = 0
+        step = np.where(free[:, None], solution.d, 0.0)
+        d, current = d + step, solution.contacts
+        if limit.stands(scale, step) or fraction <= LAST_REGULARISER:
             break
-        scale = np.maximum(scale * REGULARISER_STEP, floor)
+        settled, fraction = fraction, max(fraction * REGULARISER_STEP, RELATIVE_REGULARISER)
     for effect in model.effects:
         effect.preload(blocks, d)
     loaded = _loaded(contacts, touching, current, start.penetration)
     stress = blocks.stress + model.elastic.stress_increment(blocks, d)
     return Settled(loaded, stress, newton)
+
+
+@dataclass
+class _Limit:
+    """The static solves of the start: the run's model without inertia, pure penalty,
+    ``BUDGET_FACTOR`` times its Newton budget, the regulariser :class:`Proximal` in
+    place of the inertia."""
+
+    model: Model
+    effects: list[Effect]  # the run's, less inertia
+    linear: np.ndarray  # (n, 6, 6) their block-diagonal springs
+    masses: np.ndarray  # (n, 6, 6)
+    loads: float  # ‖F₀‖ over the free blocks: the effects' forces at the start
+
+    @classmethod
+    def of(cls, model: Model, blocks: BlockSet) -> _Limit:
+        contact = model.contact
+        if contact is not None:
+            contact = replace(contact, law=replace(contact.law, augmented=False))
+        budget = BUDGET_FACTOR * model.scene.contact.max_iterations
+        scene = replace(model.scene, contact=replace(model.scene.contact, max_iterations=budget))
+        static = replace(model, scene=scene, contact=contact)
+        kept = [e for e in model.effects if not isinstance(e, Inertia)]
+        ctx = _context(model)
+        linear, forces = np.zeros((blocks.count, 6, 6)), np.zeros((blocks.count, 6))
+        for effect in kept:
+            if (k := effect.stiffness(blocks, ctx)) is not None:
+                linear += k
+            if (f := effect.forces(blocks, ctx)) is not None:
+                forces += f
+        loads = float(np.linalg.norm(forces[~blocks.fixed]))
+        masses = model.inertia.masses(blocks)
+        return cls(static, kept, linear, masses, loads)
+
+    def solve(self, blocks, contacts, scale, d, timer):
+        """The step ΔD from the accumulated ``d`` held by the regulariser ``scale`` r_i."""
+        offset = -np.einsum("nij,nj->ni", self.linear, d)
+        effects = [Proximal(self.masses, scale, offset), *self.effects]
+        model = replace(self.model, effects=effects)
+        ctx = _context(model)
+        ctx.prescribed = d
+        return solve_step(model, blocks, contacts, ctx, timer)
+
+    def stands(self, scale: np.ndarray, step: np.ndarray) -> bool:
+        """True when the regulariser forces of the solve ``step``, the static residual
+        r M ΔD at its end, are within ``STANDING`` of the loads: every block stands
+        (one that cannot goes on moving by about its unbalanced load / r)."""
+        held = scale[:, None] * np.einsum("nij,nj->ni", self.masses, step)
+        return bool(np.linalg.norm(held) <= STANDING * self.loads)
+
+
+def _backed_off(fraction: float, settled: float | None) -> float:
+    """The regulariser (over E / m) to try again a pseudo-step at ``fraction`` that did not
+    settle: halfway back (geometrically) to ``settled``, the last one that did, or
+    tenfold for the first pseudo-step (a larger regulariser changes fewer pieces)."""
+    if settled is None:
+        return fraction / REGULARISER_STEP
+    return float(np.sqrt(fraction * settled))
+
+
+def _context(model: Model) -> StepContext:
+    """The static solves' step context at t = 0."""
+    return StepContext(dt=model.max_time_step, time=0.0, step=0, static=True)
 
 
 def _restarted(start: ContactSet, solved: ContactSet) -> ContactSet:

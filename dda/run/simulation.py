@@ -42,6 +42,8 @@ MAX_CUTS = 40  # halvings of one step before the run gives up
 GROWTH = 1.5  # time-step growth per accepted step, back up to the maximum after a cut
 MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
 BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
+# summary["start"] of a run whose equilibrium start did not settle
+UNSETTLED_START = "unloaded (the equilibrium start did not settle)"
 # energy columns of Result.history (dda.run.energy): stored terms, their total, work of the loads
 HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_work")
 
@@ -147,9 +149,10 @@ def _equilibrium_start(run: _Run) -> None:
     _touching_at_start(run)
     with run.timer("start"):  # its own stages apart: the steps' stay the steps'
         settled = settle(m, run.blocks, run.contacts, StageTimer())
+    run.start_seconds = wallclock.perf_counter() - started
     if settled is None:
         run.contacts = ContactSet.empty()  # step 1 finds them afresh, as an unloaded start
-        run.start = "unloaded (the equilibrium start did not settle)"
+        run.start = UNSETTLED_START
         return
     run.contacts = settled.contacts
     run.blocks.stress = settled.stress
@@ -162,7 +165,7 @@ def _equilibrium_start(run: _Run) -> None:
         "equilibrium start: %d contacts loaded, %d Newton iterations, %.2f s",
         int(np.count_nonzero(settled.contacts.state != OPEN)),
         settled.newton_iterations,
-        wallclock.perf_counter() - started,
+        run.start_seconds,
     )
 
 

@@ -259,6 +259,19 @@ def test_the_run_paragraph_tells_the_newton_iterations_beside_the_solves():
     assert "9 solves." in cli.summary_paragraph(base, Path("out"))  # an older summary.json
 
 
+def test_the_run_paragraph_tells_how_the_run_started():
+    """The equilibrium start's cost; a start that did not settle is never silent."""
+    from dda.run.simulation import UNSETTLED_START
+
+    base = {"title": "t", "steps": 2, "time": 0.2, "wall_seconds": 1.0, "iterations": 9}
+    loaded = {**base, "start": "equilibrium", "start_newton_iterations": 12}
+    text = cli.summary_paragraph({**loaded, "start_seconds": 0.0312}, Path("out"))
+    assert "Equilibrium start: 12 Newton iterations, 0.0312 s." in text
+    fallen_back = cli.summary_paragraph({**base, "start": UNSETTLED_START}, Path("out"))
+    assert "The equilibrium start did not settle: the run started unloaded." in fallen_back
+    assert "start" not in cli.summary_paragraph({**base, "start": "unloaded"}, Path("out"))
+
+
 # ------------------------------------------------------------------ dda render
 
 
