@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from dda.jit import formula
+from dda.jit import formula, select
 
 # pieces of a contact's terms (shear: which side of the friction bound, or stuck)
 NORMAL_LIMIT, NORMAL_ELASTIC = 0, 1  # at the limit −T (open when T = 0) / elastic spring
@@ -39,12 +39,6 @@ SLIP_BACK, STICK, SLIP_FORWARD = -1, 0, 1
 
 MOBILISED_CAP = math.radians(70.0)
 TINY = 1e-300  # keeps the logarithm of σn = 0 and of a Coulomb joint's JCS = 0 finite
-
-
-@formula
-def select(condition, if_true, if_false):
-    """``np.where`` as a number for numbers (numba's is a 0-d array), as an array for arrays."""
-    return np.where(condition, if_true, if_false)[()]
 
 
 @formula

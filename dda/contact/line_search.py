@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.contact.formulas import normal_trial, shear_trial
 from dda.contact.potential import ContactTerms
 from dda.jit import compiled, kernel
 
@@ -130,7 +131,7 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
     count = 0
     slope = curvature
     for c in range(m):
-        trial_n = lam_n[c] + p[c] * g[c]
+        trial_n = normal_trial(lam_n[c], p[c], g[c])
         if trial_n > -tension[c] or (trial_n == -tension[c] and dg[c] > 0.0):
             slope += p[c] * dg[c] * dg[c]  # elastic just after α = 0
         rate_n = p[c] * dg[c]
@@ -142,7 +143,7 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
         b = bound[c]
         if not (ps[c] > 0.0 and b > 0.0):
             continue
-        trial_t = lam_t[c] + ps[c] * s[c]
+        trial_t = shear_trial(lam_t[c], ps[c], s[c])
         if abs(trial_t) < b or (trial_t == b and ds[c] < 0.0) or (trial_t == -b and ds[c] > 0.0):
             slope += ps[c] * ds[c] * ds[c]  # stuck just after α = 0
         rate_t = ps[c] * ds[c]

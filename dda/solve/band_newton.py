@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.contact.formulas import normal_force as normal_force_of
+from dda.contact.formulas import shear_force as shear_force_of
 from dda.contact.line_search import _line_minimum_kernel
 from dda.jit import Lapack, kernel
 from dda.solve.band_arguments import PassOutcome
@@ -156,8 +158,8 @@ def _residual(geometry, terms, kd, g, s):
     m = g.shape[0]
     normal_force, shear_force = np.empty(m), np.empty(m)
     for c in range(m):
-        normal_force[c] = max(lam_n[c] + p[c] * g[c], -tension[c])
-        shear_force[c] = min(max(lam_t[c] + ps[c] * s[c], -bound[c]), bound[c])
+        normal_force[c] = normal_force_of(lam_n[c], p[c], tension[c], g[c])
+        shear_force[c] = shear_force_of(lam_t[c], ps[c], bound[c], s[c])
     contact = _gather(columns, normal_rows, normal_force, shear_rows, shear_force, kd.shape[0])
     residual = kd - forces + contact
     scale = np.linalg.norm(kd) + np.linalg.norm(contact) + np.linalg.norm(forces)

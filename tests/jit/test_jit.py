@@ -179,3 +179,54 @@ def test_kernels_copy_arrays_into_slices_by_loops():
         name: lines for name, f in kernels.items() if (lines := _slice_assignments_of_arrays(f))
     }
     assert found == {}
+
+
+@needs_numba
+def test_formulas_of_numbers_compile_to_branches_that_allocate_nothing():
+    """A formula called on one contact's numbers inside a kernel must not build arrays:
+    numba's ``np.where`` of numbers makes a 0-d array on the heap per call (it made the
+    contact law's loops several times slower), so :func:`dda.jit.select` compiles to a
+    plain choice for numbers; the machine code of a kernel calling the formulas holds
+    no allocation. Arrays still take ``np.where``."""
+    import numba
+    import numpy as np
+
+    from dda.contact import formulas
+
+    jit._register_formulas()
+
+    @numba.njit
+    def one_contact(base, penalty, bound, value):
+        return (
+            formulas.shear_piece(base, penalty, bound, value)
+            + formulas.normal_offset(base, penalty, bound, value, formulas.NORMAL_ELASTIC)
+            + formulas.shear_spring(penalty, formulas.STICK)
+            + formulas.tension_held(STRENGTH, 0, value > 0.0)
+        )
+
+    STRENGTH = _strength_of_one_joint()
+    assert one_contact(1.0, 2.0, 3.0, 4.0) == pytest.approx(
+        formulas.shear_piece(1.0, 2.0, 3.0, 4.0)
+        + formulas.normal_offset(1.0, 2.0, 3.0, 4.0, formulas.NORMAL_ELASTIC)
+        + formulas.shear_spring(2.0, formulas.STICK)
+        + formulas.tension_held(STRENGTH, 0, True)
+    )
+    machine_code = "".join(one_contact.inspect_llvm().values())
+    assert "NRT_MemInfo_alloc" not in machine_code
+
+    @numba.njit
+    def many(condition, a, b):
+        return jit.select(condition, a, b)
+
+    chosen = many(np.array([True, False]), np.array([1.0, 2.0]), np.array([3.0, 4.0]))
+    assert np.array_equal(chosen, [1.0, 4.0])
+
+
+def _strength_of_one_joint():
+    """A joint-strength tuple of one contact, as the law passes the kernels."""
+    import numpy as np
+
+    from dda.contact.strength import Strength
+
+    one = np.ones(1)
+    return Strength(*(False if name == "any_barton" else one for name in Strength._fields))
