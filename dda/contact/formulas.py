@@ -5,8 +5,9 @@ paths: one call over all contacts) or numbers (the compiled loops of
 :mod:`dda.contact.law_kernels`, :mod:`dda.solve.contact_pieces` and
 :mod:`dda.solve.band_step`, one contact at a time, which compile the same function into
 themselves), using only ``np.maximum``, ``np.minimum``, :func:`select` (``np.where``)
-and arithmetic, which mean the same on both. The joint strengths are read through
-``at``: a contact's index in the compiled loops, ``slice(None)`` (all of them) in numpy.
+and arithmetic, which mean the same on both. The joint strengths come as ``joint``:
+the contacts' :class:`~dda.contact.strength.JointProperties` (arrays) in numpy, one
+contact's :func:`~dda.contact.strength.joint_of` (numbers) in the compiled loops.
 
 With λn the normal multiplier, p the penalty, T the tension a contact holds, λt the
 shear force carried, ps the shear penalty and b the friction bound (docs/theory.md
@@ -66,32 +67,32 @@ def shear_force(shear_base, shear_penalty, bound, slip):
 
 
 @formula
-def tension_held(strength, at, intact):
+def tension_held(joint, intact):
     """T l while intact, the residual T_r l after."""
-    return select(intact, strength.tensile[at], strength.residual_tensile[at])
+    return select(intact, joint.tensile, joint.residual_tensile)
 
 
 @formula
-def mobilised_tangent(strength, at, pressed):
+def mobilised_tangent(joint, pressed):
     """tan φ_mob of Barton–Bandis at the normal force ``pressed`` ≥ 0 (module notes)."""
-    ratio = np.maximum(strength.jcs_length[at], TINY) / np.maximum(pressed, TINY)
-    residual = strength.residual_angle[at]
-    angle = residual + strength.jrc[at] * np.log10(ratio) * (math.pi / 180.0)
+    ratio = np.maximum(joint.jcs_length, TINY) / np.maximum(pressed, TINY)
+    residual = joint.residual_angle
+    angle = residual + joint.jrc * np.log10(ratio) * (math.pi / 180.0)
     return np.tan(np.minimum(np.maximum(angle, residual), MOBILISED_CAP))
 
 
 @formula
-def friction_bound(strength, at, normal, intact):
+def friction_bound(joint, normal, intact):
     """b of the normal force ``normal``: Coulomb, peak while intact and residual after,
     or Barton–Bandis (module notes; its formula only where some joint has it)."""
     pressed = np.maximum(normal, 0.0)
-    held = select(intact, strength.cohesion[at], strength.residual_cohesion[at])
-    tangent = select(intact, strength.friction[at], strength.residual_friction[at])
+    held = select(intact, joint.cohesion, joint.residual_cohesion)
+    tangent = select(intact, joint.friction, joint.residual_friction)
     coulomb = tangent * pressed + held
-    if not strength.any_barton:
+    if not joint.any_barton:
         return coulomb
-    barton = (pressed * mobilised_tangent(strength, at, pressed) + held) / strength.divisor[at]
-    return select(strength.barton[at], barton, coulomb)
+    barton = (pressed * mobilised_tangent(joint, pressed) + held) / joint.divisor
+    return select(joint.barton, barton, coulomb)
 
 
 @formula

@@ -83,7 +83,7 @@ class LawOutcome:
 def friction_bound(contacts: ContactSet, joint: JointProperties, normal: np.ndarray):
     """b of the normal forces: :func:`dda.contact.formulas.friction_bound` (peak strength
     while a contact is intact, residual after; Coulomb or Barton–Bandis)."""
-    return formulas.friction_bound(joint, slice(None), normal, contacts.intact)
+    return formulas.friction_bound(joint, normal, contacts.intact)
 
 
 def contact_terms(
@@ -103,7 +103,7 @@ def contact_terms(
         return ContactTerms(
             normal_base, contacts.penalty, tension, shear_base, shear_penalty, bound
         )
-    tension = formulas.tension_held(joint, slice(None), contacts.intact)
+    tension = formulas.tension_held(joint, contacts.intact)
     lam_n = contacts.normal_multiplier
     if law.friction:
         shear_penalty = law.shear_ratio * contacts.penalty

@@ -23,6 +23,7 @@ from dda.contact.formulas import (
     tension_held,
 )
 from dda.contact.potential import NORMAL_ELASTIC, STICK
+from dda.contact.strength import joint_of
 from dda.jit import kernel
 from dda.result import LOCKED, OPEN, SLIDING
 
@@ -36,7 +37,7 @@ def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, f
     tension, normal_base = np.empty(m), np.empty(m)
     shear_base, shear_penalty, bounds = np.empty(m), np.empty(m), np.empty(m)
     for c in range(m):
-        tension[c] = tension_held(strength, c, intact[c])
+        tension[c] = tension_held(joint_of(strength, c), intact[c])
         normal_base[c] = max(multiplier[c], -tension[c])
         b = bound[c] if friction else 0.0
         bounds[c] = b
@@ -60,7 +61,7 @@ def _forces_and_bounds(
         if not friction:
             new_bound[c] = bound[c]
             continue
-        new_bound[c] = friction_bound(strength, c, normal[c], intact[c])
+        new_bound[c] = friction_bound(joint_of(strength, c), normal[c], intact[c])
         after = shear_force(shear_base[c], shear_penalty[c], new_bound[c], s[c])
         changed[c] = abs(after - shear_force(shear_base[c], shear_penalty[c], bound[c], s[c]))
     return normal, new_bound, changed

@@ -7,6 +7,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dda.jit import formula
+
 
 class Strength(NamedTuple):
     """:class:`JointProperties` as the compiled loops take it (contiguous arrays)."""
@@ -23,6 +25,22 @@ class Strength(NamedTuple):
     residual_angle: np.ndarray
     divisor: np.ndarray
     any_barton: bool  # some contact is on a Barton–Bandis joint
+
+
+@formula
+def joint_of(strength: Strength, contact: int) -> Strength:
+    """Contact ``contact``'s strengths as numbers, for the formulas in a compiled loop.
+
+    A kernel's formula reads a row of numbers, never the tuple of arrays: with the
+    tuple of eleven arrays handed to the formula in its loop, the contact law's forces
+    and bounds of 3,600 contacts took 290 µs a pass against 29 µs this way (the loop's
+    machine code then kept reference counts of the arrays)."""
+    s, c = strength, contact
+    return Strength(
+        s.friction[c], s.cohesion[c], s.tensile[c], s.residual_friction[c],
+        s.residual_cohesion[c], s.residual_tensile[c], s.barton[c], s.jrc[c],
+        s.jcs_length[c], s.residual_angle[c], s.divisor[c], s.any_barton,
+    )  # fmt: skip
 
 
 @dataclass

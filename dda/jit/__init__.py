@@ -148,7 +148,7 @@ def _register_select() -> None:
 
     @overload(select)
     def _select(condition, if_true, if_false):
-        if isinstance(condition, types.Boolean):
+        if isinstance(condition, (types.Boolean, types.Number)):
 
             def choose(condition, if_true, if_false):
                 return if_true if condition else if_false
@@ -180,7 +180,7 @@ def _register_formulas() -> None:
         _register_select()
 
     for function in _FORMULAS[_REGISTERED[0] :]:
-        register_jitable(function)
+        register_jitable(inline="always")(function)
     _REGISTERED[0] = len(_FORMULAS)
 
 

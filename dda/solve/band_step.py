@@ -25,6 +25,7 @@ from dda.contact import law as contact_law
 from dda.contact.formulas import friction_bound, tension_held
 from dda.contact.law import UNBOUNDED, BoundIteration
 from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
+from dda.contact.strength import joint_of
 from dda.jit import floats, kernel
 from dda.result import LOCKED, OPEN, SLIDING
 from dda.solve import band_newton, contact_pieces
@@ -59,9 +60,9 @@ def _first_bounds(intact, strength, multiplier, penalty, g0, last_normal, fresh,
     if not friction:
         return bound
     for c in range(m):
-        tension = tension_held(strength, c, intact[c])
+        tension = tension_held(joint_of(strength, c), intact[c])
         start = formulas.normal_force(max(multiplier[c], -tension), penalty[c], tension, g0[c])
-        bound[c] = friction_bound(strength, c, max(start, last_normal[c]), intact[c])
+        bound[c] = friction_bound(joint_of(strength, c), max(start, last_normal[c]), intact[c])
         if fresh[c] and state[c] != OPEN:
             bound[c] = UNBOUNDED
     return bound
@@ -218,7 +219,7 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
             target = np.empty(m)
             for c in range(m):  # the bounds of this pass's normal forces
                 normal = formulas.normal_force(normal_base[c], terms_penalty[c], tension[c], g[c])
-                target[c] = friction_bound(strength, c, normal, intact[c])
+                target[c] = friction_bound(joint_of(strength, c), normal, intact[c])
             bound, history = _advance(bound, target, points, residuals, history)
             continue
         normal, target, changed = forces_and_bounds_kernel(

@@ -157,10 +157,10 @@ def props(**given) -> JointProperties:
 
 def test_the_friction_bound_is_peak_while_intact_and_residual_after():
     joint = props(residual_friction=np.array([0.2]), residual_cohesion=np.array([1.0]))
-    intact = formulas.friction_bound(joint, slice(None), np.array([100.0]), np.array([True]))
-    broken = formulas.friction_bound(joint, slice(None), np.array([100.0]), np.array([False]))
+    intact = formulas.friction_bound(joint, np.array([100.0]), np.array([True]))
+    broken = formulas.friction_bound(joint, np.array([100.0]), np.array([False]))
     assert (intact[0], broken[0]) == (0.5 * 100 + 10, 0.2 * 100 + 1)
-    assert formulas.tension_held(joint, slice(None), np.array([False]))[0] == 0.0
+    assert formulas.tension_held(joint, np.array([False]))[0] == 0.0
 
 
 def test_the_barton_bandis_angle_is_held_between_the_residual_and_70_degrees():
@@ -172,7 +172,7 @@ def test_the_barton_bandis_angle_is_held_between_the_residual_and_70_degrees():
     normal = np.array([1e-3, 1e5, 1e6, 1e7])
     joint = JointProperties(**{k: np.repeat(v, 4) if isinstance(v, np.ndarray) else v
                                for k, v in joint.__dict__.items()})  # fmt: skip
-    bound = formulas.friction_bound(joint, slice(None), normal, np.ones(4, bool))
+    bound = formulas.friction_bound(joint, normal, np.ones(4, bool))
     expected = normal * np.tan(np.radians([70.0, 50.0, 30.0, 30.0])) / 2.0
     np.testing.assert_allclose(bound, expected, rtol=1e-12)
 

@@ -186,12 +186,14 @@ def test_formulas_of_numbers_compile_to_branches_that_allocate_nothing():
     """A formula called on one contact's numbers inside a kernel must not build arrays:
     numba's ``np.where`` of numbers makes a 0-d array on the heap per call (it made the
     contact law's loops several times slower), so :func:`dda.jit.select` compiles to a
-    plain choice for numbers; the machine code of a kernel calling the formulas holds
-    no allocation. Arrays still take ``np.where``."""
+    plain choice for numbers, and the formulas read one contact's strengths as numbers
+    (:func:`~dda.contact.strength.joint_of`); the machine code of a kernel calling them
+    holds no allocation. Arrays still take ``np.where``."""
     import numba
     import numpy as np
 
     from dda.contact import formulas
+    from dda.contact.strength import joint_of
 
     jit._register_formulas()
 
@@ -201,7 +203,8 @@ def test_formulas_of_numbers_compile_to_branches_that_allocate_nothing():
             formulas.shear_piece(base, penalty, bound, value)
             + formulas.normal_offset(base, penalty, bound, value, formulas.NORMAL_ELASTIC)
             + formulas.shear_spring(penalty, formulas.STICK)
-            + formulas.tension_held(STRENGTH, 0, value > 0.0)
+            + formulas.tension_held(joint_of(STRENGTH, 0), value > 0.0)
+            + formulas.friction_bound(joint_of(STRENGTH, 0), value, value > 0.0)
         )
 
     STRENGTH = _strength_of_one_joint()
@@ -209,7 +212,8 @@ def test_formulas_of_numbers_compile_to_branches_that_allocate_nothing():
         formulas.shear_piece(1.0, 2.0, 3.0, 4.0)
         + formulas.normal_offset(1.0, 2.0, 3.0, 4.0, formulas.NORMAL_ELASTIC)
         + formulas.shear_spring(2.0, formulas.STICK)
-        + formulas.tension_held(STRENGTH, 0, True)
+        + formulas.tension_held(joint_of(STRENGTH, 0), True)
+        + formulas.friction_bound(joint_of(STRENGTH, 0), 4.0, True)
     )
     machine_code = "".join(one_contact.inspect_llvm().values())
     assert "NRT_MemInfo_alloc" not in machine_code
@@ -228,5 +232,6 @@ def _strength_of_one_joint():
 
     from dda.contact.strength import Strength
 
-    one = np.ones(1)
-    return Strength(*(False if name == "any_barton" else one for name in Strength._fields))
+    values = {name: np.ones(1) for name in Strength._fields}
+    values.update(barton=np.zeros(1, bool), any_barton=False)
+    return Strength(**values)
