@@ -180,7 +180,7 @@ def _register_formulas() -> None:
         _register_select()
 
     for function in _FORMULAS[_REGISTERED[0] :]:
-        register_jitable(inline="always")(function)
+        register_jitable(function)
     _REGISTERED[0] = len(_FORMULAS)
 
 
