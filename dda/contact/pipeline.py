@@ -20,6 +20,13 @@ from dda.contact.contact_set import (
 )
 from dda.contact.narrow import OUTSIDE_FRACTION, _detect_kernel, detect, detect_arguments
 from dda.contact.point_distance import _distances_kernel, block_polygons, point_distances
+from dda.contact.refresh_arguments import (
+    CarriedFields,
+    NarrowInput,
+    NewContacts,
+    Refreshed,
+    SiftRules,
+)
 from dda.contact.rows import _edge_geometry_kernel, edge_geometry
 from dda.jit import compiled, kernel
 from dda.result import LOCKED, OPEN
@@ -188,65 +195,66 @@ def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
     """:func:`refresh_contacts` after its broad phase in one compiled call
     (:func:`_refresh`); from the shapely test on in Python when a pairing asks for it."""
     search, depth = settings.search_distance, settings.law.tolerance
-    out = _refresh_kernel(
-        *detect_arguments(blocks, pairs, search, settings.vertex_radius, depth, previous.key, gap),
+    narrow = NarrowInput(
+        *detect_arguments(blocks, pairs, search, settings.vertex_radius, depth, previous.key, gap)
+    )
+    rules = SiftRules(
         np.asarray(previous.key, dtype=np.int64),
         float(OUTSIDE_FRACTION * search),
         float(settings.touch_tolerance),
         float(depth),
-        *(getattr(previous, name) for name in CARRIED),
-        float(settings.initial_penalty),
-        LOCKED,
-        OPEN,
-    )  # fmt: skip
-    touch_asked, vertex, edge, penetration, parameter, keys = out[:6]
-    if touch_asked:
-        return _touching_and_merged(blocks, previous, settings, vertex, edge, *out[3:10])
-    contacts = merged_set(blocks.vertex_owner, vertex, edge, keys, out[10])
-    contacts.reference = parameter  # shear motion is measured from the step start
-    contacts.penetration = penetration
+    )
+    carried = CarriedFields(*(getattr(previous, name) for name in CARRIED))
+    out = _refresh_kernel(
+        narrow, rules, carried, NewContacts(float(settings.initial_penalty), LOCKED, OPEN)
+    )
+    if out.touch_asked:
+        return _touching_and_merged(blocks, previous, settings, out.vertex, out.edge, *out[3:10])
+    contacts = merged_set(blocks.vertex_owner, out.vertex, out.edge, out.keys, out.carried)
+    contacts.reference = out.parameter  # shear motion is measured from the step start
+    contacts.penetration = out.penetration
     return contacts
 
 
-def _refresh(
-    pairs, offsets, v, nxt, prv, owner, area, parts, known, vertex_radius, search, gap,
-    inside, previous_keys, slack, touch_tolerance, depth_tolerance,
-    state, normal_multiplier, shear_multiplier, penalty, reference, slide_direction,
-    intact, normal_force, shear_force, penetration_before, initial_penalty, locked, open_,
-):  # fmt: skip
+def _refresh(narrow, rules, carried, new):
     """Compiled :func:`refresh_contacts` after its broad phase: the narrow phase
     (:func:`dda.contact.narrow._detect`), the tests of :func:`_sift` and the merge with
     the last step's set (:func:`dda.contact.contact_set._merge`), the same calls with
     the same arguments as the stages make one by one, so the same contacts to the bit.
 
-    Returns (touch_asked, vertex, edge, penetration, parameter, keys, rows in the last
-    step's set, plausible, distance to the edge's block, asked, the merge's carried
-    fields and ``fresh``). ``touch_asked``: a pairing needs the shapely test of
-    :func:`_blocks_touch`; the pairings are then all those found, the merge not made
-    (its fields empty), and the caller goes on from the tests. Else the pairings are
-    the plausible ones, merged.
+    ``narrow``, ``rules``, ``carried``, ``new``: a
+    :class:`~dda.contact.refresh_arguments.NarrowInput`, ``SiftRules``,
+    ``CarriedFields`` and ``NewContacts``. Returns a
+    :class:`~dda.contact.refresh_arguments.Refreshed`: ``touch_asked`` when a pairing
+    needs the shapely test of :func:`_blocks_touch` (the pairings are then all those
+    found, the merge not made: its fields empty, and the caller goes on from the
+    tests); else the pairings are the plausible ones, merged.
     """
+    n = narrow
     vertex, edge, _ = _detect_kernel(
-        pairs, offsets, v, nxt, prv, owner, area, parts, known, vertex_radius, search, gap,
-        inside,
+        n.pairs, n.offsets, n.vertices, n.next_vertex, n.previous_vertex, n.owner, n.area,
+        n.parts, n.known, n.vertex_radius, n.search, n.gap, n.inside,
     )  # fmt: skip
     penetration, parameter, keys, previous_rows, plausible, to_block, asked = _sift_kernel(
-        vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, slack,
-        touch_tolerance, depth_tolerance,
+        vertex, edge, n.vertices, n.next_vertex, n.owner, n.offsets, n.parts,
+        rules.previous_keys, n.search, rules.slack, rules.touch_tolerance,
+        rules.depth_tolerance,
     )  # fmt: skip
     touch_asked = False
     for k in range(vertex.shape[0]):  # _blocks_touch's test: asked, outside the block
-        touch_asked = touch_asked or (asked[k] and to_block[k] > touch_tolerance)
+        touch_asked = touch_asked or (asked[k] and to_block[k] > rules.touch_tolerance)
     keep = np.arange(vertex.shape[0]) if touch_asked else np.flatnonzero(plausible)
     merged = keep[:0] if touch_asked else keep
-    carried = merge_kernel(
-        state, normal_multiplier, shear_multiplier, penalty, reference, slide_direction, intact,
-        normal_force, shear_force, penetration_before, previous_rows[merged], penetration[merged],
-        parameter[merged], initial_penalty, touch_tolerance, locked, open_,
+    c = carried
+    fields = merge_kernel(
+        c.state, c.normal_multiplier, c.shear_multiplier, c.penalty, c.reference,
+        c.slide_direction, c.intact, c.normal_force, c.shear_force, c.penetration,
+        previous_rows[merged], penetration[merged], parameter[merged], new.initial_penalty,
+        rules.touch_tolerance, new.locked, new.open_,
     )  # fmt: skip
-    return (
+    return Refreshed(
         touch_asked, vertex[keep], edge[keep], penetration[keep], parameter[keep], keys[keep],
-        previous_rows[keep], plausible[keep], to_block[keep], asked[keep], carried,
+        previous_rows[keep], plausible[keep], to_block[keep], asked[keep], fields,
     )  # fmt: skip
 
 
