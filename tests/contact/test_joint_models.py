@@ -250,9 +250,13 @@ def test_a_block_dropped_on_a_level_base_rebounds_to_e_squared_h():
     assert np.all(np.abs(np.diff(ratios)) <= 0.05), ratios
 
 
-def dropped_on_a_slope(restitution: float, time_step: float, theta: float = 20.0) -> dict:
+def dropped_on_a_slope(
+    restitution: float, time_step: float, theta: float = 20.0, shear_ratio: float = 4.0
+) -> dict:
     """A 2 x 0.04 m slab 0.1 m (normal) above a fixed slope at θ, φ = 40° (inside its
-    friction), contacts 5e7 N/m, stiff blocks (E = 5e11 Pa), the trapezoidal update."""
+    friction), contacts 5e7 N/m with shear springs ``shear_ratio`` times as stiff (stiff
+    in shear too, as the rigid closed form's contact is), stiff blocks (E = 5e11 Pa),
+    the trapezoidal update."""
     th = math.radians(theta)
     t, n = np.array([math.cos(th), math.sin(th)]), np.array([-math.sin(th), math.cos(th)])
     slab = [-3 * t - 0.5 * n, 3 * t - 0.5 * n, 3 * t, -3 * t]
@@ -261,7 +265,7 @@ def dropped_on_a_slope(restitution: float, time_step: float, theta: float = 20.0
     return {
         "analysis": {"time_step": time_step, "duration": 1.2, "gravity": [0, -G],
                      "save_every": 1, "plane": "stress", "newmark_gamma": 0.5},
-        "contact": {"method": "penalty", "penalty": 5e7},
+        "contact": {"method": "penalty", "penalty": 5e7, "shear_ratio": shear_ratio},
         "materials": {"rock": {**ROCK, "young": 5e11, "damping": 0.0}},
         "joints": {"default": {"friction_angle": 40.0, "restitution": restitution}},
         "blocks": [
@@ -276,13 +280,14 @@ def dropped_on_a_slope(restitution: float, time_step: float, theta: float = 20.0
 @pytest.mark.slow
 def test_a_block_dropped_on_a_slope_inside_its_friction_drifts_and_stops():
     """e = 0.3 on 20°: the rigid closed form, each bounce's flight from rest along the
-    slope, drifts 2 vn² sin θ / (g cos² θ) · e² / (1 − e²) = 14.4 mm. The model drifts
-    79 %, 83 %, 85 % of it at Δt = 0.2, 0.1, 0.05 ms (checked: within 25 % at the two
-    finest, within 5 % of each other), stops, and gains no energy. The rest is what the
-    rigid form leaves out: the contact's rebound a little under e at these Δt, the shear
-    spring's give-back as the contact unloads (1.8 % of the tangential speed, its
-    dashpot overdamped) and the turns the friction's moment gives the slab on its later
-    landings (docs/contact.md)."""
+    slope, drifts 2 vn² sin θ / (g cos² θ) · e² / (1 − e²) = 14.4 mm. With shear springs
+    4 times the normal ones the model drifts 91.0 %, 93.8 %, 95.3 % of it at Δt = 0.1,
+    0.05, 0.025 ms (checked: within 15 %, within 5 % from one Δt to the next), stops,
+    and gains no energy. The rest is what the rigid form leaves out: the contact's
+    rebound a little under e and what the shear spring gives back as the contact
+    unloads (it stores the tangential impact and returns part of it uphill: with the
+    default shear_ratio 0.4 the drift is 83 % and 85 % at 0.1 and 0.05 ms, with 1.0
+    85 % at 0.1 ms, with 10 92 % and 95 %)."""
     e, theta = 0.3, 20.0
     th = math.radians(theta)
     speed = math.sqrt(2 * G * 0.1 / math.cos(th))
@@ -290,15 +295,15 @@ def test_a_block_dropped_on_a_slope_inside_its_friction_drifts_and_stops():
     rigid = 2 * normal**2 * math.sin(th) / (G * math.cos(th) ** 2) * e * e / (1 - e * e)
     along, across = np.array([math.cos(th), math.sin(th)]), np.array([-math.sin(th), math.cos(th)])
     drifts = []
-    for time_step in (1e-4, 5e-5):
+    for time_step in (1e-4, 5e-5, 2.5e-5):
         result = dda.simulate(dda.load_scene(dropped_on_a_slope(e, time_step, theta)))
         moved = np.array([f.displacements[1] for f in result.frames])
         landed = int(np.argmax(moved @ across <= -0.1))
         drifts.append(abs(moved[-1] @ along - moved[landed] @ along) / rigid)
         assert np.linalg.norm(result.final.velocities[1][:2]) < 1e-6
         assert energy_excess(result) <= 1e-9
-    assert all(0.75 <= d <= 1.25 for d in drifts), drifts
-    assert abs(drifts[1] - drifts[0]) <= 0.05, drifts
+    assert all(0.85 <= d <= 1.15 for d in drifts), drifts
+    assert np.all(np.abs(np.diff(drifts)) <= 0.05), drifts
 
 
 def test_an_ensemble_draws_the_new_joint_keys_and_keeps_residuals_within_peaks():
