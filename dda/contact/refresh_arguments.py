@@ -12,6 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dda.contact.contact_set import CARRIED
+
 
 class NarrowInput(NamedTuple):
     """The narrow phase's data (:func:`dda.contact.narrow.detect_arguments`)."""
@@ -40,20 +42,9 @@ class SiftRules(NamedTuple):
     depth_tolerance: float
 
 
-class CarriedFields(NamedTuple):
-    """The last step's contact fields a persisting contact keeps
-    (:data:`dda.contact.contact_set.CARRIED`, in that order)."""
-
-    state: np.ndarray
-    normal_multiplier: np.ndarray
-    shear_multiplier: np.ndarray
-    penalty: np.ndarray
-    reference: np.ndarray
-    slide_direction: np.ndarray
-    intact: np.ndarray
-    normal_force: np.ndarray
-    shear_force: np.ndarray
-    penetration: np.ndarray
+# The last step's contact fields a persisting contact keeps, named as the contact set
+# names them (:data:`dda.contact.contact_set.CARRIED`, in that order).
+CarriedFields = NamedTuple("CarriedFields", [(name, np.ndarray) for name in CARRIED])
 
 
 class NewContacts(NamedTuple):
