@@ -26,6 +26,7 @@ from __future__ import annotations
 import importlib.util
 import logging
 import os
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -77,6 +78,7 @@ class Kernel:
     def dispatcher(self) -> Callable:
         """The numba dispatcher (imports numba and binds the helpers the first time)."""
         if self._dispatcher is None:
+            _quick_compiles()
             namespace = self.function.__globals__
             for name in self.function.__code__.co_names:
                 helper = namespace.get(name)
@@ -123,6 +125,23 @@ class Lapack:
             pointers = [types.voidptr] * self.arguments
             self._external = types.ExternalFunction(symbol, types.void(*pointers))
         return self._external
+
+
+# LLVM's optimisation level of the kernels (numba's NUMBA_OPT) unless the environment
+# sets one: -O1 compiles the rock slope's kernels in 51.6 s of CPU against 57.1-57.7 at
+# numba's default -O3 (an empty cache, two rounds), gives the same numbers to the bit
+# (the rock slope, the tunnel, the 10 x 10 wall) and runs as fast: warm runs, one
+# solver thread, medians of five, the tunnel 7.43 s against 7.46, the rock slope 2.18
+# against 2.12; the walls of dda bench within their noise
+OPTIMISATION_LEVEL = "1"
+
+
+def _quick_compiles() -> None:
+    """Set numba's optimisation level to :data:`OPTIMISATION_LEVEL` before numba is
+    first imported, unless ``NUMBA_OPT`` is set (numba reads it once, on import; a
+    process that imported numba first keeps its level)."""
+    if "numba" not in sys.modules:
+        os.environ.setdefault("NUMBA_OPT", OPTIMISATION_LEVEL)
 
 
 _FORMULAS: list[Callable] = []  # functions of :func:`formula`, in the order defined

@@ -235,3 +235,25 @@ def _strength_of_one_joint():
     values = {name: np.ones(1) for name in Strength._fields}
     values.update(barton=np.zeros(1, bool), any_barton=False)
     return Strength(**values)
+
+
+@needs_numba
+@pytest.mark.parametrize("preset, expected", [(None, 1), ("2", 2)])
+def test_kernels_compile_at_the_quick_optimisation_level_unless_the_environment_sets_one(
+    preset, expected
+):
+    """dda sets numba's NUMBA_OPT to 1 before numba's first import (the same numbers
+    and speed as numba's default 3, about a tenth less compile time: dda/jit), and
+    leaves a level the environment gives alone."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
+    if preset is not None:
+        env["NUMBA_OPT"] = preset
+    code = (
+        "from dda.contact import rows\n"
+        "rows._rows_kernel.dispatcher\n"
+        "from numba.core import config\n"
+        "print(int(config.OPT))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert int(out.stdout.split()[-1]) == expected
