@@ -119,10 +119,8 @@ def _measure(
         for size, warm_steps in WARM_UPS if numba_enabled() else ((2, 3),):
             warm = wall_scene(size, method=method, steps=warm_steps, start=start)
             dda.simulate(dda.load_scene(warm))
-        if pardiso_available():
-            new_pardiso_handle(
-                current_policy().solver_threads()
-            )  # finding the MKL library is a one-off cost too
+        if pardiso_available():  # finding the MKL library is a one-off cost too
+            new_pardiso_handle(current_policy().solver_threads())
     scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps, start=start))
     began = time.perf_counter()
     first_step = [float("nan")]

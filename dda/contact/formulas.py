@@ -43,6 +43,18 @@ TINY = 1e-300  # keeps the logarithm of σn = 0 and of a Coulomb joint's JCS = 0
 
 
 @formula
+def limited_normal(value, tension):
+    """max(value, −T): a normal force or multiplier held at or above −T."""
+    return np.maximum(value, -tension)
+
+
+@formula
+def limited_shear(value, bound):
+    """clamp(value, −b, b): a shear force or multiplier held within ±b."""
+    return np.minimum(np.maximum(value, -bound), bound)
+
+
+@formula
 def normal_trial(normal_base, penalty, gap):
     """λn + p g."""
     return normal_base + penalty * gap
@@ -51,7 +63,7 @@ def normal_trial(normal_base, penalty, gap):
 @formula
 def normal_force(normal_base, penalty, tension, gap):
     """N = max(λn + p g, −T)."""
-    return np.maximum(normal_trial(normal_base, penalty, gap), -tension)
+    return limited_normal(normal_trial(normal_base, penalty, gap), tension)
 
 
 @formula
@@ -63,7 +75,7 @@ def shear_trial(shear_base, shear_penalty, slip):
 @formula
 def shear_force(shear_base, shear_penalty, bound, slip):
     """F = clamp(λt + ps s, −b, b)."""
-    return np.minimum(np.maximum(shear_trial(shear_base, shear_penalty, slip), -bound), bound)
+    return limited_shear(shear_trial(shear_base, shear_penalty, slip), bound)
 
 
 @formula
@@ -139,7 +151,7 @@ def shear_offset(shear_base, shear_penalty, bound, slip0, piece):
 def normal_energy(normal_base, penalty, tension, gap):
     """φn(g) = (N² − λn²) / 2p, less T (λn + p g + T) / p beyond the limit (potential.py)."""
     trial = normal_trial(normal_base, penalty, gap)
-    force = np.maximum(trial, -tension)
+    force = limited_normal(trial, tension)
     beyond = select(trial < -tension, tension * (trial + tension) / penalty, 0.0)
     return (force * force - normal_base * normal_base) / (2.0 * penalty) - beyond
 
@@ -148,7 +160,7 @@ def normal_energy(normal_base, penalty, tension, gap):
 def shear_energy(shear_base, shear_penalty, bound, slip):
     """φt(s) = (F² − λt²) / 2ps + b ⟨|λt + ps s| − b⟩₊ / ps (ps > 0)."""
     trial = shear_trial(shear_base, shear_penalty, slip)
-    force = np.minimum(np.maximum(trial, -bound), bound)
+    force = limited_shear(trial, bound)
     excess = np.maximum(np.abs(trial) - bound, 0.0)
     elastic = (force * force - shear_base * shear_base) / (2.0 * shear_penalty)
     return elastic + bound * excess / shear_penalty

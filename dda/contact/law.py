@@ -110,10 +110,10 @@ def contact_terms(
     else:
         bound = shear_penalty = np.zeros(len(contacts))
     return ContactTerms(
-        normal_base=np.maximum(lam_n, -tension),
+        normal_base=formulas.limited_normal(lam_n, tension),
         penalty=contacts.penalty,
         tension=tension,
-        shear_base=np.clip(contacts.shear_multiplier, -bound, bound),
+        shear_base=formulas.limited_shear(contacts.shear_multiplier, bound),
         shear_penalty=shear_penalty,
         bound=bound,
     )
@@ -252,7 +252,8 @@ def update(
         normal = terms.normal_force(g)
         bound = friction_bound(contacts, joint, normal) if law.friction else terms.bound
         if law.friction:
-            changed = np.abs(np.clip(terms.shear_trial(s), -bound, bound) - terms.shear_force(s))
+            after = formulas.limited_shear(terms.shear_trial(s), bound)
+            changed = np.abs(after - terms.shear_force(s))
     if law.friction:
         settled = bool(np.linalg.norm(changed) <= law.friction_tolerance * np.linalg.norm(bound))
     augmented, violation = 0, 0.0

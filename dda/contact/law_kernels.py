@@ -14,6 +14,8 @@ import numpy as np
 
 from dda.contact.formulas import (
     friction_bound,
+    limited_normal,
+    limited_shear,
     normal_force,
     normal_piece,
     normal_trial,
@@ -38,11 +40,11 @@ def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, f
     shear_base, shear_penalty, bounds = np.empty(m), np.empty(m), np.empty(m)
     for c in range(m):
         tension[c] = tension_held(joint_of(strength, c), intact[c])
-        normal_base[c] = max(multiplier[c], -tension[c])
+        normal_base[c] = limited_normal(multiplier[c], tension[c])
         b = bound[c] if friction else 0.0
         bounds[c] = b
         shear_penalty[c] = shear_ratio * penalty[c] if friction else 0.0
-        shear_base[c] = min(max(carried[c], -b), b)
+        shear_base[c] = limited_shear(carried[c], b)
     return normal_base, tension, shear_base, shear_penalty, bounds
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dda.contact.formulas import normal_trial, shear_trial
+from dda.contact.formulas import normal_force, normal_trial, shear_force, shear_trial
 from dda.contact.potential import ContactTerms
 from dda.jit import compiled, kernel
 
@@ -204,9 +204,9 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
 def _derivative(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, alpha, total):
     """``total`` + Σ N(g + α δg) δg + Σ F(s + α δs) δs: the contacts' part of π'(α)."""
     for c in range(g.shape[0]):
-        normal = max(lam_n[c] + p[c] * (g[c] + alpha * dg[c]), -tension[c])
-        trial = lam_t[c] + ps[c] * (s[c] + alpha * ds[c])
-        total += normal * dg[c] + min(max(trial, -bound[c]), bound[c]) * ds[c]
+        normal = normal_force(lam_n[c], p[c], tension[c], g[c] + alpha * dg[c])
+        shear = shear_force(lam_t[c], ps[c], bound[c], s[c] + alpha * ds[c])
+        total += normal * dg[c] + shear * ds[c]
     return total
 
 

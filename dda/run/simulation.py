@@ -160,7 +160,6 @@ def _equilibrium_start(run: _Run) -> None:
     run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
     run.start = "equilibrium"
     run.start_newton_iterations = settled.newton_iterations
-    run.start_seconds = wallclock.perf_counter() - started
     log.info(
         "equilibrium start: %d contacts loaded, %d Newton iterations, %.2f s",
         int(np.count_nonzero(settled.contacts.state != OPEN)),

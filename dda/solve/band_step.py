@@ -60,9 +60,11 @@ def _first_bounds(intact, strength, multiplier, penalty, g0, last_normal, fresh,
     if not friction:
         return bound
     for c in range(m):
-        tension = tension_held(joint_of(strength, c), intact[c])
-        start = formulas.normal_force(max(multiplier[c], -tension), penalty[c], tension, g0[c])
-        bound[c] = friction_bound(joint_of(strength, c), max(start, last_normal[c]), intact[c])
+        joint = joint_of(strength, c)
+        tension = tension_held(joint, intact[c])
+        held = formulas.limited_normal(multiplier[c], tension)
+        start = formulas.normal_force(held, penalty[c], tension, g0[c])
+        bound[c] = friction_bound(joint, max(start, last_normal[c]), intact[c])
         if fresh[c] and state[c] != OPEN:
             bound[c] = UNBOUNDED
     return bound

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.contact.formulas import normal_force, shear_force
 from dda.contact.line_search import _line_minimum_kernel
 from dda.contact.rows import _gaps_kernel
 from dda.jit import kernel
@@ -63,8 +64,8 @@ def _line_step(
     g_new, s_new = g + alpha * dg, s + alpha * ds
     minus_normal, minus_shear = np.empty(m), np.empty(m)  # −N(g), −F(s)
     for c in range(m):
-        minus_normal[c] = -max(lam_n[c] + p[c] * g_new[c], -tension[c])
-        minus_shear[c] = -min(max(lam_t[c] + ps[c] * s_new[c], -bound[c]), bound[c])
+        minus_normal[c] = -normal_force(lam_n[c], p[c], tension[c], g_new[c])
+        minus_shear[c] = -shear_force(lam_t[c], ps[c], bound[c], s_new[c])
     contact = np.zeros((n, 6))  # Σ N∇g + Σ F∇s: the force sum with −N, −F subtracted
     _subtract_pairs_kernel(
         contact, block_a, block_b, normal_i, normal_j, shear_i, shear_j, minus_normal, minus_shear

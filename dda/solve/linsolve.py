@@ -351,9 +351,9 @@ class ReusingSolver:
     sparsity pattern), factorise K. Otherwise solve directly when K is the
     matrix that was factorised, and by PCG preconditioned with the kept
     factorisation when it is a newer one; if PCG does not converge within
-    ``max_iterations`` and :attr:`pcg_budget` (the iterations that cost as much
+    the policy's ``max_pcg_iterations`` and :attr:`pcg_budget` (the iterations that cost as much
     as a factorisation, :meth:`~dda.solve.policy.StepPolicy.pcg_budget`), factorise K
-    and solve directly. A solve that needed more than ``refresh_after`` iterations
+    and solve directly. A solve that needed more than the policy's ``refresh_after`` iterations
     marks the factorisation stale: the next new matrix is factorised. A caller that
     knows the new K is far from the factorised one (many contacts changed state) says
     ``similar=False`` and skips the PCG attempt.
@@ -381,9 +381,6 @@ class ReusingSolver:
     ) -> None:
         self.policy = current_policy() if policy is None else policy
         self.permc_spec = permc_spec
-        self.tolerance = self.policy.pcg_tolerance
-        self.max_iterations = self.policy.max_pcg_iterations
-        self.refresh_after = self.policy.refresh_after
         self.automatic = backend is None  # small K: dense
         if backend is None:
             backend = PARDISO_CHOICE if pardiso_available(self.policy) else "superlu"
@@ -429,7 +426,8 @@ class ReusingSolver:
     def pcg_budget(self) -> int:
         """PCG iterations that cost no more than a factorisation of the kept kind.
 
-        At most ``max_iterations``; 0 or 1 means PCG does not pay (then it is not tried).
+        At most the policy's ``max_pcg_iterations``; 0 or 1 means PCG does not pay (then
+        it is not tried).
         """
         if isinstance(self._factor, DenseFactorisation):
             return self.policy.pcg_budget("dense", self._factor.size)
@@ -479,11 +477,13 @@ class ReusingSolver:
         budget = self.pcg_budget
         if reusable and similar and not self._stale and budget >= 2:
             with stage("solve"):
-                x, iterations, ok = pcg(matrix, rhs, self._factor.solve, self.tolerance, budget)
+                x, iterations, ok = pcg(
+                    matrix, rhs, self._factor.solve, self.policy.pcg_tolerance, budget
+                )
             self.pcg_iterations += iterations
             self.pcg_solves += 1
             if ok:
-                self._stale = iterations > self.refresh_after
+                self._stale = iterations > self.policy.refresh_after
                 return x
             log.debug("PCG did not converge in %d iterations: re-factorising", iterations)
         with stage("factorisation"):
@@ -494,14 +494,14 @@ class ReusingSolver:
     def _factorise(self, matrix: sp.csc_matrix, key: object) -> None:
         dense_rows = self.policy.dense_factor_rows
         if self.backend == PARDISO_CHOICE and matrix.shape[0] > dense_rows:
+            threads = self.policy.solver_threads()  # once: the analysis' and the factor's
             fresh = not isinstance(self._factor, PardisoFactorisation)
             if fresh or key is None or key != self._analysed_key:
-                threads = self.policy.solver_threads()
                 if self._handle is None:
                     self._handle = new_pardiso_handle(threads)
                 self._factor = PardisoFactorisation(matrix, self._handle, threads)
                 self._analysed_key = key
-            self._factor.factor(matrix, self.policy.solver_threads())
+            self._factor.factor(matrix, threads)
         elif self.automatic and 0 < matrix.shape[0] <= dense_rows:
             self._factor = DenseFactorisation(matrix, self.permc_spec)
         else:

@@ -28,10 +28,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from dda.contact.rows import ContactRows
-from dda.solve import policy as step_policy
 from dda.solve.assembly import BLOCK, BlockPattern
 from dda.solve.linsolve import pcg
-from dda.solve.policy import StepPolicy
+from dda.solve.policy import DEFAULT, StepPolicy
 
 
 class StepUpdates:
@@ -60,7 +59,7 @@ class StepUpdates:
         solve_many: Callable[[np.ndarray], np.ndarray],
         policy: StepPolicy | None = None,
     ) -> None:
-        self.policy = step_policy.DEFAULT if policy is None else policy
+        self.policy = DEFAULT if policy is None else policy
         self.factored = factored
         self.springs = springs
         self.pattern = pattern

@@ -14,7 +14,6 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
-from dda.jit import numba_enabled
 from dda.solve import thread_policy
 
 THREADS_VARIABLE = "DDA_THREADS"  # threads of PARDISO's factorisation
@@ -167,9 +166,6 @@ class StepPolicy:
     solver: str = ""  # DDA_SOLVER: "pardiso", "superlu" or "" (PARDISO where installed)
     systems: str = ""  # DDA_SYSTEMS: "sparse" or "" (band, dense or sparse by size)
     threads: int | None = None  # DDA_THREADS: PARDISO's threads (None: the thread policy)
-    # the compiled kernels are built: numba installed and DDA_NO_NUMBA not 1 (read by dda.jit
-    # as it builds them, at import)
-    kernels: bool = True
     # the band systems' outer loop as one compiled call (False: the Python loop over the
     # same systems, which the tests compare it with)
     band_loop_compiled: bool = True
@@ -177,8 +173,8 @@ class StepPolicy:
     @classmethod
     def from_environment(cls, environ: Mapping[str, str] | None = None) -> StepPolicy:
         """The defaults with ``DDA_SOLVER``, ``DDA_SYSTEMS`` and ``DDA_THREADS`` read in
-        (``environ``: ``os.environ`` when None) and whether the kernels were built
-        (``DDA_NO_NUMBA``, :func:`dda.jit.numba_enabled`).
+        (``environ``: ``os.environ`` when None). ``DDA_NO_NUMBA``, whether the kernels are
+        built at all, is :mod:`dda.jit`'s (:func:`dda.jit.numba_enabled`).
 
         Raises
         ------
@@ -191,7 +187,6 @@ class StepPolicy:
             solver=_choice(environ, SOLVER_VARIABLE, SOLVER_CHOICES),
             systems=_choice(environ, SYSTEMS_VARIABLE, SYSTEMS_CHOICES),
             threads=_threads(environ),
-            kernels=numba_enabled(),
         )
 
     def size_rules(self, rows: int, dynamic: bool = True, band: bool = False) -> SizeRules:
