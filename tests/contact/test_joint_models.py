@@ -336,3 +336,47 @@ def test_an_ensemble_draws_the_new_joint_keys_and_keeps_residuals_within_peaks()
     drawn = dda.load_scene(barton)
     assert [d.key for d in drawn.ensemble.vary] == ["joints.default.jrc", "joints.default.jcs"]
     assert drawn.ensemble.vary[0].high == 20.0  # cut to JRC's range
+
+
+STANDING_JOINTS = {
+    "barton-bandis": {  # σn = 1.15 kPa: φ_mob = 20 + 15 log10(2e4 / 1147) = 38.6° > 30°
+        "model": "barton-bandis", "jrc": 15.0, "jcs": 2.0e4, "residual_friction_angle": 20.0,
+    },
+    "restitution": {"friction_angle": 40.0, "restitution": 0.5},
+    "ductile": {  # cohesion kept as the joint slips: no slip, so no difference here
+        "friction_angle": 25.0, "cohesion": 200.0, "residual_cohesion": 200.0,
+    },
+}  # fmt: skip
+
+
+def largest_move(result: dda.Result) -> float:
+    """The slider's largest centroid displacement over every step (every frame kept)."""
+    return max(float(np.linalg.norm(f.displacements[1])) for f in result.frames)
+
+
+@pytest.mark.parametrize(
+    "model, time_step",
+    [
+        *((m, 1e-3) for m in STANDING_JOINTS),
+        *(
+            pytest.param(m, dt, marks=pytest.mark.slow)
+            for m in STANDING_JOINTS
+            for dt in (1e-4, 5e-5)
+        ),
+    ],
+)
+def test_a_block_inside_its_friction_stands_on_every_joint_model(model, time_step):
+    """A 1 x 0.05 m block on a 30° slab, inside its friction on each joint model, stays
+    within twice its elastic settlement + 1 µm (the settlement: Shi's static analysis of
+    the same scene, every step from rest) at every step of 0.3 s, at Δt = 1 ms (and
+    0.1, 0.05 ms in the slow suite), and never above E0 + W."""
+    joint = STANDING_JOINTS[model]
+    dynamic = slab_and_block(30.0, 1.0, 0.05, joint, time_step=time_step, duration=0.3)
+    dynamic["analysis"]["save_every"] = 1
+    static = slab_and_block(30.0, 1.0, 0.05, joint, time_step=1e-3, duration=0.3)
+    static["analysis"].update(mode="static", save_every=1)
+    settled = largest_move(dda.simulate(dda.load_scene(static)))
+    result = dda.simulate(dda.load_scene(dynamic))
+    assert result.summary["status"] == "finished" and result.summary["cut_steps"] == 0
+    assert largest_move(result) <= 2.0 * settled + 1e-6, (largest_move(result), settled)
+    assert energy_excess(result) <= 1e-9
