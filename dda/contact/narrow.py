@@ -33,6 +33,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.contact.candidate_tests import (
+    beyond_ends,
+    deeper_of_opposed,
+    deeper_than_corner,
+    deepest_candidate,
+    edge_along,
+    edge_depth,
+    edge_parameter,
+    fan_clears,
+    fan_separation,
+    inside_corner,
+    line_depth,
+    off_edge,
+    projects_inside,
+    within_reach,
+)
 from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
 from dda.contact.node import separated_corners_kernel, separated_pairs
 from dda.geometry import (
@@ -96,9 +112,9 @@ class VertexFans:
 
     def separation(self, vertex: np.ndarray, outward: np.ndarray) -> np.ndarray:
         """min(u_prev·n, u_next·n): ≥ 0 when the fan stays outside the edge's line."""
-        return np.minimum(
-            np.einsum("ij,ij->i", self.to_next[vertex], outward),
-            np.einsum("ij,ij->i", self.to_prev[vertex], outward),
+        to_next, to_prev = self.to_next[vertex], self.to_prev[vertex]
+        return fan_separation(
+            to_next[:, 0], to_next[:, 1], to_prev[:, 0], to_prev[:, 1], outward[:, 0], outward[:, 1]
         )
 
 
@@ -311,27 +327,24 @@ def _screen_numpy(blocks, fans, pairs, search, radius, gap):
     a, b, vertex, edge = _vertex_edge_candidates(blocks, pairs, _box_margin(radius, gap))
     v = blocks.vertices
     p1, p2, p3 = v[vertex], v[edge], v[fans.next[edge]]
-    e = p3 - p2
+    e, w = p3 - p2, p1 - p2
     length = np.linalg.norm(e, axis=1)
-    inward = np.column_stack([-e[:, 1], e[:, 0]]) / length[:, None]
-    t = np.einsum("ij,ij->i", p1 - p2, e) / length**2
-    d = _cross(e, p1 - p2) / length
-    r2 = np.linalg.norm(p1 - p2, axis=1)
+    t = edge_parameter(w[:, 0], w[:, 1], e[:, 0], e[:, 1], length)
+    d = edge_depth(w[:, 0], w[:, 1], e[:, 0], e[:, 1], length)
+    outward = np.column_stack([e[:, 1], -e[:, 0]]) / length[:, None]
+    r2 = np.linalg.norm(w, axis=1)
     r3 = np.linalg.norm(p1 - p3, axis=1)
-    size = np.sqrt(np.minimum(blocks.area[a], blocks.area[b]))
-    max_depth = np.maximum(search, 0.3 * size)
+    deepest = deepest_candidate(search, blocks.area[a], blocks.area[b])
     radius2 = np.minimum(radius[vertex], radius[edge])  # the zone around P2 ...
     radius3 = np.minimum(radius[vertex], radius[fans.next[edge]])  # ... and around P3
 
     ve = (
         ~fans.reflex[vertex]
-        & (t > EDGE_END)
-        & (t < 1.0 - EDGE_END)
+        & projects_inside(t, EDGE_END)
         & (r2 > radius2)
         & (r3 > radius3)
-        & (d >= -gap)
-        & (d <= max_depth)
-        & (fans.separation(vertex, -inward) >= -ANGLE_TOLERANCE)
+        & within_reach(d, gap, deepest)
+        & fan_clears(fans.separation(vertex, outward), ANGLE_TOLERANCE)
     )
     vv = (a < b) & (r2 <= radius2)
     return vertex[ve], edge[ve], vertex[vv], edge[vv]
@@ -391,7 +404,7 @@ def _screen(
     nvv = 0
     for k in range(directed.shape[0]):
         a, b = directed[k, 0], directed[k, 1]
-        max_depth = max(search, 0.3 * np.sqrt(min(area[a], area[b])))
+        deepest = deepest_candidate(search, area[a], area[b])
         for vertex in range(offsets[a], offsets[a + 1]):
             x1, y1 = v[vertex, 0], v[vertex, 1]
             if not (lo[b, 0] <= x1 <= hi[b, 0] and lo[b, 1] <= y1 <= hi[b, 1]):
@@ -410,21 +423,18 @@ def _screen(
                     nvv += 1
                 if reflex[vertex] or r2 <= radius2:
                     continue
-                t = (wx * ex + wy * ey) / length**2
-                if not (edge_end < t < 1.0 - edge_end):
+                if not projects_inside(edge_parameter(wx, wy, ex, ey, length), edge_end):
                     continue
                 ux, uy = x1 - v[end, 0], y1 - v[end, 1]
                 if not np.sqrt(ux * ux + uy * uy) > min(radius[vertex], radius[end]):
                     continue
-                d = (ex * wy - ey * wx) / length
-                if not (-gap <= d <= max_depth):
+                if not within_reach(edge_depth(wx, wy, ex, ey, length), gap, deepest):
                     continue
-                nx, ny = ey / length, -ex / length  # outward = -inward
-                sep = min(
-                    to_next[vertex, 0] * nx + to_next[vertex, 1] * ny,
-                    to_prev[vertex, 0] * nx + to_prev[vertex, 1] * ny,
-                )
-                if sep >= -angle_tolerance:
+                sep = fan_separation(
+                    to_next[vertex, 0], to_next[vertex, 1], to_prev[vertex, 0],
+                    to_prev[vertex, 1], ey / length, -ex / length,
+                )  # fmt: skip
+                if fan_clears(sep, angle_tolerance):
                     ve_v[nve] = vertex
                     ve_e[nve] = edge
                     nve += 1
@@ -544,27 +554,26 @@ def _resolve(
             if reflex[vert]:
                 score[c] = -np.inf
             else:
-                score[c] = min(
-                    to_next[vert, 0] * nx + to_next[vert, 1] * ny,
-                    to_prev[vert, 0] * nx + to_prev[vert, 1] * ny,
+                score[c] = fan_separation(
+                    to_next[vert, 0], to_next[vert, 1], to_prev[vert, 0], to_prev[vert, 1], nx, ny
                 )
             wx, wy = v[ed, 0] - v[vert, 0], v[ed, 1] - v[vert, 1]
-            depth[c] = wx * nx + wy * ny
+            depth[c] = line_depth(wx, wy, nx, ny)
             ex, ey = v[nxt[ed], 0] - v[ed, 0], v[nxt[ed], 1] - v[ed, 1]
-            along = (-wx * ex - wy * ey) / (ex * ex + ey * ey)
-            fake[c] = depth[c] > slack and (along < 0.0 or along > 1.0)
-            off[c] = max(-along, along - 1.0) * np.sqrt(ex * ex + ey * ey) > slack
+            along = edge_along(-wx, -wy, ex, ey)
+            fake[c] = beyond_ends(depth[c], along, slack)
+            off[c] = off_edge(along, np.sqrt(ex * ex + ey * ey), slack)
         for first, corner in ((0, b), (2, a)):
-            gap = depth[first] - depth[first + 1]
-            if not reflex[corner]:
-                fake[first] |= gap > slack and not _shares_line(
-                    outward, prv, verts[first], edges[first + 1]
-                )
-                fake[first + 1] |= -gap > slack and not _shares_line(
-                    outward, prv, verts[first + 1], edges[first]
-                )
-        a_inside = min(depth[0], depth[1]) > inside
-        b_inside = min(depth[2], depth[3]) > inside
+            shared = _shares_line(outward, prv, verts[first], edges[first + 1])
+            fake[first] |= deeper_than_corner(
+                depth[first], depth[first + 1], slack, reflex[corner], shared
+            )
+            shared = _shares_line(outward, prv, verts[first + 1], edges[first])
+            fake[first + 1] |= deeper_than_corner(
+                depth[first + 1], depth[first], slack, reflex[corner], shared
+            )
+        a_inside = inside_corner(depth[0], depth[1], inside)
+        b_inside = inside_corner(depth[2], depth[3], inside)
         fake[2] |= a_inside and not b_inside
         fake[3] |= a_inside and not b_inside
         fake[0] |= b_inside and not a_inside
@@ -625,7 +634,7 @@ def _on_their_edges(blocks: BlockSet, fans: VertexFans, candidates, along, slack
         [np.linalg.norm(blocks.vertices[fans.next[ed]] - blocks.vertices[ed], axis=1)
          for _, ed in candidates]
     )  # fmt: skip
-    on_edge = np.maximum(-along, along - 1.0) * length <= slack
+    on_edge = ~off_edge(along, length, slack)
     usable = (on_edge & tied).any(axis=1, keepdims=True)
     return np.where(usable, on_edge, True)
 
@@ -647,8 +656,9 @@ def _persisting(blocks: BlockSet, candidates, tied: np.ndarray, previous_keys) -
 
 def _depth(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):
     """Signed depth of each vertex behind the line of each edge (> 0: inside)."""
-    v = blocks.vertices
-    return np.einsum("ij,ij->i", v[edge] - v[vertex], _outward_normal(blocks, fans, edge))
+    w = blocks.vertices[edge] - blocks.vertices[vertex]
+    normal = _outward_normal(blocks, fans, edge)
+    return line_depth(w[:, 0], w[:, 1], normal[:, 0], normal[:, 1])
 
 
 def _shared_lines(fans: VertexFans, candidates) -> np.ndarray:
@@ -686,13 +696,13 @@ def _fake_pairings(depth, along, slack: float, reflex_p2, reflex_p1, shared=None
     block, and its depth behind the corner's edge is a real overlap (the
     fragments' crack faces cross).
     """
-    fake = (depth > slack) & ((along < 0.0) | (along > 1.0))
+    fake = beyond_ends(depth, along, slack)
     if shared is None:
         shared = np.zeros_like(fake)
     for first, reflex in ((0, reflex_p2), (2, reflex_p1)):
         a, b = depth[:, first], depth[:, first + 1]
-        fake[:, first] |= ~reflex & (a - b > slack) & ~shared[:, first]
-        fake[:, first + 1] |= ~reflex & (b - a > slack) & ~shared[:, first + 1]
+        fake[:, first] |= deeper_than_corner(a, b, slack, reflex, shared[:, first])
+        fake[:, first + 1] |= deeper_than_corner(b, a, slack, reflex, shared[:, first + 1])
     return fake
 
 
@@ -705,8 +715,8 @@ def _hidden_penetration(depth: np.ndarray, inside_depth: float) -> np.ndarray:
     in a pile of fragments it grew to 0.5 mm over tens of steps, until the
     pairing turned and the augmented Lagrangian pushed it out in one step.
     """
-    p1_inside = np.minimum(depth[:, 0], depth[:, 1]) > inside_depth
-    p2_inside = np.minimum(depth[:, 2], depth[:, 3]) > inside_depth
+    p1_inside = inside_corner(depth[:, 0], depth[:, 1], inside_depth)
+    p2_inside = inside_corner(depth[:, 2], depth[:, 3], inside_depth)
     hidden = np.zeros_like(depth, dtype=bool)
     hidden[:, 2:] = (p1_inside & ~p2_inside)[:, None]
     hidden[:, :2] = (p2_inside & ~p1_inside)[:, None]
@@ -716,8 +726,8 @@ def _hidden_penetration(depth: np.ndarray, inside_depth: float) -> np.ndarray:
 def _along(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):
     """Position of each vertex's projection along each edge (0 at its start, 1 at its end)."""
     v = blocks.vertices
-    e = v[fans.next[edge]] - v[edge]
-    return np.einsum("ij,ij->i", v[vertex] - v[edge], e) / np.einsum("ij,ij->i", e, e)
+    e, w = v[fans.next[edge]] - v[edge], v[vertex] - v[edge]
+    return edge_along(w[:, 0], w[:, 1], e[:, 0], e[:, 1])
 
 
 def _opposed_deeper(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):
@@ -748,10 +758,9 @@ def _opposed_deeper(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge
     first, second = _pairs_within_groups(group[shared])
     normal = _outward_normal(blocks, fans, edge[shared])
     depth = _depth(blocks, fans, vertex[shared], edge[shared])
-    opposed = np.einsum("ij,ij->i", normal[first], normal[second]) < 0.0
-    opposed &= (depth[first] > 0.0) & (depth[second] > 0.0)  # behind both: inside the part
-    drop[shared[first[opposed & (depth[first] > depth[second])]]] = True
-    drop[shared[second[opposed & (depth[second] > depth[first])]]] = True
+    facing = np.einsum("ij,ij->i", normal[first], normal[second])
+    drop[shared[first[deeper_of_opposed(depth[first], depth[second], facing)]]] = True
+    drop[shared[second[deeper_of_opposed(depth[second], depth[first], facing)]]] = True
     return drop
 
 
@@ -801,15 +810,13 @@ def _drop_deeper_if_opposed(row_i, row_j, i, j, vertex, edge, v, outward, drop):
     """Of one vertex's two pairings with edges of one block facing opposite ways, both
     behind their lines, mark the deeper one (:func:`_opposed_deeper`)."""
     ei, ej, p = edge[row_i], edge[row_j], vertex[row_i]
-    if outward[ei, 0] * outward[ej, 0] + outward[ei, 1] * outward[ej, 1] >= 0.0:
-        return
-    di = (v[ei, 0] - v[p, 0]) * outward[ei, 0] + (v[ei, 1] - v[p, 1]) * outward[ei, 1]
-    dj = (v[ej, 0] - v[p, 0]) * outward[ej, 0] + (v[ej, 1] - v[p, 1]) * outward[ej, 1]
-    if di > 0.0 and dj > 0.0:
-        if di > dj:
-            drop[i] = True
-        elif dj > di:
-            drop[j] = True
+    facing = outward[ei, 0] * outward[ej, 0] + outward[ei, 1] * outward[ej, 1]
+    di = line_depth(v[ei, 0] - v[p, 0], v[ei, 1] - v[p, 1], outward[ei, 0], outward[ei, 1])
+    dj = line_depth(v[ej, 0] - v[p, 0], v[ej, 1] - v[p, 1], outward[ej, 0], outward[ej, 1])
+    if deeper_of_opposed(di, dj, facing):
+        drop[i] = True
+    elif deeper_of_opposed(dj, di, facing):
+        drop[j] = True
 
 
 _first_rows = kernel(_first_rows) or _first_rows

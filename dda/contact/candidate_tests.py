@@ -1,0 +1,121 @@
+"""The narrow phase's tests of a candidate contact, each written once.
+
+Every function here is a :func:`dda.jit.formula`: the numpy narrow phase
+(:mod:`dda.contact.narrow`) calls it on arrays of candidates, its compiled screen and
+resolution on one candidate's numbers, compiling the same function in. Only
+arithmetic, comparisons, ``&``, ``|``, ``np.minimum``, ``np.maximum`` and
+``np.logical_not`` are used, which mean the same on both.
+
+Notation (:mod:`dda.contact.narrow`'s notes): a vertex P1 and the counter-clockwise
+edge P2P3 of the other block, e = P3 − P2, w = P1 − P2, l = |e|; n the edge's unit
+outward normal; u_next, u_prev the unit vectors along the two edges leaving P1 (its
+fan).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.jit import formula
+
+# of the smaller block's size √A: the deepest a vertex may be behind an edge's line and
+# still be a vertex-edge candidate, where that is more than the search distance
+DEPTH_OF_SIZE = 0.3
+
+
+@formula
+def edge_parameter(wx, wy, ex, ey, length):
+    """t = w·e / l²: where P1 projects along the edge (0 at P2, 1 at P3)."""
+    return (wx * ex + wy * ey) / length**2
+
+
+@formula
+def edge_depth(wx, wy, ex, ey, length):
+    """d = (e × w) / l: how far P1 is behind the edge's line (> 0: on the block's side;
+    paper eq. 9)."""
+    return (ex * wy - ey * wx) / length
+
+
+@formula
+def deepest_candidate(search, area_a, area_b):
+    """max(search, 0.3 √min(A_a, A_b)): the deepest a vertex-edge candidate may be."""
+    return np.maximum(search, DEPTH_OF_SIZE * np.sqrt(np.minimum(area_a, area_b)))
+
+
+@formula
+def projects_inside(t, edge_end):
+    """P1 projects inside the edge, more than ``edge_end`` of it from either end."""
+    return (t > edge_end) & (t < 1.0 - edge_end)
+
+
+@formula
+def within_reach(depth, gap, deepest):
+    """−gap ≤ d ≤ deepest: at most ``gap`` outside the edge's line, at most ``deepest``
+    behind it."""
+    return (depth >= -gap) & (depth <= deepest)
+
+
+@formula
+def fan_separation(next_x, next_y, prev_x, prev_y, nx, ny):
+    """min(u_next·n, u_prev·n): ≥ 0 when P1's fan stays outside the edge's line."""
+    return np.minimum(next_x * nx + next_y * ny, prev_x * nx + prev_y * ny)
+
+
+@formula
+def fan_clears(separation, angle_tolerance):
+    """The angle test: neither edge of P1 dips into the edge by more than the angle whose
+    sine is ``angle_tolerance``."""
+    return separation >= -angle_tolerance
+
+
+@formula
+def line_depth(wx, wy, nx, ny):
+    """(P2 − P1)·n with (wx, wy) = P2 − P1: P1's depth behind the edge's line (> 0:
+    inside), by the edge's outward normal (the vertex-vertex resolution's measure)."""
+    return wx * nx + wy * ny
+
+
+@formula
+def beyond_ends(depth, along, slack):
+    """Behind the edge's line by more than ``slack`` while projecting beyond its ends
+    (``along`` < 0 or > 1): only the line makes up the penetration."""
+    return (depth > slack) & ((along < 0.0) | (along > 1.0))
+
+
+@formula
+def deeper_than_corner(depth, other_depth, slack, reflex_corner, shares_line):
+    """At a convex corner, behind this edge's line by more than ``slack`` beyond the depth
+    behind the corner's other edge (P1 lies outside or on that other edge), unless P1's
+    block has an edge along the other one, facing the same way (``shares_line``)."""
+    convex = np.logical_not(reflex_corner)
+    return convex & (depth - other_depth > slack) & np.logical_not(shares_line)
+
+
+@formula
+def inside_corner(depth, other_depth, inside_depth):
+    """Behind both edge lines at the other vertex by more than ``inside_depth``: inside
+    that block."""
+    return np.minimum(depth, other_depth) > inside_depth
+
+
+@formula
+def off_edge(along, length, slack):
+    """P1 projects beyond the edge's ends by more than ``slack`` (m)."""
+    return np.maximum(-along, along - 1.0) * length > slack
+
+
+@formula
+def deeper_of_opposed(depth, other_depth, normal_dot):
+    """Of one vertex's two contacts with edges of one block facing opposite ways
+    (``normal_dot`` < 0), both behind their lines: True for the deeper one (it entered
+    a thin part of the block through the other edge)."""
+    opposed = (normal_dot < 0.0) & (depth > 0.0) & (other_depth > 0.0)
+    return opposed & (depth > other_depth)
+
+
+@formula
+def edge_along(wx, wy, ex, ey):
+    """w·e / e·e with (wx, wy) = P1 − P2: where P1 projects along the edge (the
+    vertex-vertex resolution's measure; :func:`edge_parameter` divides by l² of the
+    computed length, the screen's)."""
+    return (wx * ex + wy * ey) / (ex * ex + ey * ey)
