@@ -216,9 +216,8 @@ def compile_seconds() -> float:
 def _announce_compiling() -> None:
     """Say once in a process when numba starts compiling a kernel (not loading it from
     its cache), and count the seconds: the first run after installing or upgrading waits
-    for the kernels it uses, up to about 1.5 minutes of CPU for the rock slope's on the
-    2-core benchmark machine (docs/benchmarks.md), and would otherwise seem to hang at
-    its first step.
+    for the kernels it uses (the rock slope's: 53 s on the 2-core benchmark machine,
+    docs/benchmarks.md), and would otherwise seem to hang at its first step.
 
     Uses numba's event API: ``numba:compile`` fires only for a compilation, never
     for a load from the on-disk cache; a kernel's helpers compile inside it (nested
