@@ -1,10 +1,12 @@
-"""The narrow phase's tests of a candidate contact, each written once.
+"""The narrow phase's tests of a candidate contact, and the vertex-edge geometry they
+and the contact rows measure, each written once.
 
 Every function here is a :func:`dda.jit.formula`: the numpy narrow phase
-(:mod:`dda.contact.narrow`) calls it on arrays of candidates, its compiled screen and
-resolution on one candidate's numbers, compiling the same function in. Only
-arithmetic, comparisons, ``&``, ``|``, ``np.minimum``, ``np.maximum`` and
-``np.logical_not`` are used, which mean the same on both.
+(:mod:`dda.contact.narrow`) and contact rows (:mod:`dda.contact.rows`) call it on
+arrays of candidates or contacts, their compiled twins on one candidate's numbers,
+compiling the same function in. Only arithmetic, comparisons, ``&``, ``|``,
+``np.minimum``, ``np.maximum``, ``np.sqrt`` and ``np.logical_not`` are used, which
+mean the same on both.
 
 Notation (:mod:`dda.contact.narrow`'s notes): a vertex P1 and the counter-clockwise
 edge P2P3 of the other block, e = P3 − P2, w = P1 − P2, l = |e|; n the edge's unit
@@ -34,6 +36,14 @@ def edge_depth(wx, wy, ex, ey, length):
     """d = (e × w) / l: how far P1 is behind the edge's line (> 0: on the block's side;
     paper eq. 9)."""
     return (ex * wy - ey * wx) / length
+
+
+@formula
+def segment_distance(wx, wy, ex, ey, t):
+    """|w − clip(t, 0, 1) e|: P1's distance from the edge segment."""
+    along = np.minimum(np.maximum(t, 0.0), 1.0)
+    rx, ry = wx - along * ex, wy - along * ey
+    return np.sqrt(rx * rx + ry * ry)
 
 
 @formula

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.contact.candidate_tests import edge_depth, edge_parameter, segment_distance
 from dda.contact.contact_set import ContactSet
 from dda.jit import compiled, kernel
 from dda.kinematics import displacement_matrices
@@ -54,10 +55,9 @@ def edge_geometry(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray):
     e = p3 - p2
     length = np.linalg.norm(e, axis=1)
     w = p1 - p2
-    d = (e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]) / length
-    t = np.einsum("ij,ij->i", w, e) / length**2
-    along = np.clip(t, 0.0, 1.0)
-    return d, t, np.linalg.norm(w - along[:, None] * e, axis=1)
+    d = edge_depth(w[:, 0], w[:, 1], e[:, 0], e[:, 1], length)
+    t = edge_parameter(w[:, 0], w[:, 1], e[:, 0], e[:, 1], length)
+    return d, t, segment_distance(w[:, 0], w[:, 1], e[:, 0], e[:, 1], t)
 
 
 def _edge_geometry(v, vertex, edge, nxt):
@@ -69,11 +69,9 @@ def _edge_geometry(v, vertex, edge, nxt):
         ex, ey = v[nxt[q], 0] - v[q, 0], v[nxt[q], 1] - v[q, 1]
         wx, wy = v[p, 0] - v[q, 0], v[p, 1] - v[q, 1]
         length = np.sqrt(ex * ex + ey * ey)
-        d[c] = (ex * wy - ey * wx) / length
-        t[c] = (wx * ex + wy * ey) / (length * length)
-        along = min(max(t[c], 0.0), 1.0)
-        rx, ry = wx - along * ex, wy - along * ey
-        r[c] = np.sqrt(rx * rx + ry * ry)
+        d[c] = edge_depth(wx, wy, ex, ey, length)
+        t[c] = edge_parameter(wx, wy, ex, ey, length)
+        r[c] = segment_distance(wx, wy, ex, ey, t[c])
     return d, t, r
 
 
