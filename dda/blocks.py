@@ -12,8 +12,11 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from dda.geometry import (
+    central_moments,
+    edge_moment_terms,
     next_vertex_index,
     owner_of_vertex,
+    polygon_integrals,
     polygon_moments,
     previous_vertex_index,
 )
@@ -154,25 +157,24 @@ def _moments(vertices, offsets):
     for i in range(n):
         first, last = offsets[i], offsets[i + 1]
         rx, ry = vertices[first, 0], vertices[first, 1]
-        s = sx = sy = sxx = syy = sxy = 0.0
+        c = cx = cy = cxx = cyy = cxy = 0.0
         for k in range(first, last):
             j = k + 1 if k + 1 < last else first
             x0, y0 = vertices[k, 0] - rx, vertices[k, 1] - ry
             x1, y1 = vertices[j, 0] - rx, vertices[j, 1] - ry
-            c = x0 * y1 - x1 * y0
-            s += c
-            sx += (x0 + x1) * c
-            sy += (y0 + y1) * c
-            sxx += (x0 * x0 + x0 * x1 + x1 * x1) * c
-            syy += (y0 * y0 + y0 * y1 + y1 * y1) * c
-            sxy += (x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c
-        s, sx, sy = s / 2.0, sx / 6.0, sy / 6.0
-        sxx, syy, sxy = sxx / 12.0, syy / 12.0, sxy / 24.0
-        cx, cy = (sx / s, sy / s) if s != 0.0 else (np.nan, np.nan)  # numpy's 0/0
+            terms = _edge_moment_terms(x0, y0, x1, y1)
+            c, cx, cy = c + terms[0], cx + terms[1], cy + terms[2]
+            cxx, cyy, cxy = cxx + terms[3], cyy + terms[4], cxy + terms[5]
+        s, sx, sy, sxx, syy, sxy = _polygon_integrals(c, cx, cy, cxx, cyy, cxy)
+        x, y = (sx / s, sy / s) if s != 0.0 else (np.nan, np.nan)  # numpy's 0/0
         area[i] = s
-        centroid[i, 0], centroid[i, 1] = cx + rx, cy + ry
-        ixx[i], iyy[i], ixy[i] = sxx - s * cx * cx, syy - s * cy * cy, sxy - s * cx * cy
+        centroid[i, 0], centroid[i, 1] = x + rx, y + ry
+        ixx[i], iyy[i], ixy[i] = _central_moments(s, x, y, sxx, syy, sxy)
     return area, centroid, ixx, iyy, ixy
 
 
+# the formulas polygon_moments uses, compiled for the kernel (the same numbers)
+_edge_moment_terms = kernel(edge_moment_terms) or edge_moment_terms
+_polygon_integrals = kernel(polygon_integrals) or polygon_integrals
+_central_moments = kernel(central_moments) or central_moments
 moments_kernel = kernel(_moments)

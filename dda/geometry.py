@@ -58,27 +58,46 @@ def polygon_moments(vertices: np.ndarray, offsets: np.ndarray) -> dict[str, np.n
     ref = vertices[offsets[:-1]]
     p = vertices - ref[owner]
     q = p[nxt]
-    x0, y0, x1, y1 = p[:, 0], p[:, 1], q[:, 0], q[:, 1]
-    c = x0 * y1 - x1 * y0
-
-    def total(values: np.ndarray) -> np.ndarray:
-        return np.bincount(owner, weights=values, minlength=n)
-
-    s = total(c) / 2.0
-    sx = total((x0 + x1) * c) / 6.0
-    sy = total((y0 + y1) * c) / 6.0
-    sxx = total((x0 * x0 + x0 * x1 + x1 * x1) * c) / 12.0
-    syy = total((y0 * y0 + y0 * y1 + y1 * y1) * c) / 12.0
-    sxy = total((x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c) / 24.0
+    terms = edge_moment_terms(p[:, 0], p[:, 1], q[:, 0], q[:, 1])
+    sums = [np.bincount(owner, weights=term, minlength=n) for term in terms]
+    s, sx, sy, sxx, syy, sxy = polygon_integrals(*sums)
     with np.errstate(divide="ignore", invalid="ignore"):
         cx, cy = sx / s, sy / s
+    ixx, iyy, ixy = central_moments(s, cx, cy, sxx, syy, sxy)
     return {
         "area": s,
         "centroid": np.column_stack([cx, cy]) + ref,
-        "ixx": sxx - s * cx * cx,
-        "iyy": syy - s * cy * cy,
-        "ixy": sxy - s * cx * cy,
+        "ixx": ixx,
+        "iyy": iyy,
+        "ixy": ixy,
     }
+
+
+def edge_moment_terms(x0, y0, x1, y1):
+    """The edge (x0, y0) → (x1, y1)'s terms of Green's theorem (:func:`polygon_moments`),
+    c, (x0+x1) c, (y0+y1) c, (x0²+x0 x1+x1²) c, (y0²+y0 y1+y1²) c and
+    (x0 y1+2 x0 y0+2 x1 y1+x1 y0) c, with c = x0 y1 − x1 y0. Arithmetic only: arrays
+    here, one edge's numbers in the compiled twin (:mod:`dda.blocks`)."""
+    c = x0 * y1 - x1 * y0
+    return (
+        c,
+        (x0 + x1) * c,
+        (y0 + y1) * c,
+        (x0 * x0 + x0 * x1 + x1 * x1) * c,
+        (y0 * y0 + y0 * y1 + y1 * y1) * c,
+        (x0 * y1 + 2 * x0 * y0 + 2 * x1 * y1 + x1 * y0) * c,
+    )
+
+
+def polygon_integrals(c, cx, cy, cxx, cyy, cxy):
+    """S, Sx, Sy, Sxx, Syy, Sxy from the sums of :func:`edge_moment_terms` over a
+    polygon's edges (divided by 2, 6, 6, 12, 12, 24)."""
+    return c / 2.0, cx / 6.0, cy / 6.0, cxx / 12.0, cyy / 12.0, cxy / 24.0
+
+
+def central_moments(s, cx, cy, sxx, syy, sxy):
+    """Ixx, Iyy, Ixy about the centroid (cx, cy): Sxx − S cx², Syy − S cy², Sxy − S cx cy."""
+    return sxx - s * cx * cx, syy - s * cy * cy, sxy - s * cx * cy
 
 
 def pack_polygons(polygons: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
