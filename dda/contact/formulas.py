@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from dda.jit import formula, select
+from dda.result import LOCKED, OPEN, SLIDING
 
 # pieces of a contact's terms (shear: which side of the friction bound, or stuck)
 NORMAL_LIMIT, NORMAL_ELASTIC = 0, 1  # at the limit −T (open when T = 0) / elastic spring
@@ -164,3 +165,65 @@ def shear_energy(shear_base, shear_penalty, bound, slip):
     excess = np.maximum(np.abs(trial) - bound, 0.0)
     elastic = (force * force - shear_base * shear_base) / (2.0 * shear_penalty)
     return elastic + bound * excess / shear_penalty
+
+
+@formula
+def augmentation(
+    normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s,
+    fresh, found_penetration, carried_shear, tolerance,
+):  # fmt: skip
+    """Eq. 7 beyond the tolerance (docs/contact.md): (elastic, far, stuck, slid, λn', λt').
+
+    A contact on the elastic normal piece whose |g| exceeds ``tolerance`` is *far*: its
+    λn' = max(λn + p g, −T); off the elastic piece λn' = 0, else λn is kept. One found this
+    step already deeper than the tolerance (``fresh``, ``found_penetration``) is not
+    augmented: the push-out takes its overlap (:mod:`dda.contact.push_out`). A stuck
+    contact (|λt + ps s| < b, ps > 0) that slid more than the tolerance carries
+    λt' = λt + ps s, else ``carried_shear``."""
+    trial_n = normal_trial(normal_base, penalty, g)
+    elastic = trial_n >= -tension
+    found_deep = fresh & (found_penetration > tolerance)
+    far = elastic & (np.abs(g) > tolerance) & np.logical_not(found_deep)
+    trial_t = shear_trial(shear_base, shear_penalty, s)
+    stuck = (np.abs(trial_t) < bound) & (shear_penalty > 0.0)
+    slid = stuck & (np.abs(s) > tolerance)
+    normal = select(elastic, select(far, limited_normal(trial_n, tension), normal_base), 0.0)
+    return elastic, far, stuck, slid, normal, select(slid, trial_t, carried_shear)
+
+
+@formula
+def grown_penalty(penalty, far, g, previous_g, shrink_target, max_penalty, growth):
+    """The variable penalty (§3): p' = min(p × growth, p_max) where a far contact's |g|
+    shrank by less than ``shrink_target`` since the last solve, else p."""
+    slow = far & (np.abs(g) > shrink_target * np.abs(previous_g)) & (penalty < max_penalty)
+    return select(slow, np.minimum(penalty * growth, max_penalty), penalty)
+
+
+@formula
+def bond_lost(normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s):
+    """A bond (of a contact with one to lose) goes at its tensile strength (the normal
+    force at its limit −T, T > 0) or when it slips."""
+    normal = normal_piece(normal_base, penalty, tension, g)
+    shear = shear_piece(shear_base, shear_penalty, bound, s)
+    at_tension = (normal != NORMAL_ELASTIC) & (tension > 0.0)
+    slipping = (shear != STICK) & (shear_penalty > 0.0)
+    return at_tension | slipping
+
+
+@formula
+def recorded(
+    normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s,
+    normal_multiplier, limit_band,
+):  # fmt: skip
+    """A contact's record at the step's end: (state, λn, slide direction, N, F). Open
+    where N is at its limit 0 (closed: on the elastic piece, or holding tension T > 0),
+    else sliding where |λt + ps s| ≥ (1 − ``limit_band``) b or there is no shear term,
+    else locked; an open contact keeps no λn, N or F."""
+    closed = (normal_trial(normal_base, penalty, g) >= -tension) | (tension > 0.0)
+    trial = shear_trial(shear_base, shear_penalty, s)
+    stuck = (np.abs(trial) < (1.0 - limit_band) * bound) & (shear_penalty > 0.0)
+    state = select(closed, select(stuck, LOCKED, SLIDING), OPEN)
+    normal = select(closed, normal_force(normal_base, penalty, tension, g), 0.0)
+    shear = select(closed, shear_force(shear_base, shear_penalty, bound, s), 0.0)
+    direction = select(state == SLIDING, np.sign(trial), 0.0)
+    return state, select(closed, normal_multiplier, 0.0), direction, normal, shear

@@ -32,10 +32,9 @@ import numpy as np
 
 from dda.contact import formulas, law_kernels
 from dda.contact.contact_set import ContactSet
-from dda.contact.potential import NORMAL_ELASTIC, STICK, ContactTerms
+from dda.contact.potential import ContactTerms
 from dda.contact.strength import JointProperties
 from dda.jit import compiled, floats
-from dda.result import LOCKED, OPEN, SLIDING
 
 UNBOUNDED = 1e300  # the friction bound of a contact whose normal force is not known yet
 
@@ -279,11 +278,7 @@ def _break_bonds(contacts, terms, joint, g, s) -> int:
         )
         contacts.intact &= ~lost
         return int(np.count_nonzero(lost))
-    normal_piece, shear_piece = terms.pieces(g, s)
-    bonded = contacts.intact & breakable
-    at_tension = (normal_piece != NORMAL_ELASTIC) & (terms.tension > 0.0)
-    slipping = (shear_piece != STICK) & (terms.shear_penalty > 0.0)
-    lost = bonded & (at_tension | slipping)
+    lost = contacts.intact & breakable & formulas.bond_lost(*_terms_arrays(terms), g, s)
     contacts.intact &= ~lost
     return int(np.count_nonzero(lost))
 
@@ -304,28 +299,20 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
         if has_previous:
             contacts.penalty = penalty
         return int(count), float(violation)
-    trial_n = terms.normal_trial(g)
-    elastic = trial_n >= -terms.tension
     # a contact found this step already deeper than the tolerance (fresh fracture
     # fragments) is pushed out by its penalty spring (dda.contact.push_out), not
     # augmented: removing all of its overlap within one step can take more than any
     # multiplier gives once Δt is cut (a 4.6 cm overlap among fragments: cut to 1e-13 s)
-    found_deep = contacts.fresh & (contacts.penetration > tolerance)
-    far = elastic & (np.abs(g) > tolerance) & ~found_deep
-    stuck = (np.abs(terms.shear_trial(s)) < terms.bound) & (terms.shear_penalty > 0.0)
-    slid = stuck & (np.abs(s) > tolerance)
-    contacts.normal_multiplier = np.where(
-        elastic, np.where(far, np.maximum(trial_n, -terms.tension), terms.normal_base), 0.0
-    )
-    contacts.shear_multiplier = np.where(slid, terms.shear_trial(s), contacts.shear_multiplier)
+    elastic, far, stuck, slid, normal, shear = formulas.augmentation(
+        *_terms_arrays(terms), g, s, contacts.fresh, contacts.penetration,
+        contacts.shear_multiplier, tolerance,
+    )  # fmt: skip
+    contacts.normal_multiplier, contacts.shear_multiplier = normal, shear
     if previous_g is not None:
-        slow = far & (np.abs(g) > law.shrink_target * np.abs(previous_g))
-        slow &= contacts.penalty < law.max_penalty
-        contacts.penalty = np.where(
-            slow,
-            np.minimum(contacts.penalty * law.penalty_growth, law.max_penalty),
-            contacts.penalty,
-        )
+        contacts.penalty = formulas.grown_penalty(
+            contacts.penalty, far, g, previous_g, law.shrink_target, law.max_penalty,
+            law.penalty_growth,
+        )  # fmt: skip
     violation = max(
         float(np.max(np.abs(g[elastic]), initial=0.0)), float(np.max(np.abs(s[stuck]), initial=0.0))
     )
@@ -363,21 +350,22 @@ def record(
         contacts.shear_multiplier = shear
         contacts.penetration, contacts.slip = g, s
         return
-    normal_piece, _ = terms.pieces(g, s)
-    closed = (normal_piece == NORMAL_ELASTIC) | (terms.tension > 0.0)
-    normal = np.where(closed, terms.normal_force(g), 0.0)
-    shear = np.where(closed, terms.shear_force(s), 0.0)
-    trial = terms.shear_trial(s)
-    stuck = (np.abs(trial) < (1.0 - limit_band) * terms.bound) & (terms.shear_penalty > 0.0)
-    contacts.state = np.where(closed, np.where(stuck, LOCKED, SLIDING), OPEN).astype(np.int8)
-    contacts.normal_multiplier = np.where(closed, contacts.normal_multiplier, 0.0)
-    sliding = contacts.state == SLIDING
-    contacts.slide_direction = np.where(sliding, np.sign(trial), 0.0)
+    state, multiplier, direction, normal, shear = formulas.recorded(
+        *_terms_arrays(terms), g, s, contacts.normal_multiplier, limit_band
+    )
+    contacts.state = state.astype(np.int8)
+    contacts.normal_multiplier, contacts.slide_direction = multiplier, direction
     contacts.normal_force = normal
     contacts.shear_force = shear
     contacts.shear_multiplier = shear
     contacts.penetration = g
     contacts.slip = s
+
+
+def _terms_arrays(terms: ContactTerms) -> tuple[np.ndarray, ...]:
+    """λn, p, T, λt, ps, b: the terms as the formulas take them."""
+    return (terms.normal_base, terms.penalty, terms.tension, terms.shear_base,
+            terms.shear_penalty, terms.bound)  # fmt: skip
 
 
 def friction_dissipation(terms: ContactTerms, s: np.ndarray) -> float:

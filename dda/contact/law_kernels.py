@@ -13,21 +13,19 @@ from __future__ import annotations
 import numpy as np
 
 from dda.contact.formulas import (
+    augmentation,
+    bond_lost,
     friction_bound,
+    grown_penalty,
     limited_normal,
     limited_shear,
     normal_force,
-    normal_piece,
-    normal_trial,
+    recorded,
     shear_force,
-    shear_piece,
-    shear_trial,
     tension_held,
 )
-from dda.contact.potential import NORMAL_ELASTIC, STICK
 from dda.contact.strength import joint_of
 from dda.jit import kernel
-from dda.result import LOCKED, OPEN, SLIDING
 
 
 def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, friction):
@@ -80,25 +78,15 @@ def _augment(
     new_n, new_t, new_p = np.empty(m), np.empty(m), np.empty(m)
     count, violation = 0, 0.0
     for c in range(m):
-        trial_n = normal_trial(normal_base[c], penalty[c], g[c])
-        elastic = trial_n >= -tension[c]
-        found_deep = fresh[c] and penetration[c] > tolerance
-        far = elastic and abs(g[c]) > tolerance and not found_deep
-        trial_t = shear_trial(shear_base[c], shear_penalty[c], s[c])
-        stuck = abs(trial_t) < bound[c] and shear_penalty[c] > 0.0
-        slid = stuck and abs(s[c]) > tolerance
-        if not elastic:
-            new_n[c] = 0.0
-        elif far:
-            new_n[c] = max(trial_n, -tension[c])
-        else:
-            new_n[c] = normal_base[c]
-        new_t[c] = trial_t if slid else shear_multiplier[c]
+        elastic, far, stuck, slid, new_n[c], new_t[c] = augmentation(
+            normal_base[c], penalty[c], tension[c], shear_base[c], shear_penalty[c], bound[c],
+            g[c], s[c], fresh[c], penetration[c], shear_multiplier[c], tolerance,
+        )  # fmt: skip
         new_p[c] = penalty[c]
         if has_previous:
-            slow = far and abs(g[c]) > shrink_target * abs(previous_g[c])
-            if slow and penalty[c] < max_penalty:
-                new_p[c] = min(penalty[c] * growth, max_penalty)
+            new_p[c] = grown_penalty(
+                penalty[c], far, g[c], previous_g[c], shrink_target, max_penalty, growth
+            )
         count += far or slid
         if elastic:
             violation = max(violation, abs(g[c]))
@@ -117,11 +105,10 @@ def _broken(
     for c in range(m):
         if not (intact[c] and breakable[c]):
             continue
-        normal = normal_piece(normal_base[c], penalty[c], tension[c], g[c])
-        shear = shear_piece(shear_base[c], shear_penalty[c], bound[c], s[c])
-        at_tension = normal != NORMAL_ELASTIC and tension[c] > 0.0
-        slipping = shear != STICK and shear_penalty[c] > 0.0
-        lost[c] = at_tension or slipping
+        lost[c] = bond_lost(
+            normal_base[c], penalty[c], tension[c], shear_base[c], shear_penalty[c], bound[c],
+            g[c], s[c],
+        )  # fmt: skip
     return lost
 
 
@@ -135,15 +122,10 @@ def _recorded(
     new_n, direction = np.empty(m), np.empty(m)
     normal, shear = np.empty(m), np.empty(m)
     for c in range(m):
-        trial_n = normal_trial(normal_base[c], penalty[c], g[c])
-        closed = trial_n >= -tension[c] or tension[c] > 0.0
-        trial = shear_trial(shear_base[c], shear_penalty[c], s[c])
-        normal[c] = normal_force(normal_base[c], penalty[c], tension[c], g[c]) if closed else 0.0
-        shear[c] = shear_force(shear_base[c], shear_penalty[c], bound[c], s[c]) if closed else 0.0
-        stuck = abs(trial) < (1.0 - limit_band) * bound[c] and shear_penalty[c] > 0.0
-        state[c] = (LOCKED if stuck else SLIDING) if closed else OPEN
-        new_n[c] = normal_multiplier[c] if closed else 0.0
-        direction[c] = np.sign(trial) if state[c] == SLIDING else 0.0
+        state[c], new_n[c], direction[c], normal[c], shear[c] = recorded(
+            normal_base[c], penalty[c], tension[c], shear_base[c], shear_penalty[c], bound[c],
+            g[c], s[c], normal_multiplier[c], limit_band,
+        )  # fmt: skip
     return state, new_n, direction, normal, shear
 
 
