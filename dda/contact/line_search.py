@@ -24,43 +24,75 @@ import numpy as np
 
 from dda.contact.formulas import normal_force, normal_trial, shear_force, shear_trial
 from dda.contact.potential import ContactTerms
-from dda.jit import compiled, kernel
+from dda.jit import compiled, formula, kernel, select
+
+
+@formula
+def normal_break(normal_base, penalty, tension, g, dg):
+    """(α, slope change, kept) where λn + p g crosses −T along the line: α = (−T − λn −
+    p g) / (p δg), the slope changing by sign(δg) p δg² (entering the elastic piece when g
+    grows); kept where p δg ≠ 0 and α is positive and finite."""
+    rate = penalty * dg
+    alpha = (-tension - normal_trial(normal_base, penalty, g)) / select(rate != 0.0, rate, 1.0)
+    jump = np.sign(dg) * penalty * dg * dg
+    return alpha, jump, (rate != 0.0) & (alpha > 0.0) & np.isfinite(alpha)
+
+
+@formula
+def shear_breaks(shear_base, shear_penalty, bound, s, ds):
+    """(α up, α down, slope change, live) where λt + ps s reaches +b (leaving the stuck
+    piece when δs > 0: the slope falls by sign(δs) ps δs²) and −b (δs < 0: it rises by as
+    much), for a contact with a shear term and a bound (b > 0) that moves (ps δs ≠ 0)."""
+    rate = shear_penalty * ds
+    live = (shear_penalty > 0.0) & (bound > 0.0) & (rate != 0.0)
+    trial = shear_trial(shear_base, shear_penalty, s)
+    divisor = select(rate != 0.0, rate, 1.0)
+    jump = np.sign(ds) * shear_penalty * ds * ds
+    return (bound - trial) / divisor, (-bound - trial) / divisor, jump, live
+
+
+@formula
+def springs_after_start(
+    normal_base, penalty, tension, shear_base, shear_penalty, bound, g, dg, s, ds
+):  # fmt: skip
+    """(p δg², ps δs²) of a contact's springs active just after α = 0 (each 0 where its
+    term is not): elastic where λn + p g > −T or = −T and rising; stuck where
+    |λt + ps s| < b or at ±b and turning back, with a shear term and b > 0."""
+    trial_n = normal_trial(normal_base, penalty, g)
+    elastic = (trial_n > -tension) | ((trial_n == -tension) & (dg > 0.0))
+    trial_t = shear_trial(shear_base, shear_penalty, s)
+    inside = np.abs(trial_t) < bound
+    inside = inside | ((trial_t == bound) & (ds < 0.0)) | ((trial_t == -bound) & (ds > 0.0))
+    stuck = inside & (shear_penalty > 0.0) & (bound > 0.0)
+    return select(elastic, penalty * dg * dg, 0.0), select(stuck, shear_penalty * ds * ds, 0.0)
 
 
 def _normal_breaks(terms: ContactTerms, g, dg):
     """(α, slope change) where λn + p g crosses −T along the line (α > 0 only)."""
-    p = terms.penalty
     with np.errstate(divide="ignore", invalid="ignore"):
-        alpha = (-terms.tension - terms.normal_trial(g)) / (p * dg)
-    jump = np.sign(dg) * p * dg * dg  # entering the elastic piece when g grows
-    keep = (dg != 0.0) & (alpha > 0.0) & np.isfinite(alpha)
+        alpha, jump, keep = normal_break(terms.normal_base, terms.penalty, terms.tension, g, dg)
     return alpha[keep], jump[keep]
 
 
 def _shear_breaks(terms: ContactTerms, s, ds):
     """(α, slope change) where λt + ps s crosses ±b along the line (α > 0 only)."""
-    ps, b = terms.shear_penalty, terms.bound
-    live = (ps > 0.0) & (b > 0.0) & (ds != 0.0)
-    trial, ps, b, ds = terms.shear_trial(s)[live], ps[live], b[live], ds[live]
-    k = ps * ds * ds
     with np.errstate(over="ignore"):  # a bound not known yet (dda.contact.law.UNBOUNDED)
-        alpha_up = (b - trial) / (ps * ds)  # reaches +b: leaves the stuck piece when ds > 0
-        alpha_down = (-b - trial) / (ps * ds)  # reaches -b: leaves it when ds < 0
-    alpha = np.concatenate([alpha_up, alpha_down])
-    jump = np.concatenate([-np.sign(ds) * k, np.sign(ds) * k])
+        up, down, jump, live = shear_breaks(
+            terms.shear_base, terms.shear_penalty, terms.bound, s, ds
+        )
+    alpha = np.concatenate([up[live], down[live]])
+    jump = np.concatenate([-jump[live], jump[live]])
     keep = (alpha > 0.0) & np.isfinite(alpha)
     return alpha[keep], jump[keep]
 
 
 def _slope_at_start(terms: ContactTerms, g, dg, s, ds) -> float:
     """Σ of the contact springs active just after α = 0 (weighted by δ²)."""
-    trial_n = terms.normal_trial(g)
-    elastic = (trial_n > -terms.tension) | ((trial_n == -terms.tension) & (dg > 0.0))
-    slope = float(np.sum(np.where(elastic, terms.penalty * dg * dg, 0.0)))
-    trial_t, b = terms.shear_trial(s), terms.bound
-    inside = (np.abs(trial_t) < b) | ((trial_t == b) & (ds < 0.0)) | ((trial_t == -b) & (ds > 0.0))
-    stuck = inside & (terms.shear_penalty > 0.0) & (b > 0.0)
-    return slope + float(np.sum(np.where(stuck, terms.shear_penalty * ds * ds, 0.0)))
+    t = terms
+    normal, shear = springs_after_start(
+        t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound, g, dg, s, ds
+    )
+    return float(np.sum(normal)) + float(np.sum(shear))
 
 
 def line_minimum(
@@ -131,32 +163,23 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
     count = 0
     slope = curvature
     for c in range(m):
-        trial_n = normal_trial(lam_n[c], p[c], g[c])
-        if trial_n > -tension[c] or (trial_n == -tension[c] and dg[c] > 0.0):
-            slope += p[c] * dg[c] * dg[c]  # elastic just after α = 0
-        rate_n = p[c] * dg[c]
-        if rate_n != 0.0:  # (numpy: α not finite where p δg = 0)
-            alpha = (-tension[c] - trial_n) / rate_n
-            if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
-                alphas[count], jumps[count] = alpha, np.sign(dg[c]) * p[c] * dg[c] * dg[c]
-                count += 1
-        b = bound[c]
-        if not (ps[c] > 0.0 and b > 0.0):
-            continue
-        trial_t = shear_trial(lam_t[c], ps[c], s[c])
-        if abs(trial_t) < b or (trial_t == b and ds[c] < 0.0) or (trial_t == -b and ds[c] > 0.0):
-            slope += ps[c] * ds[c] * ds[c]  # stuck just after α = 0
-        rate_t = ps[c] * ds[c]
-        if rate_t == 0.0:
-            continue
-        jump = np.sign(ds[c]) * ps[c] * ds[c] * ds[c]
-        alpha = (b - trial_t) / rate_t  # reaches +b: leaves the stuck piece when δs > 0
-        if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
-            alphas[count], jumps[count] = alpha, -jump
-            count += 1
-        alpha = (-b - trial_t) / rate_t  # reaches -b: leaves it when δs < 0
-        if alpha > 0.0 and np.isfinite(alpha) and alpha <= reach:
+        normal_spring, shear_spring = springs_after_start(
+            lam_n[c], p[c], tension[c], lam_t[c], ps[c], bound[c], g[c], dg[c], s[c], ds[c]
+        )
+        slope += normal_spring
+        alpha, jump, kept = normal_break(lam_n[c], p[c], tension[c], g[c], dg[c])
+        if kept and alpha <= reach:
             alphas[count], jumps[count] = alpha, jump
+            count += 1
+        slope += shear_spring
+        up, down, jump, live = shear_breaks(lam_t[c], ps[c], bound[c], s[c], ds[c])
+        if not live:
+            continue
+        if up > 0.0 and np.isfinite(up) and up <= reach:
+            alphas[count], jumps[count] = up, -jump
+            count += 1
+        if down > 0.0 and np.isfinite(down) and down <= reach:
+            alphas[count], jumps[count] = down, jump
             count += 1
     first = alphas[:count].min() if count else np.inf  # a contact changes piece before the
     # root when the root lies beyond the first breakpoint (π' < 0 there)
