@@ -1,0 +1,201 @@
+"""Every compiled twin of the engine, declared, and one parametrised test that holds each
+to the numpy code beside it.
+
+A compiled twin is a kernel that a ``compiled(kernel)`` / ``compiled_in_run(kernel)``
+branch chooses over numpy code that computes the same thing (docs/design.md, "Compiled
+kernels and start-up"). :data:`TWINS` declares every such branch of dda/ with a short
+run that takes it; the test runs that scene with every kernel, then with the one kernel
+switched off (its branch then takes the numpy code), and asks for the same blocks and
+contact forces. A twin that sums in another order than numpy agrees to rounding, the
+others to the bit: the runs are a few steps, too short for rounding to grow.
+``test_every_compiled_branch_is_declared`` fails on a branch that is not in the table.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import importlib
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dda
+from dda import jit
+from dda.bench.scenes import wall_scene
+
+pytestmark = pytest.mark.skipif(not jit.numba_enabled(), reason="numba is not in use")
+
+PACKAGE = Path(dda.__file__).resolve().parent
+
+# (file of the branch, the kernel as the branch names it) -> the run that takes it; the
+# runs (scene, DDA_SYSTEMS, the kernels switched off in both of the test's runs):
+#   wall: a 4 x 4 wall (augmented Lagrangian, equilibrium start, material damping) on
+#         band systems: the step's loop and Newton compiled, the contacts refreshed in
+#         one compiled call
+#   sparse: the same wall on the sparse systems: the loop and Newton in Python
+#   ringing: the wall from the unloaded start, its joints with restitution 0.5 (the
+#         contact dashpots couple blocks: the numpy line search), on the sparse systems
+#   pieces: the ringing wall with its contacts refreshed stage by stage (the compiled
+#         refresh off); numpy sift, numpy detect: likewise, with the compiled sifting of
+#         the pairings, or the narrow phase's one compiled call, off too
+#   slope sift: cases/rock_slope.toml, its pairings sifted in numpy (some need the
+#         distance of a vertex to a block: contacts that open and close on the slope)
+REFRESH = ("contact/pipeline.py", "_refresh_kernel")
+RUNS = {
+    "wall": ("wall", None, ()),
+    "sparse": ("wall", "sparse", ()),
+    "ringing": ("ringing", "sparse", ()),
+    "pieces": ("ringing", None, (REFRESH,)),
+    "numpy sift": ("ringing", None, (REFRESH, ("contact/pipeline.py", "_sift_kernel"))),
+    "numpy detect": ("ringing", None, (REFRESH, ("contact/narrow.py", "_detect_kernel"))),
+    "slope sift": ("rock_slope", None, (REFRESH, ("contact/pipeline.py", "_sift_kernel"))),
+}  # fmt: skip
+
+TWINS = {
+    ("blocks.py", "moments_kernel"): "wall",
+    ("contact/broad.py", "_grid_kernel"): "wall",
+    ("contact/broad.py", "_kept_kernel"): "wall",
+    ("contact/broad.py", "_still_overlapping_kernel"): "wall",
+    ("contact/contact_set.py", "merge_kernel"): "pieces",
+    ("contact/law.py", "law_kernels.augment_kernel"): "sparse",
+    ("contact/law.py", "law_kernels.broken_kernel"): "sparse",
+    ("contact/law.py", "law_kernels.forces_and_bounds_kernel"): "sparse",
+    ("contact/law.py", "law_kernels.recorded_kernel"): "sparse",
+    ("contact/law.py", "law_kernels.terms_kernel"): "sparse",
+    ("contact/line_search.py", "_line_minimum_kernel"): "ringing",
+    ("contact/narrow.py", "_detect_kernel"): "pieces",
+    ("contact/narrow.py", "_fans_kernel"): "numpy detect",
+    ("contact/narrow.py", "_screen_kernel"): "numpy detect",
+    ("contact/node.py", "separated_corners_kernel"): "numpy detect",
+    ("contact/pipeline.py", "_refresh_kernel"): "wall",
+    ("contact/pipeline.py", "_sift_kernel"): "pieces",
+    ("contact/point_distance.py", "_distances_kernel"): "slope sift",
+    ("contact/rows.py", "_edge_geometry_kernel"): "numpy sift",
+    ("contact/rows.py", "_gaps_kernel"): "sparse",
+    ("contact/rows.py", "_rows_kernel"): "wall",
+    ("effects/damping.py", "slowest_frequencies_kernel"): "wall",
+    ("effects/inertia.py", "masses_kernel"): "wall",
+    ("run/energy.py", "block_energies_kernel"): "wall",
+    ("solve/assembly.py", "_find_slots_kernel"): "sparse",
+    ("solve/assembly.py", "_scatter_kernel"): "sparse",
+    ("solve/assembly.py", "_subtract_pairs_kernel"): "sparse",
+    ("solve/band_system.py", "_columns_kernel"): "wall",
+    ("solve/band_system.py", "band_newton.band_minimise_kernel"): "wall",
+    ("solve/newton.py", "line_step.line_step_kernel"): "sparse",
+    ("solve/update.py", "apply_kernel"): "wall",
+    ("solve/update.py", "moves_kernel"): "wall",
+}
+
+# the twins that sum in another order than numpy (or, for the band Newton, solve in
+# another numbering): the same runs to rounding, not to the bit
+ROUNDING = {
+    ("contact/line_search.py", "_line_minimum_kernel"),
+    ("contact/rows.py", "_gaps_kernel"),
+    ("solve/assembly.py", "_scatter_kernel"),
+    ("solve/assembly.py", "_subtract_pairs_kernel"),
+    ("solve/band_system.py", "band_newton.band_minimise_kernel"),
+    ("solve/newton.py", "line_step.line_step_kernel"),
+}
+
+BRANCH = re.compile(r"\bcompiled(?:_in_run)?\(([\w.]+)\)")
+
+
+def branches() -> set[tuple[str, str]]:
+    """(file, kernel) of every compiled() / compiled_in_run() branch in dda/."""
+    found = set()
+    for path in PACKAGE.rglob("*.py"):
+        if path.parent.name == "jit":
+            continue  # the switch itself
+        for name in BRANCH.findall(path.read_text()):
+            found.add((path.relative_to(PACKAGE).as_posix(), name))
+    return found
+
+
+def test_every_compiled_branch_is_declared():
+    assert branches() == set(TWINS)
+
+
+def _scene(name: str):
+    if name == "rock_slope":
+        scene = dda.load_scene(PACKAGE.parent / "cases" / "rock_slope.toml")
+        analysis = dataclasses.replace(scene.analysis, duration=None, steps=6)
+        return dataclasses.replace(scene, analysis=analysis)
+    start = "equilibrium" if name == "wall" else "unloaded"
+    scene = wall_scene(4, method="augmented-lagrangian", steps=6, start=start)
+    if name == "ringing":
+        scene["joints"]["default"]["restitution"] = 0.5
+    return dda.load_scene(scene)
+
+
+def _run(name: str, monkeypatch) -> dda.Result:
+    scene, systems, off = RUNS[name]
+    monkeypatch.setenv("DDA_THREADS", "1")  # PARDISO's sums in one order: runs repeat
+    if systems is not None:
+        monkeypatch.setenv("DDA_SYSTEMS", systems)
+    for site in off:
+        monkeypatch.setattr(*_kernel_owner(*site), None)
+    with jit.run_work(10**6, 10**6):  # the kernels, as in a long run
+        return dda.simulate(_scene(scene))
+
+
+def _kernel_owner(file: str, name: str):
+    """(object holding the kernel's name, the attribute) of a branch's kernel."""
+    module = importlib.import_module("dda." + file.removesuffix(".py").replace("/", "."))
+    *path, attribute = name.split(".")
+    for part in path:
+        module = getattr(module, part)
+    return module, attribute
+
+
+def _function_of(kernel) -> object:
+    """The Python function of a :class:`dda.jit.Kernel` or of the numba dispatcher that
+    replaces it in the modules of kernels that call it."""
+    return getattr(kernel, "function", None) or getattr(kernel, "py_func", None)
+
+
+@functools.cache
+def _asked(name: str) -> frozenset:
+    """The functions of the kernels whose branches the run ``name`` asked about."""
+    asked = set()
+    patch = pytest.MonkeyPatch()
+    try:
+        for file, _ in TWINS:
+            module = importlib.import_module("dda." + file.removesuffix(".py").replace("/", "."))
+            for switch in ("compiled", "compiled_in_run"):
+                original = getattr(module, switch, None)
+                if original is not None:
+
+                    def recording(kernel, original=original):
+                        asked.add(_function_of(kernel))
+                        return original(kernel)
+
+                    patch.setattr(module, switch, recording)
+        _run(name, patch)
+    finally:
+        patch.undo()
+    return frozenset(asked)
+
+
+def _outcome(result: dda.Result) -> tuple[np.ndarray, np.ndarray]:
+    final = result.final
+    return np.concatenate(final.vertices), np.sort(np.abs(final.contacts.normal_force))
+
+
+@pytest.mark.parametrize("site", sorted(TWINS), ids=lambda s: f"{s[0]}:{s[1]}")
+def test_a_compiled_twin_gives_the_run_of_its_numpy_code(site, monkeypatch):
+    name = TWINS[site]
+    owner, attribute = _kernel_owner(*site)
+    kernel = getattr(owner, attribute)
+    assert _function_of(kernel) in _asked(name), f"the {name} run takes no branch of {site}"
+    vertices, forces = _outcome(_run(name, monkeypatch))
+    monkeypatch.setattr(owner, attribute, None)  # the branch takes the numpy code
+    twin_vertices, twin_forces = _outcome(_run(name, monkeypatch))
+    if site in ROUNDING:  # six steps of rounding: 1e-12 m (blocks of 1 m) measured
+        np.testing.assert_allclose(twin_vertices, vertices, rtol=0.0, atol=1e-10)
+        np.testing.assert_allclose(twin_forces, forces, rtol=1e-8, atol=1e-8 * forces.max())
+    else:
+        np.testing.assert_array_equal(twin_vertices, vertices)
+        np.testing.assert_array_equal(twin_forces, forces)
