@@ -39,6 +39,7 @@ from dda.result import LOCKED, OPEN, SLIDING
 NORMAL_LIMIT, NORMAL_ELASTIC = 0, 1  # at the limit −T (open when T = 0) / elastic spring
 SLIP_BACK, STICK, SLIP_FORWARD = -1, 0, 1
 
+UNBOUNDED = 1e300  # the friction bound of a contact whose normal force is not known yet
 MOBILISED_CAP = math.radians(70.0)
 TINY = 1e-300  # keeps the logarithm of σn = 0 and of a Coulomb joint's JCS = 0 finite
 
@@ -227,3 +228,37 @@ def recorded(
     shear = select(closed, shear_force(shear_base, shear_penalty, bound, s), 0.0)
     direction = select(state == SLIDING, np.sign(trial), 0.0)
     return state, select(closed, normal_multiplier, 0.0), direction, normal, shear
+
+
+@formula
+def first_bound(joint, intact, multiplier, penalty, gap0, last_normal, found_touching):
+    """A step's first friction bound: b of the larger of N at the start geometry,
+    max(max(λn, −T) + p g₀, −T), and the last step's N (a contact of blocks that turn
+    together may open by one step's second-order rotation and close again in the next:
+    its last force is the better guess); ``UNBOUNDED`` (stuck) for a contact found
+    touching this step, whose force is not known yet."""
+    tension = tension_held(joint, intact)
+    start = normal_force(limited_normal(multiplier, tension), penalty, tension, gap0)
+    bound = friction_bound(joint, np.maximum(start, last_normal), intact)
+    return select(found_touching, UNBOUNDED, bound)
+
+
+@formula
+def remembered_pieces(normal, shear, state, direction):
+    """The pieces of a step's first Newton iteration: those at the start point
+    (``normal``, ``shear``), except that a contact closed at the last step's end is taken
+    elastic, one locked then stuck, and one sliding then sliding the same way."""
+    normal = select(state != OPEN, NORMAL_ELASTIC, normal)
+    sliding = select(direction < 0.0, SLIP_BACK, SLIP_FORWARD)
+    shear = select(state == SLIDING, sliding, shear)
+    return normal, select(state == LOCKED, STICK, shear)
+
+
+@formula
+def friction_work(shear_base, shear_penalty, bound, slip):
+    """b ⟨|λt + ps s| − b⟩₊ / ps: the work of a contact's friction against its slip in the
+    step (the plastic part of its shear motion is the trial force's excess over the bound
+    over ps); 0 without a shear term (ps = 0)."""
+    excess = np.maximum(np.abs(shear_trial(shear_base, shear_penalty, slip)) - bound, 0.0)
+    live = shear_penalty > 0.0
+    return select(live, bound * excess / select(live, shear_penalty, 1.0), 0.0)

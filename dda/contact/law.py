@@ -36,7 +36,7 @@ from dda.contact.potential import ContactTerms
 from dda.contact.strength import JointProperties
 from dda.jit import compiled, floats
 
-UNBOUNDED = 1e300  # the friction bound of a contact whose normal force is not known yet
+UNBOUNDED = formulas.UNBOUNDED  # the bound of a contact whose normal force is not known yet
 
 
 @dataclass(frozen=True)
@@ -374,8 +374,5 @@ def friction_dissipation(terms: ContactTerms, s: np.ndarray) -> float:
     The plastic part of a contact's shear motion is the trial force's excess
     over the bound divided by ps; friction does b times that.
     """
-    ps = terms.shear_penalty
-    excess = np.maximum(np.abs(terms.shear_trial(s)) - terms.bound, 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        work = np.where(ps > 0.0, terms.bound * excess / ps, 0.0)
+    work = formulas.friction_work(terms.shear_base, terms.shear_penalty, terms.bound, s)
     return float(np.sum(work))

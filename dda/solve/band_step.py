@@ -22,12 +22,11 @@ import numpy as np
 
 from dda.contact import formulas, law_kernels
 from dda.contact import law as contact_law
-from dda.contact.formulas import friction_bound, tension_held
+from dda.contact.formulas import first_bound, friction_bound, friction_work, remembered_pieces
 from dda.contact.law import UNBOUNDED, BoundIteration
-from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.contact.strength import joint_of
 from dda.jit import floats, kernel
-from dda.result import LOCKED, OPEN, SLIDING
+from dda.result import OPEN
 from dda.solve import band_newton, contact_pieces
 from dda.solve.band_arguments import (
     BandContacts,
@@ -60,13 +59,11 @@ def _first_bounds(intact, strength, multiplier, penalty, g0, last_normal, fresh,
     if not friction:
         return bound
     for c in range(m):
-        joint = joint_of(strength, c)
-        tension = tension_held(joint, intact[c])
-        held = formulas.limited_normal(multiplier[c], tension)
-        start = formulas.normal_force(held, penalty[c], tension, g0[c])
-        bound[c] = friction_bound(joint, max(start, last_normal[c]), intact[c])
-        if fresh[c] and state[c] != OPEN:
-            bound[c] = UNBOUNDED
+        found_touching = fresh[c] and state[c] != OPEN
+        bound[c] = first_bound(
+            joint_of(strength, c), intact[c], multiplier[c], penalty[c], g0[c],
+            last_normal[c], found_touching,
+        )  # fmt: skip
     return bound
 
 
@@ -79,12 +76,7 @@ def _remembered(normal_base, penalty, tension, shear_base, shear_penalty, bound,
     normal, shear = np.empty(m, np.int8), np.empty(m, np.int8)
     _pieces(normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, normal, shear)
     for c in range(m):
-        if state[c] != OPEN:
-            normal[c] = NORMAL_ELASTIC
-        if state[c] == LOCKED:
-            shear[c] = STICK
-        elif state[c] == SLIDING:
-            shear[c] = SLIP_BACK if direction[c] < 0.0 else SLIP_FORWARD
+        normal[c], shear[c] = remembered_pieces(normal[c], shear[c], state[c], direction[c])
     return normal, shear
 
 
@@ -130,9 +122,7 @@ def _dissipation(shear_base, shear_penalty, bound, s):
     """:func:`dda.contact.law.friction_dissipation`: Σ b ⟨|λt + ps s| − b⟩₊ / ps."""
     work = 0.0
     for c in range(s.shape[0]):
-        if shear_penalty[c] > 0.0:
-            excess = max(abs(shear_base[c] + shear_penalty[c] * s[c]) - bound[c], 0.0)
-            work += bound[c] * excess / shear_penalty[c]
+        work += friction_work(shear_base[c], shear_penalty[c], bound[c], s[c])
     return work
 
 

@@ -26,15 +26,15 @@ from dda.blocks import BlockSet
 from dda.contact import law as contact_law
 from dda.contact.broad import candidate_pairs
 from dda.contact.contact_set import ContactSet
-from dda.contact.law import UNBOUNDED, BoundIteration, ContactLaw, JointProperties
+from dda.contact.formulas import first_bound, remembered_pieces
+from dda.contact.law import BoundIteration, ContactLaw, JointProperties
 from dda.contact.narrow import separated_blocks
-from dda.contact.potential import NORMAL_ELASTIC, SLIP_BACK, SLIP_FORWARD, STICK
 from dda.contact.push_out import push_out_displacement, pushed_overlap
 from dda.contact.rows import ContactRows, contact_rows, gaps_after
 from dda.effects.base import StepContext
 from dda.effects.pair_springs import PairSprings
 from dda.model import Model
-from dda.result import LOCKED, OPEN, SLIDING
+from dda.result import OPEN
 from dda.solve.assembly import (
     BLOCK,
     BlockPattern,
@@ -401,22 +401,19 @@ def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
     would join two blocks a search distance apart in K and its block pattern."""
     if not law.friction:
         return np.zeros(len(contacts))
-    start = contact_law.contact_terms(contacts, joints, law, np.zeros(len(contacts)))
-    normal = np.maximum(start.normal_force(rows.penetration), contacts.normal_force)
-    bound = contact_law.friction_bound(contacts, joints, normal)
-    return np.where(contacts.fresh & (contacts.state != OPEN), UNBOUNDED, bound)
+    found_touching = contacts.fresh & (contacts.state != OPEN)
+    return first_bound(
+        joints, contacts.intact, contacts.normal_multiplier, contacts.penalty,
+        rows.penetration, contacts.normal_force, found_touching,
+    )  # fmt: skip
 
 
 def _remembered_pieces(contacts: ContactSet, terms, g: np.ndarray, s: np.ndarray):
     """Pieces for the step's first Newton iteration: the states the contacts ended the
     last step in (a contact closed then is taken closed, one sliding then is taken
     sliding the same way), else the pieces at the start point."""
-    normal, shear = terms.pieces(g, s)
-    normal = np.where(contacts.state != OPEN, NORMAL_ELASTIC, normal).astype(np.int8)
-    sliding = np.where(contacts.slide_direction < 0.0, SLIP_BACK, SLIP_FORWARD)
-    shear = np.where(contacts.state == SLIDING, sliding, shear)
-    shear = np.where(contacts.state == LOCKED, STICK, shear).astype(np.int8)
-    return normal, shear
+    normal, shear = remembered_pieces(*terms.pieces(g, s), contacts.state, contacts.slide_direction)
+    return normal.astype(np.int8), shear.astype(np.int8)
 
 
 def _constant_velocity(blocks: BlockSet, ctx: StepContext) -> np.ndarray:
