@@ -28,49 +28,52 @@ from dda.jit import compiled, formula, kernel, select
 
 
 @formula
-def normal_break(normal_base, penalty, tension, g, dg):
-    """(α, slope change, kept) where λn + p g crosses −T along the line: α = (−T − λn −
-    p g) / (p δg), the slope changing by sign(δg) p δg² (entering the elastic piece when g
-    grows); kept where p δg ≠ 0 and α is positive and finite."""
+def normal_break(trial, penalty, tension, dg):
+    """(α, slope change, kept) where the normal trial λn + p g (``trial`` at α = 0)
+    crosses −T along the line: α = (−T − trial) / (p δg), the slope changing by
+    sign(δg) p δg² (entering the elastic piece when g grows); kept where p δg ≠ 0 and α
+    is positive and finite."""
     rate = penalty * dg
-    alpha = (-tension - normal_trial(normal_base, penalty, g)) / select(rate != 0.0, rate, 1.0)
+    alpha = (-tension - trial) / select(rate != 0.0, rate, 1.0)
     jump = np.sign(dg) * penalty * dg * dg
     return alpha, jump, (rate != 0.0) & (alpha > 0.0) & np.isfinite(alpha)
 
 
 @formula
-def shear_breaks(shear_base, shear_penalty, bound, s, ds):
-    """(α up, α down, slope change, live) where λt + ps s reaches +b (leaving the stuck
-    piece when δs > 0: the slope falls by sign(δs) ps δs²) and −b (δs < 0: it rises by as
-    much), for a contact with a shear term and a bound (b > 0) that moves (ps δs ≠ 0)."""
+def shear_breaks(trial, shear_penalty, bound, ds):
+    """(α up, α down, slope change, live) where the shear trial λt + ps s (``trial`` at
+    α = 0) reaches +b (leaving the stuck piece when δs > 0: the slope falls by
+    sign(δs) ps δs²) and −b (δs < 0: it rises by as much), for a contact with a shear
+    term and a bound (b > 0) that moves (ps δs ≠ 0)."""
     rate = shear_penalty * ds
     live = (shear_penalty > 0.0) & (bound > 0.0) & (rate != 0.0)
-    trial = shear_trial(shear_base, shear_penalty, s)
     divisor = select(rate != 0.0, rate, 1.0)
     jump = np.sign(ds) * shear_penalty * ds * ds
     return (bound - trial) / divisor, (-bound - trial) / divisor, jump, live
 
 
 @formula
-def springs_after_start(
-    normal_base, penalty, tension, shear_base, shear_penalty, bound, g, dg, s, ds
-):  # fmt: skip
-    """(p δg², ps δs²) of a contact's springs active just after α = 0 (each 0 where its
-    term is not): elastic where λn + p g > −T or = −T and rising; stuck where
-    |λt + ps s| < b or at ±b and turning back, with a shear term and b > 0."""
-    trial_n = normal_trial(normal_base, penalty, g)
-    elastic = (trial_n > -tension) | ((trial_n == -tension) & (dg > 0.0))
-    trial_t = shear_trial(shear_base, shear_penalty, s)
-    inside = np.abs(trial_t) < bound
-    inside = inside | ((trial_t == bound) & (ds < 0.0)) | ((trial_t == -bound) & (ds > 0.0))
+def normal_spring_after_start(trial, penalty, tension, dg):
+    """p δg² where the normal term is elastic just after α = 0 (its trial λn + p g > −T,
+    or = −T and rising), else 0."""
+    elastic = (trial > -tension) | ((trial == -tension) & (dg > 0.0))
+    return select(elastic, penalty * dg * dg, 0.0)
+
+
+@formula
+def shear_spring_after_start(trial, shear_penalty, bound, ds):
+    """ps δs² where the shear term is stuck just after α = 0 (its trial |λt + ps s| < b,
+    or at ±b and turning back) and there is one (ps > 0, b > 0), else 0."""
+    inside = np.abs(trial) < bound
+    inside = inside | ((trial == bound) & (ds < 0.0)) | ((trial == -bound) & (ds > 0.0))
     stuck = inside & (shear_penalty > 0.0) & (bound > 0.0)
-    return select(elastic, penalty * dg * dg, 0.0), select(stuck, shear_penalty * ds * ds, 0.0)
+    return select(stuck, shear_penalty * ds * ds, 0.0)
 
 
 def _normal_breaks(terms: ContactTerms, g, dg):
     """(α, slope change) where λn + p g crosses −T along the line (α > 0 only)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        alpha, jump, keep = normal_break(terms.normal_base, terms.penalty, terms.tension, g, dg)
+        alpha, jump, keep = normal_break(terms.normal_trial(g), terms.penalty, terms.tension, dg)
     return alpha[keep], jump[keep]
 
 
@@ -78,7 +81,7 @@ def _shear_breaks(terms: ContactTerms, s, ds):
     """(α, slope change) where λt + ps s crosses ±b along the line (α > 0 only)."""
     with np.errstate(over="ignore"):  # a bound not known yet (dda.contact.law.UNBOUNDED)
         up, down, jump, live = shear_breaks(
-            terms.shear_base, terms.shear_penalty, terms.bound, s, ds
+            terms.shear_trial(s), terms.shear_penalty, terms.bound, ds
         )
     alpha = np.concatenate([up[live], down[live]])
     jump = np.concatenate([-jump[live], jump[live]])
@@ -89,9 +92,8 @@ def _shear_breaks(terms: ContactTerms, s, ds):
 def _slope_at_start(terms: ContactTerms, g, dg, s, ds) -> float:
     """Σ of the contact springs active just after α = 0 (weighted by δ²)."""
     t = terms
-    normal, shear = springs_after_start(
-        t.normal_base, t.penalty, t.tension, t.shear_base, t.shear_penalty, t.bound, g, dg, s, ds
-    )
+    normal = normal_spring_after_start(t.normal_trial(g), t.penalty, t.tension, dg)
+    shear = shear_spring_after_start(t.shear_trial(s), t.shear_penalty, t.bound, ds)
     return float(np.sum(normal)) + float(np.sum(shear))
 
 
@@ -162,19 +164,21 @@ def _line_minimum(lam_n, p, tension, lam_t, ps, bound, g, dg, s, ds, gradient, c
     alphas, jumps = np.empty(3 * m), np.empty(3 * m)
     count = 0
     slope = curvature
-    for c in range(m):
-        normal_spring, shear_spring = springs_after_start(
-            lam_n[c], p[c], tension[c], lam_t[c], ps[c], bound[c], g[c], dg[c], s[c], ds[c]
-        )
-        slope += normal_spring
-        alpha, jump, kept = normal_break(lam_n[c], p[c], tension[c], g[c], dg[c])
-        if kept and alpha <= reach:
-            alphas[count], jumps[count] = alpha, jump
-            count += 1
-        slope += shear_spring
-        up, down, jump, live = shear_breaks(lam_t[c], ps[c], bound[c], s[c], ds[c])
-        if not live:
+    for c in range(m):  # the formulas' work only where a contact has a spring or a break
+        trial_n = normal_trial(lam_n[c], p[c], g[c])
+        slope += normal_spring_after_start(trial_n, p[c], tension[c], dg[c])
+        if p[c] * dg[c] != 0.0:  # (else normal_break keeps nothing)
+            alpha, jump, kept = normal_break(trial_n, p[c], tension[c], dg[c])
+            if kept and alpha <= reach:
+                alphas[count], jumps[count] = alpha, jump
+                count += 1
+        if not (ps[c] > 0.0 and bound[c] > 0.0):
+            continue  # no shear term: no spring, no break
+        trial_t = shear_trial(lam_t[c], ps[c], s[c])
+        slope += shear_spring_after_start(trial_t, ps[c], bound[c], ds[c])
+        if ps[c] * ds[c] == 0.0:
             continue
+        up, down, jump, _ = shear_breaks(trial_t, ps[c], bound[c], ds[c])
         if up > 0.0 and np.isfinite(up) and up <= reach:
             alphas[count], jumps[count] = up, -jump
             count += 1
