@@ -19,27 +19,27 @@ def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
     if compiled_in_run(masses_kernel):
         return masses_kernel(*(np.asarray(a, np.float64) for a in (scale, s, ixx, iyy, ixy)))
     m = np.zeros((blocks.count, 6, 6))
-    for (row, column), value in zip(MASS_ENTRIES, mass_entries(s, ixx, iyy, ixy), strict=True):
-        m[:, row, column] = value
+    fill_mass_matrix(m, s, ixx, iyy, ixy)
     return scale[:, None, None] * m
 
 
-# the entries of M / ρ that are not zero, in the order mass_entries gives them
-MASS_ENTRIES = (
-    (0, 0), (1, 1), (2, 2), (2, 3), (3, 2), (2, 4), (4, 2), (2, 5), (5, 2),
-    (3, 3), (4, 4), (3, 5), (5, 3), (4, 5), (5, 4), (5, 5),
-)  # fmt: skip
-
-
-def mass_entries(s, ixx, iyy, ixy):
-    """M / ρ's entries at :data:`MASS_ENTRIES` (docs/theory.md §3): S, S, Ixx + Iyy, −Ixy
-    (twice), Ixy (twice), (Ixx − Iyy)/2 (twice), Ixx, Iyy, Ixy/2 (four times),
-    (Ixx + Iyy)/4. Arithmetic only: arrays in numpy, one block's numbers in the kernel."""
-    half_difference, half_ixy = (ixx - iyy) / 2, ixy / 2
-    return (
-        s, s, ixx + iyy, -ixy, -ixy, ixy, ixy, half_difference, half_difference,
-        ixx, iyy, half_ixy, half_ixy, half_ixy, half_ixy, (ixx + iyy) / 4,
-    )  # fmt: skip
+def fill_mass_matrix(m, s, ixx, iyy, ixy):
+    """Write M / ρ (docs/theory.md §3) into ``m``'s last two axes (zeros elsewhere kept):
+    S, S, Ixx + Iyy on the first diagonal entries, Ixx, Iyy, (Ixx + Iyy)/4 on the last,
+    −Ixy, Ixy, (Ixx − Iyy)/2 between rotation and strains, Ixy/2 between the normal and
+    shear strains. ``m`` (n, 6, 6) with arrays in numpy, one block's (6, 6) with its
+    numbers in the kernel."""
+    m[..., 0, 0] = s
+    m[..., 1, 1] = s
+    m[..., 2, 2] = ixx + iyy
+    m[..., 2, 3] = m[..., 3, 2] = -ixy
+    m[..., 2, 4] = m[..., 4, 2] = ixy
+    m[..., 2, 5] = m[..., 5, 2] = (ixx - iyy) / 2
+    m[..., 3, 3] = ixx
+    m[..., 4, 4] = iyy
+    m[..., 3, 5] = m[..., 5, 3] = ixy / 2
+    m[..., 4, 5] = m[..., 5, 4] = ixy / 2
+    m[..., 5, 5] = (ixx + iyy) / 4
 
 
 def _masses(scale, s, ixx, iyy, ixy):
@@ -47,16 +47,14 @@ def _masses(scale, s, ixx, iyy, ixy):
     n = s.shape[0]
     m = np.zeros((n, 6, 6))
     for i in range(n):
-        values = _mass_entries(s[i], ixx[i], iyy[i], ixy[i])
-        for e in range(len(MASS_ENTRIES)):
-            m[i, MASS_ENTRIES[e][0], MASS_ENTRIES[e][1]] = values[e]
+        _fill_mass_matrix(m[i], s[i], ixx[i], iyy[i], ixy[i])
         for j in range(6):
             for k in range(6):
                 m[i, j, k] = scale[i] * m[i, j, k]
     return m
 
 
-_mass_entries = kernel(mass_entries) or mass_entries
+_fill_mass_matrix = kernel(fill_mass_matrix) or fill_mass_matrix
 masses_kernel = kernel(_masses)
 
 
