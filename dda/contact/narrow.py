@@ -564,14 +564,14 @@ def _resolve(
             fake[c] = beyond_ends(depth[c], along, slack)
             off[c] = off_edge(along, np.sqrt(ex * ex + ey * ey), slack)
         for first, corner in ((0, b), (2, a)):
-            shared = _shares_line(outward, prv, verts[first], edges[first + 1])
-            fake[first] |= deeper_than_corner(
-                depth[first], depth[first + 1], slack, reflex[corner], shared
-            )
-            shared = _shares_line(outward, prv, verts[first + 1], edges[first])
-            fake[first + 1] |= deeper_than_corner(
-                depth[first + 1], depth[first], slack, reflex[corner], shared
-            )
+            for this, other in ((first, first + 1), (first + 1, first)):
+                # the shared line is asked only where it can decide (it costs two dot
+                # products; at most corners of a wall the depths are equal)
+                deeper = depth[this] - depth[other] > slack
+                shared = deeper and _shares_line(outward, prv, verts[this], edges[other])
+                fake[this] |= deeper_than_corner(
+                    depth[this], depth[other], slack, reflex[corner], shared
+                )
         a_inside = inside_corner(depth[0], depth[1], inside)
         b_inside = inside_corner(depth[2], depth[3], inside)
         fake[2] |= a_inside and not b_inside
