@@ -20,7 +20,11 @@ from dda.geometry import (
     polygon_moments,
     previous_vertex_index,
 )
-from dda.jit import compiled_in_run, kernel
+from dda.jit import compiled_in_run, formula, kernel
+
+# the formulas polygon_moments uses, compiled into the moments kernel (the same numbers)
+for _formula in (edge_moment_terms, polygon_integrals, central_moments):
+    formula(_formula)
 
 
 @dataclass
@@ -162,19 +166,15 @@ def _moments(vertices, offsets):
             j = k + 1 if k + 1 < last else first
             x0, y0 = vertices[k, 0] - rx, vertices[k, 1] - ry
             x1, y1 = vertices[j, 0] - rx, vertices[j, 1] - ry
-            terms = _edge_moment_terms(x0, y0, x1, y1)
+            terms = edge_moment_terms(x0, y0, x1, y1)
             c, cx, cy = c + terms[0], cx + terms[1], cy + terms[2]
             cxx, cyy, cxy = cxx + terms[3], cyy + terms[4], cxy + terms[5]
-        s, sx, sy, sxx, syy, sxy = _polygon_integrals(c, cx, cy, cxx, cyy, cxy)
+        s, sx, sy, sxx, syy, sxy = polygon_integrals(c, cx, cy, cxx, cyy, cxy)
         x, y = (sx / s, sy / s) if s != 0.0 else (np.nan, np.nan)  # numpy's 0/0
         area[i] = s
         centroid[i, 0], centroid[i, 1] = x + rx, y + ry
-        ixx[i], iyy[i], ixy[i] = _central_moments(s, x, y, sxx, syy, sxy)
+        ixx[i], iyy[i], ixy[i] = central_moments(s, x, y, sxx, syy, sxy)
     return area, centroid, ixx, iyy, ixy
 
 
-# the formulas polygon_moments uses, compiled for the kernel (the same numbers)
-_edge_moment_terms = kernel(edge_moment_terms) or edge_moment_terms
-_polygon_integrals = kernel(polygon_integrals) or polygon_integrals
-_central_moments = kernel(central_moments) or central_moments
 moments_kernel = kernel(_moments)

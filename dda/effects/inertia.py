@@ -6,7 +6,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.effects.base import Effect, StepContext
-from dda.jit import compiled_in_run, kernel
+from dda.jit import compiled_in_run, formula, kernel
 
 
 def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
@@ -23,6 +23,7 @@ def mass_matrices(density: np.ndarray, blocks: BlockSet) -> np.ndarray:
     return scale[:, None, None] * m
 
 
+@formula
 def fill_mass_matrix(m, s, ixx, iyy, ixy):
     """Write M / ρ (docs/theory.md §3) into ``m``'s last two axes (zeros elsewhere kept):
     S, S, Ixx + Iyy on the first diagonal entries, Ixx, Iyy, (Ixx + Iyy)/4 on the last,
@@ -47,14 +48,13 @@ def _masses(scale, s, ixx, iyy, ixy):
     n = s.shape[0]
     m = np.zeros((n, 6, 6))
     for i in range(n):
-        _fill_mass_matrix(m[i], s[i], ixx[i], iyy[i], ixy[i])
+        fill_mass_matrix(m[i], s[i], ixx[i], iyy[i], ixy[i])
         for j in range(6):
             for k in range(6):
                 m[i, j, k] = scale[i] * m[i, j, k]
     return m
 
 
-_fill_mass_matrix = kernel(fill_mass_matrix) or fill_mass_matrix
 masses_kernel = kernel(_masses)
 
 
