@@ -73,6 +73,9 @@ def polygon_moments(vertices: np.ndarray, offsets: np.ndarray) -> dict[str, np.n
     }
 
 
+# edge_moment_terms, polygon_integrals and central_moments are formulas (arithmetic only,
+# arrays or numbers): dda.blocks registers them with dda.jit.formula for its moments
+# kernel (this module, below dda.jit's layer, cannot)
 def edge_moment_terms(x0, y0, x1, y1):
     """The edge (x0, y0) → (x1, y1)'s terms of Green's theorem (:func:`polygon_moments`),
     c, (x0+x1) c, (y0+y1) c, (x0²+x0 x1+x1²) c, (y0²+y0 y1+y1²) c and
@@ -89,10 +92,10 @@ def edge_moment_terms(x0, y0, x1, y1):
     )
 
 
-def polygon_integrals(c, cx, cy, cxx, cyy, cxy):
+def polygon_integrals(sum_c, sum_x, sum_y, sum_xx, sum_yy, sum_xy):
     """S, Sx, Sy, Sxx, Syy, Sxy from the sums of :func:`edge_moment_terms` over a
     polygon's edges (divided by 2, 6, 6, 12, 12, 24)."""
-    return c / 2.0, cx / 6.0, cy / 6.0, cxx / 12.0, cyy / 12.0, cxy / 24.0
+    return sum_c / 2.0, sum_x / 6.0, sum_y / 6.0, sum_xx / 12.0, sum_yy / 12.0, sum_xy / 24.0
 
 
 def central_moments(s, cx, cy, sxx, syy, sxy):

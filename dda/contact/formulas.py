@@ -4,10 +4,13 @@ Every function here is a :func:`dda.jit.formula`: it takes numpy arrays (the num
 paths: one call over all contacts) or numbers (the compiled loops of
 :mod:`dda.contact.law_kernels`, :mod:`dda.solve.contact_pieces` and
 :mod:`dda.solve.band_step`, one contact at a time, which compile the same function into
-themselves), using only ``np.maximum``, ``np.minimum``, :func:`select` (``np.where``)
-and arithmetic, which mean the same on both. The joint strengths come as ``joint``:
-the contacts' :class:`~dda.contact.strength.JointProperties` (arrays) in numpy, one
-contact's :func:`~dda.contact.strength.joint_of` (numbers) in the compiled loops.
+themselves), using only arithmetic, comparisons, ``&``, ``|``, :func:`select`
+(``np.where``) and numpy's elementwise functions (``np.maximum``, ``np.minimum``,
+``np.abs``, ``np.sign``, ``np.logical_not``, ``np.log10``, ``np.tan``), which mean the
+same on both (for finite numbers: Python's ``min`` of a NaN differs). The joint
+strengths come as ``joint``: the contacts' :class:`~dda.contact.strength.JointProperties`
+(arrays) in numpy, one contact's :func:`~dda.contact.strength.joint_of` (numbers) in
+the compiled loops.
 
 With λn the normal multiplier, p the penalty, T the tension a contact holds, λt the
 shear force carried, ps the shear penalty and b the friction bound (docs/theory.md
@@ -177,8 +180,8 @@ def augmentation(
 
     A contact on the elastic normal piece whose |g| exceeds ``tolerance`` is *far*: its
     λn' = max(λn + p g, −T); off the elastic piece λn' = 0, else λn is kept. One found this
-    step already deeper than the tolerance (``fresh``, ``found_penetration``) is not
-    augmented: the push-out takes its overlap (:mod:`dda.contact.push_out`). A stuck
+    step already deeper than the tolerance (``fresh``, ``found_penetration``) keeps its
+    λn: the push-out takes its overlap (:mod:`dda.contact.push_out`). A stuck
     contact (|λt + ps s| < b, ps > 0) that slid more than the tolerance carries
     λt' = λt + ps s, else ``carried_shear``."""
     trial_n = normal_trial(normal_base, penalty, g)
@@ -194,8 +197,9 @@ def augmentation(
 
 @formula
 def grown_penalty(penalty, far, g, previous_g, shrink_target, max_penalty, growth):
-    """The variable penalty (§3): p' = min(p × growth, p_max) where a far contact's |g|
-    shrank by less than ``shrink_target`` since the last solve, else p."""
+    """The variable penalty (§3): p' = min(p × growth, p_max) where a far contact's |g| is
+    still above ``shrink_target`` × its |g| of the last solve (it did not shrink enough),
+    else p."""
     slow = far & (np.abs(g) > shrink_target * np.abs(previous_g)) & (penalty < max_penalty)
     return select(slow, np.minimum(penalty * growth, max_penalty), penalty)
 

@@ -278,7 +278,7 @@ def _break_bonds(contacts, terms, joint, g, s) -> int:
         )
         contacts.intact &= ~lost
         return int(np.count_nonzero(lost))
-    lost = contacts.intact & breakable & formulas.bond_lost(*_terms_arrays(terms), g, s)
+    lost = contacts.intact & breakable & formulas.bond_lost(*terms.kernel_arrays(), g, s)
     contacts.intact &= ~lost
     return int(np.count_nonzero(lost))
 
@@ -304,7 +304,7 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
     # augmented: removing all of its overlap within one step can take more than any
     # multiplier gives once Δt is cut (a 4.6 cm overlap among fragments: cut to 1e-13 s)
     elastic, far, stuck, slid, normal, shear = formulas.augmentation(
-        *_terms_arrays(terms), g, s, contacts.fresh, contacts.penetration,
+        *terms.kernel_arrays(), g, s, contacts.fresh, contacts.penetration,
         contacts.shear_multiplier, tolerance,
     )  # fmt: skip
     contacts.normal_multiplier, contacts.shear_multiplier = normal, shear
@@ -351,7 +351,7 @@ def record(
         contacts.penetration, contacts.slip = g, s
         return
     state, multiplier, direction, normal, shear = formulas.recorded(
-        *_terms_arrays(terms), g, s, contacts.normal_multiplier, limit_band
+        *terms.kernel_arrays(), g, s, contacts.normal_multiplier, limit_band
     )
     contacts.state = state.astype(np.int8)
     contacts.normal_multiplier, contacts.slide_direction = multiplier, direction
@@ -360,12 +360,6 @@ def record(
     contacts.shear_multiplier = shear
     contacts.penetration = g
     contacts.slip = s
-
-
-def _terms_arrays(terms: ContactTerms) -> tuple[np.ndarray, ...]:
-    """λn, p, T, λt, ps, b: the terms as the formulas take them."""
-    return (terms.normal_base, terms.penalty, terms.tension, terms.shear_base,
-            terms.shear_penalty, terms.bound)  # fmt: skip
 
 
 def friction_dissipation(terms: ContactTerms, s: np.ndarray) -> float:

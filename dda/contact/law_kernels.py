@@ -4,8 +4,9 @@ Each function here runs one numpy function of the law contact by contact, its fo
 those of :mod:`dda.contact.formulas` (the same functions, compiled), in the same order
 (so the same numbers: every value is an elementwise result; the norms and sums over
 the contacts stay numpy's, at the call site). The law's functions call them where the
-kernels are used (:func:`dda.jit.compiled`) and keep their numpy bodies as the oracle
-(tests/contact/test_law_kernels.py). Piece numbers as :mod:`dda.contact.potential`'s.
+kernels are used (:func:`dda.jit.compiled`); their numpy bodies call the same formulas
+on arrays, and tests/contact/test_law_kernels.py and tests/jit/test_twins.py hold the
+loops to them.
 """
 
 from __future__ import annotations

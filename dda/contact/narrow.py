@@ -6,9 +6,10 @@ when P1 lies on the inner side of the edge.
 
 * Vertex-edge (V-E): P1 projects inside the edge (by more than
   ``EDGE_END`` of its length from either end), away from its end points
-  by more than the vertex radius; |d| within the search distance; P1 is not
-  a reflex vertex and both its edges leave it away from the other block
-  (the angle test).
+  by more than the vertex radius; −gap ≤ d ≤ max(search, 0.3 √A) (A the smaller
+  block's area); P1 is not a reflex vertex and both its edges leave it away from
+  the other block within ``ANGLE_TOLERANCE`` (the angle test). The tests are
+  written once in :mod:`dda.contact.candidate_tests`.
 * Vertex-vertex (V-V): P1 within the vertex radius of a vertex P2 of the
   other block. The radius of a pair is the smaller of the two vertices'
   radii, each at most ``VERTEX_RADIUS_FRACTION`` of the shortest edge at the
