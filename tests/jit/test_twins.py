@@ -5,9 +5,11 @@ A compiled twin is a kernel that a ``compiled(kernel)`` / ``compiled_in_run(kern
 branch chooses over numpy code that computes the same thing (docs/design.md, "Compiled
 kernels and start-up"). :data:`TWINS` declares every such branch of dda/ with a short
 run that takes it; the test runs that scene with every kernel, then with the one kernel
-switched off (its branch then takes the numpy code), and asks for the same blocks and
-contact forces. A twin that sums in another order than numpy agrees to rounding, the
-others to the bit: the runs are a few steps, too short for rounding to grow.
+switched off (its branch's ``compiled`` answers False for it: the branch takes the numpy
+code, and the kernels that call it compiled stay as they are), and asks for the same
+blocks, contact forces and energies. A twin that sums in another order than numpy agrees
+to rounding, the others to the bit (the energies, summed in another order by their
+kernel, to rounding always): the runs are a few steps, too short for rounding to grow.
 ``test_every_compiled_branch_is_declared`` fails on a branch that is not in the table.
 """
 
@@ -78,7 +80,7 @@ TWINS = {
     ("contact/rows.py", "_rows_kernel"): "wall",
     ("effects/damping.py", "slowest_frequencies_kernel"): "wall",
     ("effects/inertia.py", "masses_kernel"): "wall",
-    ("run/energy.py", "block_energies_kernel"): "wall",
+    ("run/energy.py", "block_energies_kernel"): "ringing",
     ("solve/assembly.py", "_find_slots_kernel"): "sparse",
     ("solve/assembly.py", "_scatter_kernel"): "sparse",
     ("solve/assembly.py", "_subtract_pairs_kernel"): "sparse",
@@ -100,14 +102,14 @@ ROUNDING = {
     ("solve/newton.py", "line_step.line_step_kernel"),
 }
 
-BRANCH = re.compile(r"\bcompiled(?:_in_run)?\(([\w.]+)\)")
+BRANCH = re.compile(r"\bcompiled(?:_in_run)?\(\s*([\w.]+)\s*\)")
 
 
 def branches() -> set[tuple[str, str]]:
     """(file, kernel) of every compiled() / compiled_in_run() branch in dda/."""
     found = set()
     for path in PACKAGE.rglob("*.py"):
-        if path.parent.name == "jit":
+        if path.relative_to(PACKAGE).parts[0] == "jit":
             continue  # the switch itself
         for name in BRANCH.findall(path.read_text()):
             found.add((path.relative_to(PACKAGE).as_posix(), name))
@@ -130,15 +132,34 @@ def _scene(name: str):
     return dda.load_scene(scene)
 
 
-def _run(name: str, monkeypatch) -> dda.Result:
-    scene, systems, off = RUNS[name]
+def _run(name: str, monkeypatch, off: tuple = ()) -> dda.Result:
+    """The run ``name`` with the kernels of its own list and of the sites ``off``
+    switched off."""
+    scene, systems, run_off = RUNS[name]
     monkeypatch.setenv("DDA_THREADS", "1")  # PARDISO's sums in one order: runs repeat
     if systems is not None:
         monkeypatch.setenv("DDA_SYSTEMS", systems)
-    for site in off:
-        monkeypatch.setattr(*_kernel_owner(*site), None)
+    skipped = {_function_of(getattr(*_kernel_owner(*site))) for site in (*run_off, *off)}
+    _wrap_switches(monkeypatch, lambda function, original: function not in skipped)
     with jit.run_work(10**6, 10**6):  # the kernels, as in a long run
         return dda.simulate(_scene(scene))
+
+
+def _wrap_switches(monkeypatch, decide) -> None:
+    """Every ``compiled`` / ``compiled_in_run`` of the modules in :data:`TWINS` answers
+    False where it did or where ``decide(the kernel's function, the switch it wraps)`` is
+    false (wrappers nest)."""
+    for file, _ in TWINS:
+        module = importlib.import_module("dda." + file.removesuffix(".py").replace("/", "."))
+        for switch in ("compiled", "compiled_in_run"):
+            original = getattr(module, switch, None)
+            if original is None:
+                continue
+
+            def answer(kernel, original=original):
+                return original(kernel) and decide(_function_of(kernel), original)
+
+            monkeypatch.setattr(module, switch, answer)
 
 
 def _kernel_owner(file: str, name: str):
@@ -162,40 +183,45 @@ def _asked(name: str) -> frozenset:
     asked = set()
     patch = pytest.MonkeyPatch()
     try:
-        for file, _ in TWINS:
-            module = importlib.import_module("dda." + file.removesuffix(".py").replace("/", "."))
-            for switch in ("compiled", "compiled_in_run"):
-                original = getattr(module, switch, None)
-                if original is not None:
-
-                    def recording(kernel, original=original):
-                        asked.add(_function_of(kernel))
-                        return original(kernel)
-
-                    patch.setattr(module, switch, recording)
+        _wrap_switches(patch, lambda function, original: asked.add(function) or True)
         _run(name, patch)
     finally:
         patch.undo()
     return frozenset(asked)
 
 
-def _outcome(result: dda.Result) -> tuple[np.ndarray, np.ndarray]:
+def _outcome(result: dda.Result) -> dict[str, np.ndarray]:
+    """The blocks' vertices, the contacts' forces (in their order) and the last energies."""
     final = result.final
-    return np.concatenate(final.vertices), np.sort(np.abs(final.contacts.normal_force))
+    energies = [result.history[f"{term}_energy"][-1] for term in ENERGIES]
+    return {
+        "vertices": np.concatenate(final.vertices),
+        "normal": np.asarray(final.contacts.normal_force),
+        "shear": np.asarray(final.contacts.shear_force),
+        "energies": np.array(energies),
+    }
+
+
+ENERGIES = ("kinetic", "potential", "elastic", "contact", "springs")
 
 
 @pytest.mark.parametrize("site", sorted(TWINS), ids=lambda s: f"{s[0]}:{s[1]}")
 def test_a_compiled_twin_gives_the_run_of_its_numpy_code(site, monkeypatch):
     name = TWINS[site]
-    owner, attribute = _kernel_owner(*site)
-    kernel = getattr(owner, attribute)
+    kernel = getattr(*_kernel_owner(*site))
     assert _function_of(kernel) in _asked(name), f"the {name} run takes no branch of {site}"
-    vertices, forces = _outcome(_run(name, monkeypatch))
-    monkeypatch.setattr(owner, attribute, None)  # the branch takes the numpy code
-    twin_vertices, twin_forces = _outcome(_run(name, monkeypatch))
+    with monkeypatch.context() as patch:
+        expected = _outcome(_run(name, patch))
+    with monkeypatch.context() as patch:
+        got = _outcome(_run(name, patch, off=(site,)))
+    assert got["normal"].shape == expected["normal"].shape, "other contacts"
+    # the energy kernel sums over the blocks in another order than numpy
+    np.testing.assert_allclose(got["energies"], expected["energies"], rtol=1e-9, atol=1e-12)
     if site in ROUNDING:  # six steps of rounding: 1e-12 m (blocks of 1 m) measured
-        np.testing.assert_allclose(twin_vertices, vertices, rtol=0.0, atol=1e-10)
-        np.testing.assert_allclose(twin_forces, forces, rtol=1e-8, atol=1e-8 * forces.max())
+        np.testing.assert_allclose(got["vertices"], expected["vertices"], rtol=0.0, atol=1e-10)
+        scale = 1e-8 * max(np.abs(expected["normal"]).max(initial=0.0), 1.0)
+        for force in ("normal", "shear"):
+            np.testing.assert_allclose(got[force], expected[force], rtol=1e-8, atol=scale)
     else:
-        np.testing.assert_array_equal(twin_vertices, vertices)
-        np.testing.assert_array_equal(twin_forces, forces)
+        for key in ("vertices", "normal", "shear"):
+            np.testing.assert_array_equal(got[key], expected[key])
