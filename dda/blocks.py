@@ -161,15 +161,16 @@ def _moments(vertices, offsets):
     for i in range(n):
         first, last = offsets[i], offsets[i + 1]
         rx, ry = vertices[first, 0], vertices[first, 1]
-        c = cx = cy = cxx = cyy = cxy = 0.0
+        # the sums of the edges' terms, in vertex order as numpy's bincount adds them
+        sum_c = sum_x = sum_y = sum_xx = sum_yy = sum_xy = 0.0
         for k in range(first, last):
             j = k + 1 if k + 1 < last else first
             x0, y0 = vertices[k, 0] - rx, vertices[k, 1] - ry
             x1, y1 = vertices[j, 0] - rx, vertices[j, 1] - ry
-            terms = edge_moment_terms(x0, y0, x1, y1)
-            c, cx, cy = c + terms[0], cx + terms[1], cy + terms[2]
-            cxx, cyy, cxy = cxx + terms[3], cyy + terms[4], cxy + terms[5]
-        s, sx, sy, sxx, syy, sxy = polygon_integrals(c, cx, cy, cxx, cyy, cxy)
+            c, cx, cy, cxx, cyy, cxy = edge_moment_terms(x0, y0, x1, y1)
+            sum_c, sum_x, sum_y = sum_c + c, sum_x + cx, sum_y + cy
+            sum_xx, sum_yy, sum_xy = sum_xx + cxx, sum_yy + cyy, sum_xy + cxy
+        s, sx, sy, sxx, syy, sxy = polygon_integrals(sum_c, sum_x, sum_y, sum_xx, sum_yy, sum_xy)
         x, y = (sx / s, sy / s) if s != 0.0 else (np.nan, np.nan)  # numpy's 0/0
         area[i] = s
         centroid[i, 0], centroid[i, 1] = x + rx, y + ry

@@ -86,10 +86,6 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.where(n > 0, n, 1.0)[:, None]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-
-
 class VertexFans:
     """Unit vectors along the two edges leaving each vertex, and reflex flags."""
 

@@ -209,7 +209,10 @@ def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
         narrow, rules, carried, NewContacts(float(settings.initial_penalty), LOCKED, OPEN)
     )
     if out.touch_asked:
-        return _touching_and_merged(blocks, previous, settings, out.vertex, out.edge, *out[3:10])
+        return _touching_and_merged(
+            blocks, previous, settings, out.vertex, out.edge, out.penetration, out.parameter,
+            out.keys, out.previous_rows, out.plausible, out.to_block, out.asked,
+        )  # fmt: skip
     contacts = merged_set(blocks.vertex_owner, out.vertex, out.edge, out.keys, out.carried)
     contacts.reference = out.parameter  # shear motion is measured from the step start
     contacts.penetration = out.penetration
