@@ -1,17 +1,17 @@
 """Per-block quantities derived from a frame, shared by the VTU writer and the images.
 
-Stresses are the block's constant stress ``(sxx, syy, sxy)``. Derived measures
-(principal stresses and von Mises) use the in-plane components only:
+Stresses are the block's constant stress ``(sxx, syy, sxy)``. The principal stresses
+are the in-plane ones; von Mises takes the out-of-plane stress σzz too, ν (σxx + σyy)
+in a plane-strain scene (the frame's ``out_of_plane``), 0 in plane stress:
 
 .. math::
 
     \\sigma_{1,2} = \\frac{\\sigma_{xx} + \\sigma_{yy}}{2}
         \\pm \\sqrt{\\left(\\frac{\\sigma_{xx} - \\sigma_{yy}}{2}\\right)^2 + \\tau_{xy}^2},
     \\qquad
-    \\sigma_{vM} = \\sqrt{\\sigma_{xx}^2 - \\sigma_{xx}\\sigma_{yy} + \\sigma_{yy}^2
+    \\sigma_{vM} = \\sqrt{\\tfrac12\\left[(\\sigma_{xx} - \\sigma_{yy})^2
+        + (\\sigma_{yy} - \\sigma_{zz})^2 + (\\sigma_{zz} - \\sigma_{xx})^2\\right]
         + 3\\tau_{xy}^2}
-
-(von Mises with :math:`\\sigma_{zz} = 0`, i.e. plane stress).
 """
 
 from __future__ import annotations
@@ -97,25 +97,37 @@ def engineering_scale(magnitude: float, unit: str) -> tuple[float, str]:
     return 10.0**exponent, PREFIXES[exponent] + unit
 
 
-def stress_measures(stresses: np.ndarray) -> dict[str, np.ndarray]:
+def stress_measures(
+    stresses: np.ndarray, out_of_plane: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
     """Stress components, principal stresses and von Mises stress of each block.
 
     Parameters
     ----------
     stresses
         ``(n, 3)`` array of ``sxx, syy, sxy``.
+    out_of_plane
+        ``(n,)`` szz (plane strain: ν (sxx + syy)); None for plane stress (szz = 0).
 
     Returns
     -------
     dict
-        ``sxx, syy, sxy, s1, s2, von_mises``, each ``(n,)`` (``s1 >= s2``).
+        ``sxx, syy, sxy, s1, s2, von_mises``, each ``(n,)`` (``s1 >= s2``), and ``szz``
+        when ``out_of_plane`` is given.
+
+    >>> float(stress_measures([[-2.0, -2.0, 0.0]])["von_mises"][0])
+    2.0
+    >>> float(stress_measures([[-2.0, -2.0, 0.0]], [-1.0])["von_mises"][0])
+    1.0
     """
     stresses = np.asarray(stresses, dtype=float).reshape(-1, 3)
     sxx, syy, sxy = stresses.T
+    szz = np.zeros_like(sxx) if out_of_plane is None else np.asarray(out_of_plane, float)
     centre = 0.5 * (sxx + syy)
     radius = np.hypot(0.5 * (sxx - syy), sxy)
-    von_mises = np.sqrt(np.maximum(sxx**2 - sxx * syy + syy**2 + 3.0 * sxy**2, 0.0))
-    return {
+    squares = (sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2
+    von_mises = np.sqrt(np.maximum(0.5 * squares + 3.0 * sxy**2, 0.0))
+    measures = {
         "sxx": sxx.copy(),
         "syy": syy.copy(),
         "sxy": sxy.copy(),
@@ -123,6 +135,9 @@ def stress_measures(stresses: np.ndarray) -> dict[str, np.ndarray]:
         "s2": centre - radius,
         "von_mises": von_mises,
     }
+    if out_of_plane is not None:
+        measures["szz"] = szz.copy()
+    return measures
 
 
 def scalar_field(frame: Frame, name: str) -> np.ndarray:
@@ -150,7 +165,7 @@ def scalar_field(frame: Frame, name: str) -> np.ndarray:
         return np.hypot(*np.asarray(frame.velocities, float).reshape(-1, 3)[:, :2].T)
     if name == "rotation":
         return np.asarray(frame.rotations, dtype=float).copy()
-    return stress_measures(frame.stresses)[name]
+    return stress_measures(frame.stresses, frame.out_of_plane)[name]
 
 
 def as_3d(vectors: np.ndarray) -> np.ndarray:

@@ -6,7 +6,8 @@ the cells are grouped by vertex count; the ``row`` cell array gives each
 cell's row in the frame and ``block_id`` its stable id. Cell arrays:
 ``row, block_id, fixed, area, rotation, omega, centroid, velocity,
 displacement`` (vectors with ``z = 0``) and the stress measures of
-:func:`dda.io.fields.stress_measures` (``sxx, syy, sxy, s1, s2, von_mises``).
+:func:`dda.io.fields.stress_measures` (``sxx, syy, sxy, s1, s2, von_mises``; ``szz``, the
+out-of-plane stress, in a plane-strain scene).
 
 Contacts file: one ``vertex`` cell per contact point, point arrays
 ``normal_force, shear_force, penetration, state`` (0 open, 1 sliding,
@@ -75,7 +76,7 @@ def _block_cell_data(frame: Frame) -> dict[str, np.ndarray]:
         "velocity": as_3d(velocities[:, :2]),
         "displacement": as_3d(frame.displacements),
     }
-    data.update(stress_measures(frame.stresses))
+    data.update(stress_measures(frame.stresses, frame.out_of_plane))
     return data
 
 
@@ -191,6 +192,7 @@ def read_frame(
         areas=data["area"].astype(float),
         fixed=data["fixed"].astype(bool),
         contacts=_read_contacts(contacts_path, ids) if contacts_path else Contacts.empty(),
+        out_of_plane=data["szz"].astype(float) if "szz" in data else None,
     )
 
 

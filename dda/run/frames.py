@@ -37,9 +37,15 @@ def make_frame(
     step: int,
     measured: dict[str, np.ndarray] | None = None,
     bolts: np.ndarray | None = None,
+    poisson: np.ndarray | None = None,
 ) -> Frame:
     """Copy the current state into an immutable Frame (``measured``: the
-    ``[[measure]]`` rows since the previous frame; ``bolts``: the bolts' end points)."""
+    ``[[measure]]`` rows since the previous frame; ``bolts``: the bolts' end points;
+    ``poisson``: each block's Poisson's ratio in a plane-strain scene, whose frames carry
+    szz = ν (sxx + syy), None in plane stress)."""
+    out_of_plane = None
+    if poisson is not None:
+        out_of_plane = poisson * (blocks.stress[:, 0] + blocks.stress[:, 1])
     return Frame(
         time=float(time),
         step=int(step),
@@ -56,6 +62,7 @@ def make_frame(
         contacts=frame_contacts(blocks, contacts),
         measured=measured,
         bolts=bolts,
+        out_of_plane=out_of_plane,
     )
 
 

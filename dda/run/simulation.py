@@ -400,8 +400,20 @@ def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> F
     """The frame of the run's state (with the measurement rows ``measured``), in the
     scene's coordinates (the run's own are ``origin`` less: dda.scene.local_frame)."""
     bolts = None if state.model.bolts is None else state.model.bolts.segments()
-    frame = make_frame(state.blocks, state.contacts, state.time, state.step, measured, bolts)
+    frame = make_frame(
+        state.blocks, state.contacts, state.time, state.step, measured, bolts,
+        _plane_strain_poisson(state.model.scene, state.blocks),
+    )  # fmt: skip
     return shifted(frame, origin)
+
+
+def _plane_strain_poisson(scene, blocks) -> np.ndarray | None:
+    """Each block's Poisson's ratio in a plane-strain scene (its frames carry szz), else
+    None."""
+    if scene.analysis.plane != "strain":
+        return None
+    poisson = np.array([m.poisson for m in scene.materials.values()])  # the model's rows
+    return poisson[blocks.material]
 
 
 def _keep(frames: list[Frame], frame: Frame, keep_all: bool) -> None:

@@ -474,3 +474,41 @@ def test_final_picture_names_the_scene_and_its_units(tmp_path, monkeypatch):
     assert json.loads((tmp_path / "summary.json").read_text())["units"]["length"] == "ft"
     assert summary["image"] == "final.png"
     assert_picture(tmp_path / "final.png")
+
+
+def test_plane_strain_von_mises_takes_the_out_of_plane_stress(tmp_path):
+    """In plane strain szz = ν (sxx + syy): a block under sxx = syy = −p has von Mises
+    (1 − 2ν) p, not p (plane stress's σzz = 0); the VTU carries szz and reads it back."""
+    import dda
+
+    def block_at_rest(plane):
+        return dda.load_scene(
+            {
+                "analysis": {"mode": "static", "steps": 1, "gravity": [0.0, 0.0], "plane": plane},
+                "materials": {"rock": {"density": 2500.0, "young": 1e9, "poisson": 0.3}},
+                "blocks": [
+                    {
+                        "name": "b",
+                        "material": "rock",
+                        "vertices": [[0, 0], [1, 0], [1, 1], [0, 1]],
+                        "stress": [-1e6, -1e6, 0.0],
+                    }
+                ],
+            }
+        )
+
+    strain = dda.simulate(block_at_rest("strain")).final
+    stress = dda.simulate(block_at_rest("stress")).final
+    for frame in (strain, stress):  # a free square relaxes equally both ways: sxx = syy
+        sxx, syy, sxy = frame.stresses[0]
+        assert sxx == pytest.approx(syy, rel=1e-9) and abs(sxy) <= 1e-9 * abs(sxx)
+    p = -strain.stresses[0, 0]
+    np.testing.assert_allclose(strain.out_of_plane, [0.3 * -2 * p], rtol=1e-12)
+    np.testing.assert_allclose(scalar_field(strain, "von_mises"), [0.4 * p], rtol=1e-9)
+    assert stress.out_of_plane is None
+    np.testing.assert_allclose(
+        scalar_field(stress, "von_mises"), [-stress.stresses[0, 0]], rtol=1e-9
+    )
+    back = read_frame(write_blocks_vtu(strain, tmp_path / "b.vtu"))
+    np.testing.assert_allclose(back.out_of_plane, strain.out_of_plane, rtol=0)
+    assert "szz" not in meshio.read(write_blocks_vtu(stress, tmp_path / "s.vtu")).cell_data
