@@ -3,7 +3,8 @@
 TOML is UTF-8. Windows Notepad may write a byte-order mark before it (EF BB BF),
 which tomllib takes for text ("Invalid statement at line 1, column 1"): it is
 dropped. A file saved as UTF-16 or in a one-byte code page (Latin-1,
-Windows-1252) is refused with the reason and the fix, not a codec error.
+Windows-1252) is refused with the reason and the fix, not a codec error; a binary file
+(a picture, a drawing given as the scene) is refused as such.
 """
 
 from __future__ import annotations
@@ -14,6 +15,19 @@ from pathlib import Path
 from dda.errors import SceneError
 
 HINT = "save it as UTF-8 (in Notepad: Save As, Encoding: UTF-8)"
+SNIFFED = 256  # the bytes at the file's start that tell UTF-16 and binary data apart
+
+
+def _utf16(data: bytes) -> bool:
+    """True for UTF-16 text: a UTF-16 byte-order mark, or (without one) text whose
+    characters are ASCII, every other byte of the file's start zero."""
+    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        return True
+    head = data[: SNIFFED - SNIFFED % 2]
+    if len(head) < 2:
+        return False
+    high, low = head[1::2], head[0::2]  # little-endian ASCII: the high bytes zero
+    return (not any(high) and all(low)) or (not any(low) and all(high))
 
 
 def read_scene_text(path: Path) -> str:
@@ -29,8 +43,12 @@ def read_scene_text(path: Path) -> str:
     except OSError as exc:
         raise SceneError(str(path), "<file>", f"cannot read: {exc.strerror or exc}") from None
     data = data.removeprefix(codecs.BOM_UTF8)
-    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)) or b"\x00" in data[:256]:
+    if _utf16(data):
         raise SceneError(str(path), "<file>", f"is UTF-16 text, not UTF-8; {HINT}")
+    if b"\x00" in data[:SNIFFED]:
+        raise SceneError(
+            str(path), "<file>", "is not a text file (binary data): a scene is TOML text"
+        )
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -39,6 +39,19 @@ def test_other_encodings_are_refused_with_the_fix(tmp_path, capsys, encoding, re
         assert "codec" not in err[0]
 
 
+@pytest.mark.parametrize(
+    "data", [b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)), bytes(300)]
+)
+def test_a_binary_file_is_refused_as_such(tmp_path, capsys, data):
+    """A picture given as the scene was called UTF-16 text (any NUL byte was)."""
+    path = tmp_path / "picture.toml"
+    path.write_bytes(data)
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"dda run: {path}: is not a text file (binary data): a scene is TOML text"]
+    assert not (tmp_path / "out").exists()
+
+
 def test_an_error_in_a_thousand_blocks_names_the_block(tmp_path, capsys):
     floor = [[-1, -1], [1001, -1], [1001, 0], [-1, 0]]
     blocks = [{"name": "floor", "material": "rock", "fixed": True, "vertices": floor}]
