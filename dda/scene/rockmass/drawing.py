@@ -102,6 +102,9 @@ def expand_drawing(raw: Mapping[str, Any], source: str) -> Expanded:
     if "file" not in table:
         chk.fail("drawing.file", "missing: the DXF file to read (beside the scene file)")
     path = drawing_path(chk.text(table["file"], "drawing.file"), source)
+    if not path.is_file():
+        where = "the current folder" if source.startswith("<") else "beside the scene file"
+        chk.fail("drawing.file", f"no such file {path} (a drawing is read from {where})")
     layers = _layers(chk, table)
     document = read_dxf(path)
     scale = _scale(chk, table, document, raw, path)

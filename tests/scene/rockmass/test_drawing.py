@@ -158,8 +158,10 @@ SQUARE = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
          "$INSUNITS: the drawing is in mm ($INSUNITS = 4) and the scene in m ([units] "
          "length): give [drawing] scale = 0.001 to read it in m"),
         (lambda p: p.write_text("not a drawing"), {}, "not a DXF drawing ezdxf can read"),
+        (lambda p: None, {}, "scene.toml: drawing.file: no such file "),
     ],
-    ids=["open polyline", "no blocks layer", "a named layer missing", "units", "not DXF"],
+    ids=["open polyline", "no blocks layer", "a named layer missing", "units", "not DXF",
+         "no file"],
 )  # fmt: skip
 def test_a_bad_drawing_is_refused_in_one_line(tmp_path, monkeypatch, capsys, make, drawing,
                                               message):  # fmt: skip
