@@ -668,6 +668,9 @@ def render_command(args: argparse.Namespace) -> int:
         clim = checked_range(args)
         found = find_frame(args.source, args.step)
         output = args.output or found.default_png(args.scalars)
+        if Path(output).suffix.lower() != ".png":
+            suffix = Path(output).suffix or "no suffix"
+            raise ValueError(f"-o {output}: a picture is written as .png, not {suffix}")
         check_output_file(output)
         frame = read_found_frame(found)
     except (FileNotFoundError, ValueError, OutputError) as exc:

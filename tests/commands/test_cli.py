@@ -296,6 +296,13 @@ def test_render_a_written_run(tmp_path, capsys):
     small = ["--size", "300", "200"]
     assert cli.main(["render", str(tmp_path / "run"), "-o", str(deeper), *small]) == 0
     assert deeper.stat().st_size > 1000
+    capsys.readouterr()
+    jpeg = tmp_path / "pic.jpg"  # was PNG bytes under a .jpg name
+    assert cli.main(["render", str(tmp_path / "run"), "-o", str(jpeg), *small]) == 2
+    assert capsys.readouterr().err == (
+        f"dda render: -o {jpeg}: a picture is written as .png, not .jpg\n"
+    )
+    assert not jpeg.exists()
 
 
 # ------------------------------------------------------------------ plugins
