@@ -257,7 +257,8 @@ class Checker:
         """The name of an existing ``what`` (material, joint, block)."""
         name = self.text(value, key)
         if name not in names:
-            self.fail(key, f"unknown {what} {name!r}; " + suggest(name, names))
+            hint = suggest(name, names) if names else f"the scene defines no {what}"
+            self.fail(key, f"unknown {what} {name!r}; {hint}")
         return name
 
 

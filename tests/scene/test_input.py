@@ -87,3 +87,11 @@ def test_a_path_without_toml_is_read_as_a_path(tmp_path, monkeypatch):
     with pytest.raises(dda.SceneError, match="^missing_scene: no such file$"):
         dda.load_scene("missing_scene")
     assert dda.load_scene(TEXT).title  # TOML text still works
+
+
+def test_an_unknown_material_in_a_scene_without_materials_says_so():
+    """Was "unknown material 'x'; expected one of " with nothing after it."""
+    raw = {"blocks": [{"name": "a", "material": "x", "vertices": [[0, 0], [1, 0], [0, 1]]}]}
+    with pytest.raises(dda.SceneError) as caught:
+        dda.load_scene(raw)
+    assert str(caught.value).endswith("unknown material 'x'; the scene defines no material")
