@@ -581,12 +581,18 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     events = summary.get("fracture_events") or 0
     count = events if isinstance(events, int) else len(events)
     if count:
-        text += f" {count} fracture events."
+        text += f" {_counted(count, 'fracture event')}."
     if summary.get("stages_done"):
-        text += f" {summary['stages_done']} stages applied."
+        text += f" {_counted(summary['stages_done'], 'stage')} applied."
     if summary.get("bolts") is not None:
-        text += f" {len(summary.get('bolt_events') or ())} of {summary['bolts']} bolts broke."
+        broke = len(summary.get("bolt_events") or ())
+        text += f" {broke} of {_counted(summary['bolts'], 'bolt')} broke."
     return text + f"\nOutput ({summary.get('frames_written', 0)} frames): {outdir}"
+
+
+def _counted(count: int, noun: str) -> str:
+    """'1 stage', '2 stages'."""
+    return f"{count} {noun}" + ("" if count == 1 else "s")
 
 
 def _start_sentence(summary: dict[str, Any]) -> str:

@@ -251,6 +251,16 @@ def test_the_run_paragraph_tells_the_friction_dissipation_only_when_there_is_som
     assert "Friction dissipated 7.61e+06 lb·ft." in text and "penetration 0.62 ft." in text
 
 
+def test_the_run_paragraph_counts_in_the_singular_and_the_plural():
+    base = {"title": "t", "steps": 2, "time": 0.2, "wall_seconds": 1.0}
+    one = cli.summary_paragraph({**base, "stages_done": 1, "fracture_events": 1, "bolts": 1},
+                                Path("out"))  # fmt: skip
+    assert " 1 fracture event. 1 stage applied. 0 of 1 bolt broke." in one  # was "1 stages"
+    two = cli.summary_paragraph({**base, "stages_done": 2, "fracture_events": 3, "bolts": 2},
+                                Path("out"))  # fmt: skip
+    assert " 3 fracture events. 2 stages applied. 0 of 2 bolts broke." in two
+
+
 def test_the_run_paragraph_tells_the_newton_iterations_beside_the_solves():
     base = {"title": "t", "steps": 2, "time": 0.2, "wall_seconds": 1.0, "iterations": 9}
     assert "9 solves (4 Newton iterations)." in cli.summary_paragraph(
