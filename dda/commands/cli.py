@@ -45,6 +45,8 @@ MAX_OUTPUT_GB = 20.0  # ``dda run`` refuses runs estimated to write more, unless
 class Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line (and exit code 2)."""
 
+    commands: dict[str, argparse.ArgumentParser]  # the sub-commands' parsers (``dda``'s)
+
     def error(self, message: str):  # type: ignore[override]
         self.exit(EXIT_INPUT, f"{self.prog}: {message} (see {self.prog} -h)\n")
 
@@ -76,7 +78,9 @@ def _main(argv: list[str]) -> int:
     configure_logging(verbosity)
     parser = build_parser(plugins=_command_of(argv) not in BUILT_IN)
     try:
-        args = parser.parse_args(argv)
+        args, unknown = parser.parse_known_args(argv)
+        if unknown:  # named by the sub-command's parser: "dda run: ...", not "dda: ..."
+            _command_parser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     except SystemExit as exc:  # a refused argument (one line written), or --help
         return exc.code if isinstance(exc.code, int) else EXIT_INPUT
     if not hasattr(args, "func"):
@@ -103,6 +107,11 @@ def _main(argv: list[str]) -> int:
         return EXIT_FAILURE
 
 
+def _command_parser(parser: argparse.ArgumentParser, args: argparse.Namespace):
+    """The parser of the sub-command ``args`` is for (``parser`` itself without one)."""
+    return parser.commands.get(getattr(args, "command", None), parser)
+
+
 def _one_line(exc: BaseException) -> str:
     """``TypeName: message`` of an exception on one line (OSError: file and reason)."""
     if isinstance(exc, OSError) and exc.strerror:
@@ -121,6 +130,7 @@ def build_parser(plugins: bool = True) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {dda.__version__}")
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND", dest="command")
+    parser.commands = subparsers.choices  # each sub-command's parser, by name
     _add_run(subparsers)
     _add_render(subparsers)
     if plugins:

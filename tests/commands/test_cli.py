@@ -251,6 +251,16 @@ def test_the_run_paragraph_tells_the_friction_dissipation_only_when_there_is_som
     assert "Friction dissipated 7.61e+06 lb·ft." in text and "penetration 0.62 ft." in text
 
 
+def test_an_unknown_option_is_named_by_its_sub_command(capsys):
+    """Was "dda: unrecognized arguments" for an option given to dda run."""
+    assert cli.main(["run", "sliding_block", "--bogus"]) == 2
+    assert capsys.readouterr().err == (
+        "dda run: unrecognized arguments: --bogus (see dda run -h)\n"
+    )
+    assert cli.main(["--bogus"]) == 2
+    assert capsys.readouterr().err.startswith("dda: unrecognized arguments: --bogus")
+
+
 def test_the_run_paragraph_counts_in_the_singular_and_the_plural():
     base = {"title": "t", "steps": 2, "time": 0.2, "wall_seconds": 1.0}
     one = cli.summary_paragraph({**base, "stages_done": 1, "fracture_events": 1, "bolts": 1},
