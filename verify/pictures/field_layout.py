@@ -86,13 +86,54 @@ def axis_range(low: np.ndarray, high: np.ndarray) -> tuple[tuple, tuple[int, int
     return (first, last), (int(counts[0]), int(counts[1]))
 
 
+BAR_CHARACTERS = 36  # the labels a colour bar holds without running into each other
+
+
 def round_ticks(clim: tuple[float, float]) -> tuple[np.ndarray, str]:
-    """Up to 6 round values within a colour range, and a printf format that shows them."""
-    ticks = MaxNLocator(5).tick_values(*clim)
+    """Up to 6 round values within a colour range, and a printf format with the
+    significant digits that print each as it is (a narrow range about a large value:
+    -1.0002e+06 and -1.0001e+06, not -1e+06 twice). Where the labels are long, fewer
+    ticks (at least 3), so that they do not run into each other.
+
+    >>> round_ticks((-1.0003e6, -0.9999e6))
+    (array([-1000300., -1000150., -1000000.]), '%.6g')
+    >>> round_ticks((0.0, 100.0))[1]
+    '%.3g'
+    """
+    candidates = [_ticks(clim, count) for count in (5, 4, 3)]
+    enough = [c for c in candidates if len(c[0]) >= 3] or candidates[:1]
+    for ticks, digits in enough:
+        if _label_characters(ticks, digits) <= BAR_CHARACTERS:
+            return ticks, f"%.{digits}g"
+    ticks, digits = min(enough, key=lambda c: _label_characters(*c))
+    return ticks, f"%.{digits}g"
+
+
+def _label_characters(ticks: np.ndarray, digits: int) -> int:
+    """How many characters the labels of ``ticks`` take, printed with ``digits``."""
+    return sum(len(f"{t:.{digits}g}") for t in ticks)
+
+
+def _ticks(clim: tuple[float, float], count: int) -> tuple[np.ndarray, int]:
+    """MaxNLocator's round ticks within ``clim`` and the significant digits they need."""
+    ticks = MaxNLocator(count).tick_values(*clim)
     span = clim[1] - clim[0]
     ticks = ticks[(ticks >= clim[0] - 1e-9 * span) & (ticks <= clim[1] + 1e-9 * span)]
     largest = float(np.abs(ticks).max(initial=0.0))
-    return ticks, ("%.6g" if 1e-3 <= largest < 1e5 else "%.3g")
+    if len(ticks) < 2 or largest == 0.0:
+        return ticks, 3
+    digits = max(_exact_digits(t) for t in ticks)
+    if 1e-3 <= largest < 1e5:  # as many as keep %g from an exponent (100, not 1e+02)
+        digits = max(digits, int(np.floor(np.log10(largest))) + 1)
+    return ticks, max(2, digits)
+
+
+def _exact_digits(value: float) -> int:
+    """The fewest significant digits (at most 12) that print ``value`` as it is."""
+    for digits in range(1, 13):
+        if abs(float(f"{value:.{digits}g}") - value) <= 1e-12 * abs(value):
+            return digits
+    return 12
 
 
 def colour_bar(plotter, frame: Layout, actor, title: str, ticks: np.ndarray, fmt: str) -> None:

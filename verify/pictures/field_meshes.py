@@ -28,13 +28,28 @@ import pyvista  # noqa: E402
 pyvista.OFF_SCREEN = True
 
 
-def magnification(result: CaseResult, fraction: float = 0.06) -> float:
-    """Factor that makes the largest displacement ``fraction`` of the model size."""
+# the largest displacement drawn: this fraction of the model's size, and of its smallest
+# free block's (√area), whichever is less (a wall drawn moving further closes an opening
+# and overlaps its neighbours)
+MODEL_FRACTION, BLOCK_FRACTION = 0.06, 0.2
+# displacements below this fraction of the model's size are round-off: drawn as they are
+ROUND_OFF = 1e-9
+
+
+def magnification(result: CaseResult) -> float:
+    """Factor that draws the largest displacement as :data:`MODEL_FRACTION` of the
+    model's size or :data:`BLOCK_FRACTION` of its smallest free block's, whichever is
+    less; 1 (not magnified) where every displacement is round-off (:data:`ROUND_OFF`)."""
     largest = max(
         float(np.abs(fields.nodal_displacement(result.fem)).max()),
         max(float(np.abs(d).max()) for d in result.dda.vertex_displacement),
     )
-    return fraction * scene_size(result.scene) / largest if largest > 0 else 1.0
+    size = scene_size(result.scene)
+    if largest <= ROUND_OFF * size:
+        return 1.0
+    free = [shapely.Polygon(result.scene.blocks[i].vertices).area for i in free_blocks(result)]
+    smallest = float(np.sqrt(min(free))) if free else size
+    return min(MODEL_FRACTION * size, BLOCK_FRACTION * smallest) / largest
 
 
 def free_blocks(result: CaseResult) -> list[int]:

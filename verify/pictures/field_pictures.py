@@ -40,6 +40,7 @@ from verify.pictures.field_layout import (
     round_ticks,
 )
 from verify.pictures.field_meshes import (
+    ROUND_OFF,
     block_polygons,
     dda_displacement_at,
     dots,
@@ -121,7 +122,7 @@ def stress_panels(plotter, result: CaseResult, frame: Layout, mag: float) -> Non
     label = f"{name}{chr(39) if angle else ''}"
     unit = f"{label} ({result.scene.units.stress})"
     moved = moved_blocks(result, mag)
-    deformed = f"displacements x{mag:.3g}"
+    deformed = f"displacements x{mag:.3g}" if mag != 1.0 else "displacements as computed"
     plotter.subplot(1, 0)
     dda = triangles(moved, cell_values=dda_values)
     field(plotter, frame, dda, STRESS_MAP, clim, f"DDA {unit}")
@@ -136,15 +137,25 @@ def stress_panels(plotter, result: CaseResult, frame: Layout, mag: float) -> Non
     finish(plotter, result, frame, f"difference, stress {label}")
 
 
+# a stress colour range spans at least this fraction of its largest value: fields that
+# differ by less (a uniform field, and its FEM twin within round-off) take nearly one colour
+NARROWEST = 0.1
+
+
 def stress_range(fem_values: np.ndarray, dda_values: np.ndarray) -> tuple[float, float]:
-    """The shared colour range: the FEM's 1st to 99th percentile, widened to the DDA's values.
+    """The shared colour range: the FEM's 1st to 99th percentile, widened to the DDA's
+    values, and about its middle to :data:`NARROWEST` of its largest value.
 
     The percentiles keep a point load's singular stress from washing the rest out.
+
+    >>> stress_range(np.full(3, -1e6), np.full(2, -1.0004e6))
+    (-1050220.0, -950180.0)
     """
     low, high = np.percentile(fem_values, [1, 99])
     low, high = min(low, dda_values.min()), max(high, dda_values.max())
-    if high - low < 1e-12 * max(abs(low), abs(high), 1.0):
-        low, high = low - 1.0, high + 1.0
+    half = 0.5 * max(NARROWEST * max(abs(low), abs(high)), 2.0)
+    middle = 0.5 * (low + high)
+    low, high = min(low, middle - half), max(high, middle + half)
     return float(low), float(high)
 
 
@@ -170,7 +181,9 @@ def displacement_panels(plotter, result: CaseResult, frame: Layout) -> None:
         values_at=lambda k, p: np.linalg.norm(dda_displacement_at(result, free[k], p), axis=1),
     )
     # the 99th percentile: a point load's singular displacement does not wash the rest out
-    high = max(float(np.percentile(fem_u, 99)), float(dda["value"].max()), 1e-30)
+    # ... and at least round-off's (ROUND_OFF of the model): 1e-20 m of noise reads as none
+    high = max(float(np.percentile(fem_u, 99)), float(dda["value"].max()))
+    high = max(high, ROUND_OFF * scene_size(result.scene))
     unit = f"displacement magnitude ({frame.length})"
     for column, who, mesh in ((0, "DDA", dda), (1, "FEM", fem_nodes(result, fem_u))):
         plotter.subplot(2, column)
