@@ -142,9 +142,13 @@ def _has_dask() -> bool:
 
 
 def _progress(done: int, total: int, row: dict) -> None:
+    """One line a finished setting: all its keys (g2 and the tolerance too: two settings
+    that differ only there are two lines that read differently), time, status, host."""
+    from dda.tradeoff.grid import KEYS, Setting
+
+    setting = Setting(**{key: row[key] for key in KEYS}).label
     print(
-        f"[{done}/{total}] {row['method']:<22} p={row['penalty']:<6g} "
-        f"dt={row['time_step']:<7g} "
+        f"[{done}/{total}] {setting:<52} "
         f"{row['seconds']:6.2f} s (median of {row['repeats']}) {row['status']} on {row['host']}",
         file=sys.stderr,
         flush=True,
