@@ -103,6 +103,8 @@ def all_frames(folder: str | os.PathLike[str]) -> list[FrameFiles]:
         ``folder`` is not a directory, or holds no frame.
     """
     folder = Path(folder)
+    if not folder.exists():
+        raise FileNotFoundError(f"{folder}: no such directory")
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder}: not an output directory of `dda run`")
     times = _times(folder / "blocks.pvd")

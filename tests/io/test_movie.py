@@ -126,6 +126,7 @@ def test_a_folder_without_frames_is_refused(tmp_path, capsys):
     assert cli.main(["movie", str(tmp_path)]) == 2
     assert "no written frame" in capsys.readouterr().err
     assert cli.main(["movie", str(tmp_path / "absent")]) == 2
+    assert capsys.readouterr().err == f"dda movie: {tmp_path / 'absent'}: no such directory\n"
     assert not list(tmp_path.iterdir())
 
 
