@@ -23,12 +23,15 @@ import gc
 import logging
 import math
 import os
+import re
 import shutil
 import sys
 from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 import dda
 from dda.io.fields import SCALARS
@@ -78,7 +81,7 @@ def _main(argv: list[str]) -> int:
     configure_logging(verbosity)
     parser = build_parser(plugins=_command_of(argv) not in BUILT_IN)
     try:
-        args, unknown = parser.parse_known_args(argv)
+        args, unknown = parser.parse_known_args(_plain_negative_numbers(argv))
         if unknown:  # named by the sub-command's parser: "dda run: ...", not "dda: ..."
             _command_parser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     except SystemExit as exc:  # a refused argument (one line written), or --help
@@ -105,6 +108,20 @@ def _main(argv: list[str]) -> int:
             raise
         print(f"{label}: {_one_line(exc)} (dda -v {args.command} ... shows where)", file=sys.stderr)
         return EXIT_FAILURE
+
+
+# a negative number in scientific notation, which argparse takes for an option ("-2e6")
+_NEGATIVE_SCIENTIFIC = re.compile(r"^-(\d+\.?\d*|\.\d+)[eE][+-]?\d+$")
+
+
+def _plain_negative_numbers(argv: list[str]) -> list[str]:
+    """``argv`` with each negative number in scientific notation written out in plain
+    digits (-2e6 as -2000000: the same float), which argparse reads as a value
+    (``--range -2e6 0``, the help's own example) and not as an unknown option."""
+    return [
+        np.format_float_positional(float(a), trim="-") if _NEGATIVE_SCIENTIFIC.match(a) else a
+        for a in argv
+    ]
 
 
 def _command_parser(parser: argparse.ArgumentParser, args: argparse.Namespace):

@@ -104,6 +104,11 @@ def test_the_movie_takes_a_range(run_folder, tmp_path, capsys):
     assert cli.main([*args, "--range", "-2", "0"]) == 0 and gif.is_file()
     assert cli.main([*args, "--range", "0", "-2"]) == 2
     assert "--range 0 -2: the first number must be below the second" in capsys.readouterr().err
+    # the help's own example, a negative number in scientific notation (was: "expected 2
+    # arguments", argparse taking -2e6 for an option)
+    assert cli.main([*args, "--range", "-2e6", "-1.5E-3"]) == 0
+    assert cli.main([*args, "--range", "-1.5E-3", "-2e6"]) == 2
+    assert "--range -0.0015 -2e+06: the first number must be below" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
