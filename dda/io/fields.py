@@ -36,8 +36,10 @@ SCALARS: dict[str, ScalarInfo] = {
     "sxx": ScalarInfo("stress xx", True, "stress"),
     "syy": ScalarInfo("stress yy", True, "stress"),
     "sxy": ScalarInfo("stress xy", True, "stress"),
-    "s1": ScalarInfo("major principal stress", True, "stress"),
-    "s2": ScalarInfo("minor principal stress", True, "stress"),
+    # tension positive: s1 >= s2, so s1 is the least compressive (rock mechanics' σ3) and
+    # s2 the most compressive (its σ1); the labels say so, not "major" / "minor"
+    "s1": ScalarInfo("principal stress s1, the least compressive", True, "stress"),
+    "s2": ScalarInfo("principal stress s2, the most compressive", True, "stress"),
     "von_mises": ScalarInfo("von Mises stress", False, "stress"),
     "displacement": ScalarInfo("displacement", False, "length"),
     "velocity": ScalarInfo("speed", False, "velocity"),
