@@ -26,6 +26,7 @@ _MODULE_OF = {
     "write_summary": "tables",
     "read_frame": "vtu",
     "write_blocks_vtu": "vtu",
+    "write_bolts_vtu": "vtu",
     "write_contacts_vtu": "vtu",
 }
 

@@ -127,7 +127,11 @@ def read_found_frame(found: FrameFiles):
     from dda.io.vtu import read_frame
 
     try:
-        return read_frame(found.blocks, found.contacts, time=found.time, step=found.step)
+        bolts = found.blocks.with_name(found.blocks.name.replace("blocks_", "bolts_", 1))
+        return read_frame(
+            found.blocks, found.contacts, time=found.time, step=found.step,
+            bolts_path=bolts if bolts != found.blocks else None,
+        )  # fmt: skip
     except (meshio.ReadError, OSError, KeyError, IndexError, ValueError, SyntaxError) as exc:
         detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
         raise ValueError(f"{found.blocks}: cannot read it as a frame ({detail})") from None

@@ -7,6 +7,7 @@ Layout of ``outdir``::
     contacts.pvd            time index of the contact files
     frames/blocks_NNNNNN.vtu    one per kept frame (NNNNNN = step)
     frames/contacts_NNNNNN.vtu
+    frames/bolts_NNNNNN.vtu     the rock bolts in place (a scene with [[bolts]])
     history.csv             one row per block per kept frame
     history_points.csv      one row per step of the [[measure]] quantities (with [[measure]])
     summary.json            the run summary (status "running", "finished", "failed", ...)
@@ -34,7 +35,7 @@ from dda.io.atomic import TEMP_MARK, append_whole, naming, write_text
 from dda.io.images import render_frame
 from dda.io.picture_process import PictureProcess
 from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
-from dda.io.run_folder import SUMMARY_NAME, RunFolder
+from dda.io.run_folder import FRAME_PATTERNS, SUMMARY_NAME, RunFolder
 from dda.io.tables import (
     POINTS_NAME,
     history_header,
@@ -43,7 +44,7 @@ from dda.io.tables import (
     points_rows,
     write_summary,
 )
-from dda.io.vtu import write_blocks_vtu, write_contacts_vtu
+from dda.io.vtu import write_blocks_vtu, write_bolts_vtu, write_contacts_vtu
 from dda.result import Frame, Result
 
 logger = logging.getLogger(__name__)
@@ -143,6 +144,10 @@ class RunWriter:
             write_blocks_vtu(frame, blocks)
         with naming(contacts):
             write_contacts_vtu(frame, contacts)
+        if frame.bolts is not None and len(frame.bolts):  # drawn by dda render and movie
+            bolts = self.frames_dir / f"bolts_{stem}.vtu"
+            with naming(bolts):
+                write_bolts_vtu(frame, bolts)
         self.blocks_index.add(frame.time, blocks)
         self.contacts_index.add(frame.time, contacts)
         if step > self.last_step:
@@ -299,7 +304,7 @@ def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:
         path = outdir / name
         entries = read_pvd_entries(path) if path.is_file() else []
         kept.append([(file, t) for file, t in entries if 0 <= step_of_file(file) <= step])
-    for pattern in ("blocks_*.vtu", "contacts_*.vtu", f"*{TEMP_MARK}*"):
+    for pattern in FRAME_PATTERNS:
         for path in (outdir / "frames").glob(pattern):
             if TEMP_MARK in path.name or step_of_file(path) > step:
                 path.unlink(missing_ok=True)

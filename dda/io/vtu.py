@@ -17,6 +17,9 @@ Contacts file: one ``vertex`` cell per contact point, point arrays
 empty ``polygon`` cell, written without compression: meshio 5.3 reads
 neither a grid without cells nor an empty compressed array, and this is the
 empty grid that meshio, pyvista and ParaView all read.
+
+Bolts file (a scene with ``[[bolts]]``): one ``line`` cell per rock bolt, from its
+start to its end point in place, cell array ``bolt`` (its row).
 """
 
 from __future__ import annotations
@@ -147,11 +150,27 @@ def write_contacts_vtu(frame: Frame, path: str | os.PathLike[str]) -> Path:
     return write_mesh(contacts_mesh(frame), path)
 
 
+def bolts_mesh(frame: Frame) -> meshio.Mesh:
+    """The rock bolts of ``frame`` (its ``bolts``, not None) as a meshio mesh: one
+    ``line`` cell a bolt, from its start to its end point, cell array ``bolt`` (its row)."""
+    ends = np.asarray(frame.bolts, dtype=float).reshape(-1, 2, 2)
+    count = len(ends)
+    lines = np.arange(2 * count, dtype=np.int64).reshape(count, 2)
+    cell_data = {"bolt": [np.arange(count, dtype=np.int64)]}
+    return meshio.Mesh(as_3d(ends.reshape(-1, 2)), [("line", lines)], cell_data=cell_data)
+
+
+def write_bolts_vtu(frame: Frame, path: str | os.PathLike[str]) -> Path:
+    """Write the rock bolts of ``frame`` to ``path`` (see :func:`bolts_mesh`)."""
+    return write_mesh(bolts_mesh(frame), path)
+
+
 def read_frame(
     blocks_path: str | os.PathLike[str],
     contacts_path: str | os.PathLike[str] | None = None,
     time: float = float("nan"),
     step: int = -1,
+    bolts_path: str | os.PathLike[str] | None = None,
 ) -> Frame:
     """Rebuild a :class:`~dda.result.Frame` from files written by this module.
 
@@ -163,6 +182,9 @@ def read_frame(
         The matching contacts ``.vtu`` file, if any.
     time, step
         Frame time and step (VTU files do not carry them; the PVD index does).
+    bolts_path
+        The matching bolts ``.vtu`` file (a scene with ``[[bolts]]``), if any: the
+        frame's ``bolts``.
 
     Returns
     -------
@@ -193,7 +215,18 @@ def read_frame(
         fixed=data["fixed"].astype(bool),
         contacts=_read_contacts(contacts_path, ids) if contacts_path else Contacts.empty(),
         out_of_plane=data["szz"].astype(float) if "szz" in data else None,
+        bolts=_read_bolts(bolts_path) if bolts_path else None,
     )
+
+
+def _read_bolts(path: str | os.PathLike[str]) -> np.ndarray | None:
+    """(b, 2, 2) bolt ends from a file of :func:`write_bolts_vtu`, None without one."""
+    if not Path(path).is_file():
+        return None
+    mesh = _read_vtu(path)
+    lines = np.concatenate([block.data for block in mesh.cells if block.type == "line"])
+    order = np.argsort(np.concatenate(mesh.cell_data["bolt"]), kind="stable")
+    return mesh.points[lines[order], :2].copy()
 
 
 def _read_contacts(path: str | os.PathLike[str], ids: np.ndarray) -> Contacts:

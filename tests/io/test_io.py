@@ -512,3 +512,21 @@ def test_plane_strain_von_mises_takes_the_out_of_plane_stress(tmp_path):
     back = read_frame(write_blocks_vtu(strain, tmp_path / "b.vtu"))
     np.testing.assert_allclose(back.out_of_plane, strain.out_of_plane, rtol=0)
     assert "szz" not in meshio.read(write_blocks_vtu(stress, tmp_path / "s.vtu")).cell_data
+
+
+def test_the_bolts_are_written_beside_the_frame_and_read_back(tmp_path):
+    """dda render and dda movie drew no rock bolt: the frame files held none."""
+    from dda.io import RunWriter
+    from dda.io.frame_files import all_frames, read_found_frame
+
+    writer = RunWriter(tmp_path / "run", image=False)
+    ends = np.array([[[0.5, 0.5], [2.0, 1.5]], [[0.1, 0.2], [0.3, -1.0]]])
+    for step in (0, 5):
+        writer.add_frame(dataclasses.replace(make_frame(step=step), bolts=ends + step))
+    writer.add_frame(make_frame(step=9))  # a frame without bolts writes no bolts file
+    names = sorted(p.name for p in (tmp_path / "run" / "frames").glob("bolts_*"))
+    assert names == ["bolts_000000.vtu", "bolts_000005.vtu"]
+    frames = [read_found_frame(found) for found in all_frames(tmp_path / "run")]
+    np.testing.assert_array_equal(frames[1].bolts, ends + 5)
+    assert frames[2].bolts is None
+    assert len(meshio.read(tmp_path / "run" / "frames" / "bolts_000000.vtu").cells[0]) == 2
