@@ -139,6 +139,9 @@ RATIO_DECADES = (-8, 1)  # the colour scale of error / tolerance: 1e-8 ... 10
 FAIL_COLOUR = "#d7301f"  # a check beyond its tolerance
 
 
+SUMMARY_MIN_WIDTH = 8.0  # inches: the colour bar's ten decade labels side by side
+
+
 def summary_chart(results: list[CaseResult], path: Path) -> Path:
     """Largest error over its tolerance of every case (rows) and checked quantity
     (columns, in groups): a cell per check, coloured by decade from dark green (far
@@ -158,7 +161,9 @@ def summary_chart(results: list[CaseResult], path: Path) -> Path:
     cmap = ListedColormap([*within, *[FAIL_COLOUR] * high])  # above 1: the check fails
     norm = BoundaryNorm(edges, cmap.N)
     shown = np.log10(np.clip(ratios, 10.0**low, 10.0 ** (high - 1e-9)))
-    fig, ax = plt.subplots(figsize=(3.2 + 0.62 * len(columns), 2.6 + 0.3 * len(results)))
+    width = max(SUMMARY_MIN_WIDTH, 3.2 + 0.62 * len(columns))  # the colour bar's labels fit
+    height = 2.6 + 0.3 * len(results)
+    fig, ax = plt.subplots(figsize=(width, height))
     image = ax.imshow(np.ma.masked_invalid(shown), cmap=cmap, norm=norm, aspect="auto")
     for (i, j), ratio in np.ndenumerate(ratios):
         if np.isfinite(ratio):
@@ -180,12 +185,16 @@ def summary_chart(results: list[CaseResult], path: Path) -> Path:
                 fontsize=9, fontweight="bold")  # fmt: skip
         start += count
     ax.set_ylim(len(results) + 0.9, -0.5)
-    bar = fig.colorbar(image, ax=ax, orientation="horizontal", fraction=0.03, pad=0.02,
-                       ticks=edges)  # fmt: skip
+    ax.set_title("DDA against FEM or a closed form: every check of every case", pad=12)
+    # the colour bar in its own strip under the table: 0.25 inch thick and 0.6 of the
+    # figure long whatever the rows (beside the table, one row made it a sliver of
+    # squashed labels)
+    strip = 0.9 / height  # the bar, its labels and its title
+    fig.tight_layout(rect=(0.0, strip, 1.0, 1.0))
+    cax = fig.add_axes((0.2, 0.55 * strip, 0.6, 0.25 / height))
+    bar = fig.colorbar(image, cax=cax, orientation="horizontal", ticks=edges)
     bar.ax.set_xticklabels([f"1e{e}" if e else "1" for e in edges])
     bar.set_label("largest error / tolerance (above 1: the check fails; blank: not checked)")
-    ax.set_title("DDA against FEM or a closed form: every check of every case", pad=12)
-    fig.tight_layout()
     return save(fig, path, dpi=100)
 
 
