@@ -108,7 +108,9 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     outdir = args.outdir
     write_csv(rows, outdir / f"{case.name}.csv")
     write_text(outdir / f"{case.name}.md", markdown_table(rows, case.quantity))
-    pareto_plot(rows, outdir / f"pareto_{case.name}.png", title=case.name)
+    against = "a closed form" if reference is None else "a converged fine run"
+    title = f"{case.name}: {case.quantity}, against {against}"
+    pareto_plot(rows, outdir / f"pareto_{case.name}.png", title=title)
     print(markdown_table(rows, case.quantity))
     print(f"wrote {outdir}/{case.name}.csv, .md and pareto_{case.name}.png", file=sys.stderr)
     return 0

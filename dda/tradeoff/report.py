@@ -79,7 +79,7 @@ def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)
+    fig, ax = plt.subplots(figsize=(8.4, 4.4), dpi=120)
     for k, (method, front) in enumerate(fronts_by_method(rows).items()):
         colour = f"C{k}"
         runs = [r for r in rows if r["method"] == method and not math.isnan(r["error"])]
@@ -102,9 +102,9 @@ def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
     ax.set_yscale("log")
     ax.set_xlabel("wall time of a run, median of its repeats (s)")
     ax.set_ylabel("relative error")
-    ax.set_title(title)
+    ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)  # off the dots
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
