@@ -96,5 +96,19 @@ def _draw_edges(ax, cut: CutRockMass) -> list:
         colour = JOINT_COLOURS[k % len(JOINT_COLOURS)]
         ax.add_collection(LineCollection(segments[on], colors=colour, linewidths=1.0))
         joints = sorted({cut.traces.joints[i] or "default" for i in sources})
-        handles.append(Line2D([], [], color=colour, lw=1.2, label=f"{name} ({', '.join(joints)})"))
+        handles.append(Line2D([], [], color=colour, lw=1.2, label=_trace_label(name, joints)))
     return handles
+
+
+def _trace_label(name: str, joints: list[str]) -> str:
+    """A joint set's legend entry: its name and the joint (its properties) it is cut
+    with, said once where they are the same ('bedding', not 'bedding (bedding)').
+
+    >>> _trace_label("set1", ["default"])
+    'set1 (joint: default)'
+    >>> _trace_label("bedding", ["bedding"])
+    'bedding'
+    """
+    if joints == [name]:
+        return name
+    return f"{name} (joint: {', '.join(joints)})"
