@@ -320,9 +320,23 @@ def _measures(
         if "blocks" in values:
             values["blocks"] = _pair(chk, values["blocks"], f"{key}.blocks", geometry)
         kind = Measure(name, (), **{k: values.get(k) for k in ("point", "blocks", "bolt")}).kind
-        values["quantities"] = _quantities(chk, values.get("quantities"), key, kind)
+        quantities = _quantities(chk, values.get("quantities"), key, kind)
+        values["quantities"] = _without_static_velocity(chk, quantities, values, key, raw)
         out.append(Measure(**values))
     return tuple(out)
+
+
+def _without_static_velocity(chk, quantities, values, key, raw) -> tuple[str, ...]:
+    """``quantities`` less the velocity in a static analysis, where it is 0 at every
+    step (left out of the default ones; named, refused with the reason)."""
+    analysis = raw.get("analysis")
+    static = isinstance(analysis, Mapping) and analysis.get("mode") == "static"
+    if not static or "velocity" not in quantities:
+        return quantities
+    if values.get("quantities") is not None:
+        chk.fail(f"{key}.quantities", "velocity is 0 at every step of a static analysis: "
+                 "measure the displacement")  # fmt: skip
+    return tuple(q for q in quantities if q != "velocity")
 
 
 def _pair(chk: Checker, items: Sequence[Any], key: str, geometry: _Geometry) -> tuple[str, str]:

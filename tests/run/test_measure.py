@@ -102,3 +102,16 @@ def test_plot_without_measurements_is_refused_in_one_line(tmp_path, capsys):
     (tmp_path / "history_points.csv").write_text("a,b\n1,2\n")
     assert cli.main(["plot", str(tmp_path)]) == 2
     assert "not a history_points.csv" in capsys.readouterr().err
+
+
+def test_a_static_analysis_measures_no_velocity():
+    """Its velocity is 0 at every step: left out of a point's default quantities (dda plot
+    drew a flat velocity picture), refused by name when asked for."""
+    scene = measured_slope()
+    scene["analysis"].update(mode="static", steps=3)
+    scene["analysis"].pop("duration")
+    m = dda.simulate(scene).measurements
+    assert "c.ux" in m and "c.sxx" in m and not any(k.startswith("c.v") for k in m)
+    scene["measure"][0]["quantities"] = ["displacement", "velocity"]
+    with pytest.raises(dda.SceneError, match=r"measure\[0\]\.quantities: velocity is 0 at every"):
+        dda.load_scene(scene)
