@@ -81,7 +81,7 @@ def movie_command(args: argparse.Namespace) -> int:
                 frames, output, look, scalars=args.scalars, fps=args.fps,
                 size=tuple(args.size), show_contacts=not args.no_contacts,
                 scene_title=run.get("title") or "", units=run.get("units"),
-                on_frame=lambda k: bar.update(k, frame=k),
+                on_frame=lambda k: bar.update(k, frame=k), water_table=run.get("water_table"),
             )  # fmt: skip
     except FfmpegError as exc:  # not the input's fault: exit 1, in one line
         print(f"dda movie: {exc}", file=sys.stderr)

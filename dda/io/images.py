@@ -39,6 +39,7 @@ logger = logging.getLogger(__name__)
 FIXED_COLOUR = "#a9a9a9"
 CONTACT_COLOUR = "magenta"
 BOLT_COLOUR = "darkorange"
+WATER_COLOUR = "tab:blue"
 _CONTACT_LENGTH = 0.06  # longest contact segment, as a fraction of the model size
 _DPI = 100
 ROUND_OFF_STRESS = 1e-6  # stresses all below this (scene units) are drawn as zero
@@ -54,6 +55,7 @@ def render_frame(
     clim: tuple[float, float] | None = None,
     scene_title: str = "",
     units: Mapping[str, str] | None = None,
+    water_table: Sequence[Sequence[float]] | None = None,
 ) -> Path:
     """Render one frame to a PNG file.
 
@@ -78,6 +80,8 @@ def render_frame(
         The scene's title, at the top of the picture.
     units
         The scene's ``[units]`` (``length``, ``force``, ``time``); SI where absent.
+    water_table
+        The scene's phreatic line (``[water] table``, its points), drawn dashed blue.
 
     Returns
     -------
@@ -87,6 +91,7 @@ def render_frame(
     return render_side_by_side(
         [frame], [title], path, scalars=scalars, show_contacts=show_contacts,
         window_size=window_size, clim=clim, scene_title=scene_title, units=units,
+        water_table=water_table,
     )  # fmt: skip
 
 
@@ -100,6 +105,7 @@ def render_side_by_side(
     clim: tuple[float, float] | None = None,
     scene_title: str = "",
     units: Mapping[str, str] | None = None,
+    water_table: Sequence[Sequence[float]] | None = None,
 ) -> Path:
     """Render frames next to each other, with one shared colour range and view.
 
@@ -119,7 +125,7 @@ def render_side_by_side(
         Picture size; default 700 x 600 pixels per frame.
     clim
         Colour range; default: the range over all frames.
-    scene_title, units
+    scene_title, units, water_table
         As in :func:`render_frame`.
 
     Returns
@@ -127,7 +133,10 @@ def render_side_by_side(
     Path
         ``path``.
     """
-    figure = compose(frames, titles, scalars, show_contacts, window_size, clim, scene_title, units)
+    figure = compose(
+        frames, titles, scalars, show_contacts, window_size, clim, scene_title, units,
+        water_table=water_table,
+    )  # fmt: skip
     path = Path(path)
     with unicode_text(), atomic_path(path) as tmp:
         figure.savefig(tmp, format="png", dpi=_DPI)
@@ -146,12 +155,14 @@ def compose(
     units: Mapping[str, str] | None = None,
     view: np.ndarray | None = None,
     force_max: float | None = None,
+    water_table: Sequence[Sequence[float]] | None = None,
 ) -> Any:
     """The matplotlib ``Figure`` of :func:`render_side_by_side` (arguments as there;
     ``clim`` may also be a whole :class:`~dda.io.colour_scale.ColourScale`);
     ``view``: ``[[x_min, y_min], [x_max, y_max]]`` to show instead of the frames' extent
     (a movie keeps one view for all its frames); ``force_max``: the contact force drawn
-    longest (default the largest of ``frames``; a movie keeps one scale)."""
+    longest (default the largest of ``frames``; a movie keeps one scale); ``water_table``:
+    the scene's phreatic line, drawn over the view (not widening it)."""
     if not frames or len(titles) != len(frames):
         raise ValueError("give one title (or None) per frame, and at least one frame")
     if any(len(f.vertices) == 0 for f in frames):
@@ -176,11 +187,16 @@ def compose(
             ax.set_xlabel(f"x ({length})")
             ax.set_ylabel(f"y ({length})")
         _share_view(axes, frames if view is None else None, view)
+        if water_table is not None:
+            _draw_water_table(axes, water_table)
         coloured = sum(int(np.isfinite(v).sum()) for v in values)
         _colour_bar(
             figure, mappable, axes, scale, info.label, unit_name(info.dimension, units), coloured
         )
-        _legend(figure, frames, show_contacts, force_max, unit_name("force_per_length", units))
+        _legend(
+            figure, frames, show_contacts, force_max, unit_name("force_per_length", units),
+            water_table is not None,
+        )  # fmt: skip
         if scene_title:
             figure.suptitle("\n".join(textwrap.wrap(scene_title, 90)), fontsize=13)
     return figure
@@ -326,10 +342,19 @@ def _colour_bar(
     bar.set_label(text)
 
 
+def _draw_water_table(axes, table: Sequence[Sequence[float]]) -> None:
+    """The phreatic line on each of ``axes``, within the view they show."""
+    points = np.asarray(table, dtype=float).reshape(-1, 2)
+    for ax in axes:
+        ax.plot(*points.T, color=WATER_COLOUR, lw=1.5, ls="--", scalex=False, scaley=False)
+
+
 def _legend(
-    figure, frames: Sequence[Frame], show_contacts: bool, force_max: float, force_unit: str
-) -> None:
-    """Fixed blocks, contact forces with the force of the longest mark, bolts."""
+    figure, frames: Sequence[Frame], show_contacts: bool, force_max: float, force_unit: str,
+    water: bool = False,
+) -> None:  # fmt: skip
+    """Fixed blocks, contact forces with the force of the longest mark, bolts, the
+    phreatic line."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -344,6 +369,8 @@ def _legend(
         handles.append(Line2D([], [], color=CONTACT_COLOUR, lw=2, label=label))
     if any(f.bolts is not None and len(f.bolts) for f in frames):
         handles.append(Line2D([], [], color=BOLT_COLOUR, lw=2.5, marker="o", label="rock bolt"))
+    if water:
+        handles.append(Line2D([], [], color=WATER_COLOUR, lw=1.5, ls="--", label="phreatic line"))
     if handles:
         figure.legend(handles=handles, loc="outside lower center", ncols=3, fontsize=9)
 

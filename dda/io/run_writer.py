@@ -241,6 +241,9 @@ class RunWriter:
             units = getattr(self.scene, "units", None)
             if units is not None:
                 summary.setdefault("units", dataclasses.asdict(units))
+            water = getattr(self.scene, "water", None)
+            if water is not None:  # for the pictures drawn from the run (dda render, movie)
+                summary.setdefault("water_table", [list(point) for point in water.table])
         if final is not None:
             summary.setdefault("steps", int(final.step))
             summary.setdefault("time", float(final.time))
@@ -259,7 +262,7 @@ class RunWriter:
         path = self.outdir / "final.png"
         options = {
             "scalars": self.scalars, "scene_title": summary.get("title") or "",
-            "units": summary.get("units"),
+            "units": summary.get("units"), "water_table": summary.get("water_table"),
         }  # fmt: skip
         if self.picture is not None and self.picture.draw(frame, path, **options):
             return "final.png"

@@ -168,3 +168,28 @@ def test_render_takes_a_range(tmp_path, monkeypatch, capsys, drawn):
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["dda render: --range 1 1: the first number must be below the second"]
     assert not (tmp_path / "bad.png").exists()
+
+
+def test_the_phreatic_line_is_drawn_within_the_view(tmp_path, drawn):
+    """The wet slope's picture showed no water table; it must not widen the view either."""
+    frame = make_frame((4, 4))
+    render_frame(frame, tmp_path / "dry.png")
+    dry = drawn[-1].axes[0]
+    table = [[-100.0, 0.3], [100.0, 0.6]]  # far wider than the blocks
+    render_frame(frame, tmp_path / "wet.png", water_table=table)
+    wet = drawn[-1].axes[0]
+    for limits in (wet.get_xlim(), wet.get_ylim(), dry.get_xlim(), dry.get_ylim()):
+        assert max(abs(x) for x in limits) < 10.0  # the blocks' view, not the line's ±100
+    line = wet.get_lines()[-1]
+    np.testing.assert_array_equal(line.get_xydata(), table)
+    assert "phreatic line" in legend(drawn[-1]) and "phreatic line" not in legend(drawn[-2])
+
+
+def test_a_run_with_water_keeps_its_table_for_the_pictures_drawn_later(tmp_path):
+    import json
+
+    from dda.commands import cli
+
+    assert cli.main(["run", "wet_slope", "-o", str(tmp_path / "ws"), "-q", "--no-picture"]) == 0
+    summary = json.loads((tmp_path / "ws" / "summary.json").read_text())
+    assert summary["water_table"][0] == [-17.470508075689, -9.740192378865]
