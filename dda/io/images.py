@@ -343,10 +343,15 @@ def _colour_bar(
 
 
 def _draw_water_table(axes, table: Sequence[Sequence[float]]) -> None:
-    """The phreatic line on each of ``axes``, within the view they show."""
+    """The phreatic line on each of ``axes``, within the view they show; level beyond
+    its ends, as the water loads take it (docs/engineering.md, Water)."""
     points = np.asarray(table, dtype=float).reshape(-1, 2)
     for ax in axes:
-        ax.plot(*points.T, color=WATER_COLOUR, lw=1.5, ls="--", scalex=False, scaley=False)
+        low, high = ax.get_xlim()
+        left = [[min(low, points[0, 0]), points[0, 1]]]
+        right = [[max(high, points[-1, 0]), points[-1, 1]]]
+        line = np.concatenate([left, points, right])
+        ax.plot(*line.T, color=WATER_COLOUR, lw=1.5, ls="--", scalex=False, scaley=False)
 
 
 def _legend(

@@ -181,7 +181,13 @@ def test_the_phreatic_line_is_drawn_within_the_view(tmp_path, drawn):
     for limits in (wet.get_xlim(), wet.get_ylim(), dry.get_xlim(), dry.get_ylim()):
         assert max(abs(x) for x in limits) < 10.0  # the blocks' view, not the line's ±100
     line = wet.get_lines()[-1]
-    np.testing.assert_array_equal(line.get_xydata(), table)
+    np.testing.assert_array_equal(line.get_xydata()[1:-1], table)  # level beyond its ends
+    level = [[-1.0, 5.0], [1.0, 5.0]]  # a short line, extended across the view
+    render_frame(frame, tmp_path / "level.png", water_table=level)
+    ax = drawn[-1].axes[0]
+    xy = ax.get_lines()[-1].get_xydata()
+    assert xy[0, 0] <= ax.get_xlim()[0] and xy[-1, 0] >= ax.get_xlim()[1]
+    assert set(xy[:, 1]) == {5.0}
     assert "phreatic line" in legend(drawn[-1]) and "phreatic line" not in legend(drawn[-2])
 
 
