@@ -348,6 +348,7 @@ def _draw_water_table(axes, table: Sequence[Sequence[float]]) -> None:
     points = np.asarray(table, dtype=float).reshape(-1, 2)
     for ax in axes:
         low, high = ax.get_xlim()
+        low, high = low - (high - low), high + (high - low)  # past the view as laid out
         left = [[min(low, points[0, 0]), points[0, 1]]]
         right = [[max(high, points[-1, 0]), points[-1, 1]]]
         line = np.concatenate([left, points, right])
