@@ -182,13 +182,13 @@ def test_the_phreatic_line_is_drawn_within_the_view(tmp_path, drawn):
         assert max(abs(x) for x in limits) < 10.0  # the blocks' view, not the line's ±100
     line = wet.get_lines()[-1]
     np.testing.assert_array_equal(line.get_xydata()[1:-1], table)  # level beyond its ends
+    assert "phreatic line" in legend(drawn[-1]) and "phreatic line" not in legend(drawn[-2])
     level = [[-1.0, 5.0], [1.0, 5.0]]  # a short line, extended across the view
     render_frame(frame, tmp_path / "level.png", water_table=level)
     ax = drawn[-1].axes[0]
     xy = ax.get_lines()[-1].get_xydata()
     assert xy[0, 0] <= ax.get_xlim()[0] and xy[-1, 0] >= ax.get_xlim()[1]
     assert set(xy[:, 1]) == {5.0}
-    assert "phreatic line" in legend(drawn[-1]) and "phreatic line" not in legend(drawn[-2])
 
 
 def test_a_run_with_water_keeps_its_table_for_the_pictures_drawn_later(tmp_path):
