@@ -138,7 +138,7 @@ def write_movie(
     scene_title: str = "",
     units: Mapping[str, str] | None = None,
     on_frame: Callable[[int], None] | None = None,
-    water_table=None,
+    water_table: Sequence[Sequence[float]] | None = None,
 ) -> int:
     """Draw ``frames`` into the movie ``path`` (.mp4 or .gif, written atomically), each
     with ``look``; returns the number of frames. ``on_frame(k)`` is called after the
