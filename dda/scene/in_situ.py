@@ -137,8 +137,10 @@ def parse_in_situ(chk: Checker, raw: Mapping[str, Any], blocks: Sequence[Any],
     if not (in_situ or timeline):
         return {"in_situ": None, "boundary_stresses": ()}
     polygons = [np.asarray(b.vertices, float) for b in blocks]
+    fixed = np.array([bool(b.fixed) for b in blocks])
     for stress, key in timeline:
-        _check_selects(chk, stress, key, polygons, _present_at(blocks, stages, stress.on))
+        present = _present_at(blocks, stages, stress.on)
+        _check_selects(chk, stress, key, polygons, present, fixed)
     if in_situ is not None:
         _check_tension(chk, in_situ, blocks, polygons, joints, interfaces)
     return {"in_situ": in_situ, "boundary_stresses": tuple(s for s, _ in timeline)}
@@ -178,11 +180,14 @@ def _present_at(blocks: Sequence[Any], stages: Sequence[Any], time: float) -> np
     return np.array([b.name not in gone for b in blocks], bool)
 
 
-def _check_selects(chk, stress: BoundaryStress, key: str, polygons, present) -> None:
+def _check_selects(chk, stress: BoundaryStress, key: str, polygons, present, fixed) -> None:
+    """Refuse a box that loads nothing: no outer edge of a free block there at that time
+    (a fixed block takes no boundary stress)."""
     outer = outer_pieces(polygons, present)
-    if not np.any(stress.selects(outer.midpoint)):
+    if not np.any(stress.selects(outer.midpoint) & ~fixed[outer.block]):
         chk.fail(f"{key}.box", "holds the midpoint of no outer edge (an edge that touches "
-                 "no other block) of the blocks there at that time")  # fmt: skip
+                 "no other block) of the free blocks there at that time (a fixed block "
+                 "takes no boundary stress)")  # fmt: skip
 
 
 def _check_tension(chk, field: StressField, blocks, polygons, joints, interfaces) -> None:

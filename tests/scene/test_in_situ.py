@@ -249,6 +249,11 @@ def refused(raw, key, words):
             "boundary_stresses[0].box",
             "holds the midpoint of no outer edge",
         ),  # fmt: skip
+        (  # the ring's outer edge below: a fixed block's, which takes no boundary stress
+            {"boundary_stresses": [{"stress": [-1.0, -1.0, 0.0], "box": [-2, -2, 5, -0.5]}]},
+            "boundary_stresses[0].box",
+            "of the free blocks there at that time (a fixed block takes no boundary stress)",
+        ),  # fmt: skip
         (
             {"stages": [{"time": 0.05, "remove_boundary_stresses": ["far"]}]},
             "stages[0].remove_boundary_stresses",
