@@ -228,9 +228,13 @@ def _distribution(
             chk.fail(join_key(key, name), f"{target} must be {allowed.describe()}, got {bound:g}")
     if kind != "uniform":
         mean = given["mean"]
+        if kind == "lognormal" and mean <= 0.0:
+            chk.fail(join_key(key, "mean"), f"a lognormal distribution's mean must be > 0, "
+                     f"got {mean:g}")  # fmt: skip
         if not (allowed.holds(mean) and low < mean < high):
-            chk.fail(join_key(key, "mean"), f"{target} must be {allowed.describe()} and "
-                     f"between low and high, got {mean:g}")  # fmt: skip
+            between = " and between low and high" if given.keys() & {"low", "high"} else ""
+            chk.fail(join_key(key, "mean"), f"{target} must be {allowed.describe()}"
+                     f"{between}, got {mean:g}")  # fmt: skip
         low, high = max(low, allowed.low), min(high, allowed.high)
     return Distribution(key=target, kind=kind, **{**given, "low": low, "high": high})
 

@@ -215,6 +215,14 @@ def negative_spacing(raw: dict) -> dict:
     return raw
 
 
+def lognormal_of_mean_zero(raw: dict) -> dict:  # divided by zero in the sampling
+    raw["ensemble"] = {
+        "vary": [{"key": "joints.default.cohesion", "distribution": "lognormal", "mean": 0.0,
+                  "std": 3.0}]
+    }  # fmt: skip
+    return raw
+
+
 def nothing_drawn(raw: dict) -> dict:
     raw.pop("ensemble", None)
     return raw
@@ -225,6 +233,10 @@ def nothing_drawn(raw: dict) -> dict:
     [
         (negative_spacing, "ensemble.vary[0].low: joint_sets[0].spacing must be > 0, got -1"),
         (nothing_drawn, "ensemble.vary: the scene draws no value"),
+        (
+            lognormal_of_mean_zero,
+            "ensemble.vary[0].mean: a lognormal distribution's mean must be > 0, got 0",
+        ),
     ],
 )
 def test_bad_ensembles_are_refused(tmp_path, capsys, monkeypatch, change, message):
