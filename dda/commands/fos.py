@@ -101,8 +101,10 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
     import dda
     from dda.commands.cli import default_outdir, load_with_progress, scene_source
     from dda.scene import read_scene_file
+    from dda.scene.limits import check_run_size
     from dda.stability.criterion import criterion_of
     from dda.stability.fos import check_reducible
+    from dda.stability.trial import trial_scene
 
     try:
         path = scene_source(args.scene)
@@ -119,6 +121,7 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
         criterion = criterion_of(scene)
         if reduced:
             check_reducible(scene)
+        check_run_size(trial_scene(scene, 1.0))  # before any row is written
     except dda.SceneError as exc:
         return f"dda {command}: {exc}"
     return (raw, scene, criterion, str(path), *where)

@@ -55,7 +55,7 @@ def check_run_size(scene: Any) -> None:
         scene.source,
         key,
         f"{what} more than analysis.max_steps = {a.max_steps}; raise analysis.max_steps "
-        "(dda run --max-steps) to run it",
+        "(the scene's key, or dda run --max-steps) to run it",
     )
 
 

@@ -219,6 +219,8 @@ REFUSED = [
     (None, ["--velocity", "-1"], "fos.velocity: must be > 0, got -1"),
     (None, ["--tolerance", "5"], "fos.tolerance: must be below upper - lower"),
     (None, ["--blocks", "nope"], "fos.blocks[0]: unknown block or group 'nope'"),
+    # checked before a trial runs (was a SceneError after fos.csv was begun, exit 1)
+    (None, ["--duration", "1e9"], "analysis.duration: 1e+09 s at time_step"),
 ]
 
 
