@@ -523,6 +523,10 @@ def _stages(
         if analysis.duration is not None and time >= analysis.duration:
             chk.fail(f"{key}.time", f"{time:g} is not before the end of the run "
                      f"(analysis.duration = {analysis.duration:g})")  # fmt: skip
+        if analysis.steps is not None and time >= analysis.steps * analysis.time_step:
+            end = analysis.steps * analysis.time_step
+            chk.fail(f"{key}.time", f"{time:g} is not before the end of the run (analysis."
+                     f"steps x time_step = {end:g}; give duration to end at a time)")  # fmt: skip
         if "intact" in values and "strength_factor" not in values:
             chk.fail(f"{key}.intact", "needs strength_factor in the same stage")
         changes = ("remove", "polygon", "bolts", "strength_factor", "boundary_stresses",

@@ -169,6 +169,13 @@ def test_bolt_pretension_and_seismic_mode_and_stage_order_are_checked():
     raw = edit(("stages",), [{"time": 0.5}])()
     with pytest.raises(SceneError, match=r"stages\[0\]: a stage removes blocks"):
         dda.load_scene(raw)
+    # a run given in steps ends at steps x time_step: a stage after it never came (silently)
+    raw = edit(("stages",), [{"time": 0.7, "remove": ["top"]}])()
+    raw["analysis"].pop("duration")
+    raw["analysis"]["steps"] = 50
+    with pytest.raises(SceneError, match=r"stages\[0\].time: 0.7 is not before the end of "
+                       r"the run \(analysis.steps x time_step = 0.5"):  # fmt: skip
+        dda.load_scene(raw)
 
 
 def test_the_cli_refuses_a_bad_section_in_one_line(tmp_path, capsys):
