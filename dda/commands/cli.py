@@ -630,7 +630,13 @@ def _start_sentence(summary: dict[str, Any]) -> str:
     if start == "equilibrium":
         newton = summary.get("start_newton_iterations")
         seconds = _number(summary.get("start_seconds"), ".3g")
-        return f" Equilibrium start: {newton} Newton iterations, {seconds} s."
+        text = f" Equilibrium start: {newton} Newton iterations, {seconds} s."
+        if summary.get("start_in_situ_relaxed"):
+            change = summary.get("start_in_situ_change") or 0.0
+            block = summary.get("start_in_situ_change_block")
+            text += (f" It changed the in-situ stress by up to {100 * change:.0f} % (block "
+                     f"{block!r}): the field is not in equilibrium with the boundary.")  # fmt: skip
+        return text
     if start is not None and start.startswith("unloaded ("):
         return " The equilibrium start did not settle: the run started unloaded."
     return ""

@@ -42,6 +42,10 @@ MAX_CUTS = 40  # halvings of one step before the run gives up
 GROWTH = 1.5  # time-step growth per accepted step, back up to the maximum after a cut
 MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
 BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
+# the largest change of a block's in-situ stress by the equilibrium start, as a fraction
+# of the field, that the run takes as the field kept (tunnel_deep: 0.046, at one block
+# beside the opening's stage; a field with free outer blocks and no boundary stress: ~1)
+IN_SITU_KEPT = 0.1
 # summary["start"] of a run whose equilibrium start did not settle
 UNSETTLED_START = "unloaded (the equilibrium start did not settle)"
 # energy columns of Result.history (dda.run.energy): stored terms, their total, work of the loads
@@ -80,6 +84,7 @@ class _Run:
         self.compiled_before = compile_seconds()  # the run's share goes in its summary
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
+        self.in_situ_change = (0.0, "")  # what the start changed of the in-situ field
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -155,6 +160,8 @@ def _equilibrium_start(run: _Run) -> None:
         run.start = UNSETTLED_START
         return
     run.contacts = settled.contacts
+    if m.scene.in_situ is not None:
+        run.in_situ_change = _in_situ_change(run.blocks, settled.stress)
     run.blocks.stress = settled.stress
     run.energy.initial = run.energy.measure(run.blocks, run.contacts)
     run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
@@ -166,6 +173,29 @@ def _equilibrium_start(run: _Run) -> None:
         settled.newton_iterations,
         run.start_seconds,
     )
+
+
+def _in_situ_change(blocks, settled: np.ndarray) -> tuple[float, str]:
+    """(largest change of a free block's stress by the equilibrium start over the
+    largest in-situ stress, that block's name). Above :data:`IN_SITU_KEPT` the start
+    relaxed the field: it is not in equilibrium with the model's boundary (a free outer
+    block without boundary stresses or a fixed neighbour to carry it); said, not silent."""
+    given = blocks.stress
+    scale = float(np.abs(given).max())
+    free = np.flatnonzero(~blocks.fixed)
+    if scale == 0.0 or len(free) == 0:
+        return 0.0, ""
+    change = np.abs(settled[free] - given[free]).max(axis=1) / scale
+    k = int(np.argmax(change))
+    largest, name = float(change[k]), blocks.names[free[k]]
+    if largest > IN_SITU_KEPT:
+        log.warning(
+            "the equilibrium start changed the in-situ stress of block %r by %.0f %% of the "
+            "field (the largest): the field is not in equilibrium with the model's boundary "
+            "(give its free outer blocks [[boundary_stresses]], or fix their neighbours)",
+            name, 100.0 * largest,
+        )  # fmt: skip
+    return largest, name
 
 
 def _touching_at_start(run: _Run) -> None:
@@ -499,6 +529,9 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "start": state.start,
         "start_newton_iterations": state.start_newton_iterations,
         "start_seconds": round(state.start_seconds, 6),
+        "start_in_situ_change": state.in_situ_change[0],  # over the field (0 without one)
+        "start_in_situ_change_block": state.in_situ_change[1],
+        "start_in_situ_relaxed": state.in_situ_change[0] > IN_SITU_KEPT,
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
         "search_redos": state.search_redos,

@@ -271,3 +271,19 @@ def test_in_situ_tension_across_a_joint_without_tensile_strength_is_refused():
     refused(raw, "in_situ.stress", "puts a tension of 1000 across joint 'default'")
     raw["joints"]["default"]["tensile_strength"] = 2.0e3  # a joint that carries it
     assert dda.load_scene(raw).in_situ.stress == (1.0e3, -1.0e6, 0.0)
+
+
+def test_a_field_the_start_cannot_keep_is_said_not_relaxed_silently(caplog):
+    """Free blocks in a field with nothing to hold it (no ring, no boundary stress): the
+    equilibrium start relaxes it (the blocks stay, their stress goes); the run says so
+    (a warning, the summary, the closing line), where a held field is kept and not said."""
+    field = {"stress": [-2.0e6, -1.0e6, 0.3e6]}
+    free = dda.simulate(scene(uniform("nothing"), duration=0.002, in_situ=field))
+    assert free.summary["start_in_situ_relaxed"]
+    assert free.summary["start_in_situ_change"] > 0.5
+    assert "changed the in-situ stress of block" in caplog.text
+    caplog.clear()
+    held = dda.simulate(scene(uniform("ring"), duration=0.002, in_situ=field))
+    assert not held.summary["start_in_situ_relaxed"]
+    assert held.summary["start_in_situ_change"] < 1e-6
+    assert "changed the in-situ stress" not in caplog.text
