@@ -44,7 +44,10 @@ def wilson(failures: int, n: int, z: float = Z95) -> tuple[float, float, float]:
     p = failures / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return p, max(0.0, centre - half), min(1.0, centre + half)
+    # no failure (or no survivor) puts that end at 0 (or 1) exactly, not at its round-off
+    low = 0.0 if failures == 0 else max(0.0, centre - half)
+    high = 1.0 if failures == n else min(1.0, centre + half)
+    return p, low, high
 
 
 def run_realisation(task: Realisation) -> dict:

@@ -64,6 +64,8 @@ def test_wilson_interval():
     z2 = 1.959963984540054**2
     p, low, high = wilson(0, 10)
     assert (p, low) == (0.0, 0.0) and high == pytest.approx(z2 / (10 + z2), rel=1e-12)
+    for n in (2, 3, 7):  # 0 of 3 gave a low end of 5.6e-17; all of n, a high of 1 - 1e-16
+        assert wilson(0, n)[1] == 0.0 and wilson(n, n)[2] == 1.0
     p, low, high = wilson(16, 100)
     assert low < p < high
     widths = [np.subtract(*wilson(k, n)[:0:-1]) for k, n in ((160, 1000), (16000, 100000))]
