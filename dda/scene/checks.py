@@ -246,6 +246,8 @@ class Checker:
         if len(xy) > 3 and np.array_equal(xy[0], xy[-1]):
             xy = xy[:-1]
         ring = shapely.LinearRing(xy)
+        if shapely.Polygon(ring).area == 0.0:  # before is_simple: a line folds onto itself
+            self.fail(key, "encloses no area (its points lie on one line)")
         if not shapely.is_simple(ring):
             self.fail(key, "self-intersecting boundary (edges cross or touch)")
         polygon = shapely.Polygon(ring)

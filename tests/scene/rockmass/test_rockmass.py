@@ -721,3 +721,10 @@ def test_dda_cut_through_the_dda_command(tmp_path):
     assert main(["cut", str(scene), "-o", str(out), "--no-png"]) == 0
     assert len(tomllib.loads(out.read_text())["blocks"]) == 3
     assert not (tmp_path / "cut.png").exists()
+
+
+def test_a_region_on_one_line_is_refused_as_such():
+    """Three collinear points were called a self-intersecting boundary."""
+    raw = base_scene(regions=[{"polygon": [[0, 0], [20, 0], [40, 0]]}])
+    with pytest.raises(SceneError, match=r"regions\[0\]\.polygon: encloses no area"):
+        expand_rock_mass(raw, "scene.toml")
