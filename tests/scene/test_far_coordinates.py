@@ -51,7 +51,7 @@ def sliding_block() -> dict:
 
 def loaded_engineering_scene() -> dict:
     """Bolts (one staged), water, seismic input, measurements, a point load, fixed points."""
-    raw = engineering_scene(20)
+    raw = engineering_scene(25)  # the staged bolt (at 0.2 s) within the run
     raw["loads"] = [{"block": "b1", "point": [0.9, 1.9], "force": [2e3, -1e3]}]
     raw["blocks"].append(
         {"name": "post", "material": "rock", "vertices": [[3, 0], [3.5, 0], [3.5, 1], [3, 1]],
