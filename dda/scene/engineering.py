@@ -15,6 +15,7 @@ lying inside a polygon.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -406,8 +407,14 @@ def _seismic(
     return Seismic(record, values.get("scale", 1.0), moving, values.get("file"))
 
 
+RECORD_SEPARATORS = re.compile(r"[,;\s]+")  # between a record's numbers
+HEADER_WORD = re.compile(r"[A-Za-z]{2,}|^[A-Za-z]")  # a word: not the e of 1e-3
+
+
 def _read_record(chk: Checker, name: str) -> list[list[float]]:
-    """Rows of numbers from a CSV file (a header line and ``#`` comments skipped)."""
+    """Rows of numbers from a text file, separated by commas, semicolons, spaces or tabs
+    (``#`` comments and header lines, text before the numbers, skipped). A line that is
+    no row of numbers is refused by its number, unless it is a header (it holds a word)."""
     base = Path(chk.source).parent if chk.source.endswith(".toml") else Path.cwd()
     path = base / name
     try:
@@ -420,9 +427,9 @@ def _read_record(chk: Checker, name: str) -> list[list[float]]:
         if not text:
             continue
         try:
-            rows.append([float(x) for x in text.split(",")])
+            rows.append([float(x) for x in RECORD_SEPARATORS.split(text.strip(",; \t"))])
         except ValueError:
-            if rows:
+            if rows or not HEADER_WORD.search(text):
                 chk.fail("seismic.file", f"{name} line {number}: not numbers: {line.strip()!r}")
     return rows
 

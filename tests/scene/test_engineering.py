@@ -190,3 +190,37 @@ def test_the_cli_refuses_a_bad_section_in_one_line(tmp_path, capsys):
     assert code == 2 and err.count("\n") == 1
     assert "water.unit_weight: must be > 0" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("text", "record"),
+    [
+        ("time\taccel\n0\t1.5\n0.2\t-0.5\n", ((0.0, 1.5, 0.0), (0.2, -0.5, 0.0))),
+        ("0;1.5\n0.2;-0.5\n", ((0.0, 1.5, 0.0), (0.2, -0.5, 0.0))),
+        ("  0   1.5e0\n  0.2 -5E-1 \n", ((0.0, 1.5, 0.0), (0.2, -0.5, 0.0))),
+    ],
+    ids=["tabs and a header", "semicolons", "spaces"],
+)
+def test_a_record_file_may_separate_its_numbers_by_spaces_tabs_or_semicolons(
+    tmp_path, text, record
+):
+    """They were all read as header lines ('expected at least 2 rows, got 0')."""
+    import tomli_w
+
+    (tmp_path / "quake.txt").write_text(text)
+    raw = base_scene()
+    raw["seismic"] = {"file": "quake.txt", "blocks": ["floor"]}
+    (tmp_path / "s.toml").write_text(tomli_w.dumps(raw))
+    assert dda.load_scene(tmp_path / "s.toml").seismic.record == record
+
+
+def test_a_bad_first_row_of_a_record_is_refused_by_its_line(tmp_path):
+    """A typo in the first row was skipped as if it were a header, silently."""
+    import tomli_w
+
+    (tmp_path / "quake.csv").write_text("t,a\n0,1.5x\n0.2,1.5\n0.4,1.5\n")
+    raw = base_scene()
+    raw["seismic"] = {"file": "quake.csv", "blocks": ["floor"]}
+    (tmp_path / "s.toml").write_text(tomli_w.dumps(raw))
+    with pytest.raises(SceneError, match=r"quake.csv line 2: not numbers: '0,1.5x'"):
+        dda.load_scene(tmp_path / "s.toml")
