@@ -19,6 +19,7 @@ class FrameFiles:
     contacts: Path | None
     time: float
     step: int
+    bolts: Path | None = None  # the rock bolts beside the frame (a scene with [[bolts]])
 
     @property
     def run_folder(self) -> Path:
@@ -127,10 +128,9 @@ def read_found_frame(found: FrameFiles):
     from dda.io.vtu import read_frame
 
     try:
-        bolts = found.blocks.with_name(found.blocks.name.replace("blocks_", "bolts_", 1))
         return read_frame(
             found.blocks, found.contacts, time=found.time, step=found.step,
-            bolts_path=bolts if bolts != found.blocks else None,
+            bolts_path=found.bolts,
         )  # fmt: skip
     except (meshio.ReadError, OSError, KeyError, IndexError, ValueError, SyntaxError) as exc:
         detail = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
@@ -148,10 +148,17 @@ def _times(pvd: Path) -> dict[Path, float]:
 
 
 def _describe(blocks: Path, times: dict[Path, float]) -> FrameFiles:
-    contacts = blocks.with_name(blocks.name.replace("blocks_", "contacts_", 1))
+    contacts, bolts = (_beside(blocks, kind) for kind in ("contacts_", "bolts_"))
     return FrameFiles(
         blocks=blocks,
-        contacts=contacts if contacts.is_file() and contacts != blocks else None,
+        contacts=contacts,
         time=times.get(blocks.resolve(), math.nan),
         step=step_of_file(blocks),
+        bolts=bolts,
     )
+
+
+def _beside(blocks: Path, kind: str) -> Path | None:
+    """The ``kind`` file of the blocks file's frame (``contacts_``, ``bolts_``), if any."""
+    path = blocks.with_name(blocks.name.replace("blocks_", kind, 1))
+    return path if path.is_file() and path != blocks else None

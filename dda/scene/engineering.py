@@ -327,7 +327,10 @@ def _measures(
     return tuple(out)
 
 
-def _without_static_velocity(chk, quantities, values, key, raw) -> tuple[str, ...]:
+def _without_static_velocity(
+    chk: Checker, quantities: tuple[str, ...], values: Mapping[str, Any], key: str,
+    raw: Mapping[str, Any],
+) -> tuple[str, ...]:  # fmt: skip
     """``quantities`` less the velocity in a static analysis, where it is 0 at every
     step (left out of the default ones; named, refused with the reason)."""
     analysis = raw.get("analysis")
