@@ -264,8 +264,10 @@ def _rows(
         tx, ty = ex / length, ey / length
         wx, wy = x1 - x2, y1 - y2
         _project(normal_i, c, -ty, tx, x1, y1, cix, ciy, 1.0)
-        _project(normal_j, c, y3 - y1, x1 - x3, x2, y2, cjx, cjy, 1.0 / length)
-        _project(normal_j, c, y1 - y2, x2 - x1, x3, y3, cjx, cjy, 1.0 / length)
+        _project(normal_j, c, y3 - y1, x1 - x3, x2, y2, cjx, cjy, 1.0)
+        _project(normal_j, c, y1 - y2, x2 - x1, x3, y3, cjx, cjy, 1.0)
+        for r in range(6):  # (a2 T2 + a3 T3) / l, in numpy's order
+            normal_j[c, r] /= length
         penetration[c] = (ex * wy - ey * wx) / length
         x0, y0 = x2 + reference[c] * ex, y2 + reference[c] * ey
         _project(shear_i, c, tx, ty, x1, y1, cix, ciy, 1.0)
