@@ -261,13 +261,13 @@ def update(
         settled &= augmented == 0
     broken = 0
     if settled:  # bonds are judged on consistent forces only: a break is for good
-        broken = _break_bonds(contacts, terms, joint, g, s)
+        broken = break_bonds(contacts, terms, joint, g, s)
         settled = broken == 0
     contacts.normal_force = normal
     return LawOutcome(bool(settled), bound, augmented, broken, violation)
 
 
-def _break_bonds(contacts, terms, joint, g, s) -> int:
+def break_bonds(contacts, terms, joint, g, s) -> int:
     """Intact contacts with a bond to lose (a peak strength above the residual: tensile
     strength, cohesion or friction) pulled to their tensile strength, or slipping, have
     their residual strength from then on, for good."""

@@ -99,7 +99,7 @@ def _augment(
 def _broken(
     normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, intact, breakable
 ):  # fmt: skip
-    """:func:`dda.contact.law._break_bonds`: which intact contacts with a bond to lose
+    """:func:`dda.contact.law.break_bonds`: which intact contacts with a bond to lose
     (``breakable``) are at their tensile strength or slipping (their bonds lost)."""
     m = g.shape[0]
     lost = np.zeros(m, np.bool_)

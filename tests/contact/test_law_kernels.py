@@ -125,7 +125,7 @@ def test_the_laws_passes_compiled_equal_numpy(monkeypatch, seed, friction, augme
         law.record(mine, terms, 0.5 * g, s, rule.friction_tolerance)
         outcomes = [(o.settled, o.augmented, o.broken, o.max_violation) for o in (first, second)]
         bonded = contacts.copy()  # the bonds of an update that settled
-        outcomes.append((law._break_bonds(bonded, terms, joints, g, s), bonded.intact))
+        outcomes.append((law.break_bonds(bonded, terms, joints, g, s), bonded.intact))
         fields = [terms.normal_base, terms.tension, terms.shear_base, terms.shear_penalty]
         return fields + [first.bound, second.bound] + outcomes + contact_arrays(mine)
 
