@@ -630,7 +630,10 @@ def _start_sentence(summary: dict[str, Any]) -> str:
     if start == "equilibrium":
         newton = summary.get("start_newton_iterations")
         seconds = _number(summary.get("start_seconds"), ".3g")
+        method = summary.get("start_method")
         text = f" Equilibrium start: {newton} Newton iterations, {seconds} s."
+        if method == "continuation":  # the interior point did not settle it
+            text += " Its interior-point solve did not settle: it went on by continuation."
         if summary.get("start_in_situ_relaxed"):
             change = summary.get("start_in_situ_change") or 0.0
             block = summary.get("start_in_situ_change_block")

@@ -11,19 +11,25 @@ further in 1 s than ½ g (sin θ − cos θ tan φ) t²). The scene's geometry i
 the loaded one, so by default (``start = "equilibrium"``) a dynamic run starts from
 the state of the scene's geometry under its loads at t = 0:
 
-* D* minimises the step's potential with the inertia term 2M/Δt² replaced by a
-  regulariser r_i M_i, lowered tenfold a pseudo-step (``REGULARISER_STEP``) from
-  ``FIRST_REGULARISER`` to ``RELATIVE_REGULARISER`` of each block's E_i / m_i: the
-  limit of a static step as Δt → ∞, reached by continuation (each pseudo-step starts
-  from the pieces and friction bounds of the last; one solve at the final regulariser
-  changes too many contact pieces at once to converge in a jointed rock mass). The
-  first regulariser holds the blocks at 1 % of their elastic stiffness, whatever the
-  run's Δt: the loads go into the contacts in that first solve, while the regulariser
-  still holds the blocks that will slide. The continuation stops early once a
-  pseudo-step has moved the blocks by nothing that matters: its regulariser forces
-  ‖r M ΔD‖, the static residual at its end, within ``STANDING`` of the loads (every
-  block stands; one that cannot goes on moving by about its unbalanced load / r, and
-  takes the continuation to the last regulariser).
+* D* solves the static step: the step's equations with the inertia term 2M/Δt²
+  replaced by a regulariser r_i M_i, at ``RELATIVE_REGULARISER`` of each block's
+  E_i / m_i (the limit of a static step as Δt → ∞). It is found by pseudo-steps, each
+  from the D of the last, by a primal–dual interior-point method
+  (:mod:`dda.solve.interior_point`: Coulomb's bound solved with the normal forces, in a
+  number of factorisations that does not follow the number of contacts that change
+  state), at the regularisers ``INTERIOR_REGULARISERS``: the first, 1e-2 E/m, holds the
+  blocks at 1 % of their elastic stiffness while the loads go into the contacts (the
+  bonds that path breaks are broken, each solve repeated with them, as the step's
+  passes do), the second is the last. The step's Newton (:func:`dda.solve.step.
+  solve_step`) then finishes at the last regulariser from there (one iteration on the
+  bench walls: its pieces are the solution's), and goes on lowering the regulariser
+  tenfold a pseudo-step if it did not stand. Where an interior-point solve does not
+  settle, the start is that continuation of Newton pseudo-steps alone, from
+  ``FIRST_REGULARISER``, tenfold a pseudo-step: it stops as soon as a pseudo-step has
+  moved the blocks by nothing that matters (its regulariser forces ‖r M ΔD‖, the static
+  residual at its end, within ``STANDING`` of the loads: every block stands; one that
+  cannot goes on moving by about its unbalanced load / r, and takes the continuation to
+  the last regulariser). ``summary["start_method"]`` says which settled it.
   The gaps are linear in D (paper eqs. 9-13), so the pseudo-steps accumulate D* with
   the geometry of t = 0.
 * The blocks are not moved. The contacts that touch at t = 0 carry the forces of D*
@@ -40,9 +46,10 @@ at the instant of its release (its D* grows without bound, ~ load / regulariser,
 and is never applied): a sliding block starts with N = W cos θ and F = tan φ N, and
 follows ½ g (sin θ − cos θ tan φ) t² from t = 0 (to 3e-8 relative at 1 s).
 
-A pseudo-step that does not settle within ``BUDGET_FACTOR`` × ``[contact]
-max_iterations`` Newton iterations is tried again at a larger regulariser, halfway back
-(geometrically) to the last one that settled. If that fails ``RETRIES`` times in a row,
+A pseudo-step of the continuation that does not settle within ``BUDGET_FACTOR`` ×
+``[contact] max_iterations`` Newton iterations is tried again at a larger regulariser,
+halfway back (geometrically) to the last one that settled. If that fails ``RETRIES``
+times in a row,
 the run starts unloaded: a warning, and both
 ``summary["start"]`` and the closing line of ``dda run`` say so (no shipped case and
 no ``dda bench`` wall from 10 × 10 to 60 × 60 comes to that).
@@ -56,12 +63,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from dda.blocks import BlockSet
+from dda.contact import law as contact_law
 from dda.contact.contact_set import ContactSet
 from dda.effects.base import Effect, StepContext
 from dda.effects.inertia import Inertia
 from dda.model import Model
 from dda.result import OPEN
-from dda.solve.step import solve_step
+from dda.solve.interior_point import solve_interior
+from dda.solve.step import solve_step, static_contact_problem
 from dda.solve.timing import StageTimer
 
 log = logging.getLogger(__name__)
@@ -90,6 +99,18 @@ RETRIES = 3
 # its end, are within this fraction of the loads ‖F₀‖: as close to the limit as the
 # last regulariser takes a block that stands
 STANDING = RELATIVE_REGULARISER
+# the interior-point pseudo-steps' regularisers over each block's E_i / m_i (the last
+# RELATIVE_REGULARISER; none: the continuation alone). The first holds the blocks while
+# the loads go into the contacts, as the continuation's first does: the bonds that path
+# breaks are broken (cases/jointed_slope_fos.toml's stored factor of safety holds with it,
+# not with one solve at the last regulariser)
+INTERIOR_REGULARISERS = (FIRST_REGULARISER, RELATIVE_REGULARISER)
+# interior-point solves of one pseudo-step: each after the first with the bonds the
+# last one broke (contacts that slip lose their cohesion, as in the step's passes)
+BOND_ROUNDS = 10
+# how the limit solve settled (``Settled.method``, the run's summary["start_method"])
+INTERIOR_POINT = "interior point"
+CONTINUATION = "continuation"
 
 
 class Proximal(Effect):
@@ -117,20 +138,74 @@ class Settled:
     contacts: ContactSet  # the contacts at t = 0, loaded
     stress: np.ndarray  # (n, 3) the blocks' stresses
     newton_iterations: int
+    method: str  # INTERIOR_POINT or CONTINUATION
 
 
 def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTimer):
     """The loaded start of ``blocks`` and ``contacts`` (found at t = 0), or None when
     the limit solve does not settle (the run then starts unloaded). The effects'
-    springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``)."""
+    springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``).
+
+    The limit solve is one interior-point solve at the last regulariser
+    (:mod:`dda.solve.interior_point`) finished by the step's Newton; where that does not
+    settle, the continuation of pseudo-steps (:func:`_by_continuation`)."""
     touching = np.flatnonzero(contacts.state != OPEN)
     start = contacts.subset(touching)
     limit = _Limit.of(model, blocks)
     stiffness = _young(model)[blocks.material] / limit.masses[:, 0, 0]  # E_i / m_i
+    found, newton, method = None, 0, INTERIOR_POINT
+    if INTERIOR_REGULARISERS:
+        found, newton = _by_interior_point(limit, blocks, start, stiffness, timer)
+        if found is None:
+            log.info("the interior-point start did not settle: it goes on by continuation")
+    if found is None:
+        found, more = _by_continuation(limit, blocks, start, stiffness, timer)
+        newton, method = newton + more, CONTINUATION
+        if found is None:
+            log.warning("the equilibrium start did not settle: the run starts unloaded")
+            return None
+    d, current = found
+    for effect in model.effects:
+        effect.preload(blocks, d)
+    loaded = _loaded(contacts, touching, current, start.penetration)
+    stress = blocks.stress + model.elastic.stress_increment(blocks, d)
+    return Settled(loaded, stress, newton, method)
+
+
+def _by_interior_point(limit, blocks, start, stiffness, timer):
+    """((D*, the contacts solved), Newton iterations) of interior-point pseudo-steps at
+    the regularisers ``INTERIOR_REGULARISERS``, then the continuation's pseudo-steps of
+    the step's Newton from the last of them (the first finishes its solve: its pieces
+    are the solution's, one iteration on the bench walls); (None, the iterations spent)
+    when one does not settle."""
+    d = np.zeros((blocks.count, 6))
+    contacts, newton = start, 0
+    for fraction in INTERIOR_REGULARISERS:
+        with timer("interior_point"):
+            solved = limit.interior(blocks, contacts, fraction * stiffness, d)
+        if solved is None:
+            return None, newton
+        step, recorded, iterations = solved
+        newton += iterations
+        if recorded is None:
+            return None, newton
+        d = d + np.where(~blocks.fixed[:, None], step, 0.0)
+        contacts = _restarted(start, recorded)
+    found, more = _by_continuation(limit, blocks, start, stiffness, timer, (d, recorded, fraction))
+    return found, newton + more
+
+
+def _by_continuation(limit, blocks, start, stiffness, timer, reached=None):
+    """((D*, the contacts solved), Newton iterations) of the continuation: pseudo-steps of
+    the step's Newton from ``FIRST_REGULARISER`` down to the last (module docstring), or
+    from ``reached`` = (D, the contacts solved, the regulariser) of an earlier solve;
+    (None, the iterations spent) when it does not settle."""
     free = ~blocks.fixed
     d = np.zeros((blocks.count, 6))
     current, newton = start.copy(), 0
     fraction, settled, failed = FIRST_REGULARISER, None, 0  # r_i / (E_i / m_i)
+    if reached is not None:
+        d, current, fraction = reached
     while True:
         scale = fraction * stiffness
         solution = limit.solve(blocks, _restarted(start, current), scale, d, timer)
@@ -138,21 +213,15 @@ def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTim
         if not solution.converged or not np.all(np.isfinite(solution.d)):
             failed += 1
             if failed > RETRIES:
-                log.warning("the equilibrium start did not settle: the run starts unloaded")
-                return None
+                return None, newton
             fraction = _backed_off(fraction, settled)
             continue
         failed = 0
         step = np.where(free[:, None], solution.d, 0.0)
         d, current = d + step, solution.contacts
         if limit.stands(scale, step) or fraction <= LAST_REGULARISER:
-            break
+            return (d, current), newton
         settled, fraction = fraction, max(fraction * REGULARISER_STEP, RELATIVE_REGULARISER)
-    for effect in model.effects:
-        effect.preload(blocks, d)
-    loaded = _loaded(contacts, touching, current, start.penetration)
-    stress = blocks.stress + model.elastic.stress_increment(blocks, d)
-    return Settled(loaded, stress, newton)
 
 
 @dataclass
@@ -195,6 +264,34 @@ class _Limit:
         ctx = _context(model)
         ctx.prescribed = d
         return solve_step(model, blocks, contacts, ctx, timer)
+
+    def interior(self, blocks, contacts, scale, d):
+        """(ΔD, the contacts with the states and forces at d + ΔD, factorisations) of the
+        interior-point solve of the step from the accumulated ``d`` held by the regulariser
+        ``scale`` (as :meth:`solve`); the contacts None when it did not converge; None for
+        no contacts."""
+        offset = -np.einsum("nij,nj->ni", self.linear, d)
+        effects = [Proximal(self.masses, scale, offset), *self.effects]
+        model = replace(self.model, effects=effects)
+        ctx = _context(model)
+        ctx.prescribed = d
+        work, iterations = contacts.copy(), 0
+        for _ in range(BOND_ROUNDS):
+            problem = static_contact_problem(model, blocks, work, ctx)
+            if problem is None:
+                return None
+            solution = solve_interior(problem)
+            iterations += solution.iterations
+            if not solution.converged:
+                return solution.d, None, iterations
+            g, s = problem.geometry.at(solution.d)
+            terms = replace(problem.terms, bound=problem.bound(solution.normal))
+            if contact_law.break_bonds(work, terms, problem.joints, g, s) == 0:
+                break
+        else:
+            return solution.d, None, iterations
+        contact_law.record(work, terms, g, s, model.contact.law.friction_tolerance)
+        return solution.d, work, iterations
 
     def stands(self, scale: np.ndarray, step: np.ndarray) -> bool:
         """True when the regulariser forces of the solve ``step``, the static residual

@@ -83,6 +83,7 @@ class _Run:
         self.start = "unloaded"  # how the run started (dda.run.equilibrium_start)
         self.compiled_before = compile_seconds()  # the run's share goes in its summary
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
+        self.start_method = None  # how its limit solve settled (dda.run.equilibrium_start)
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.in_situ_change = (0.0, "")  # what the start changed of the in-situ field
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
@@ -167,8 +168,10 @@ def _equilibrium_start(run: _Run) -> None:
     run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
     run.start = "equilibrium"
     run.start_newton_iterations = settled.newton_iterations
+    run.start_method = settled.method
     log.info(
-        "equilibrium start: %d contacts loaded, %d Newton iterations, %.2f s",
+        "equilibrium start (%s): %d contacts loaded, %d Newton iterations, %.2f s",
+        settled.method,
         int(np.count_nonzero(settled.contacts.state != OPEN)),
         settled.newton_iterations,
         run.start_seconds,
@@ -528,6 +531,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "max_iterations_step": state.max_iterations_step,
         "start": state.start,
         "start_newton_iterations": state.start_newton_iterations,
+        "start_method": state.start_method,
         "start_seconds": round(state.start_seconds, 6),
         "start_in_situ_change": state.in_situ_change[0],  # over the field (0 without one)
         "start_in_situ_change_block": state.in_situ_change[1],

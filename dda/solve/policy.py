@@ -162,6 +162,25 @@ class StepPolicy:
     # with the exact inverse of K_f + U c Uᵀ, PCG ends in one
     low_rank_pcg_iterations: int = 3
 
+    # ------------------------------------ the equilibrium start's interior point
+    # (dda.solve.interior_point) iterations (factorisations) before it gives up
+    interior_iterations: int = 80
+    # each step goes this fraction of the way to the nearest bound of its unknowns
+    interior_step_to_boundary: float = 0.995
+    # it has converged when μ is within this fraction of f² (f: a typical contact
+    # force) ... (1e-8 and 1e-6 took the tunnel's start from 82 Newton iterations to
+    # 113 and 169: the Newton that finishes it then finds other pieces)
+    interior_complementarity_end: float = 1e-10
+    # ... and every residual within this fraction of its force (at least f) ...
+    interior_residual_end: float = 1e-9
+    # ... plus this fraction of the large terms it is the difference of (round-off)
+    interior_round_off: float = 1e-13
+    # the first iterate's contact unknowns lie this many f inside their bounds (0.1, 0.3
+    # and 3 took more iterations on the 20 x 20 and 40 x 40 walls and the rock slope)
+    interior_start_shift: float = 1.0
+    # relative increment of N for the slope b'(N) of the friction bound
+    interior_slope_step: float = 1e-6
+
     # ---------------------------------------------------------------- the environment
     solver: str = ""  # DDA_SOLVER: "pardiso", "superlu" or "" (PARDISO where installed)
     systems: str = ""  # DDA_SYSTEMS: "sparse" or "" (band, dense or sparse by size)

@@ -48,6 +48,7 @@ from dda.solve.assembly import (
 from dda.solve.band_system import BandOrder, BandSystem, band_kernels
 from dda.solve.contact_dashpots import contact_dashpots
 from dda.solve.dense_system import DenseSystem
+from dda.solve.interior_point import StaticContactProblem
 from dda.solve.linsolve import ReusingSolver, block_ordering
 from dda.solve.low_rank import StepUpdates
 from dda.solve.newton import BlockQuadratic, ContactGeometry, better_start, minimise
@@ -644,3 +645,39 @@ def solve_step(
         d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,
         newton_iterations=solves,
     )  # fmt: skip
+
+
+def static_contact_problem(
+    model: Model, blocks: BlockSet, contacts: ContactSet, ctx: StepContext
+) -> StaticContactProblem | None:
+    """The data of a static step (``ctx.static``) for :func:`dda.solve.interior_point.
+    solve_interior`: the effects' quadratic and couplings, the contacts' rows (gaps from
+    ``ctx.prescribed``), their springs and tension as the step's first Newton solve has
+    them, and the friction bound b(N) of the joint law; None without contacts."""
+    cm = model.contact
+    if cm is None or len(contacts) == 0:
+        return None
+    base_k, base_f = _effect_terms(model, blocks, ctx)
+    couplings = _couplings(model, blocks, ctx)
+    rows = contact_rows(blocks, contacts)
+    if ctx.prescribed is not None:
+        rows.penetration, rows.slip = gaps_after(
+            rows, contacts.block_a, contacts.block_b, ctx.prescribed
+        )
+    joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
+    law = cm.law
+    terms = contact_law.contact_terms(
+        contacts, joints, law, _first_bounds(contacts, rows, joints, law)
+    )
+
+    def bound(normal: np.ndarray) -> np.ndarray:
+        return contact_law.friction_bound(contacts, joints, normal)
+
+    return StaticContactProblem(
+        BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings),
+        ContactGeometry(rows, contacts.block_a, contacts.block_b),
+        terms,
+        bound,
+        law.friction,
+        joints,
+    )

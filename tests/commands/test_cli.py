@@ -287,6 +287,10 @@ def test_the_run_paragraph_tells_how_the_run_started():
     loaded = {**base, "start": "equilibrium", "start_newton_iterations": 12}
     text = cli.summary_paragraph({**loaded, "start_seconds": 0.0312}, Path("out"))
     assert "Equilibrium start: 12 Newton iterations, 0.0312 s." in text
+    assert "continuation" not in text
+    by_continuation = {**loaded, "start_seconds": 0.0312, "start_method": "continuation"}
+    text = cli.summary_paragraph(by_continuation, Path("out"))
+    assert "interior-point solve did not settle: it went on by continuation" in text
     fallen_back = cli.summary_paragraph({**base, "start": UNSETTLED_START}, Path("out"))
     assert "The equilibrium start did not settle: the run started unloaded." in fallen_back
     assert "start" not in cli.summary_paragraph({**base, "start": "unloaded"}, Path("out"))

@@ -1,5 +1,6 @@
-"""The equilibrium start's continuation (dda/run/equilibrium_start.py): where it starts
-and where it stops."""
+"""The equilibrium start's continuation (dda/run/equilibrium_start.py, without its
+interior-point solves: the continuation alone, as where those do not settle): where it
+starts and where it stops."""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ from tests.standing.incline import incline_scene
 
 def _regularisers(monkeypatch) -> list[float]:
     """The regulariser r of every pseudo-step of the next starts (of the first free
-    block, over its E / m), filled in as they run."""
+    block, over its E / m), filled in as they run, by the continuation alone."""
+    monkeypatch.setattr(equilibrium_start, "INTERIOR_REGULARISERS", ())
     seen: list[float] = []
     solve = equilibrium_start.solve_step
 

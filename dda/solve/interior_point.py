@@ -1,0 +1,459 @@
+"""A static contact solve by a primal–dual interior-point method: the equilibrium start's
+limit solve in a number of iterations that does not follow the number of contacts that
+change state.
+
+The step's Newton (:mod:`dda.solve.newton`) assumes a piece of every contact's potential
+(open or closed, stuck or sliding) and corrects the wrong ones iteration by iteration;
+where a static solve moves thousands of contacts onto other pieces its line steps stay
+short and its iterations grow with the model (docs/contact.md). Here the pieces are not
+assumed: every contact's forces are unknowns beside D, and the method follows the
+central path of the contact conditions to their solution.
+
+The solution is what the step's Newton passes converge to: D and, for every contact,
+its normal force N and shear force F with
+
+    K₀ D − F₀ + Σ N ∇g + Σ F ∇s = 0                the blocks' equilibrium
+    N = max(λn + p g, −T)                           the normal spring, tension at most T
+    F = clamp(λt + ps s, −b(N), b(N))               the shear spring within the bound
+
+b(N) the friction bound of the contact's own normal force (Coulomb, Barton–Bandis). As
+complementarity, with N' = N + T, y = λn + p g + T and z = λt + ps s:
+
+    N' = y + w,           N' ≥ 0,  w ≥ 0,   N' w = μ
+    F = z − u + v,        u ≥ 0,   v ≥ 0
+    σ₁ = b(N) − F ≥ 0,    σ₂ = b(N) + F ≥ 0, u σ₁ = μ,  v σ₂ = μ
+
+(μ = 0: the conditions above; w is the normal spring's unused stretch, u and v the
+slip either way). Each iteration is a Newton step on these equations at a μ that
+shrinks towards 0 (Mehrotra's predictor–corrector: a predictor step at μ = 0 sets the
+centring σ = (μ_aff / μ)³, the corrector carries the predictor's second-order terms),
+cut to keep every N', w, u, v, σ₁, σ₂ positive (``interior_step_to_boundary``). The contact
+unknowns are eliminated contact by contact:
+
+    ΔN' = kn Δg + c_N,     kn = p N' / (N' + w)
+    ΔF = ks Δs + k_sn ΔN' + c_F,
+    ks = ps / q,   k_sn = b'(N) (u / σ₁ − v / σ₂) / q,   q = 1 + u / σ₁ + v / σ₂
+
+so that each iteration factorises K₀ + Σ kn ∇g ∇gᵀ + Σ ks ∇s ∇sᵀ + Σ k_sn kn ∇s ∇gᵀ,
+unsymmetric where a contact slides (its shear force follows its normal force: friction
+is not associated), by :class:`dda.solve.unsymmetric.UnsymmetricLU`. A stuck contact has
+ks → ps, a sliding one ks → 0 and k_sn → ±b'(N), an open one kn → 0: the springs of its
+piece, reached continuously.
+
+The method starts from the solution with every contact closed and stuck (one linear
+solve), its forces shifted into the interior by a typical contact force. It stops when
+μ and the residuals are small against the loads; the caller finishes with the step's
+Newton from there, whose pieces are then the solution's (one iteration, measured on the
+bench walls and the shipped cases: docs/contact.md).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from dda.contact.potential import ContactTerms
+from dda.solve.newton import BlockQuadratic, ContactGeometry
+from dda.solve.policy import StepPolicy, current_policy
+from dda.solve.unsymmetric import UnsymmetricLU
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StaticContactProblem:
+    """The data of one static solve: the blocks' quadratic ½ DᵀK₀D − F₀ᵀD (with the
+    regulariser), the contacts' gaps, their springs and tension (``terms``: λn, p, T,
+    λt, ps; its bounds are not used) and the friction bound b(N) of every contact."""
+
+    quadratic: BlockQuadratic
+    geometry: ContactGeometry
+    terms: ContactTerms
+    bound: Callable[[np.ndarray], np.ndarray]
+    friction: bool
+    joints: object = None  # the joints' properties (the law's bond rule), for the caller
+
+
+@dataclass
+class InteriorSolution:
+    d: np.ndarray  # (n, 6)
+    normal: np.ndarray  # (m,) N
+    iterations: int  # factorisations, the first (all contacts closed and stuck) included
+    converged: bool
+
+
+def solve_interior(problem: StaticContactProblem) -> InteriorSolution:
+    """D, N of ``problem`` by the predictor–corrector interior-point method (module
+    docstring; its settings: the policy's ``interior_*``); ``converged`` False when
+    ``interior_iterations`` did not reach the end, the iterates stopped being finite or
+    nothing is loaded."""
+    policy = current_policy()
+    system = _NewtonMatrix(problem)
+    iterate = _Iterate(problem, system, policy)
+    iterations, converged = 1, False
+    try:
+        if iterate.start():
+            while iterations < policy.interior_iterations and iterate.finite():
+                residuals = iterate.residuals()
+                if iterate.converged(residuals):
+                    converged = True
+                    break
+                iterate.step(residuals)
+                iterations += 1
+    finally:
+        system.release()
+    log.debug("interior point: %d factorisations, converged %s", iterations, converged)
+    normal = iterate.normal() if converged else np.zeros(0)
+    return InteriorSolution(iterate.d(), normal, iterations, converged)
+
+
+class _NewtonMatrix:
+    """K₀ + Σ kn ∇g∇gᵀ + Σ ks ∇s∇sᵀ + Σ k_sn kn ∇s∇gᵀ over the free blocks' unknowns, on
+    one sparsity pattern (every contact's two blocks coupled), and its LU."""
+
+    def __init__(self, problem: StaticContactProblem) -> None:
+        quadratic, geometry = problem.quadratic, problem.geometry
+        rows = geometry.rows
+        free = quadratic.free
+        column = np.full(len(free), -1)
+        column[free] = 6 * np.arange(int(free.sum()))
+        self.free, self.size = free, 6 * int(free.sum())
+        a, b = geometry.block_a, geometry.block_b
+        dofs = _dofs(column, a, b)
+        self.normal_rows = np.concatenate([rows.normal_i, rows.normal_j], axis=1)  # (m, 12)
+        self.shear_rows = np.concatenate([rows.shear_i, rows.shear_j], axis=1)
+        self.gn = _rows_matrix(self.normal_rows, dofs, self.size)
+        self.gs = _rows_matrix(self.shear_rows, dofs, self.size)
+        diagonal_dofs = column[free][:, None] + np.arange(6)
+        pairs = [_pairs(diagonal_dofs), _pairs(dofs)]
+        couplings = quadratic.couplings
+        if couplings is not None:
+            bolt_dofs = _dofs(column, couplings.block_i, couplings.block_j)
+            pairs.append(_pairs(bolt_dofs))
+        keys = np.unique(np.concatenate([p[0] * self.size + p[1] for p in pairs if len(p[0])]))
+        self.pattern = sp.csr_matrix(
+            (np.zeros(len(keys)), keys % self.size, _indptr(keys // self.size, self.size)),
+            shape=(self.size, self.size),
+        )
+        self.base = np.zeros(len(keys))  # K₀'s values in the pattern
+        diagonal = quadratic.stiffness[free].reshape(-1)
+        np.add.at(self.base, _positions(keys, *_pairs(diagonal_dofs), self.size), diagonal)
+        if couplings is not None:
+            rows_b = np.concatenate([couplings.row_i, couplings.row_j], axis=1)
+            outer = couplings.stiffness[:, None, None] * rows_b[:, :, None] * rows_b[:, None, :]
+            valid = (bolt_dofs[:, :, None] >= 0) & (bolt_dofs[:, None, :] >= 0)
+            np.add.at(self.base, _positions(keys, *_pairs(bolt_dofs), self.size), outer[valid])
+        self.fill = _fill_matrix(self.normal_rows, self.shear_rows, dofs, keys, self.size)
+        self.lu = UnsymmetricLU(self.pattern)
+
+    def factor(self, kn: np.ndarray, ks: np.ndarray, k_sn: np.ndarray) -> None:
+        """Factorise the matrix of the springs kn, ks and the coupling k_sn (per contact)."""
+        self.lu.factor(self.base + self.fill @ np.concatenate([kn, ks, k_sn * kn]))
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        return self.lu.solve(rhs)
+
+    def release(self) -> None:
+        self.lu.release()
+
+
+def _dofs(column: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(m, 12) the unknowns of blocks a and b (−1 for a fixed block's)."""
+    offsets = np.arange(6)
+    first = np.where(column[a][:, None] >= 0, column[a][:, None] + offsets, -1)
+    second = np.where(column[b][:, None] >= 0, column[b][:, None] + offsets, -1)
+    return np.concatenate([first, second], axis=1)
+
+
+def _pairs(dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(row, column) of every coupled pair of the (k, r) unknowns ``dofs`` whose both
+    ends are free, in (k, r, r) order."""
+    rows = np.broadcast_to(dofs[:, :, None], (*dofs.shape, dofs.shape[1]))
+    cols = np.broadcast_to(dofs[:, None, :], (*dofs.shape, dofs.shape[1]))
+    valid = (rows >= 0) & (cols >= 0)
+    return rows[valid], cols[valid]
+
+
+def _fill_matrix(normal, shear, dofs, keys, size) -> sp.csr_matrix:
+    """The (pattern's values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part
+    of the values: ∇g∇gᵀ, ∇s∇sᵀ and ∇s∇gᵀ of each contact at its blocks' unknowns."""
+    m = len(dofs)
+    valid = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)  # (m, 12, 12)
+    where = _positions(keys, *_pairs(dofs), size)
+    contact = np.broadcast_to(np.arange(m)[:, None, None], valid.shape)[valid]
+    parts = [
+        (normal[:, :, None] * normal[:, None, :])[valid],
+        (shear[:, :, None] * shear[:, None, :])[valid],
+        (shear[:, :, None] * normal[:, None, :])[valid],
+    ]
+    return sp.csr_matrix(
+        (
+            np.concatenate(parts),
+            (np.tile(where, 3), np.concatenate([contact + k * m for k in range(3)])),
+        ),
+        shape=(len(keys), 3 * m),
+    )
+
+
+def _indptr(rows: np.ndarray, size: int) -> np.ndarray:
+    out = np.zeros(size + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=size), out=out[1:])
+    return out
+
+
+def _positions(keys: np.ndarray, rows: np.ndarray, cols: np.ndarray, size: int) -> np.ndarray:
+    """Index in the pattern's values of each (row, column)."""
+    return np.searchsorted(keys, rows * size + cols)
+
+
+def _rows_matrix(rows: np.ndarray, dofs: np.ndarray, size: int) -> sp.csr_matrix:
+    """The (m, size) matrix whose row c holds ``rows[c]`` at the unknowns ``dofs[c]``."""
+    m = len(rows)
+    valid = dofs >= 0
+    contact = np.broadcast_to(np.arange(m)[:, None], dofs.shape)
+    return sp.csr_matrix((rows[valid], (contact[valid], dofs[valid])), shape=(m, size))
+
+
+class _Iterate:
+    """The iterate: x (D's free unknowns), the gaps g, s and the contact unknowns N'
+    (``lift``: N + T), w (``spare``), F (``shear``), u, v (``slip_forward``,
+    ``slip_back``), σ₁, σ₂ (``room_forward``, ``room_back``)."""
+
+    def __init__(
+        self, problem: StaticContactProblem, system: _NewtonMatrix, policy: StepPolicy
+    ) -> None:
+        self.problem, self.system, self.policy = problem, system, policy
+        quadratic, terms = problem.quadratic, problem.terms
+        self.forces = quadratic.forces[system.free].ravel()
+        self.load = quadratic.load_norm
+        self.live = terms.shear_penalty > 0.0
+        if problem.friction:
+            probe = np.full(len(self.live), 1e3 * max(self.load, 1.0))
+            self.live &= problem.bound(probe) > 0.0  # a bound that grows with N
+        else:
+            self.live[:] = False
+        self.x = np.zeros(system.size)
+        self.g = problem.geometry.rows.penetration.copy()
+        self.s = problem.geometry.rows.slip.copy()
+        self.scale = 0.0  # f: a typical contact force, set by :meth:`start`
+
+    def d(self) -> np.ndarray:
+        """D (n, 6) of the iterate (fixed blocks 0)."""
+        out = np.zeros_like(self.problem.quadratic.forces)
+        out[self.system.free] = self.x.reshape(-1, 6)
+        return out
+
+    def normal(self) -> np.ndarray:
+        """N = N' − T."""
+        return self.lift - self.problem.terms.tension
+
+    def finite(self) -> bool:
+        return bool(np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.lift)))
+
+    def gradient(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
+        """K₀ D − F₀ + Σ N ∇g + Σ F ∇s over the free unknowns."""
+        system = self.system
+        kd = self.problem.quadratic.product(self.d())[system.free].ravel()
+        return kd - self.forces + system.gn.T @ normal + system.gs.T @ shear
+
+    def move(self, dx: np.ndarray) -> None:
+        self.x = self.x + dx
+        self.g = self.g + self.system.gn @ dx
+        self.s = self.s + self.system.gs @ dx
+
+    def start(self) -> bool:
+        """The linear solve with every contact closed and stuck, its contact unknowns
+        shifted into the interior by ``interior_start_shift`` f, f the larger of the loads per free
+        block and the mean normal force there. False when nothing is loaded (f = 0)."""
+        t, live = self.problem.terms, self.live
+        shear_springs = np.where(live, t.shear_penalty, 0.0)
+        self.system.factor(t.penalty, shear_springs, np.zeros_like(t.penalty))
+        normal = t.normal_base + t.penalty * self.g
+        shear = np.where(live, t.shear_base + t.shear_penalty * self.s, 0.0)
+        self.move(self.system.solve(-self.gradient(normal, shear)))
+        y = t.normal_base + t.penalty * self.g + t.tension
+        blocks = max(1, int(self.system.free.sum()))
+        mean = float(np.mean(np.abs(y))) if len(y) else 0.0
+        self.scale = f = max(self.load / np.sqrt(blocks), mean)
+        if not f > 0.0:
+            return False
+        shift = self.policy.interior_start_shift * f
+        self.lift, self.spare = np.maximum(y, 0.0) + shift, np.maximum(-y, 0.0) + shift
+        bound = self.problem.bound(self.normal())
+        z = t.shear_base + t.shear_penalty * self.s
+        self.shear = np.where(live, np.clip(z, -0.5 * bound, 0.5 * bound), 0.0)
+        self.slip_forward = np.where(live, shift, 1.0)
+        self.slip_back = self.slip_forward.copy()
+        self.room_forward = np.where(live, np.maximum(bound - self.shear, shift), 1.0)
+        self.room_back = np.where(live, np.maximum(bound + self.shear, shift), 1.0)
+        return True
+
+    def residuals(self) -> _Residuals:
+        """The equations' residuals at the iterate, and the bound's slope b'(N)."""
+        t, live = self.problem.terms, self.live
+        normal = self.normal()
+        bound = self.problem.bound(normal)
+        step = self.policy.interior_slope_step * np.maximum(np.abs(normal), self.scale)
+        slope = np.where(live, (self.problem.bound(normal + step) - bound) / step, 0.0)
+        y = t.normal_base + t.penalty * self.g + t.tension
+        z = t.shear_base + t.shear_penalty * self.s
+        return _Residuals(
+            self.gradient(normal, self.shear),
+            y + self.spare - self.lift,
+            np.where(live, z - self.slip_forward + self.slip_back - self.shear, 0.0),
+            np.where(live, bound - self.shear - self.room_forward, 0.0),
+            np.where(live, bound + self.shear - self.room_back, 0.0),
+            slope,
+        )
+
+    def complementarity(self, step: _Direction | None = None, alpha: float = 0.0) -> float:
+        """μ: the mean of N'w, u σ₁ and v σ₂ (after ``alpha`` × ``step`` when given)."""
+        lift, spare, u, v = self.lift, self.spare, self.slip_forward, self.slip_back
+        r1, r2 = self.room_forward, self.room_back
+        if step is not None:
+            lift, spare = lift + alpha * step.lift, spare + alpha * step.spare
+            u, v = u + alpha * step.slip_forward, v + alpha * step.slip_back
+            r1, r2 = r1 + alpha * step.room_forward, r2 + alpha * step.room_back
+        live = self.live
+        total = float(lift @ spare) + float(u[live] @ r1[live]) + float(v[live] @ r2[live])
+        return total / max(1, len(lift) + 2 * int(live.sum()))
+
+    def converged(self, residuals: _Residuals) -> bool:
+        """μ within ``interior_complementarity_end`` f² and every residual within
+        ``interior_residual_end`` of its force (at least f) plus ``interior_round_off`` of
+        the large terms whose difference the force is (a sliding block's D, and with it
+        its slip u and its shear spring's stretch z, grow as the regulariser falls: z − u
+        keeps only their round-off)."""
+        f, policy = self.scale, self.policy
+        end, round_off = policy.interior_residual_end, policy.interior_round_off
+        if self.complementarity() > policy.interior_complementarity_end * f * f:
+            return False
+        if np.linalg.norm(residuals.equilibrium) > end * max(self.load, f):
+            return False
+        t, system, x = self.problem.terms, self.system, np.abs(self.x)
+        rows = self.problem.geometry.rows
+        # the large terms whose difference is a force: an open contact's y and w, a
+        # sliding one's z and u (or v), all with the gaps' own round-off p |∇g||D|
+        y = np.abs(t.normal_base + t.penalty * self.g) + self.spare
+        y += t.penalty * (np.abs(rows.penetration) + abs(system.gn) @ x)
+        z = np.abs(t.shear_base + t.shear_penalty * self.s) + self.slip_forward + self.slip_back
+        z += t.shear_penalty * (np.abs(rows.slip) + abs(system.gs) @ x)
+        forces = (self.lift, np.abs(self.shear), self.room_forward, self.room_back)
+        noises = (y, z, 0.0, 0.0)
+        return all(
+            bool(np.all(np.abs(r) <= end * np.maximum(force, f) + round_off * noise))
+            for r, force, noise in zip(residuals.contact(), forces, noises, strict=True)
+        )
+
+    def step(self, residuals: _Residuals) -> None:
+        """One predictor–corrector iteration (one factorisation, two solves)."""
+        t, live = self.problem.terms, self.live
+        u, v, r1, r2 = self.slip_forward, self.slip_back, self.room_forward, self.room_back
+        kn = t.penalty * self.lift / (self.lift + self.spare)
+        q = np.where(live, 1.0 + u / r1 + v / r2, 1.0)
+        ks = np.where(live, t.shear_penalty / q, 0.0)
+        k_sn = np.where(live, residuals.slope * (u / r1 - v / r2) / q, 0.0)
+        self.system.factor(kn, ks, k_sn)
+        springs = (kn, ks, k_sn, q)
+        mu = self.complementarity()
+        predictor = self.direction(residuals, springs, 0.0, None)
+        reach = self.reach(predictor, 1.0)
+        centring = (self.complementarity(predictor, reach) / mu) ** 3
+        corrector = self.direction(residuals, springs, centring * mu, predictor)
+        self.advance(corrector, self.reach(corrector, self.policy.interior_step_to_boundary))
+
+    def direction(self, res: _Residuals, springs, target: float, predictor) -> _Direction:
+        """The Newton direction of the equations with the products at ``target``, plus
+        the predictor's second-order terms when given (module docstring)."""
+        t, live = self.problem.terms, self.live
+        kn, ks, k_sn, q = springs
+        lift, spare, u, v = self.lift, self.spare, self.slip_forward, self.slip_back
+        r1, r2 = self.room_forward, self.room_back
+        c_n = c_u = c_v = 0.0
+        if predictor is not None:
+            c_n = predictor.lift * predictor.spare
+            c_u = predictor.slip_forward * predictor.room_forward
+            c_v = predictor.slip_back * predictor.room_back
+        n_free = (lift * res.normal + target - lift * spare - c_n) / (lift + spare)
+        forward = (target - u * r1 - c_u - u * res.room_forward) / r1
+        back = (target - v * r2 - c_v - v * res.room_back) / r2
+        f_free = np.where(live, (res.shear - forward + back) / q, 0.0)
+        system = self.system
+        rhs = -res.equilibrium - system.gn.T @ n_free - system.gs.T @ (f_free + k_sn * n_free)
+        dx = system.solve(rhs)
+        dg, ds = system.gn @ dx, system.gs @ dx
+        d_lift = kn * dg + n_free
+        d_shear = np.where(live, ks * ds + k_sn * d_lift + f_free, 0.0)
+        d_r1 = np.where(live, res.slope * d_lift - d_shear + res.room_forward, 0.0)
+        d_r2 = np.where(live, res.slope * d_lift + d_shear + res.room_back, 0.0)
+        # u and v from their complementarity, but the one of a sliding contact (u/σ₁ or
+        # v/σ₂ large: its σ tends to 0) from the shear equation, which it then keeps to
+        # round-off (its complementarity holds in exact arithmetic either way)
+        d_forward = (target - u * r1 - c_u - u * d_r1) / r1
+        d_back = (target - v * r2 - c_v - v * d_r2) / r2
+        forward_slides = u / r1 >= v / r2
+        d_forward = np.where(forward_slides, t.shear_penalty * ds + d_back + res.shear - d_shear,
+                             d_forward)  # fmt: skip
+        d_back = np.where(forward_slides, d_back,
+                          d_shear - t.shear_penalty * ds + d_forward - res.shear)  # fmt: skip
+        return _Direction(
+            dx, d_lift, d_lift - t.penalty * dg - res.normal, d_shear,
+            np.where(live, d_forward, 0.0), np.where(live, d_back, 0.0), d_r1, d_r2,
+        )  # fmt: skip
+
+    def reach(self, step: _Direction, fraction: float) -> float:
+        """The longest step ≤ 1 that keeps N', w, u, v, σ₁, σ₂ positive, times ``fraction``."""
+        live = self.live
+        pairs = [(self.lift, step.lift), (self.spare, step.spare)]
+        pairs += [
+            (value[live], change[live])
+            for value, change in (
+                (self.slip_forward, step.slip_forward), (self.slip_back, step.slip_back),
+                (self.room_forward, step.room_forward), (self.room_back, step.room_back),
+            )
+        ]  # fmt: skip
+        alpha = 1.0
+        for value, change in pairs:
+            falling = change < 0.0
+            if np.any(falling):
+                alpha = min(alpha, fraction * float(np.min(-value[falling] / change[falling])))
+        return alpha
+
+    def advance(self, step: _Direction, alpha: float) -> None:
+        self.move(alpha * step.x)
+        self.lift = self.lift + alpha * step.lift
+        self.spare = self.spare + alpha * step.spare
+        self.shear = self.shear + alpha * step.shear
+        self.slip_forward = self.slip_forward + alpha * step.slip_forward
+        self.slip_back = self.slip_back + alpha * step.slip_back
+        self.room_forward = self.room_forward + alpha * step.room_forward
+        self.room_back = self.room_back + alpha * step.room_back
+
+
+@dataclass(frozen=True)
+class _Residuals:
+    equilibrium: np.ndarray  # K₀D − F₀ + Σ N∇g + Σ F∇s (free unknowns)
+    normal: np.ndarray  # y + w − N'
+    shear: np.ndarray  # z − u + v − F
+    room_forward: np.ndarray  # b(N) − F − σ₁
+    room_back: np.ndarray  # b(N) + F − σ₂
+    slope: np.ndarray  # b'(N)
+
+    def contact(self) -> tuple[np.ndarray, ...]:
+        return self.normal, self.shear, self.room_forward, self.room_back
+
+
+@dataclass(frozen=True)
+class _Direction:
+    x: np.ndarray
+    lift: np.ndarray
+    spare: np.ndarray
+    shear: np.ndarray
+    slip_forward: np.ndarray
+    slip_back: np.ndarray
+    room_forward: np.ndarray
+    room_back: np.ndarray

@@ -1,0 +1,116 @@
+"""The equilibrium start's interior-point solve (dda/solve/interior_point.py): its
+solution against closed forms and against the continuation, its cost, its fallback."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import dda
+from dda.bench.scenes import wall_scene
+from dda.run import equilibrium_start
+from dda.solve import policy, unsymmetric
+from tests.helpers import G
+from tests.standing.incline import ROCK_1E9, THETA, friction_angle, incline_scene
+
+
+def _start(scene) -> dda.Result:
+    """The run's first step, from its equilibrium start."""
+    raw = dict(scene)
+    raw["analysis"] = {**raw["analysis"], "steps": 1}
+    raw["analysis"].pop("duration", None)
+    return dda.simulate(raw)
+
+
+def _weight() -> float:
+    """The incline block's weight per metre of thickness (1 m x 1 m)."""
+    return ROCK_1E9["density"] * G
+
+
+@pytest.mark.parametrize("ratio", [0.5, 0.8, 0.99])
+def test_a_block_within_its_friction_starts_with_the_forces_of_statics(ratio):
+    """N = W cos θ, F = W sin θ on the block's contacts at t = 0 (to 1e-6 W)."""
+    result = _start(incline_scene(ratio, 1e-3, 1e-3))
+    assert result.summary["start_method"] == equilibrium_start.INTERIOR_POINT
+    contacts = result.frames[0].contacts
+    weight, theta = _weight(), math.radians(THETA)
+    assert contacts.normal_force.sum() == pytest.approx(weight * math.cos(theta), abs=1e-6 * weight)
+    assert abs(contacts.shear_force.sum()) == pytest.approx(
+        weight * math.sin(theta), abs=1e-6 * weight
+    )
+
+
+def test_a_block_beyond_its_friction_starts_with_the_forces_of_its_release():
+    """At 1.05 of its friction: N = W cos θ and F = tan φ N at t = 0 (to 1e-6 W)."""
+    result = _start(incline_scene(1.05, 1e-3, 1e-3))
+    assert result.summary["start_method"] == equilibrium_start.INTERIOR_POINT
+    contacts = result.frames[0].contacts
+    weight, theta = _weight(), math.radians(THETA)
+    normal = contacts.normal_force.sum()
+    tan_phi = math.tan(math.radians(friction_angle(1.05)))
+    assert normal == pytest.approx(weight * math.cos(theta), abs=1e-6 * weight)
+    assert abs(contacts.shear_force.sum()) == pytest.approx(tan_phi * normal, abs=1e-6 * weight)
+
+
+def _wall_start(n: int, monkeypatch=None) -> dda.Result:
+    return dda.simulate(wall_scene(n, method="augmented-lagrangian", steps=1, start="equilibrium"))
+
+
+def test_the_interior_point_start_equals_the_continuations_on_a_wall(monkeypatch):
+    """The 5 x 5 wall: the same contact forces at t = 0 by either method, to 1e-4 of the
+    largest: the continuation settles the friction bounds to the law's friction_tolerance
+    (1e-3 of their norm), the interior point solves Coulomb's bound with the forces."""
+    interior = _wall_start(5)
+    monkeypatch.setattr(equilibrium_start, "INTERIOR_REGULARISERS", ())
+    continuation = _wall_start(5)
+    assert interior.summary["start_method"] == equilibrium_start.INTERIOR_POINT
+    assert continuation.summary["start_method"] == equilibrium_start.CONTINUATION
+    first, second = interior.frames[0].contacts, continuation.frames[0].contacts
+    scale = np.abs(second.normal_force).max()
+    np.testing.assert_allclose(first.normal_force, second.normal_force, atol=1e-4 * scale)
+    np.testing.assert_allclose(first.shear_force, second.shear_force, atol=1e-4 * scale)
+
+
+@pytest.mark.parametrize("n", [10, 20])
+def test_the_start_of_a_bench_wall_takes_at_most_40_newton_iterations(n):
+    """Issue 57's bound on the start's Newton iterations (factorisations of the interior
+    point included), on the walls of `dda bench`."""
+    summary = _wall_start(n).summary
+    assert summary["start"] == "equilibrium"
+    assert summary["start_newton_iterations"] <= 40
+
+
+def test_a_start_whose_interior_point_does_not_settle_goes_on_by_continuation(monkeypatch):
+    """Two iterations are not enough: the continuation finishes the start, and the
+    summary says which method did."""
+    monkeypatch.setattr(policy, "DEFAULT", replace(policy.DEFAULT, interior_iterations=2))
+    result = _start(incline_scene(0.8, 1e-3, 1e-3))
+    assert result.summary["start"] == "equilibrium"
+    assert result.summary["start_method"] == equilibrium_start.CONTINUATION
+
+
+@pytest.mark.parametrize("pardiso", [True, False])
+def test_the_unsymmetric_lu_solves_to_round_off(monkeypatch, pardiso):
+    """PARDISO's unsymmetric factorisation and SuperLU, on an unsymmetric matrix of a
+    fixed pattern factorised twice with other values."""
+    if pardiso and not unsymmetric.pardiso_available():
+        pytest.skip("PARDISO is not installed")
+    monkeypatch.setattr(unsymmetric, "pardiso_available", lambda: pardiso)
+    rng = np.random.default_rng(1)
+    size = 300
+    matrix = sp.random(size, size, density=0.02, random_state=2, format="csr")
+    matrix = (matrix + sp.identity(size, format="csr") * 5.0).tocsr()
+    matrix.sort_indices()
+    lu = unsymmetric.UnsymmetricLU(matrix)
+    for scale in (1.0, 3.0):
+        values = matrix.data * rng.uniform(0.5, 1.5, matrix.nnz) * scale
+        current = sp.csr_matrix((values, matrix.indices, matrix.indptr), shape=matrix.shape)
+        rhs = rng.standard_normal(size)
+        lu.factor(values)
+        x = lu.solve(rhs)
+        assert np.linalg.norm(current @ x - rhs) <= 1e-10 * np.linalg.norm(rhs)
+    lu.release()
