@@ -69,7 +69,7 @@ from dda.effects.base import Effect, StepContext
 from dda.effects.inertia import Inertia
 from dda.model import Model
 from dda.result import OPEN
-from dda.solve.interior_point import solve_interior
+from dda.solve.interior_point import NewtonMatrix, solve_interior
 from dda.solve.step import solve_step, static_contact_problem
 from dda.solve.timing import StageTimer
 
@@ -155,7 +155,10 @@ def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTim
     stiffness = _young(model)[blocks.material] / limit.masses[:, 0, 0]  # E_i / m_i
     found, newton, method = None, 0, INTERIOR_POINT
     if INTERIOR_REGULARISERS:
-        found, newton = _by_interior_point(limit, blocks, start, stiffness, timer)
+        try:
+            found, newton = _by_interior_point(limit, blocks, start, stiffness, timer)
+        finally:
+            limit.release()
         if found is None:
             log.info("the interior-point start did not settle: it goes on by continuation")
     if found is None:
@@ -235,6 +238,7 @@ class _Limit:
     linear: np.ndarray  # (n, 6, 6) their block-diagonal springs
     masses: np.ndarray  # (n, 6, 6)
     loads: float  # ‖F₀‖ over the free blocks: the effects' forces at the start
+    matrix: NewtonMatrix | None = None  # the interior-point solves' (one contact set)
 
     @classmethod
     def of(cls, model: Model, blocks: BlockSet) -> _Limit:
@@ -280,7 +284,10 @@ class _Limit:
             problem = static_contact_problem(model, blocks, work, ctx)
             if problem is None:
                 return None
-            solution = solve_interior(problem)
+            if self.matrix is None or not self.matrix.fits(problem):
+                self.release()
+                self.matrix = NewtonMatrix(problem)
+            solution = solve_interior(problem, self.matrix)
             iterations += solution.iterations
             if not solution.converged:
                 return solution.d, None, iterations
@@ -292,6 +299,12 @@ class _Limit:
             return solution.d, None, iterations
         contact_law.record(work, terms, g, s, model.contact.law.friction_tolerance)
         return solution.d, work, iterations
+
+    def release(self) -> None:
+        """Free the interior-point solves' matrix (PARDISO's memory)."""
+        if self.matrix is not None:
+            self.matrix.release()
+            self.matrix = None
 
     def stands(self, scale: np.ndarray, step: np.ndarray) -> bool:
         """True when the regulariser forces of the solve ``step``, the static residual

@@ -86,13 +86,18 @@ class InteriorSolution:
     converged: bool
 
 
-def solve_interior(problem: StaticContactProblem) -> InteriorSolution:
+def solve_interior(
+    problem: StaticContactProblem, matrix: NewtonMatrix | None = None
+) -> InteriorSolution:
     """D, N of ``problem`` by the predictor–corrector interior-point method (module
     docstring; its settings: the policy's ``interior_*``); ``converged`` False when
     ``interior_iterations`` did not reach the end, the iterates stopped being finite or
-    nothing is loaded."""
+    nothing is loaded. ``matrix``: a :class:`NewtonMatrix` made for a problem of the same
+    contacts and blocks, to re-use (its pattern, its analysis); else one is made and
+    released."""
     policy = current_policy()
-    system = _NewtonMatrix(problem)
+    own = matrix is None or not matrix.fits(problem)
+    system = NewtonMatrix(problem) if own else matrix.load(problem)
     iterate = _Iterate(problem, system, policy)
     iterations, converged = 1, False
     try:
@@ -105,15 +110,18 @@ def solve_interior(problem: StaticContactProblem) -> InteriorSolution:
                 iterate.step(residuals)
                 iterations += 1
     finally:
-        system.release()
+        if own:
+            system.release()
     log.debug("interior point: %d factorisations, converged %s", iterations, converged)
     normal = iterate.normal() if converged else np.zeros(0)
     return InteriorSolution(iterate.d(), normal, iterations, converged)
 
 
-class _NewtonMatrix:
+class NewtonMatrix:
     """K₀ + Σ kn ∇g∇gᵀ + Σ ks ∇s∇sᵀ + Σ k_sn kn ∇s∇gᵀ over the free blocks' unknowns, on
-    one sparsity pattern (every contact's two blocks coupled), and its LU."""
+    one sparsity pattern (every contact's two blocks coupled), and its LU. The pattern
+    and the contacts' part are those of the contacts' blocks and gradients; K₀'s values
+    are the problem's (:meth:`load`)."""
 
     def __init__(self, problem: StaticContactProblem) -> None:
         quadratic, geometry = problem.quadratic, problem.geometry
@@ -121,34 +129,63 @@ class _NewtonMatrix:
         free = quadratic.free
         column = np.full(len(free), -1)
         column[free] = 6 * np.arange(int(free.sum()))
-        self.free, self.size = free, 6 * int(free.sum())
+        self.free, self.size = free.copy(), 6 * int(free.sum())
         a, b = geometry.block_a, geometry.block_b
+        self.blocks = (np.array(a), np.array(b))
         dofs = _dofs(column, a, b)
         self.normal_rows = np.concatenate([rows.normal_i, rows.normal_j], axis=1)  # (m, 12)
         self.shear_rows = np.concatenate([rows.shear_i, rows.shear_j], axis=1)
         self.gn = _rows_matrix(self.normal_rows, dofs, self.size)
         self.gs = _rows_matrix(self.shear_rows, dofs, self.size)
-        diagonal_dofs = column[free][:, None] + np.arange(6)
-        pairs = [_pairs(diagonal_dofs), _pairs(dofs)]
+        self.diagonal_dofs = column[free][:, None] + np.arange(6)
+        pairs = [_pairs(self.diagonal_dofs), _pairs(dofs)]
         couplings = quadratic.couplings
+        self.bolt_dofs = None
         if couplings is not None:
-            bolt_dofs = _dofs(column, couplings.block_i, couplings.block_j)
-            pairs.append(_pairs(bolt_dofs))
-        keys = np.unique(np.concatenate([p[0] * self.size + p[1] for p in pairs if len(p[0])]))
+            self.bolt_dofs = _dofs(column, couplings.block_i, couplings.block_j)
+            pairs.append(_pairs(self.bolt_dofs))
+        keys = np.concatenate([p[0] * self.size + p[1] for p in pairs if len(p[0])])
+        keys.sort()
+        self.keys = keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
         self.pattern = sp.csr_matrix(
             (np.zeros(len(keys)), keys % self.size, _indptr(keys // self.size, self.size)),
             shape=(self.size, self.size),
         )
-        self.base = np.zeros(len(keys))  # K₀'s values in the pattern
-        diagonal = quadratic.stiffness[free].reshape(-1)
-        np.add.at(self.base, _positions(keys, *_pairs(diagonal_dofs), self.size), diagonal)
+        self.fill = _fill_matrix(self.normal_rows, self.shear_rows, dofs, keys, self.size)
+        self.lu = UnsymmetricLU(self.pattern)
+        self.load(problem)
+
+    def fits(self, problem: StaticContactProblem) -> bool:
+        """True when ``problem`` has this matrix's blocks, contacts and gradients."""
+        geometry, rows = problem.geometry, problem.geometry.rows
+        same = (
+            np.array_equal(problem.quadratic.free, self.free)
+            and np.array_equal(geometry.block_a, self.blocks[0])
+            and np.array_equal(geometry.block_b, self.blocks[1])
+        )
+        normal = np.concatenate([rows.normal_i, rows.normal_j], axis=1) if same else None
+        shear = np.concatenate([rows.shear_i, rows.shear_j], axis=1) if same else None
+        coupled = (problem.quadratic.couplings is not None) == (self.bolt_dofs is not None)
+        return (
+            same and coupled
+            and np.array_equal(normal, self.normal_rows)
+            and np.array_equal(shear, self.shear_rows)
+        )  # fmt: skip
+
+    def load(self, problem: StaticContactProblem) -> NewtonMatrix:
+        """K₀'s values (the blocks' and the couplings' springs) of ``problem``."""
+        quadratic, size, keys = problem.quadratic, self.size, self.keys
+        self.base = np.zeros(len(keys))
+        diagonal = quadratic.stiffness[self.free].reshape(-1)
+        np.add.at(self.base, _positions(keys, *_pairs(self.diagonal_dofs), size), diagonal)
+        couplings = quadratic.couplings
         if couplings is not None:
             rows_b = np.concatenate([couplings.row_i, couplings.row_j], axis=1)
             outer = couplings.stiffness[:, None, None] * rows_b[:, :, None] * rows_b[:, None, :]
-            valid = (bolt_dofs[:, :, None] >= 0) & (bolt_dofs[:, None, :] >= 0)
-            np.add.at(self.base, _positions(keys, *_pairs(bolt_dofs), self.size), outer[valid])
-        self.fill = _fill_matrix(self.normal_rows, self.shear_rows, dofs, keys, self.size)
-        self.lu = UnsymmetricLU(self.pattern)
+            dofs = self.bolt_dofs
+            valid = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)
+            np.add.at(self.base, _positions(keys, *_pairs(dofs), size), outer[valid])
+        return self
 
     def factor(self, kn: np.ndarray, ks: np.ndarray, k_sn: np.ndarray) -> None:
         """Factorise the matrix of the springs kn, ks and the coupling k_sn (per contact)."""
@@ -224,7 +261,7 @@ class _Iterate:
     ``slip_back``), σ₁, σ₂ (``room_forward``, ``room_back``)."""
 
     def __init__(
-        self, problem: StaticContactProblem, system: _NewtonMatrix, policy: StepPolicy
+        self, problem: StaticContactProblem, system: NewtonMatrix, policy: StepPolicy
     ) -> None:
         self.problem, self.system, self.policy = problem, system, policy
         quadratic, terms = problem.quadratic, problem.terms
