@@ -137,6 +137,8 @@ class NewtonMatrix:
         self.shear_rows = np.concatenate([rows.shear_i, rows.shear_j], axis=1)
         self.gn = _rows_matrix(self.normal_rows, dofs, self.size)
         self.gs = _rows_matrix(self.shear_rows, dofs, self.size)
+        self.gn_t, self.gs_t = self.gn.T.tocsr(), self.gs.T.tocsr()  # Σ N ∇g, Σ F ∇s
+        self.gn_abs, self.gs_abs = abs(self.gn), abs(self.gs)  # the gaps' round-off
         self.diagonal_dofs = column[free][:, None] + np.arange(6)
         pairs = [_pairs(self.diagonal_dofs), _pairs(dofs)]
         couplings = quadratic.couplings
@@ -295,7 +297,7 @@ class _Iterate:
         """K₀ D − F₀ + Σ N ∇g + Σ F ∇s over the free unknowns."""
         system = self.system
         kd = self.problem.quadratic.product(self.d())[system.free].ravel()
-        return kd - self.forces + system.gn.T @ normal + system.gs.T @ shear
+        return kd - self.forces + system.gn_t @ normal + system.gs_t @ shear
 
     def move(self, dx: np.ndarray) -> None:
         self.x = self.x + dx
@@ -376,9 +378,9 @@ class _Iterate:
         # the large terms whose difference is a force: an open contact's y and w, a
         # sliding one's z and u (or v), all with the gaps' own round-off p |∇g||D|
         y = np.abs(t.normal_base + t.penalty * self.g) + self.spare
-        y += t.penalty * (np.abs(rows.penetration) + abs(system.gn) @ x)
+        y += t.penalty * (np.abs(rows.penetration) + system.gn_abs @ x)
         z = np.abs(t.shear_base + t.shear_penalty * self.s) + self.slip_forward + self.slip_back
-        z += t.shear_penalty * (np.abs(rows.slip) + abs(system.gs) @ x)
+        z += t.shear_penalty * (np.abs(rows.slip) + system.gs_abs @ x)
         forces = (self.lift, np.abs(self.shear), self.room_forward, self.room_back)
         noises = (y, z, 0.0, 0.0)
         return all(
@@ -420,7 +422,7 @@ class _Iterate:
         back = (target - v * r2 - c_v - v * res.room_back) / r2
         f_free = np.where(live, (res.shear - forward + back) / q, 0.0)
         system = self.system
-        rhs = -res.equilibrium - system.gn.T @ n_free - system.gs.T @ (f_free + k_sn * n_free)
+        rhs = -res.equilibrium - system.gn_t @ n_free - system.gs_t @ (f_free + k_sn * n_free)
         dx = system.solve(rhs)
         dg, ds = system.gn @ dx, system.gs @ dx
         d_lift = kn * dg + n_free
