@@ -223,10 +223,11 @@ def _add_run(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "run",
         help="run a scene and write VTU/PVD, CSV, JSON and a picture",
-        description="Run CASE.toml; write OUTDIR/blocks.pvd and contacts.pvd with their "
-        "frames/*.vtu, history.csv (and history_points.csv with [[measure]]), summary.json, "
-        "checkpoints and final.png (not with --no-picture). OUTDIR belongs to one run: a "
-        "second run into it is refused unless --overwrite (replace it) or --resume (continue it). "
+        description="Run CASE.toml; write OUTDIR/blocks.pvd and contacts.pvd (and bolts.pvd "
+        "with [[bolts]]) with their frames/*.vtu, history.csv (and history_points.csv with "
+        "[[measure]]), summary.json, checkpoints and final.png (not with --no-picture). "
+        "OUTDIR belongs to one run: a second run into it is refused unless --overwrite "
+        "(replace it) or --resume (continue it). "
         "SIGINT or SIGTERM stops after the current step with a checkpoint.",
     )
     p.add_argument(

@@ -41,8 +41,9 @@ logger = logging.getLogger(__name__)
 LOCK_NAME = "run.lock"
 CHECKPOINT_NAME = "checkpoint.npz"
 SUMMARY_NAME = "summary.json"
-OUTPUTS = ("blocks.pvd", "contacts.pvd", "history.csv", "history_points.csv", SUMMARY_NAME,
-           "final.png", CHECKPOINT_NAME)  # fmt: skip
+BOLTS_INDEX = "bolts.pvd"  # a run with [[bolts]]
+OUTPUTS = ("blocks.pvd", "contacts.pvd", BOLTS_INDEX, "history.csv", "history_points.csv",
+           SUMMARY_NAME, "final.png", CHECKPOINT_NAME)  # fmt: skip
 FRAME_PATTERNS = ("blocks_*.vtu", "contacts_*.vtu", "bolts_*.vtu", f"*{TEMP_MARK}*")
 # drawn from a run: dda render's default PNGs, dda plot's folder, dda movie's file
 DRAWN_PATTERNS = ("blocks_[0-9]*_*.png", "plots/*.png", "movie.gif", "movie.mp4")

@@ -5,16 +5,18 @@ Layout of ``outdir``::
     run.lock                the run that owns the directory (dda.io.run_folder)
     blocks.pvd              time index of the block files (ParaView: open this)
     contacts.pvd            time index of the contact files
+    bolts.pvd               time index of the bolts files (a scene with [[bolts]])
     frames/blocks_NNNNNN.vtu    one per kept frame (NNNNNN = step)
     frames/contacts_NNNNNN.vtu
-    frames/bolts_NNNNNN.vtu     the rock bolts in place (a scene with [[bolts]])
+    frames/bolts_NNNNNN.vtu     the rock bolts in place (a scene with [[bolts]]; every
+                                frame, so none in place is an empty file, not a missing one)
     history.csv             one row per block per kept frame
     history_points.csv      one row per step of the [[measure]] quantities (with [[measure]])
     summary.json            the run summary (status "running", "finished", "failed", ...)
     checkpoint.npz          the last checkpoint, while the run is not finished (dda.run.checkpoint)
     final.png               the last frame, coloured by a stress component
 
-Per kept frame, in this order: the two VTU files (each atomically), a line
+Per kept frame, in this order: the VTU files (each atomically), a line
 in each PVD index (O(1), the index stays a whole document), the frame's rows
 appended to ``history.csv`` (one write, so the file holds whole frames) and
 ``summary.json`` rewritten atomically with status ``"running"``. Whenever the
@@ -35,7 +37,7 @@ from dda.io.atomic import TEMP_MARK, append_whole, naming, write_text
 from dda.io.images import render_frame
 from dda.io.picture_process import PictureProcess
 from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
-from dda.io.run_folder import FRAME_PATTERNS, SUMMARY_NAME, RunFolder
+from dda.io.run_folder import BOLTS_INDEX, FRAME_PATTERNS, SUMMARY_NAME, RunFolder
 from dda.io.tables import (
     POINTS_NAME,
     history_header,
@@ -101,13 +103,15 @@ class RunWriter:
         self.picture = picture
         self.history_path = self.outdir / "history.csv"
         if resume_step is None:
-            blocks, contacts = [], []
+            blocks, contacts, bolts = [], [], []
             write_text(self.history_path, history_header())
         else:
-            blocks, contacts = _truncate_run(self.outdir, int(resume_step))
+            blocks, contacts, bolts = _truncate_run(self.outdir, int(resume_step))
         self.resumed_from = resume_step
         self.blocks_index = PvdIndex(self.outdir / "blocks.pvd", blocks)
         self.contacts_index = PvdIndex(self.outdir / "contacts.pvd", contacts)
+        # made with the first frame that has bolts: a run without [[bolts]] has no bolts.pvd
+        self.bolts_index = PvdIndex(self.outdir / BOLTS_INDEX, bolts) if bolts else None
         self.frame_count = len(blocks)
         self.last_step = step_of_file(blocks[-1][0]) if blocks else -1
         self.last_frame: Frame | None = None
@@ -144,12 +148,15 @@ class RunWriter:
             write_blocks_vtu(frame, blocks)
         with naming(contacts):
             write_contacts_vtu(frame, contacts)
-        if frame.bolts is not None and len(frame.bolts):  # drawn by dda render and movie
+        bolts = None
+        if frame.bolts is not None:  # drawn by dda render and movie; none in place: empty
             bolts = self.frames_dir / f"bolts_{stem}.vtu"
             with naming(bolts):
                 write_bolts_vtu(frame, bolts)
         self.blocks_index.add(frame.time, blocks)
         self.contacts_index.add(frame.time, contacts)
+        if bolts is not None:
+            self._add_bolts_entry(frame.time, bolts)
         if step > self.last_step:
             append_whole(self._history_fd, history_rows(frame), self.history_path)
             self.frame_count += 1
@@ -159,6 +166,12 @@ class RunWriter:
         self.last_frame = frame
         write_summary(self.outdir / SUMMARY_NAME, self._summary(None, "running", None, frame))
         logger.debug("frame step %d t=%g written", step, frame.time)
+
+    def _add_bolts_entry(self, time: float, bolts: Path) -> None:
+        """List ``bolts`` in ``bolts.pvd``, made with the first bolts file of the run."""
+        if self.bolts_index is None:
+            self.bolts_index = PvdIndex(self.outdir / BOLTS_INDEX)
+        self.bolts_index.add(time, bolts)
 
     def finish(
         self,
@@ -300,8 +313,9 @@ def write_run(
     return RunWriter(outdir, **options).finish(result, scene)
 
 
-def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:
-    """Cut the outputs in ``outdir`` back to ``step``; return the index entries kept."""
+def _truncate_run(outdir: Path, step: int) -> tuple[list, list, list]:
+    """Cut the outputs in ``outdir`` back to ``step``; return the index entries kept (of
+    ``blocks.pvd``, ``contacts.pvd`` and ``bolts.pvd``)."""
     kept = []
     for name in ("blocks.pvd", "contacts.pvd"):
         path = outdir / name
@@ -315,8 +329,22 @@ def _truncate_run(outdir: Path, step: int) -> tuple[list, list]:
     # the measurements were written up to the last frame kept (dda.run.measure)
     last = max((step_of_file(file) for file, _ in kept[0]), default=-1)
     _truncate_history(outdir / POINTS_NAME, last, header=None)
+    bolts = _bolts_entries(outdir, kept[0])
+    if not bolts:
+        (outdir / BOLTS_INDEX).unlink(missing_ok=True)  # listed only frames removed now
     logger.info("resuming %s at step %d: %d frames kept", outdir, step, len(kept[0]))
-    return kept[0], kept[1]
+    return kept[0], kept[1], bolts
+
+
+def _bolts_entries(outdir: Path, blocks: list[tuple[str, float]]) -> list[tuple[str, float]]:
+    """The ``bolts.pvd`` entries of the frames ``blocks`` lists: those with a bolts file
+    (so a run written before there was a ``bolts.pvd`` gets one when resumed)."""
+    entries = []
+    for file, t in blocks:
+        bolts = Path(file).with_name(Path(file).name.replace("blocks_", "bolts_", 1))
+        if bolts.name != Path(file).name and (outdir / bolts).is_file():
+            entries.append((bolts.as_posix(), t))
+    return entries
 
 
 def _truncate_history(path: Path, step: int, header: str | None = "") -> None:

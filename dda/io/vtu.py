@@ -19,7 +19,9 @@ neither a grid without cells nor an empty compressed array, and this is the
 empty grid that meshio, pyvista and ParaView all read.
 
 Bolts file (a scene with ``[[bolts]]``): one ``line`` cell per rock bolt, from its
-start to its end point in place, cell array ``bolt`` (its row).
+start to its end point in place, cell array ``bolt`` (its row). A frame with no bolt
+in place (before a stage installs them, after all broke) gives a file with no points and
+one empty ``polygon`` cell of ``bolt`` -1, as an empty contacts file.
 """
 
 from __future__ import annotations
@@ -155,6 +157,10 @@ def bolts_mesh(frame: Frame) -> meshio.Mesh:
     ``line`` cell a bolt, from its start to its end point, cell array ``bolt`` (its row)."""
     ends = np.asarray(frame.bolts, dtype=float).reshape(-1, 2, 2)
     count = len(ends)
+    if count == 0:  # see the module docstring
+        cells = [("polygon", np.zeros((1, 0), dtype=np.int64))]
+        no_bolt = {"bolt": [np.array([-1], dtype=np.int64)]}
+        return meshio.Mesh(np.zeros((0, 3)), cells, cell_data=no_bolt)
     lines = np.arange(2 * count, dtype=np.int64).reshape(count, 2)
     cell_data = {"bolt": [np.arange(count, dtype=np.int64)]}
     return meshio.Mesh(as_3d(ends.reshape(-1, 2)), [("line", lines)], cell_data=cell_data)
@@ -220,12 +226,16 @@ def read_frame(
 
 
 def _read_bolts(path: str | os.PathLike[str]) -> np.ndarray | None:
-    """(b, 2, 2) bolt ends from a file of :func:`write_bolts_vtu`, None without one."""
+    """(b, 2, 2) bolt ends from a file of :func:`write_bolts_vtu` ((0, 2, 2): no bolt in
+    place), None without one."""
     if not Path(path).is_file():
         return None
     mesh = _read_vtu(path)
-    lines = np.concatenate([block.data for block in mesh.cells if block.type == "line"])
-    order = np.argsort(np.concatenate(mesh.cell_data["bolt"]), kind="stable")
+    kept = [k for k, block in enumerate(mesh.cells) if block.type == "line"]
+    if not kept:
+        return np.zeros((0, 2, 2))
+    lines = np.concatenate([mesh.cells[k].data for k in kept])
+    order = np.argsort(np.concatenate([mesh.cell_data["bolt"][k] for k in kept]), kind="stable")
     return mesh.points[lines[order], :2].copy()
 
 
