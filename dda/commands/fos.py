@@ -234,6 +234,7 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
     (with the blocks that move at the first failing F)."""
     from dda.io.atomic import write_text
     from dda.io.images import render_frame
+    from dda.stability.criterion import criterion_record
     from dda.stability.report import fos_plot
     from dda.stability.trial import Trial, run_trial
 
@@ -263,12 +264,7 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
         "fails": outcome.fails,
         "verdict": outcome.verdict,
         "tolerance": scene.fos.tolerance,
-        "criterion": {
-            "duration": criterion.duration,
-            "window": criterion.window,
-            "velocity": criterion.velocity,
-            "blocks": list(criterion.blocks),
-        },
+        "criterion": criterion_record(criterion, scene),
         "trials": len(rows),
         # at the first failing F: the watched blocks whose mean speed exceeds the limit
         "moving_blocks": moving,

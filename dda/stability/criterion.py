@@ -93,6 +93,33 @@ def criterion_of(scene: Scene) -> Criterion:
     return Criterion(duration, fos.window, velocity, fos.blocks, start)
 
 
+def watched_blocks(criterion: Criterion, scene: Scene) -> tuple[str, ...]:
+    """The blocks a trial of ``scene`` watches: the criterion's ``blocks``, else every
+    block of the scene, less the fixed ones and those a stage removes (fragments of a
+    watched block are watched too, as :meth:`SpeedWatch.speeds` judges them)."""
+    removed = {name for stage in scene.stages for name in stage.remove}
+    named = set(criterion.blocks)
+    return tuple(
+        b.name
+        for b in scene.blocks
+        if not b.fixed and b.name not in removed and (not named or b.name in named)
+    )
+
+
+def criterion_record(criterion: Criterion, scene: Scene) -> dict:
+    """The criterion as ``fos.json`` holds it: ``duration``, ``window``, ``velocity``,
+    ``start`` (when the strengths are divided), ``watched`` (``"every free block"`` or
+    ``"[fos] blocks"``: which rule chose them) and ``blocks``, the watched blocks' names."""
+    return {
+        "duration": criterion.duration,
+        "window": criterion.window,
+        "velocity": criterion.velocity,
+        "start": criterion.start,
+        "watched": "[fos] blocks" if criterion.blocks else "every free block",
+        "blocks": list(watched_blocks(criterion, scene)),
+    }
+
+
 def block_radii(frame: Frame) -> np.ndarray:
     """r of every block of ``frame``: the distance of its farthest vertex from its centroid."""
     counts = np.array([len(v) for v in frame.vertices])

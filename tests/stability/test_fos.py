@@ -177,6 +177,7 @@ def test_dda_fos_writes_and_reuses(tmp_path, capsys, monkeypatch):
     # is run again for it)
     [moving] = summary["moving_blocks"]
     assert moving["name"] == "b0" and moving["speed"] > summary["criterion"]["velocity"]
+    assert summary["criterion"]["blocks"] == ["b0"]  # the free block, watched by default
     assert rerun["moving_blocks"] == summary["moving_blocks"]
     # another scene in the same folder starts afresh
     scene["joints"]["default"]["friction_angle"] = phi_for(30.0, 1.6)
