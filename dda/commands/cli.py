@@ -24,7 +24,6 @@ import logging
 import math
 import os
 import re
-import shutil
 import sys
 from collections.abc import Sequence
 from importlib import metadata
@@ -414,19 +413,10 @@ def _check_output_size(scene, args: argparse.Namespace) -> None:
         )
 
 
-def _warn_about_free_space(scene, outdir: Path) -> None:
-    """A warning when the run's estimated output exceeds the free space of ``outdir``."""
-    from dda.scene.limits import estimated_output_bytes
-
-    size, disk = estimated_output_bytes(scene), shutil.disk_usage(outdir)
-    if disk.total and size > disk.free:  # (pseudo file systems report no total)
-        logger.warning(
-            "the run may write %.3g GB; %s has %.3g GB free", size / 1e9, outdir, disk.free / 1e9
-        )
-
-
 def _run_in(folder, scene, args: argparse.Namespace) -> int:
     """Run ``scene`` into the claimed ``folder`` (new, overwritten or resumed)."""
+    from dda.io.disk_space import check_disk_space
+    from dda.io.output_paths import OutputError
     from dda.io.run_writer import RunWriter
     from dda.run.checkpoint import check_scene, read_checkpoint
 
@@ -437,7 +427,12 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
             return EXIT_OK
         checkpoint = read_checkpoint(folder.checkpoint_path)
         check_scene(checkpoint, scene)
-    _warn_about_free_space(scene, folder.outdir)
+    try:  # nothing written yet: a refusal gives the directory up as it was
+        check_disk_space(scene, folder.outdir, folder.reclaimable_bytes())
+    except OutputError as exc:
+        folder.abandon()
+        print(f"dda run: -o {exc}", file=sys.stderr)
+        return EXIT_INPUT
     resume_step = None if checkpoint is None else checkpoint.step
     writer = RunWriter(
         folder, scalars=args.scalars, image=not args.no_picture, resume_step=resume_step,

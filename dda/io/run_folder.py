@@ -96,9 +96,10 @@ class RunFolder:
         self.mode = mode
         if mode == "resume" and not self.outdir.is_dir():
             raise OutputError(self.outdir, "holds no run to resume")
-        made = _make_directory(self.outdir)
-        lock_existed = (self.outdir / LOCK_NAME).exists()
+        self._made = _make_directory(self.outdir)
+        self._lock_existed = (self.outdir / LOCK_NAME).exists()
         self._fd: int | None = None
+        self.claimed = False
         try:
             self._fd = _open_lock_file(self.outdir)
             record = _lock(self._fd, self.outdir)
@@ -107,14 +108,21 @@ class RunFolder:
             resumed = self.previous.run_id if mode == "resume" and self.previous else None
             self.run_id = resumed or new_run_id()
             self.started = time.time()
-            self.claimed = False
         except BaseException:
-            self.release()
-            if not lock_existed:  # refused: leave nothing behind
-                (self.outdir / LOCK_NAME).unlink(missing_ok=True)
-            for path in made:
-                path.rmdir()
+            self.abandon()
             raise
+
+    def abandon(self) -> None:
+        """Give the directory up unclaimed, as it was: release it, remove the lock file and
+        the directories made for the run (for a run refused before :meth:`claim`)."""
+        if self.claimed:
+            raise RuntimeError(f"{self.outdir}: claimed by this run; release it instead")
+        self.release()
+        if not self._lock_existed:
+            (self.outdir / LOCK_NAME).unlink(missing_ok=True)
+        for path in self._made:
+            path.rmdir()
+        self._made = []
 
     def claim(self) -> None:
         """Make the directory this run's: remove an earlier run's outputs (``overwrite``),
@@ -126,6 +134,12 @@ class RunFolder:
         self._write_record()
         (self.outdir / "frames").mkdir(exist_ok=True)
         self.claimed = True
+
+    def reclaimable_bytes(self) -> int:
+        """Bytes of an earlier run's files that :meth:`claim` removes (``overwrite``)."""
+        if self.mode != "overwrite" or self.previous is None:
+            return 0
+        return sum(path.stat().st_size for path in output_files(self.outdir))
 
     @property
     def checkpoint_path(self) -> Path:
@@ -175,10 +189,7 @@ def remove_outputs(outdir: Path) -> int:
     """Remove the files a run writes in ``outdir``, and those drawn from it by ``dda
     render``, ``dda plot`` and ``dda movie`` in their default places (others are left);
     return how many."""
-    old = [outdir / name for name in OUTPUTS if (outdir / name).is_file()]
-    old += [p for pattern in FRAME_PATTERNS for p in (outdir / "frames").glob(pattern)]
-    old += list(outdir.glob(f"*{TEMP_MARK}*"))
-    old += [p for pattern in DRAWN_PATTERNS for p in outdir.glob(pattern) if p.is_file()]
+    old = output_files(outdir)
     for path in old:
         path.unlink(missing_ok=True)
     for folder in (outdir / "plots", outdir / "frames"):
@@ -187,6 +198,15 @@ def remove_outputs(outdir: Path) -> int:
     if old:
         logger.info("removed %d files of an earlier run in %s", len(old), outdir)
     return len(old)
+
+
+def output_files(outdir: Path) -> list[Path]:
+    """The files of a run in ``outdir`` that :func:`remove_outputs` removes."""
+    old = [outdir / name for name in OUTPUTS if (outdir / name).is_file()]
+    old += [p for pattern in FRAME_PATTERNS for p in (outdir / "frames").glob(pattern)]
+    old += list(outdir.glob(f"*{TEMP_MARK}*"))
+    old += [p for pattern in DRAWN_PATTERNS for p in outdir.glob(pattern) if p.is_file()]
+    return old
 
 
 def _make_directory(outdir: Path) -> list[Path]:

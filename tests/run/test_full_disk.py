@@ -68,7 +68,22 @@ def test_a_partial_append_is_cut_back_to_whole_rows(tmp_path, monkeypatch):
     assert caught.value.filename == str(path) and path.read_text() == "head\n"
 
 
-def test_a_disk_too_full_to_start_the_outputs_names_the_file(tmp_path, capsys):
+def test_a_disk_too_full_to_start_is_refused_before_anything_is_written(tmp_path, capsys):
+    """8 kB free: less than the first frame and checkpoint (dda.io.disk_space)."""
+    with mounted(tmp_path / "tiny", size="8k") as disk:
+        assert main(["run", *RUN, "-o", str(disk / "run")]) == 2
+        assert list(disk.iterdir()) == []
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(f"dda run: -o {disk}/run: ")
+    assert "free on its disk, less than the run writes before its first step" in err[0]
+
+
+def test_a_disk_too_full_to_start_the_outputs_names_the_file(tmp_path, capsys, monkeypatch):
+    """When the estimate lets a run start that the disk cannot hold (another process
+    fills it), the write that fails is named."""
+    from dda.io import disk_space
+
+    monkeypatch.setattr(disk_space, "check_disk_space", lambda *args: None)
     with mounted(tmp_path / "tiny", size="8k") as disk:
         assert main(["run", *RUN, "-o", str(disk / "run")]) != 0
     err = capsys.readouterr().err
