@@ -26,7 +26,10 @@ complementarity, with N' = N + T, y = λn + p g + T and z = λt + ps s:
 (μ = 0: the conditions above; w is the normal spring's unused stretch, u and v the
 slip either way). Each iteration is a Newton step on these equations at a μ that
 shrinks towards 0 (Mehrotra's predictor–corrector: a predictor step at μ = 0 sets the
-centring σ = (μ_aff / μ)³, the corrector carries the predictor's second-order terms),
+centring σ = (μ_aff / μ)³, the corrector carries the predictor's second-order terms;
+then Gondzio's centrality correctors push the products that the step would take
+outside [0.1, 10] σμ back in, while that lengthens the step: 38 to 32 factorisations
+on the 40 × 40 wall's start),
 cut to keep every N', w, u, v, σ₁, σ₂ positive (``interior_step_to_boundary``). The contact
 unknowns are eliminated contact by contact:
 
@@ -279,6 +282,8 @@ class _Iterate:
         self.g = problem.geometry.rows.penetration.copy()
         self.s = problem.geometry.rows.slip.copy()
         self.scale = 0.0  # f: a typical contact force, set by :meth:`start`
+        m = len(self.live)
+        self.splits = [m, 2 * m]  # the products' array: N'w, u σ₁, v σ₂
 
     def d(self) -> np.ndarray:
         """D (n, 6) of the iterate (fixed blocks 0)."""
@@ -398,25 +403,52 @@ class _Iterate:
         k_sn = np.where(live, residuals.slope * (u / r1 - v / r2) / q, 0.0)
         self.system.factor(kn, ks, k_sn)
         springs = (kn, ks, k_sn, q)
-        mu = self.complementarity()
-        predictor = self.direction(residuals, springs, 0.0, None)
+        mu, fraction = self.complementarity(), self.policy.interior_step_to_boundary
+        predictor = self.direction(residuals, springs, 0.0, (0.0, 0.0, 0.0))
         reach = self.reach(predictor, 1.0)
-        centring = (self.complementarity(predictor, reach) / mu) ** 3
-        corrector = self.direction(residuals, springs, centring * mu, predictor)
-        self.advance(corrector, self.reach(corrector, self.policy.interior_step_to_boundary))
+        target = (self.complementarity(predictor, reach) / mu) ** 3 * mu
+        second = self.products(predictor, 1.0, relative=True)
+        corrector = self.direction(residuals, springs, target, second)
+        alpha = self.reach(corrector, fraction)
+        for _ in range(self.policy.interior_centrality_correctors):
+            aim = min(1.0, 1.5 * alpha + 0.1)
+            trial = self.products(corrector, aim)
+            bounded = np.clip(trial, 0.1 * target, 10.0 * target)
+            push = np.maximum(bounded - trial, -10.0 * target)
+            changes = [c - p for c, p in zip(second, np.split(push, self.splits), strict=True)]
+            better = self.direction(residuals, springs, target, tuple(changes))
+            longer = self.reach(better, fraction)
+            if longer < alpha + 0.1 * (aim - alpha):
+                break
+            corrector, alpha, second = better, longer, tuple(changes)
+        self.advance(corrector, alpha)
 
-    def direction(self, res: _Residuals, springs, target: float, predictor) -> _Direction:
-        """The Newton direction of the equations with the products at ``target``, plus
-        the predictor's second-order terms when given (module docstring)."""
+    def products(self, step: _Direction, alpha: float, relative: bool = False):
+        """N'w, u σ₁ and v σ₂ after ``alpha`` × ``step`` (relative: of the step's own
+        increments alone, Mehrotra's second-order terms) as a tuple, or, when not
+        relative, the live ones in one array (Gondzio's corrector)."""
+        live = self.live
+        if relative:
+            return (step.lift * step.spare, step.slip_forward * step.room_forward,
+                    step.slip_back * step.room_back)  # fmt: skip
+        parts = [
+            (self.lift + alpha * step.lift) * (self.spare + alpha * step.spare),
+            np.where(live, (self.slip_forward + alpha * step.slip_forward)
+                     * (self.room_forward + alpha * step.room_forward), 0.0),
+            np.where(live, (self.slip_back + alpha * step.slip_back)
+                     * (self.room_back + alpha * step.room_back), 0.0),
+        ]  # fmt: skip
+        return np.concatenate(parts)
+
+    def direction(self, res: _Residuals, springs, target: float, second) -> _Direction:
+        """The Newton direction of the equations with the products N'w, u σ₁, v σ₂ at
+        ``target`` less ``second`` (their terms beyond the linear ones: the predictor's
+        products, Mehrotra; less Gondzio's push towards the target) (module docstring)."""
         t, live = self.problem.terms, self.live
         kn, ks, k_sn, q = springs
         lift, spare, u, v = self.lift, self.spare, self.slip_forward, self.slip_back
         r1, r2 = self.room_forward, self.room_back
-        c_n = c_u = c_v = 0.0
-        if predictor is not None:
-            c_n = predictor.lift * predictor.spare
-            c_u = predictor.slip_forward * predictor.room_forward
-            c_v = predictor.slip_back * predictor.room_back
+        c_n, c_u, c_v = second
         n_free = (lift * res.normal + target - lift * spare - c_n) / (lift + spare)
         forward = (target - u * r1 - c_u - u * res.room_forward) / r1
         back = (target - v * r2 - c_v - v * res.room_back) / r2

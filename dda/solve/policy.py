@@ -178,6 +178,9 @@ class StepPolicy:
     # the first iterate's contact unknowns lie this many f inside their bounds (0.1, 0.3
     # and 3 took more iterations on the 20 x 20 and 40 x 40 walls and the rock slope)
     interior_start_shift: float = 1.0
+    # Gondzio's centrality correctors after Mehrotra's (each one solve with the
+    # iteration's factorisation), while each lengthens the step
+    interior_centrality_correctors: int = 2
     # relative increment of N for the slope b'(N) of the friction bound
     interior_slope_step: float = 1e-6
 
