@@ -18,6 +18,12 @@ from tests.helpers import G
 from tests.standing.incline import ROCK_1E9, THETA, friction_angle, incline_scene
 
 
+@pytest.fixture
+def interior_only(monkeypatch):
+    """The start by the interior point, without the few Newton iterations tried first."""
+    monkeypatch.setattr(equilibrium_start, "FEW_NEWTON_ITERATIONS", 0)
+
+
 def _start(scene) -> dda.Result:
     """The run's first step, from its equilibrium start."""
     raw = dict(scene)
@@ -32,7 +38,7 @@ def _weight() -> float:
 
 
 @pytest.mark.parametrize("ratio", [0.5, 0.8, 0.99])
-def test_a_block_within_its_friction_starts_with_the_forces_of_statics(ratio):
+def test_a_block_within_its_friction_starts_with_the_forces_of_statics(ratio, interior_only):
     """N = W cos θ, F = W sin θ on the block's contacts at t = 0 (to 1e-6 W)."""
     result = _start(incline_scene(ratio, 1e-3, 1e-3))
     assert result.summary["start_method"] == equilibrium_start.INTERIOR_POINT
@@ -44,7 +50,7 @@ def test_a_block_within_its_friction_starts_with_the_forces_of_statics(ratio):
     )
 
 
-def test_a_block_beyond_its_friction_starts_with_the_forces_of_its_release():
+def test_a_block_beyond_its_friction_starts_with_the_forces_of_its_release(interior_only):
     """At 1.05 of its friction: N = W cos θ and F = tan φ N at t = 0 (to 1e-6 W)."""
     result = _start(incline_scene(1.05, 1e-3, 1e-3))
     assert result.summary["start_method"] == equilibrium_start.INTERIOR_POINT
@@ -60,7 +66,7 @@ def _wall_start(n: int, monkeypatch=None) -> dda.Result:
     return dda.simulate(wall_scene(n, method="augmented-lagrangian", steps=1, start="equilibrium"))
 
 
-def test_the_interior_point_start_equals_the_continuations_on_a_wall(monkeypatch):
+def test_the_interior_point_start_equals_the_continuations_on_a_wall(monkeypatch, interior_only):
     """The 5 x 5 wall: the same contact forces at t = 0 by either method, to 1e-4 of the
     largest: the continuation settles the friction bounds to the law's friction_tolerance
     (1e-3 of their norm), the interior point solves Coulomb's bound with the forces."""
@@ -84,7 +90,9 @@ def test_the_start_of_a_bench_wall_takes_at_most_40_newton_iterations(n):
     assert summary["start_newton_iterations"] <= 40
 
 
-def test_a_start_whose_interior_point_does_not_settle_goes_on_by_continuation(monkeypatch):
+def test_a_start_whose_interior_point_does_not_settle_goes_on_by_continuation(
+    monkeypatch, interior_only
+):
     """Two iterations are not enough: the continuation finishes the start, and the
     summary says which method did."""
     monkeypatch.setattr(policy, "DEFAULT", replace(policy.DEFAULT, interior_iterations=2))
@@ -114,3 +122,11 @@ def test_the_unsymmetric_lu_solves_to_round_off(monkeypatch, pardiso):
         x = lu.solve(rhs)
         assert np.linalg.norm(current @ x - rhs) <= 1e-10 * np.linalg.norm(rhs)
     lu.release()
+
+
+def test_a_scene_that_stands_at_once_starts_by_a_few_newton_iterations():
+    """A block at half its friction: the continuation's first pseudo-steps settle within
+    ``FEW_NEWTON_ITERATIONS``, and no interior-point solve is made."""
+    result = _start(incline_scene(0.5, 1e-3, 1e-3))
+    assert result.summary["start_method"] == equilibrium_start.FEW_NEWTON
+    assert result.summary["start_newton_iterations"] <= equilibrium_start.FEW_NEWTON_ITERATIONS
