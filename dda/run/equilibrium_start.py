@@ -167,7 +167,7 @@ def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTim
     if found is None and INTERIOR_REGULARISERS:
         method = INTERIOR_POINT
         try:
-                found, more = _by_interior_point(limit, blocks, start, stiffness, timer)
+            found, more = _by_interior_point(limit, blocks, start, stiffness, timer)
         finally:
             limit.release()
         newton += more
@@ -312,11 +312,14 @@ class _Limit:
                 return solution.d, None, iterations
             g, s = problem.geometry.at(solution.d)
             terms = replace(problem.terms, bound=problem.bound(solution.normal))
-            if contact_law.break_bonds(work, terms, problem.joints, g, s) == 0:
+            if problem.joints is None or not contact_law.break_bonds(
+                work, terms, problem.joints, g, s
+            ):
                 break
         else:
             return solution.d, None, iterations
-        contact_law.record(work, terms, g, s, model.contact.law.friction_tolerance)
+        band = 0.0 if model.contact is None else model.contact.law.friction_tolerance
+        contact_law.record(work, terms, g, s, band)
         return solution.d, work, iterations
 
     def release(self) -> None:

@@ -29,6 +29,7 @@ from dda.contact.contact_set import ContactSet
 from dda.contact.formulas import first_bound, remembered_pieces
 from dda.contact.law import BoundIteration, ContactLaw, JointProperties
 from dda.contact.narrow import separated_blocks
+from dda.contact.potential import ContactTerms
 from dda.contact.push_out import push_out_displacement, pushed_overlap
 from dda.contact.rows import ContactRows, contact_rows, gaps_after
 from dda.effects.base import StepContext
@@ -653,12 +654,18 @@ def static_contact_problem(
     """The data of a static step (``ctx.static``) for :func:`dda.solve.interior_point.
     solve_interior`: the effects' quadratic and couplings, the contacts' rows (gaps from
     ``ctx.prescribed``), their springs and tension as the step's first Newton solve has
-    them, and the friction bound b(N) of the joint law; None without contacts."""
+    them, and the friction bound b(N) of the joint law (none without a contact model)."""
     cm = model.contact
-    if cm is None or len(contacts) == 0:
-        return None
     base_k, base_f = _effect_terms(model, blocks, ctx)
     couplings = _couplings(model, blocks, ctx)
+    quadratic = BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings)
+    if cm is None:
+        contacts = ContactSet.empty()
+        geometry = ContactGeometry(
+            contact_rows(blocks, contacts), contacts.block_a, contacts.block_b
+        )
+        terms = ContactTerms(*(np.zeros(0) for _ in range(6)))
+        return StaticContactProblem(quadratic, geometry, terms, np.zeros_like, False)
     rows = contact_rows(blocks, contacts)
     if ctx.prescribed is not None:
         rows.penetration, rows.slip = gaps_after(
@@ -674,7 +681,7 @@ def static_contact_problem(
         return contact_law.friction_bound(contacts, joints, normal)
 
     return StaticContactProblem(
-        BlockQuadratic(base_k, base_f, ~blocks.fixed, couplings),
+        quadratic,
         ContactGeometry(rows, contacts.block_a, contacts.block_b),
         terms,
         bound,
