@@ -152,6 +152,8 @@ def test_case_runs_and_matches_stored_number(name):
     result = dda.simulate(load_case(name, overrides))
     assert result.summary["status"] == "finished"
     assert quantity(result) == pytest.approx(expected, rel=rel)
+    # no shipped case starts by the fallback of the equilibrium start (issue 57)
+    assert result.summary["start_method"] != "continuation"
 
 
 # shipped strength-reduction cases: (stored FoS, the bracket dda fos found) with the
