@@ -139,8 +139,9 @@ class BoundIteration:
     row (:func:`_least_squares_by_rows`), as the compiled step on band systems makes
     them (:mod:`dda.solve.band_step`), whose Python oracle sets it; else numpy's matrix
     products. The two differ in the last bits, and the iteration carries such
-    differences far where the bounds settle slowly: the tunnel's equilibrium start with
-    SuperLU settles with the matrix products and not within its budget by rows.
+    differences far where the bounds settle slowly: the tunnel's start by the Newton
+    continuation alone (the equilibrium start's fallback) with SuperLU settles with the
+    matrix products and not within its budget by rows.
     """
 
     DEPTH = 4
@@ -267,7 +268,13 @@ def update(
     return LawOutcome(bool(settled), bound, augmented, broken, violation)
 
 
-def break_bonds(contacts, terms, joint, g, s) -> int:
+def break_bonds(
+    contacts: ContactSet,
+    terms: ContactTerms,
+    joint: JointProperties,
+    g: np.ndarray,
+    s: np.ndarray,
+) -> int:
     """Intact contacts with a bond to lose (a peak strength above the residual: tensile
     strength, cohesion or friction) pulled to their tensile strength, or slipping, have
     their residual strength from then on, for good."""

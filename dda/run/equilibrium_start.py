@@ -77,11 +77,11 @@ from dda.solve.timing import StageTimer
 
 log = logging.getLogger(__name__)
 
-# the first solve's regulariser over each block's E_i / m_i (Newton iterations of the
-# whole start against the run's own 2/Δt², one solver thread: 20 x 20 wall 52 / 103,
-# 40 x 40 168 / 223, the tunnel 422 / 583, the rock slope 82 / 129; 1e-3 and 1e-4 did
-# better on some and worse on others, and 1e-4 did not settle the tunnel with the numpy
-# twins: docs/contact.md, "What the equilibrium start costs")
+# the first solve's regulariser over each block's E_i / m_i, of the interior point's and
+# the continuation's: it holds the blocks at 1 % of their elastic stiffness while the
+# loads go into the contacts (cases/jointed_slope_fos.toml's stored factor of safety
+# holds with 1e-2, not with 1e-3 or 1e-1, nor with one solve at the last: a slope at its
+# limit stands or not by the equilibrium the start finds, docs/contact.md)
 FIRST_REGULARISER = 1e-2
 # the last regulariser's stiffness over each block's Young's modulus: small enough that
 # the forces are those of the limit (to this fraction)
@@ -112,7 +112,7 @@ INTERIOR_REGULARISERS = (FIRST_REGULARISER, RELATIVE_REGULARISER)
 BOND_ROUNDS = 10
 # the start first tries the continuation within this many Newton iterations in all (0:
 # not at all): a scene drawn in equilibrium (an in-situ field its contacts carry) stands at once
-# (cases/tunnel_deep.toml: 3, 0.02 s; its interior-point start 31, 0.25 s)
+# (cases/tunnel_deep.toml: 3, 0.04 s; its interior-point start 31, 0.25 s)
 FEW_NEWTON_ITERATIONS = 4
 # how the limit solve settled (``Settled.method``, the run's summary["start_method"])
 FEW_NEWTON = "newton"
@@ -145,17 +145,21 @@ class Settled:
     contacts: ContactSet  # the contacts at t = 0, loaded
     stress: np.ndarray  # (n, 3) the blocks' stresses
     newton_iterations: int
-    method: str  # INTERIOR_POINT or CONTINUATION
+    method: str  # FEW_NEWTON, INTERIOR_POINT or CONTINUATION
 
 
-def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTimer):
+def settle(
+    model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTimer
+) -> Settled | None:
     """The loaded start of ``blocks`` and ``contacts`` (found at t = 0), or None when
     the limit solve does not settle (the run then starts unloaded). The effects'
     springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``).
 
-    The limit solve is one interior-point solve at the last regulariser
-    (:mod:`dda.solve.interior_point`) finished by the step's Newton; where that does not
-    settle, the continuation of pseudo-steps (:func:`_by_continuation`)."""
+    The limit solve (module docstring): the continuation within
+    ``FEW_NEWTON_ITERATIONS``; else the interior-point pseudo-steps at
+    ``INTERIOR_REGULARISERS`` finished by the step's Newton (:func:`_by_interior_point`);
+    else the continuation alone (:func:`_by_continuation`). The Newton iterations it
+    reports count the interior-point solves' factorisations too."""
     touching = np.flatnonzero(contacts.state != OPEN)
     start = contacts.subset(touching)
     limit = _Limit.of(model, blocks)
@@ -188,19 +192,16 @@ def settle(model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTim
 
 
 def _by_interior_point(limit, blocks, start, stiffness, timer):
-    """((D*, the contacts solved), Newton iterations) of interior-point pseudo-steps at
-    the regularisers ``INTERIOR_REGULARISERS``, then the continuation's pseudo-steps of
-    the step's Newton from the last of them (the first finishes its solve: its pieces
-    are the solution's, one iteration on the bench walls); (None, the iterations spent)
-    when one does not settle."""
+    """((D*, the contacts solved), Newton iterations and factorisations) of interior-point
+    pseudo-steps at the regularisers ``INTERIOR_REGULARISERS``, then a pseudo-step of the
+    step's Newton at the last of them from there (its pieces are the solution's: one
+    iteration on the bench walls); (None, the iterations spent) when one does not
+    settle."""
     d = np.zeros((blocks.count, 6))
     contacts, newton = start, 0
     for fraction in INTERIOR_REGULARISERS:
         with timer("interior_point"):
-            solved = limit.interior(blocks, contacts, fraction * stiffness, d)
-        if solved is None:
-            return None, newton
-        step, recorded, iterations = solved
+            step, recorded, iterations = limit.interior(blocks, contacts, fraction * stiffness, d)
         newton += iterations
         if recorded is None:
             return None, newton
@@ -291,8 +292,8 @@ class _Limit:
     def interior(self, blocks, contacts, scale, d):
         """(ΔD, the contacts with the states and forces at d + ΔD, factorisations) of the
         interior-point solve of the step from the accumulated ``d`` held by the regulariser
-        ``scale`` (as :meth:`solve`); the contacts None when it did not converge; None for
-        no contacts."""
+        ``scale`` (as :meth:`solve`), each repeated with the bonds the last broke; the
+        contacts None when one did not converge."""
         offset = -np.einsum("nij,nj->ni", self.linear, d)
         effects = [Proximal(self.masses, scale, offset), *self.effects]
         model = replace(self.model, effects=effects)
@@ -301,8 +302,6 @@ class _Limit:
         work, iterations = contacts.copy(), 0
         for _ in range(BOND_ROUNDS):
             problem = static_contact_problem(model, blocks, work, ctx)
-            if problem is None:
-                return None
             if self.matrix is None or not self.matrix.fits(problem):
                 self.release()
                 self.matrix = NewtonMatrix(problem)

@@ -168,8 +168,9 @@ class StepPolicy:
     # each step goes this fraction of the way to the nearest bound of its unknowns
     interior_step_to_boundary: float = 0.995
     # it has converged when μ is within this fraction of f² (f: a typical contact
-    # force) ... (1e-8 and 1e-6 took the tunnel's start from 82 Newton iterations to
-    # 113 and 169: the Newton that finishes it then finds other pieces)
+    # force) ... (looser ends cost more: the Newton that finishes then finds other
+    # pieces; the tunnel's start, without centrality correctors, 113 and 169 Newton
+    # iterations at 1e-8 and 1e-6 against 82)
     interior_complementarity_end: float = 1e-10
     # ... and every residual within this fraction of its force (at least f) ...
     interior_residual_end: float = 1e-9

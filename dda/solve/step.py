@@ -650,7 +650,7 @@ def solve_step(
 
 def static_contact_problem(
     model: Model, blocks: BlockSet, contacts: ContactSet, ctx: StepContext
-) -> StaticContactProblem | None:
+) -> StaticContactProblem:
     """The data of a static step (``ctx.static``) for :func:`dda.solve.interior_point.
     solve_interior`: the effects' quadratic and couplings, the contacts' rows (gaps from
     ``ctx.prescribed``), their springs and tension as the step's first Newton solve has

@@ -30,12 +30,11 @@ class UnsymmetricLU:
 
     def __init__(self, pattern: sp.csr_matrix) -> None:
         self.pattern = pattern
-        self.threads = current_policy().solver_threads()
         self._pardiso: PardisoCall | None = None
         self._lu = None
         self.analysed = False
         if pardiso_available():
-            handle = new_pardiso_handle(self.threads)
+            handle = new_pardiso_handle(current_policy().solver_threads())
             handle.mtype = UNSYMMETRIC
             self._handle = handle
             self._pardiso = PardisoCall(handle, pattern.indptr, pattern.indices)
