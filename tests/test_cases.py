@@ -183,8 +183,11 @@ def test_stored_fos(name):
 
 
 # shipped ensemble cases: (realisation -> fails?, of the first ten) with the case's seed
+# realisation 5 is at its limit: it fails from the interior-point start and stands from
+# the continuation's (the two starts' normal forces differ by 2e-5 of their sum, within
+# the continuation's friction tolerance, 1e-3 of the bounds), docs/stability.md
 STORED_ENSEMBLE = {
-    "jointed_slope_ensemble": {0: True, 1: False, 2: True, 3: False, 4: False, 5: False,
+    "jointed_slope_ensemble": {0: True, 1: False, 2: True, 3: False, 4: False, 5: True,
                                6: False, 7: False, 8: False, 9: False},
 }  # fmt: skip
 
