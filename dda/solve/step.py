@@ -392,6 +392,18 @@ def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, 
         )  # fmt: skip
 
 
+def _rows_at(blocks: BlockSet, contacts: ContactSet, ctx: StepContext) -> ContactRows:
+    """The contacts' rows, their gaps at ``ctx.prescribed`` where it is given (fixed
+    blocks moved by the ground, or the equilibrium start's accumulated D: the known part
+    of g and s)."""
+    rows = contact_rows(blocks, contacts)
+    if ctx.prescribed is not None:
+        rows.penetration, rows.slip = gaps_after(
+            rows, contacts.block_a, contacts.block_b, ctx.prescribed
+        )
+    return rows
+
+
 def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
     """Friction bounds of the step's first solve, from the larger of each contact's
     normal force at the end of the last step and at this step's start geometry
@@ -580,11 +592,7 @@ def solve_step(
 
     law = cm.law
     with timer("contact_law"):
-        rows = contact_rows(blocks, contacts)
-        if ctx.prescribed is not None:  # fixed blocks moved by the ground: known part of g, s
-            rows.penetration, rows.slip = gaps_after(
-                rows, contacts.block_a, contacts.block_b, ctx.prescribed
-            )
+        rows = _rows_at(blocks, contacts, ctx)
         joint_rows = cm.joints.rows_for(blocks, contacts)
         joints = cm.joints.properties(joint_rows, rows.length)
         if cm.joints.has_restitution and not ctx.static:  # dashpots beside the springs
@@ -666,11 +674,7 @@ def static_contact_problem(
         )
         terms = ContactTerms(*(np.zeros(0) for _ in range(6)))
         return StaticContactProblem(quadratic, geometry, terms, np.zeros_like, False)
-    rows = contact_rows(blocks, contacts)
-    if ctx.prescribed is not None:
-        rows.penetration, rows.slip = gaps_after(
-            rows, contacts.block_a, contacts.block_b, ctx.prescribed
-        )
+    rows = _rows_at(blocks, contacts, ctx)
     joints = cm.joints.properties(cm.joints.rows_for(blocks, contacts), rows.length)
     law = cm.law
     terms = contact_law.contact_terms(
