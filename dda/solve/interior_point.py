@@ -61,6 +61,16 @@ import scipy.sparse as sp
 
 from dda.contact.potential import ContactTerms
 from dda.contact.strength import JointProperties
+from dda.jit import compiled, floats
+from dda.solve.interior_contacts import (
+    contact_direction,
+    direction_kernel,
+    free_terms,
+    matrix_values_kernel,
+    rhs_kernel,
+    room,
+)
+from dda.solve.interior_contacts import springs as interior_springs
 from dda.solve.newton import BlockQuadratic, ContactGeometry
 from dda.solve.policy import StepPolicy, current_policy
 from dda.solve.unsymmetric import UnsymmetricLU
@@ -159,7 +169,10 @@ class NewtonMatrix:
             (np.zeros(len(keys)), keys % self.size, _indptr(keys // self.size, self.size)),
             shape=(self.size, self.size),
         )
-        self.fill = _fill_matrix(self.normal_rows, self.shear_rows, dofs, keys, self.size)
+        valid = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)  # (m, 12, 12)
+        self.where = np.full(valid.shape, -1, dtype=np.int64)
+        self.where[valid] = _positions(keys, *_pairs(dofs), self.size)
+        self._fill = None
         self.lu = UnsymmetricLU(self.pattern)
         self.load(problem)
 
@@ -197,7 +210,21 @@ class NewtonMatrix:
 
     def factor(self, kn: np.ndarray, ks: np.ndarray, k_sn: np.ndarray) -> None:
         """Factorise the matrix of the springs kn, ks and the coupling k_sn (per contact)."""
-        self.lu.factor(self.base + self.fill @ np.concatenate([kn, ks, k_sn * kn]))
+        if compiled(matrix_values_kernel):
+            values = matrix_values_kernel(
+                self.base, self.where, self.normal_rows, self.shear_rows, kn, ks, k_sn * kn
+            )
+        else:
+            values = self.base + self.fill @ np.concatenate([kn, ks, k_sn * kn])
+        self.lu.factor(values)
+
+    @property
+    def fill(self) -> sp.csr_matrix:
+        """The (values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part of the
+        values (:func:`_fill_matrix`), made at its first use (numpy's path)."""
+        if self._fill is None:
+            self._fill = _fill_matrix(self.normal_rows, self.shear_rows, self.where, len(self.keys))
+        return self._fill
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self.lu.solve(rhs)
@@ -223,12 +250,12 @@ def _pairs(dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows[valid], cols[valid]
 
 
-def _fill_matrix(normal, shear, dofs, keys, size) -> sp.csr_matrix:
+def _fill_matrix(normal, shear, where, values: int) -> sp.csr_matrix:
     """The (pattern's values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part
-    of the values: ∇g∇gᵀ, ∇s∇sᵀ and ∇s∇gᵀ of each contact at its blocks' unknowns."""
-    m = len(dofs)
-    valid = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)  # (m, 12, 12)
-    where = _positions(keys, *_pairs(dofs), size)
+    of the values: ∇g∇gᵀ, ∇s∇sᵀ and ∇s∇gᵀ of each contact at its blocks' unknowns
+    (``where``: their places among the values, −1 for a fixed block's)."""
+    m = len(where)
+    valid = where >= 0
     contact = np.broadcast_to(np.arange(m)[:, None, None], valid.shape)[valid]
     parts = [
         (normal[:, :, None] * normal[:, None, :])[valid],
@@ -238,9 +265,9 @@ def _fill_matrix(normal, shear, dofs, keys, size) -> sp.csr_matrix:
     return sp.csr_matrix(
         (
             np.concatenate(parts),
-            (np.tile(where, 3), np.concatenate([contact + k * m for k in range(3)])),
+            (np.tile(where[valid], 3), np.concatenate([contact + k * m for k in range(3)])),
         ),
-        shape=(len(keys), 3 * m),
+        shape=(values, 3 * m),
     )
 
 
@@ -401,14 +428,14 @@ class _Iterate:
         """One predictor–corrector iteration (one factorisation, two solves)."""
         t, live = self.problem.terms, self.live
         u, v, r1, r2 = self.slip_forward, self.slip_back, self.room_forward, self.room_back
-        kn = t.penalty * self.lift / (self.lift + self.spare)
-        q = np.where(live, 1.0 + u / r1 + v / r2, 1.0)
-        ks = np.where(live, t.shear_penalty / q, 0.0)
-        k_sn = np.where(live, residuals.slope * (u / r1 - v / r2) / q, 0.0)
+        springs = kn, ks, k_sn, q = interior_springs(
+            self.lift, self.spare, u, v, r1, r2, residuals.slope, t.penalty, t.shear_penalty,
+            live,
+        )  # fmt: skip
         self.system.factor(kn, ks, k_sn)
-        springs = (kn, ks, k_sn, q)
         mu, fraction = self.complementarity(), self.policy.interior_step_to_boundary
-        predictor = self.direction(residuals, springs, 0.0, (0.0, 0.0, 0.0))
+        nothing = np.zeros(len(live))
+        predictor = self.direction(residuals, springs, 0.0, (nothing, nothing, nothing))
         reach = self.reach(predictor, 1.0)
         target = (self.complementarity(predictor, reach) / mu) ** 3 * mu
         second = self.second_order(predictor)
@@ -450,56 +477,49 @@ class _Iterate:
     def direction(self, res: _Residuals, springs, target: float, second) -> _Direction:
         """The Newton direction of the equations with the products N'w, u σ₁, v σ₂ at
         ``target`` less ``second`` (their terms beyond the linear ones: the predictor's
-        products, Mehrotra; less Gondzio's push towards the target) (module docstring)."""
-        t, live = self.problem.terms, self.live
+        products, Mehrotra; less Gondzio's push towards the target) (module docstring;
+        contact by contact :mod:`dda.solve.interior_contacts`, compiled where the kernels
+        are used)."""
+        t, live, system = self.problem.terms, self.live, self.system
+        state = (self.lift, self.spare, self.slip_forward, self.slip_back,
+                 self.room_forward, self.room_back)  # fmt: skip
+        residual = (res.normal, res.shear, res.room_forward, res.room_back, res.slope)
+        if compiled(direction_kernel):
+            return self._compiled_direction(res, springs, target, second, state, residual)
         kn, ks, k_sn, q = springs
-        lift, spare, u, v = self.lift, self.spare, self.slip_forward, self.slip_back
-        r1, r2 = self.room_forward, self.room_back
-        c_n, c_u, c_v = second
-        n_free = (lift * res.normal + target - lift * spare - c_n) / (lift + spare)
-        forward = (target - u * r1 - c_u - u * res.room_forward) / r1
-        back = (target - v * r2 - c_v - v * res.room_back) / r2
-        f_free = np.where(live, (res.shear - forward + back) / q, 0.0)
-        system = self.system
+        n_free, f_free = free_terms(*state, q, *residual[:4], target, *second, live)
         rhs = -res.equilibrium - system.gn_t @ n_free - system.gs_t @ (f_free + k_sn * n_free)
         dx = system.solve(rhs)
         dg, ds = system.gn @ dx, system.gs @ dx
-        d_lift = kn * dg + n_free
-        d_shear = np.where(live, ks * ds + k_sn * d_lift + f_free, 0.0)
-        d_r1 = np.where(live, res.slope * d_lift - d_shear + res.room_forward, 0.0)
-        d_r2 = np.where(live, res.slope * d_lift + d_shear + res.room_back, 0.0)
-        # u and v from their complementarity, but the one of a sliding contact (u/σ₁ or
-        # v/σ₂ large: its σ tends to 0) from the shear equation, which it then keeps to
-        # round-off (its complementarity holds in exact arithmetic either way)
-        d_forward = (target - u * r1 - c_u - u * d_r1) / r1
-        d_back = (target - v * r2 - c_v - v * d_r2) / r2
-        forward_slides = u / r1 >= v / r2
-        d_forward = np.where(forward_slides, t.shear_penalty * ds + d_back + res.shear - d_shear,
-                             d_forward)  # fmt: skip
-        d_back = np.where(forward_slides, d_back,
-                          d_shear - t.shear_penalty * ds + d_forward - res.shear)  # fmt: skip
-        return _Direction(
-            dx, d_lift, d_lift - t.penalty * dg - res.normal, d_shear,
-            np.where(live, d_forward, 0.0), np.where(live, d_back, 0.0), d_r1, d_r2,
+        changes = contact_direction(
+            dg, ds, *state, kn, ks, k_sn, res.slope, t.penalty, t.shear_penalty, n_free,
+            f_free, *residual[:4], target, *second[1:], live,
         )  # fmt: skip
+        rooms = [room(value, change) for value, change in zip(state[:2], changes[:2], strict=True)]
+        rooms += [room(value[live], change[live])
+                  for value, change in zip(state[2:], changes[3:], strict=True)]  # fmt: skip
+        limit = min((float(np.min(r)) for r in rooms if len(r)), default=np.inf)
+        return _Direction(dx, *changes, limit)
+
+    def _compiled_direction(self, res, springs, target, second, state, residual) -> _Direction:
+        """:meth:`direction` by the kernels of :mod:`dda.solve.interior_contacts`."""
+        t, live, system = self.problem.terms, self.live, self.system
+        gn, gs = system.gn, system.gs
+        rows = (gn.indptr, gn.indices, gn.data, gs.indptr, gs.indices, gs.data)
+        rhs, n_free, f_free = rhs_kernel(
+            res.equilibrium, *rows, state, springs, residual, float(target), second, live
+        )
+        dx = system.solve(rhs)
+        _, _, changes, limit = direction_kernel(
+            dx, *rows, state, springs, residual, floats(t.penalty), floats(t.shear_penalty),
+            n_free, f_free,
+            float(target), second, live,
+        )  # fmt: skip
+        return _Direction(dx, *changes, float(limit))
 
     def reach(self, step: _Direction, fraction: float) -> float:
         """The longest step ≤ 1 that keeps N', w, u, v, σ₁, σ₂ positive, times ``fraction``."""
-        live = self.live
-        pairs = [(self.lift, step.lift), (self.spare, step.spare)]
-        pairs += [
-            (value[live], change[live])
-            for value, change in (
-                (self.slip_forward, step.slip_forward), (self.slip_back, step.slip_back),
-                (self.room_forward, step.room_forward), (self.room_back, step.room_back),
-            )
-        ]  # fmt: skip
-        alpha = 1.0
-        for value, change in pairs:
-            falling = change < 0.0
-            if np.any(falling):
-                alpha = min(alpha, fraction * float(np.min(-value[falling] / change[falling])))
-        return alpha
+        return min(1.0, fraction * step.limit)
 
     def advance(self, step: _Direction, alpha: float) -> None:
         self.move(alpha * step.x)
@@ -535,3 +555,4 @@ class _Direction:
     slip_back: np.ndarray
     room_forward: np.ndarray
     room_back: np.ndarray
+    limit: float  # the largest step that keeps the contact unknowns positive

@@ -86,6 +86,8 @@ TWINS = {
     ("solve/assembly.py", "_subtract_pairs_kernel"): "sparse",
     ("solve/band_system.py", "_columns_kernel"): "wall",
     ("solve/band_system.py", "band_newton.band_minimise_kernel"): "wall",
+    ("solve/interior_point.py", "direction_kernel"): "wall",
+    ("solve/interior_point.py", "matrix_values_kernel"): "wall",
     ("solve/newton.py", "line_step.line_step_kernel"): "sparse",
     ("solve/update.py", "apply_kernel"): "wall",
     ("solve/update.py", "moves_kernel"): "wall",

@@ -1,0 +1,169 @@
+"""The interior point's contact-by-contact algebra (:mod:`dda.solve.interior_point`): the
+springs of an iteration's matrix, the contacts' part of its right-hand side, the
+contact unknowns' direction from the blocks' and the longest step that keeps them
+positive.
+
+Each is a :func:`dda.jit.formula` of one contact's numbers: numpy calls it on arrays,
+the kernels below compile it into a loop over the contacts with the sparse products by
+the gap gradients ∇g, ∇s (CSR rows, one per contact) beside it, so that an iteration's
+work outside the LU is two compiled calls a direction. Notation (the module docstring
+of :mod:`dda.solve.interior_point`): N' (``lift``), w (``spare``), u, v, σ₁, σ₂ the
+contact unknowns, p, ps the springs, b'(N) the bound's slope (``slope``), the residuals
+r_N = y + w − N', r_F = z − u + v − F, r₁ = b − F − σ₁, r₂ = b + F − σ₂, the products'
+target μ_t and their terms beyond the linear ones c_N, c_u, c_v.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dda.jit import formula, kernel, select
+
+
+@formula
+def springs(lift, spare, u, v, r1, r2, slope, penalty, shear_penalty, live):
+    """(kn, ks, k_sn, q) of a contact: kn = p N' / (N' + w), q = 1 + u/σ₁ + v/σ₂,
+    ks = ps / q, k_sn = b'(N) (u/σ₁ − v/σ₂) / q (ks = k_sn = 0, q = 1 where not live)."""
+    kn = penalty * lift / (lift + spare)
+    q = select(live, 1.0 + u / r1 + v / r2, 1.0)
+    ks = select(live, shear_penalty / q, 0.0)
+    k_sn = select(live, slope * (u / r1 - v / r2) / q, 0.0)
+    return kn, ks, k_sn, q
+
+
+@formula
+def free_terms(lift, spare, u, v, r1, r2, q, res_n, res_s, res_1, res_2, target, c_n, c_u, c_v,
+               live):  # fmt: skip
+    """(ΔN', ΔF) of a contact at Δg = Δs = 0 (its unknowns eliminated, the rest of their
+    direction kn Δg and ks Δs + k_sn ΔN'):
+    ΔN'₀ = (N' r_N + μ_t − N'w − c_N) / (N' + w),
+    ΔF₀ = (r_F − a + c) / q,
+    a = (μ_t − uσ₁ − c_u − u r₁) / σ₁, c = (μ_t − vσ₂ − c_v − v r₂) / σ₂."""
+    n_free = (lift * res_n + target - lift * spare - c_n) / (lift + spare)
+    forward = (target - u * r1 - c_u - u * res_1) / r1
+    back = (target - v * r2 - c_v - v * res_2) / r2
+    f_free = select(live, (res_s - forward + back) / q, 0.0)
+    return n_free, f_free
+
+
+@formula
+def contact_direction(dg, ds, lift, spare, u, v, r1, r2, kn, ks, k_sn, slope, penalty,
+                      shear_penalty, n_free, f_free, res_n, res_s, res_1, res_2, target,
+                      c_u, c_v, live):  # fmt: skip
+    """(ΔN', Δw, ΔF, Δu, Δv, Δσ₁, Δσ₂) of a contact from its gaps' changes Δg, Δs:
+    ΔN' = kn Δg + ΔN'₀, ΔF = ks Δs + k_sn ΔN' + ΔF₀, Δσ₁,₂ = b' ΔN' ∓ ΔF + r₁,₂,
+    Δw = ΔN' − p Δg − r_N; u and v from their complementarity, but the one of a
+    sliding contact (u/σ₁ or v/σ₂ the larger) from the shear equation, which it then
+    keeps to round-off (its complementarity holds in exact arithmetic either way)."""
+    d_lift = kn * dg + n_free
+    d_shear = select(live, ks * ds + k_sn * d_lift + f_free, 0.0)
+    d_r1 = select(live, slope * d_lift - d_shear + res_1, 0.0)
+    d_r2 = select(live, slope * d_lift + d_shear + res_2, 0.0)
+    d_forward = (target - u * r1 - c_u - u * d_r1) / r1
+    d_back = (target - v * r2 - c_v - v * d_r2) / r2
+    forward_slides = u / r1 >= v / r2
+    d_forward = select(forward_slides, shear_penalty * ds + d_back + res_s - d_shear, d_forward)
+    d_back = select(forward_slides, d_back, d_shear - shear_penalty * ds + d_forward - res_s)
+    d_spare = d_lift - penalty * dg - res_n
+    return (d_lift, d_spare, d_shear, select(live, d_forward, 0.0), select(live, d_back, 0.0),
+            d_r1, d_r2)  # fmt: skip
+
+
+@formula
+def room(value, change):
+    """The step to the bound 0 of an unknown ``value`` that moves by ``change`` a unit
+    step: −value / change where it falls, else infinite."""
+    return select(change < 0.0, -value / select(change < 0.0, change, -1.0), np.inf)
+
+
+def _rhs(equilibrium, n_indptr, n_indices, n_data, s_indptr, s_indices, s_data, state,
+         spring_values, residual, target, second, live):  # fmt: skip
+    """(−r_eq − Σ ΔN'₀ ∇g − Σ (ΔF₀ + k_sn ΔN'₀) ∇s, ΔN'₀, ΔF₀) contact by contact
+    (:func:`free_terms`; ∇g, ∇s the CSR rows of the contacts), each sum in numpy's order
+    (scipy's product by the transposed rows adds the contacts in turn): the same numbers."""
+    lift, spare, u, v, r1, r2 = state
+    kn, ks, k_sn, q = spring_values
+    res_n, res_s, res_1, res_2, _ = residual
+    c_n, c_u, c_v = second
+    m, size = lift.shape[0], equilibrium.shape[0]
+    normal_part, shear_part = np.zeros(size), np.zeros(size)
+    n_free, f_free = np.empty(m), np.empty(m)
+    for c in range(m):  # contact by contact, each unknown's sums in contact order
+        n_free[c], f_free[c] = free_terms(
+            lift[c], spare[c], u[c], v[c], r1[c], r2[c], q[c], res_n[c], res_s[c],
+            res_1[c], res_2[c], target, c_n[c], c_u[c], c_v[c], live[c],
+        )  # fmt: skip
+        for k in range(n_indptr[c], n_indptr[c + 1]):
+            normal_part[n_indices[k]] += n_data[k] * n_free[c]
+        shear_force = f_free[c] + k_sn[c] * n_free[c]
+        for k in range(s_indptr[c], s_indptr[c + 1]):
+            shear_part[s_indices[k]] += s_data[k] * shear_force
+    rhs = np.empty(size)
+    for k in range(size):
+        rhs[k] = -equilibrium[k] - normal_part[k] - shear_part[k]
+    return rhs, n_free, f_free
+
+
+def _direction(dx, n_indptr, n_indices, n_data, s_indptr, s_indices, s_data, state,
+               spring_values, residual, penalty, shear_penalty, n_free, f_free, target,
+               second, live):  # fmt: skip
+    """(Δg, Δs, the contact unknowns' direction (7, m), the largest step that keeps them
+    positive (:func:`room`, infinite when none falls)) from the blocks' Δx."""
+    lift, spare, u, v, r1, r2 = state
+    kn, ks, k_sn, _ = spring_values
+    res_n, res_s, res_1, res_2, slope = residual
+    _, c_u, c_v = second
+    m = lift.shape[0]
+    dg, ds, out = np.zeros(m), np.zeros(m), np.empty((7, m))
+    limit = np.inf
+    for c in range(m):
+        for k in range(n_indptr[c], n_indptr[c + 1]):
+            dg[c] += n_data[k] * dx[n_indices[k]]
+        for k in range(s_indptr[c], s_indptr[c + 1]):
+            ds[c] += s_data[k] * dx[s_indices[k]]
+        changes = contact_direction(
+            dg[c], ds[c], lift[c], spare[c], u[c], v[c], r1[c], r2[c], kn[c], ks[c],
+            k_sn[c], slope[c], penalty[c], shear_penalty[c], n_free[c], f_free[c],
+            res_n[c], res_s[c], res_1[c], res_2[c], target, c_u[c], c_v[c], live[c],
+        )  # fmt: skip
+        for j in range(7):
+            out[j, c] = changes[j]
+        limit = min(limit, room(lift[c], changes[0]), room(spare[c], changes[1]))
+        if live[c]:
+            limit = min(limit, room(u[c], changes[3]), room(v[c], changes[4]))
+            limit = min(limit, room(r1[c], changes[5]), room(r2[c], changes[6]))
+    return dg, ds, out, limit
+
+
+rhs_kernel = kernel(_rhs)
+direction_kernel = kernel(_direction)
+
+
+def _matrix_values(base, where, normal, shear, kn, ks, coupling):
+    """The matrix's values: ``base`` + Σ kn ∇g∇gᵀ + Σ ks ∇s∇sᵀ + Σ k_sn kn ∇s∇gᵀ
+    (``coupling`` = k_sn kn), each contact's 12 × 12 terms added at the values
+    ``where`` (−1: a fixed block's unknown), in numpy's order (the product by the fill
+    matrix of :class:`dda.solve.interior_point.NewtonMatrix`: every contact's ∇g∇gᵀ term,
+    then its ∇s∇sᵀ, then its ∇s∇gᵀ): the same numbers."""
+    m = where.shape[0]
+    values = np.zeros(base.shape[0])
+    for part in range(3):
+        for c in range(m):
+            for i in range(12):
+                for j in range(12):
+                    e = where[c, i, j]
+                    if e < 0:
+                        continue
+                    if part == 0:
+                        values[e] += normal[c, i] * normal[c, j] * kn[c]
+                    elif part == 1:
+                        values[e] += shear[c, i] * shear[c, j] * ks[c]
+                    else:
+                        values[e] += shear[c, i] * normal[c, j] * coupling[c]
+    out = np.empty(base.shape[0])
+    for e in range(base.shape[0]):
+        out[e] = base[e] + values[e]
+    return out
+
+
+matrix_values_kernel = kernel(_matrix_values)
