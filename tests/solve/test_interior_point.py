@@ -15,6 +15,7 @@ from dda.bench.scenes import wall_scene
 from dda.run import equilibrium_start
 from dda.solve import policy, unsymmetric
 from tests.helpers import G
+from tests.scene.test_in_situ import column as in_situ_column
 from tests.standing.incline import ROCK_1E9, THETA, friction_angle, incline_scene
 
 
@@ -124,9 +125,28 @@ def test_the_unsymmetric_lu_solves_to_round_off(monkeypatch, pardiso):
     lu.release()
 
 
-def test_a_scene_that_stands_at_once_starts_by_a_few_newton_iterations():
-    """A block at half its friction: the continuation's first pseudo-steps settle within
-    ``FEW_NEWTON_ITERATIONS``, and no interior-point solve is made."""
-    result = _start(incline_scene(0.5, 1e-3, 1e-3))
+def test_a_scene_drawn_in_equilibrium_starts_by_a_few_newton_iterations():
+    """Two jointed columns in their gravity field (their contacts carry it at t = 0): the
+    continuation's first pseudo-steps settle within ``FEW_NEWTON_ITERATIONS``, and no
+    interior-point solve is made."""
+    result = _start(in_situ_column("walls"))
     assert result.summary["start_method"] == equilibrium_start.FEW_NEWTON
     assert result.summary["start_newton_iterations"] <= equilibrium_start.FEW_NEWTON_ITERATIONS
+
+
+def test_a_scene_whose_contacts_start_unloaded_starts_by_the_interior_point(monkeypatch):
+    """A block at half its friction: its contacts carry nothing at t = 0, so the start
+    spends no Newton iteration before the interior point (its iterations are the interior
+    point's factorisations and the one Newton iteration that finishes)."""
+    solves = []
+    original = equilibrium_start.solve_interior
+
+    def counted(*args):
+        solution = original(*args)
+        solves.append(solution.iterations)
+        return solution
+
+    monkeypatch.setattr(equilibrium_start, "solve_interior", counted)
+    result = _start(incline_scene(0.5, 1e-3, 1e-3))
+    assert result.summary["start_method"] == equilibrium_start.INTERIOR_POINT
+    assert result.summary["start_newton_iterations"] == sum(solves) + 1
