@@ -139,27 +139,31 @@ rhs_kernel = kernel(_rhs)
 direction_kernel = kernel(_direction)
 
 
+def _add_products(values, where, rows, columns, springs):
+    """values[where[c, i, j]] += rows[c, i] columns[c, j] springs[c], contact by contact."""
+    for c in range(where.shape[0]):
+        spring = springs[c]
+        for i in range(12):
+            row = rows[c, i]
+            for j in range(12):
+                e = where[c, i, j]
+                if e >= 0:
+                    values[e] += row * columns[c, j] * spring
+
+
+add_products_kernel = kernel(_add_products)
+
+
 def _matrix_values(base, where, normal, shear, kn, ks, coupling):
     """The matrix's values: ``base`` + Σ kn ∇g∇gᵀ + Σ ks ∇s∇sᵀ + Σ k_sn kn ∇s∇gᵀ
     (``coupling`` = k_sn kn), each contact's 12 × 12 terms added at the values
     ``where`` (−1: a fixed block's unknown), in numpy's order (the product by the fill
     matrix of :class:`dda.solve.interior_point.NewtonMatrix`: every contact's ∇g∇gᵀ term,
     then its ∇s∇sᵀ, then its ∇s∇gᵀ): the same numbers."""
-    m = where.shape[0]
     values = np.zeros(base.shape[0])
-    for part in range(3):
-        for c in range(m):
-            for i in range(12):
-                for j in range(12):
-                    e = where[c, i, j]
-                    if e < 0:
-                        continue
-                    if part == 0:
-                        values[e] += normal[c, i] * normal[c, j] * kn[c]
-                    elif part == 1:
-                        values[e] += shear[c, i] * shear[c, j] * ks[c]
-                    else:
-                        values[e] += shear[c, i] * normal[c, j] * coupling[c]
+    add_products_kernel(values, where, normal, normal, kn)
+    add_products_kernel(values, where, shear, shear, ks)
+    add_products_kernel(values, where, shear, normal, coupling)
     out = np.empty(base.shape[0])
     for e in range(base.shape[0]):
         out[e] = base[e] + values[e]

@@ -170,7 +170,8 @@ class NewtonMatrix:
             shape=(self.size, self.size),
         )
         valid = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)  # (m, 12, 12)
-        self.where = np.full(valid.shape, -1, dtype=np.int64)
+        index = np.int32 if len(keys) < np.iinfo(np.int32).max else np.int64
+        self.where = np.full(valid.shape, -1, dtype=index)
         self.where[valid] = _positions(keys, *_pairs(dofs), self.size)
         self._fill = None
         self.lu = UnsymmetricLU(self.pattern)
