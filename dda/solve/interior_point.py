@@ -143,8 +143,9 @@ class NewtonMatrix:
         quadratic, geometry = problem.quadratic, problem.geometry
         rows = geometry.rows
         free = quadratic.free
-        column = np.full(len(free), -1)
-        column[free] = 6 * np.arange(int(free.sum()))
+        number = np.full(len(free), -1)  # each free block's number among the free ones
+        number[free] = np.arange(int(free.sum()))
+        column = np.where(number >= 0, 6 * number, -1)
         self.free, self.size = free.copy(), 6 * int(free.sum())
         a, b = geometry.block_a, geometry.block_b
         self.blocks = (np.array(a), np.array(b))
@@ -155,24 +156,15 @@ class NewtonMatrix:
         self.gs = _rows_matrix(self.shear_rows, dofs, self.size)
         self.gn_t, self.gs_t = self.gn.T.tocsr(), self.gs.T.tocsr()  # Σ N ∇g, Σ F ∇s
         self.gn_abs, self.gs_abs = abs(self.gn), abs(self.gs)  # the gaps' round-off
-        self.diagonal_dofs = column[free][:, None] + np.arange(6)
-        pairs = [_pairs(self.diagonal_dofs), _pairs(dofs)]
         couplings = quadratic.couplings
-        self.bolt_dofs = None
+        self.contact_blocks = (number[a], number[b])
+        self.bolt_blocks = None
         if couplings is not None:
-            self.bolt_dofs = _dofs(column, couplings.block_i, couplings.block_j)
-            pairs.append(_pairs(self.bolt_dofs))
-        keys = np.concatenate([p[0] * self.size + p[1] for p in pairs if len(p[0])])
-        keys.sort()
-        self.keys = keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
-        self.pattern = sp.csr_matrix(
-            (np.zeros(len(keys)), keys % self.size, _indptr(keys // self.size, self.size)),
-            shape=(self.size, self.size),
-        )
-        valid = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)  # (m, 12, 12)
-        index = np.int32 if len(keys) < np.iinfo(np.int32).max else np.int64
-        self.where = np.full(valid.shape, -1, dtype=index)
-        self.where[valid] = _positions(keys, *_pairs(dofs), self.size)
+            self.bolt_blocks = (number[couplings.block_i], number[couplings.block_j])
+        paired = [self.contact_blocks] + ([] if couplings is None else [self.bolt_blocks])
+        self.blocks_pattern = BlockPattern(int(free.sum()), paired)
+        self.pattern = self.blocks_pattern.csr()
+        self.where = self.blocks_pattern.places(*self.contact_blocks)
         self._fill = None
         self.lu = UnsymmetricLU(self.pattern)
         self.load(problem)
@@ -187,7 +179,7 @@ class NewtonMatrix:
         )
         normal = np.concatenate([rows.normal_i, rows.normal_j], axis=1) if same else None
         shear = np.concatenate([rows.shear_i, rows.shear_j], axis=1) if same else None
-        coupled = (problem.quadratic.couplings is not None) == (self.bolt_dofs is not None)
+        coupled = (problem.quadratic.couplings is not None) == (self.bolt_blocks is not None)
         return (
             same and coupled
             and np.array_equal(normal, self.normal_rows)
@@ -196,17 +188,17 @@ class NewtonMatrix:
 
     def load(self, problem: StaticContactProblem) -> NewtonMatrix:
         """K₀'s values (the blocks' and the couplings' springs) of ``problem``."""
-        quadratic, size, keys = problem.quadratic, self.size, self.keys
-        self.base = np.zeros(len(keys))
-        diagonal = quadratic.stiffness[self.free].reshape(-1)
-        np.add.at(self.base, _positions(keys, *_pairs(self.diagonal_dofs), size), diagonal)
+        quadratic, pattern = problem.quadratic, self.blocks_pattern
+        self.base = np.zeros(pattern.values)
+        diagonal = pattern.places(*(2 * (np.arange(pattern.count),)))[:, :6, :6]
+        self.base[diagonal.reshape(-1)] = quadratic.stiffness[self.free].reshape(-1)
         couplings = quadratic.couplings
         if couplings is not None:
             rows_b = np.concatenate([couplings.row_i, couplings.row_j], axis=1)
             outer = couplings.stiffness[:, None, None] * rows_b[:, :, None] * rows_b[:, None, :]
-            dofs = self.bolt_dofs
-            valid = (dofs[:, :, None] >= 0) & (dofs[:, None, :] >= 0)
-            np.add.at(self.base, _positions(keys, *_pairs(dofs), size), outer[valid])
+            where = pattern.places(*self.bolt_blocks)
+            valid = where >= 0
+            np.add.at(self.base, where[valid], outer[valid])
         return self
 
     def factor(self, kn: np.ndarray, ks: np.ndarray, k_sn: np.ndarray) -> None:
@@ -224,7 +216,8 @@ class NewtonMatrix:
         """The (values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part of the
         values (:func:`_fill_matrix`), made at its first use (numpy's path)."""
         if self._fill is None:
-            self._fill = _fill_matrix(self.normal_rows, self.shear_rows, self.where, len(self.keys))
+            values = self.blocks_pattern.values
+            self._fill = _fill_matrix(self.normal_rows, self.shear_rows, self.where, values)
         return self._fill
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
@@ -234,21 +227,72 @@ class NewtonMatrix:
         self.lu.release()
 
 
+class BlockPattern:
+    """The CSR pattern of a matrix over the free blocks' unknowns (6 a block) whose 6 × 6
+    blocks couple each free block with itself and with the blocks it is paired with, and
+    the places of those couplings among its values, found block by block (a search in
+    the blocks' pairs, not in the unknowns' 36 times as many).
+
+    Block row I with deg(I) blocks, the first at place ptr(I) among the blocks' pairs
+    sorted by (row, column): its unknowns' row 6I + r starts at 36 ptr(I) + 6 r deg(I),
+    and the column 6J + s of its k-th block J is 6 k + s further on."""
+
+    def __init__(self, count: int, pairs: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        """``count`` free blocks; ``pairs``: (first, second) free-block numbers of the
+        paired blocks (−1: a fixed block, no coupling), each pair coupled both ways."""
+        self.count = count
+        keys = [np.arange(count) * (count + 1)]  # the diagonal blocks
+        for first, second in pairs:
+            both = (first >= 0) & (second >= 0)
+            keys += [first[both] * count + second[both], second[both] * count + first[both]]
+        keys = np.unique(np.concatenate(keys))
+        self.keys = keys
+        self.indptr = _indptr(keys // max(count, 1), count)
+        self.values = 36 * len(keys)
+
+    def csr(self) -> sp.csr_matrix:
+        """The unknowns' pattern (values 0), column indices sorted in each row."""
+        count, size = self.count, 6 * self.count
+        row = self.keys // max(count, 1)
+        start = self.indptr[row]
+        place = self._places(row, start, np.arange(len(self.keys)) - start)
+        columns = 6 * (self.keys % max(count, 1))[:, None, None] + np.arange(6)
+        indices = np.empty(self.values, dtype=np.int32)
+        indices[place.reshape(-1)] = np.broadcast_to(columns, place.shape).reshape(-1)
+        indptr = np.zeros(size + 1, dtype=np.int64)
+        indptr[1:] = np.cumsum(np.repeat(6 * np.diff(self.indptr), 6))
+        return sp.csr_matrix((np.zeros(self.values), indices, indptr), shape=(size, size))
+
+    def places(self, first: np.ndarray, second: np.ndarray) -> np.ndarray:
+        """(k, 12, 12) the places among the values of the unknowns of blocks ``first`` (rows
+        0-5, columns 0-5) and ``second`` (6-11) of each pair, −1 where a block is fixed
+        (int32 where the values allow)."""
+        index = np.int32 if self.values < np.iinfo(np.int32).max else np.int64
+        out = np.full((len(first), 12, 12), -1, dtype=index)
+        for rows, i in ((first, 0), (second, 6)):
+            for columns, j in ((first, 0), (second, 6)):
+                both = (rows >= 0) & (columns >= 0)
+                row = rows[both]
+                start = self.indptr[row]
+                rank = np.searchsorted(self.keys, row * self.count + columns[both]) - start
+                out[both, i : i + 6, j : j + 6] = self._places(row, start, rank)
+        return out
+
+    def _places(self, row: np.ndarray, start: np.ndarray, rank: np.ndarray) -> np.ndarray:
+        """(k, 6, 6) the places of the 6 × 6 blocks at block row ``row`` (its first block
+        at ``start`` among the blocks' pairs), the ``rank``-th of their row:
+        36 start + 6 r deg(row) + 6 rank + s."""
+        degree = (self.indptr[row + 1] - start)[:, None, None]
+        r, s = np.arange(6)[None, :, None], np.arange(6)[None, None, :]
+        return 36 * start[:, None, None] + 6 * r * degree + 6 * rank[:, None, None] + s
+
+
 def _dofs(column: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(m, 12) the unknowns of blocks a and b (−1 for a fixed block's)."""
     offsets = np.arange(6)
     first = np.where(column[a][:, None] >= 0, column[a][:, None] + offsets, -1)
     second = np.where(column[b][:, None] >= 0, column[b][:, None] + offsets, -1)
     return np.concatenate([first, second], axis=1)
-
-
-def _pairs(dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(row, column) of every coupled pair of the (k, r) unknowns ``dofs`` whose both
-    ends are free, in (k, r, r) order."""
-    rows = np.broadcast_to(dofs[:, :, None], (*dofs.shape, dofs.shape[1]))
-    cols = np.broadcast_to(dofs[:, None, :], (*dofs.shape, dofs.shape[1]))
-    valid = (rows >= 0) & (cols >= 0)
-    return rows[valid], cols[valid]
 
 
 def _fill_matrix(normal, shear, where, values: int) -> sp.csr_matrix:
@@ -276,11 +320,6 @@ def _indptr(rows: np.ndarray, size: int) -> np.ndarray:
     out = np.zeros(size + 1, dtype=np.int64)
     np.cumsum(np.bincount(rows, minlength=size), out=out[1:])
     return out
-
-
-def _positions(keys: np.ndarray, rows: np.ndarray, cols: np.ndarray, size: int) -> np.ndarray:
-    """Index in the pattern's values of each (row, column)."""
-    return np.searchsorted(keys, rows * size + cols)
 
 
 def _rows_matrix(rows: np.ndarray, dofs: np.ndarray, size: int) -> sp.csr_matrix:
