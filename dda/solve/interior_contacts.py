@@ -76,11 +76,12 @@ def room(value, change):
     return select(change < 0.0, -value / select(change < 0.0, change, -1.0), np.inf)
 
 
-def _rhs(equilibrium, n_indptr, n_indices, n_data, s_indptr, s_indices, s_data, state,
-         spring_values, residual, target, second, live):  # fmt: skip
+def _rhs(equilibrium, rows, state, spring_values, residual, target, second, live):
     """(−r_eq − Σ ΔN'₀ ∇g − Σ (ΔF₀ + k_sn ΔN'₀) ∇s, ΔN'₀, ΔF₀) contact by contact
-    (:func:`free_terms`; ∇g, ∇s the CSR rows of the contacts), each sum in numpy's order
+    (:func:`free_terms`; ``rows``: ∇g and ∇s, the contacts' CSR rows (indptr, indices,
+    data) of each), each sum in numpy's order
     (scipy's product by the transposed rows adds the contacts in turn): the same numbers."""
+    n_indptr, n_indices, n_data, s_indptr, s_indices, s_data = rows
     lift, spare, u, v, r1, r2 = state
     kn, ks, k_sn, q = spring_values
     res_n, res_s, res_1, res_2, _ = residual
@@ -104,11 +105,12 @@ def _rhs(equilibrium, n_indptr, n_indices, n_data, s_indptr, s_indices, s_data, 
     return rhs, n_free, f_free
 
 
-def _direction(dx, n_indptr, n_indices, n_data, s_indptr, s_indices, s_data, state,
-               spring_values, residual, penalty, shear_penalty, n_free, f_free, target,
-               second, live):  # fmt: skip
+def _direction(dx, rows, state, spring_values, residual, penalty, shear_penalty, n_free,
+               f_free, target, second, live):  # fmt: skip
     """(Δg, Δs, the contact unknowns' direction (7, m), the largest step that keeps them
-    positive (:func:`room`, infinite when none falls)) from the blocks' Δx."""
+    positive (:func:`room`, infinite when none falls)) from the blocks' Δx (``rows``: as
+    :func:`_rhs`'s)."""
+    n_indptr, n_indices, n_data, s_indptr, s_indices, s_data = rows
     lift, spare, u, v, r1, r2 = state
     kn, ks, k_sn, _ = spring_values
     res_n, res_s, res_1, res_2, slope = residual

@@ -547,13 +547,13 @@ class _Iterate:
         gn, gs = system.gn, system.gs
         rows = (gn.indptr, gn.indices, gn.data, gs.indptr, gs.indices, gs.data)
         rhs, n_free, f_free = rhs_kernel(
-            res.equilibrium, *rows, state, springs, residual, float(target), second, live
+            res.equilibrium, rows, state, springs, residual, float(target), second, live
         )
         dx = system.solve(rhs)
+        penalties = floats(t.penalty), floats(t.shear_penalty)
         _, _, changes, limit = direction_kernel(
-            dx, *rows, state, springs, residual, floats(t.penalty), floats(t.shear_penalty),
-            n_free, f_free,
-            float(target), second, live,
+            dx, rows, state, springs, residual, *penalties, n_free, f_free, float(target),
+            second, live,
         )  # fmt: skip
         return _Direction(dx, *changes, float(limit))
 
