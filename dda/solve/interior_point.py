@@ -190,7 +190,8 @@ class NewtonMatrix:
         """K₀'s values (the blocks' and the couplings' springs) of ``problem``."""
         quadratic, pattern = problem.quadratic, self.blocks_pattern
         self.base = np.zeros(pattern.values)
-        diagonal = pattern.places(*(2 * (np.arange(pattern.count),)))[:, :6, :6]
+        blocks = np.arange(pattern.count)
+        diagonal = pattern.places(blocks, blocks)[:, :6, :6]  # each free block with itself
         self.base[diagonal.reshape(-1)] = quadratic.stiffness[self.free].reshape(-1)
         couplings = quadratic.couplings
         if couplings is not None:
