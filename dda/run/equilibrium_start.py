@@ -158,7 +158,8 @@ def settle(
     springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``).
 
     The limit solve (module docstring): the continuation within
-    ``FEW_NEWTON_ITERATIONS``; else the interior-point pseudo-steps at
+    ``FEW_NEWTON_ITERATIONS`` where the scene may stand as drawn (:func:`_may_stand`);
+    else the interior-point pseudo-steps at
     ``INTERIOR_REGULARISERS`` finished by the step's Newton (:func:`_by_interior_point`);
     else the continuation alone (:func:`_by_continuation`). The Newton iterations it
     reports count the interior-point solves' factorisations too."""
