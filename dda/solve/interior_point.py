@@ -165,6 +165,11 @@ class NewtonMatrix:
         self.blocks_pattern = BlockPattern(int(free.sum()), paired)
         self.pattern = self.blocks_pattern.csr()
         self.where = self.blocks_pattern.places(*self.contact_blocks)
+        blocks = np.arange(self.blocks_pattern.count)  # each free block with itself
+        self.diagonal = self.blocks_pattern.places(blocks, blocks)[:, :6, :6].reshape(-1)
+        self.bolt_where = (
+            None if couplings is None else self.blocks_pattern.places(*self.bolt_blocks)
+        )
         self._fill = None
         self.lu = UnsymmetricLU(self.pattern)
         self.load(problem)
@@ -188,18 +193,15 @@ class NewtonMatrix:
 
     def load(self, problem: StaticContactProblem) -> NewtonMatrix:
         """K₀'s values (the blocks' and the couplings' springs) of ``problem``."""
-        quadratic, pattern = problem.quadratic, self.blocks_pattern
-        self.base = np.zeros(pattern.values)
-        blocks = np.arange(pattern.count)
-        diagonal = pattern.places(blocks, blocks)[:, :6, :6]  # each free block with itself
-        self.base[diagonal.reshape(-1)] = quadratic.stiffness[self.free].reshape(-1)
+        quadratic = problem.quadratic
+        self.base = np.zeros(self.blocks_pattern.values)
+        self.base[self.diagonal] = quadratic.stiffness[self.free].reshape(-1)
         couplings = quadratic.couplings
         if couplings is not None:
             rows_b = np.concatenate([couplings.row_i, couplings.row_j], axis=1)
             outer = couplings.stiffness[:, None, None] * rows_b[:, :, None] * rows_b[:, None, :]
-            where = pattern.places(*self.bolt_blocks)
-            valid = where >= 0
-            np.add.at(self.base, where[valid], outer[valid])
+            valid = self.bolt_where >= 0
+            np.add.at(self.base, self.bolt_where[valid], outer[valid])
         return self
 
     def factor(self, kn: np.ndarray, ks: np.ndarray, k_sn: np.ndarray) -> None:
