@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 import dda
+from dda.commands import compile_helper
 from dda.io.fields import SCALARS
 
 logger = logging.getLogger(__name__)
@@ -439,9 +440,11 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
         scene=scene,
     )  # fmt: skip
     writer.picture = _picture_helper(args)
+    _offer_compile_helper(args)
     try:
         return _run_with(writer, folder, scene, args, checkpoint)
-    finally:  # a run that ends before its picture (an error, a signal) ends the helper too
+    finally:  # a run that ends before its picture (an error, a signal) ends the helpers too
+        compile_helper.withdraw()
         if writer.picture is not None:
             writer.picture.cancel()
 
@@ -534,6 +537,15 @@ def _picture_helper(args: argparse.Namespace):
     if args.no_picture or current_policy().solver_threads() < 2:
         return None
     return PictureProcess.start()
+
+
+def _offer_compile_helper(args: argparse.Namespace) -> None:
+    """Let the run start a helper process that compiles the step's kernels beside it when
+    they are not in numba's cache yet and a second core is free
+    (:mod:`dda.commands.compile_helper`)."""
+    from dda.solve.policy import current_policy
+
+    compile_helper.offer(scene_source(args.case), current_policy().solver_threads() >= 2)
 
 
 def _write_failed(exc: OSError, writer, scene, folder, args: argparse.Namespace) -> int:

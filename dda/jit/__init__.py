@@ -76,8 +76,11 @@ class Kernel:
 
     @property
     def dispatcher(self) -> Callable:
-        """The numba dispatcher (imports numba and binds the helpers the first time)."""
+        """The numba dispatcher (imports numba and binds the helpers the first time,
+        after the callbacks of :func:`before_first_use`)."""
         if self._dispatcher is None:
+            for callback in _BEFORE_FIRST_USE:
+                callback(self.function.__module__)
             _quick_compiles()
             namespace = self.function.__globals__
             for name in self.function.__code__.co_names:
@@ -204,20 +207,48 @@ def _register_formulas() -> None:
 
 
 _COMPILING_LISTENER: Any = None  # the numba event listener of :func:`_announce_compiling`
+# callbacks of a kernel's module: when this process first begins to compile a kernel, and
+# before it first uses each kernel (dda.commands.compile_helper's)
+_FIRST_COMPILE: list[Callable[[str], None]] = []
+_BEFORE_FIRST_USE: list[Callable[[str], None]] = []
+_WAITED = [0.0]  # seconds spent waiting for kernels that another process compiles
+
+
+def on_first_compile(callback: Callable[[str], None]) -> None:
+    """Call ``callback(module)`` when this process first begins to compile a kernel
+    (not to load one from the cache), ``module`` the kernel's."""
+    if callback not in _FIRST_COMPILE:
+        _FIRST_COMPILE.append(callback)
+
+
+def before_first_use(callback: Callable[[str], None]) -> None:
+    """Call ``callback(module)`` before this process first uses each kernel (compiles it
+    or loads it from the cache), ``module`` the kernel's."""
+    if callback not in _BEFORE_FIRST_USE:
+        _BEFORE_FIRST_USE.append(callback)
+
+
+def waited_for_kernels(seconds: float) -> None:
+    """Count ``seconds`` spent waiting for another process to compile kernels in
+    :func:`compile_seconds`."""
+    _WAITED[0] += seconds
 
 
 def compile_seconds() -> float:
     """Seconds this process has spent compiling kernels (not loading them from numba's
-    cache): 0 on a warm install. A run's summary reports its share (``compile_seconds``),
-    which its wall time includes."""
-    return 0.0 if _COMPILING_LISTENER is None else _COMPILING_LISTENER.seconds
+    cache), or waiting for another process that compiles them (:func:`waited_for_kernels`):
+    0 on a warm install. A run's summary reports its share (``compile_seconds``), which
+    its wall time includes."""
+    own = 0.0 if _COMPILING_LISTENER is None else _COMPILING_LISTENER.seconds
+    return own + _WAITED[0]
 
 
 def _announce_compiling() -> None:
     """Say once in a process when numba starts compiling a kernel (not loading it from
     its cache), and count the seconds: the first run after installing or upgrading waits
-    for the kernels it uses (the rock slope's: 53 s on the 2-core benchmark machine,
-    docs/benchmarks.md), and would otherwise seem to hang at its first step.
+    for the kernels it uses (the rock slope's: 44-54 s on the 2-core benchmark machine
+    with the compile helper, 73-94 s without; docs/benchmarks.md), and would otherwise
+    seem to hang at its first step.
 
     Uses numba's event API: ``numba:compile`` fires only for a compilation, never
     for a load from the on-disk cache; a kernel's helpers compile inside it (nested
@@ -237,6 +268,10 @@ def _announce_compiling() -> None:
         def on_start(self, ev: event.Event) -> None:
             if not self.announced:
                 self.announced = True
+                dispatcher = ev.data.get("dispatcher")
+                module = getattr(getattr(dispatcher, "py_func", None), "__module__", "")
+                for callback in _FIRST_COMPILE:
+                    callback(module)
                 log.warning(
                     "compiling the kernels this run needs for this machine (each once per "
                     "installation; numba keeps them in its cache): it may start about 1 to 3 "
@@ -268,10 +303,11 @@ def kernel(function: Callable) -> Kernel | None:
 def compiled(compiled_kernel: Kernel | None) -> bool:
     """Whether a call site should use ``compiled_kernel`` rather than its numpy twin.
 
-    False without the kernel; outside a run True; inside a run (:func:`run_work`)
+    False without the kernel or where ``DDA_KERNEL_MODULES`` leaves its module out
+    (:data:`KERNEL_MODULES`); outside a run True; inside a run (:func:`run_work`)
     True when the run's steps reach :data:`MIN_STEPS` or its work :data:`MIN_WORK`.
     """
-    if compiled_kernel is None:
+    if not _used(compiled_kernel):
         return False
     return _kernels_pay(_RUN_WORK.get())
 
@@ -280,7 +316,19 @@ def compiled_in_run(compiled_kernel: Kernel | None) -> bool:
     """:func:`compiled` inside a run, False outside one: for helpers that building a
     model or a scene also calls, which must not load numba for a run too small for it."""
     run = _RUN_WORK.get()
-    return compiled_kernel is not None and run is not None and _kernels_pay(run)
+    return _used(compiled_kernel) and run is not None and _kernels_pay(run)
+
+
+# environment: the modules whose kernels this process uses, comma-separated (unset: all;
+# the others' numpy twins run): dda.commands.compile_helper sets it for its helper
+KERNEL_MODULES = "DDA_KERNEL_MODULES"
+_ONLY = frozenset(name for name in os.environ.get(KERNEL_MODULES, "").split(",") if name)
+
+
+def _used(compiled_kernel: Kernel | None) -> bool:
+    return compiled_kernel is not None and (
+        not _ONLY or compiled_kernel.function.__module__ in _ONLY
+    )
 
 
 def _kernels_pay(run: tuple[float, float] | None) -> bool:
