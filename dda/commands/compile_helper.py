@@ -129,6 +129,8 @@ def wait_for(module: str) -> None:
             pass
         jit.waited_for_kernels(time.perf_counter() - began)
         log.info("waited %.1f s for the compile helper", time.perf_counter() - began)
+    elif helper.process.poll() is None:
+        log.info("the compile helper had not begun compiling: the run compiles")
     helper.stop()
 
 
