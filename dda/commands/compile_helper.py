@@ -83,14 +83,14 @@ def offer(scene_file: str | os.PathLike[str], second_core: bool) -> None:
     ``second_core`` (the solver's thread policy would give two threads) and the helper
     is not switched off."""
     global _offered
-    jit.on_first_compile(compile_begins)
-    jit.before_first_use(wait_for)
     if not (second_core and os.environ.get(SWITCH, "1") != "0" and sys.executable):
         return
     try:  # a shipped case inside an archive has no path: no helper
         _offered = Path(scene_file).resolve(strict=True)
     except (TypeError, OSError):
-        _offered = None
+        return
+    jit.on_first_compile(compile_begins)
+    jit.before_first_use(wait_for)
 
 
 def withdraw() -> None:

@@ -107,9 +107,9 @@ def _rhs(equilibrium, rows, state, spring_values, residual, target, second, live
 
 def _direction(dx, rows, state, spring_values, residual, penalty, shear_penalty, n_free,
                f_free, target, second, live):  # fmt: skip
-    """(Δg, Δs, the contact unknowns' direction (7, m), the largest step that keeps them
-    positive (:func:`room`, infinite when none falls)) from the blocks' Δx (``rows``: as
-    :func:`_rhs`'s)."""
+    """(the contact unknowns' direction (7, m), the largest step that keeps them positive
+    (:func:`room`, infinite when none falls)) from the blocks' Δx by way of the gaps'
+    changes Δg, Δs (``rows``: as :func:`_rhs`'s)."""
     n_indptr, n_indices, n_data, s_indptr, s_indices, s_data = rows
     lift, spare, u, v, r1, r2 = state
     kn, ks, k_sn, _ = spring_values
@@ -134,7 +134,7 @@ def _direction(dx, rows, state, spring_values, residual, penalty, shear_penalty,
         if live[c]:
             limit = min(limit, room(u[c], changes[3]), room(v[c], changes[4]))
             limit = min(limit, room(r1[c], changes[5]), room(r2[c], changes[6]))
-    return dg, ds, out, limit
+    return out, limit
 
 
 rhs_kernel = kernel(_rhs)

@@ -155,6 +155,8 @@ class NewtonMatrix:
         self.gn = _rows_matrix(self.normal_rows, dofs, self.size)
         self.gs = _rows_matrix(self.shear_rows, dofs, self.size)
         self.gn_t, self.gs_t = self.gn.T.tocsr(), self.gs.T.tocsr()  # Σ N ∇g, Σ F ∇s
+        gn, gs = self.gn, self.gs  # the kernels' CSR rows of ∇g and ∇s
+        self.gradient_rows = (gn.indptr, gn.indices, gn.data, gs.indptr, gs.indices, gs.data)
         self.gn_abs, self.gs_abs = abs(self.gn), abs(self.gs)  # the gaps' round-off
         couplings = quadratic.couplings
         self.contact_blocks = (number[a], number[b])
@@ -547,14 +549,13 @@ class _Iterate:
     def _compiled_direction(self, res, springs, target, second, state, residual) -> _Direction:
         """:meth:`direction` by the kernels of :mod:`dda.solve.interior_contacts`."""
         t, live, system = self.problem.terms, self.live, self.system
-        gn, gs = system.gn, system.gs
-        rows = (gn.indptr, gn.indices, gn.data, gs.indptr, gs.indices, gs.data)
+        rows = system.gradient_rows
         rhs, n_free, f_free = rhs_kernel(
             res.equilibrium, rows, state, springs, residual, float(target), second, live
         )
         dx = system.solve(rhs)
         penalties = floats(t.penalty), floats(t.shear_penalty)
-        _, _, changes, limit = direction_kernel(
+        changes, limit = direction_kernel(
             dx, rows, state, springs, residual, *penalties, n_free, f_free, float(target),
             second, live,
         )  # fmt: skip
