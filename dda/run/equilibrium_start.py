@@ -73,6 +73,7 @@ from dda.effects.inertia import Inertia
 from dda.model import Model
 from dda.result import OPEN
 from dda.solve.interior_point import NewtonMatrix, solve_interior
+from dda.solve.policy import StepPolicy, current_policy
 from dda.solve.step import solve_step, static_contact_problem
 from dda.solve.timing import StageTimer
 
@@ -216,8 +217,11 @@ def _by_interior_point(limit, blocks, start, stiffness, timer):
     d = np.zeros((blocks.count, 6))
     contacts, newton = start, 0
     for fraction in INTERIOR_REGULARISERS:
+        last = fraction == INTERIOR_REGULARISERS[-1]
         with timer("interior_point"):
-            step, recorded, iterations = limit.interior(blocks, contacts, fraction * stiffness, d)
+            step, recorded, iterations = limit.interior(
+                blocks, contacts, fraction * stiffness, d, last
+            )
         newton += iterations
         if recorded is None:
             return None, newton
@@ -305,11 +309,12 @@ class _Limit:
         ctx.prescribed = d
         return solve_step(model, blocks, contacts, ctx, timer)
 
-    def interior(self, blocks, contacts, scale, d):
+    def interior(self, blocks, contacts, scale, d, last):
         """(ΔD, the contacts with the states and forces at d + ΔD, factorisations) of the
         interior-point solve of the step from the accumulated ``d`` held by the regulariser
         ``scale`` (as :meth:`solve`), each repeated with the bonds the last broke; the
-        contacts None when one did not converge."""
+        contacts None when one did not converge. ``last``: the last pseudo-step's solve
+        (:func:`_interior_policy`)."""
         offset = -np.einsum("nij,nj->ni", self.linear, d)
         effects = [Proximal(self.masses, scale, offset), *self.effects]
         model = replace(self.model, effects=effects)
@@ -321,7 +326,10 @@ class _Limit:
             if self.matrix is None or not self.matrix.fits(problem):
                 self.release()
                 self.matrix = NewtonMatrix(problem)
-            solution = solve_interior(problem, self.matrix)
+            bonded = problem.joints is not None and bool(
+                np.any(work.intact & problem.joints.breakable)
+            )
+            solution = solve_interior(problem, self.matrix, _interior_policy(last or bonded))
             iterations += solution.iterations
             if not solution.converged:
                 return solution.d, None, iterations
@@ -349,6 +357,19 @@ class _Limit:
         (one that cannot goes on moving by about its unbalanced load / r)."""
         held = scale[:, None] * np.einsum("nij,nj->ni", self.masses, step)
         return bool(np.linalg.norm(held) <= STANDING * self.loads)
+
+
+def _interior_policy(exact: bool) -> StepPolicy:
+    """The settings of an interior-point solve: the environment's where ``exact`` (the
+    last pseudo-step's, or one whose contacts hold bonds: which break follows from its
+    solution); else μ and the residuals ending at ``interior_first_end`` (its solution
+    only centres the next pseudo-step's, whose proximal term at the last regulariser
+    moves that answer by 1e-8 of the difference)."""
+    policy = current_policy()
+    if exact:
+        return policy
+    end = policy.interior_first_end
+    return replace(policy, interior_complementarity_end=end, interior_residual_end=end)
 
 
 def _backed_off(fraction: float, settled: float | None) -> float:

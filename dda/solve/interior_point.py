@@ -103,15 +103,17 @@ class InteriorSolution:
 
 
 def solve_interior(
-    problem: StaticContactProblem, matrix: NewtonMatrix | None = None
+    problem: StaticContactProblem,
+    matrix: NewtonMatrix | None = None,
+    policy: StepPolicy | None = None,
 ) -> InteriorSolution:
     """D, N of ``problem`` by the predictor–corrector interior-point method (module
     docstring; its settings: the policy's ``interior_*``); ``converged`` False when
     ``interior_iterations`` did not reach the end, the iterates stopped being finite or
     nothing is loaded. ``matrix``: a :class:`NewtonMatrix` that fits the problem
     (:meth:`NewtonMatrix.fits`), to re-use (its pattern, its analysis); else one is made
-    and released."""
-    policy = current_policy()
+    and released. ``policy``: the settings (None: the environment's)."""
+    policy = current_policy() if policy is None else policy
     own = matrix is None
     system = NewtonMatrix(problem) if own else matrix.load(problem)
     iterate = _Iterate(problem, system, policy)

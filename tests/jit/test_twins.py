@@ -9,7 +9,8 @@ switched off (its branch's ``compiled`` answers False for it: the branch takes t
 code, and the kernels that call it compiled stay as they are), and asks for the same
 blocks, contact forces and energies. A twin that sums in another order than numpy agrees
 to rounding, the others to the bit (the energies, summed in another order by their
-kernel, to rounding always): the runs are a few steps, too short for rounding to grow.
+kernel, to rounding always): the runs are a few steps, too short for rounding to grow
+but where a contact sits at a kink (:data:`ROUNDING`).
 ``test_every_compiled_branch_is_declared`` fails on a branch that is not in the table.
 """
 
@@ -94,10 +95,12 @@ TWINS = {
 }
 
 # the twins that sum in another order than numpy (or, for the band Newton, solve in
-# another numbering): the same runs to rounding, not to the bit
+# another numbering; for the damping's slowest frequencies, by Jacobi rotations where
+# numpy asks LAPACK): the same runs to rounding, not to the bit
 ROUNDING = {
     ("contact/line_search.py", "_line_minimum_kernel"),
     ("contact/rows.py", "_gaps_kernel"),
+    ("effects/damping.py", "slowest_frequencies_kernel"),
     ("solve/assembly.py", "_scatter_kernel"),
     ("solve/assembly.py", "_subtract_pairs_kernel"),
     ("solve/band_system.py", "band_newton.band_minimise_kernel"),
@@ -221,7 +224,12 @@ def test_a_compiled_twin_gives_the_run_of_its_numpy_code(site, monkeypatch):
     np.testing.assert_allclose(got["energies"], expected["energies"], rtol=1e-9, atol=1e-12)
     if site in ROUNDING:  # six steps of rounding: 1e-12 m (blocks of 1 m) measured
         np.testing.assert_allclose(got["vertices"], expected["vertices"], rtol=0.0, atol=1e-10)
-        scale = 1e-8 * max(np.abs(expected["normal"]).max(initial=0.0), 1.0)
+        # ... and forces to 1e-7 of the largest: a side contact of the wall at its
+        # open/closed kink (6.5e-9 N against 30 N) takes its state by rounding, and the
+        # forces beside it then move by up to 1.1e-8 of the largest in the six steps
+        # (measured; the bound is this scene's: the 8 x 8 wall's six steps with every
+        # kernel and with none differ by 3.9e-7 of the largest)
+        scale = 1e-7 * max(np.abs(expected["normal"]).max(initial=0.0), 1.0)
         for force in ("normal", "shear"):
             np.testing.assert_allclose(got[force], expected[force], rtol=1e-8, atol=scale)
     else:
