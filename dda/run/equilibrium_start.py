@@ -20,7 +20,8 @@ the state of the scene's geometry under its loads at t = 0:
   state), at the regularisers ``INTERIOR_REGULARISERS``: the first, 1e-2 E/m, holds the
   blocks at 1 % of their elastic stiffness while the loads go into the contacts (the
   bonds that path breaks are broken, each solve repeated with them, as the step's
-  passes do), the second is the last. The step's Newton (:func:`dda.solve.step.
+  passes do; without bonds it ends early, :func:`_interior_policy`), the second is the
+  last. The step's Newton (:func:`dda.solve.step.
   solve_step`) then finishes at the last regulariser from there (one iteration on the
   bench walls: its pieces are the solution's), and goes on lowering the regulariser
   tenfold a pseudo-step if it did not stand. First, though, where the touching
