@@ -363,9 +363,10 @@ class _Limit:
 def _interior_policy(exact: bool) -> StepPolicy:
     """The settings of an interior-point solve: the environment's where ``exact`` (the
     last pseudo-step's, or one whose contacts hold bonds: which break follows from its
-    solution); else μ and the residuals ending at ``interior_first_end`` (its solution
-    only centres the next pseudo-step's, whose proximal term at the last regulariser
-    moves that answer by 1e-8 of the difference)."""
+    solution); else μ and the residuals ending at ``interior_first_end``: its solution
+    only centres the next pseudo-step's proximal term, which picks among the equilibria
+    friction allows the one nearest it (the forces at t = 0 move by up to 2.4e-6 of the
+    largest on the tunnel, docs/contact.md)."""
     policy = current_policy()
     if exact:
         return policy
