@@ -127,8 +127,9 @@ def wait_for(module: str) -> None:
             helper.process.wait(timeout=WAIT_SECONDS)
         except subprocess.TimeoutExpired:
             pass
-        jit.waited_for_kernels(time.perf_counter() - began)
-        log.info("waited %.1f s for the compile helper", time.perf_counter() - began)
+        waited = time.perf_counter() - began
+        jit.waited_for_kernels(waited)
+        log.info("waited %.1f s for the compile helper", waited)
     elif helper.process.poll() is None:
         log.info("the compile helper had not begun compiling: the run compiles")
     helper.stop()

@@ -116,15 +116,16 @@ def _direction(dx, rows, state, spring_values, residual, penalty, shear_penalty,
     res_n, res_s, res_1, res_2, slope = residual
     _, c_u, c_v = second
     m = lift.shape[0]
-    dg, ds, out = np.zeros(m), np.zeros(m), np.empty((7, m))
+    out = np.empty((7, m))
     limit = np.inf
     for c in range(m):
+        dg = ds = 0.0
         for k in range(n_indptr[c], n_indptr[c + 1]):
-            dg[c] += n_data[k] * dx[n_indices[k]]
+            dg += n_data[k] * dx[n_indices[k]]
         for k in range(s_indptr[c], s_indptr[c + 1]):
-            ds[c] += s_data[k] * dx[s_indices[k]]
+            ds += s_data[k] * dx[s_indices[k]]
         changes = contact_direction(
-            dg[c], ds[c], lift[c], spare[c], u[c], v[c], r1[c], r2[c], kn[c], ks[c],
+            dg, ds, lift[c], spare[c], u[c], v[c], r1[c], r2[c], kn[c], ks[c],
             k_sn[c], slope[c], penalty[c], shear_penalty[c], n_free[c], f_free[c],
             res_n[c], res_s[c], res_1[c], res_2[c], target, c_u[c], c_v[c], live[c],
         )  # fmt: skip
