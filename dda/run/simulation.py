@@ -26,6 +26,7 @@ from dda.run.environment import environment
 from dda.run.equilibrium_start import settle
 from dda.run.frames import make_frame, shifted
 from dda.run.measure import Probes
+from dda.run.run_warnings import cut_steps_warning, penetration_warning, static_motion_warning
 from dda.run.stages import apply_due_stages, set_strengths
 from dda.scene import Scene
 from dda.scene.limits import check_run_size
@@ -72,6 +73,8 @@ class _Run:
         self.newton_iterations = 0  # assembled systems solved
         self.factorisations = 0
         self.cut_steps = 0
+        self.smallest_cut_dt = np.inf  # the shortest step a cut made
+        self.last_moves = None  # a static run's last step: (vertex moves, owners, names)
         self.max_iterations_step = 0
         self.friction_dissipation = 0.0
         self.max_penetration = 0.0
@@ -91,6 +94,12 @@ class _Run:
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
         }
 
+    @property
+    def shown_time(self) -> float:
+        """The time the outputs show (history, frames, measurements, summary):
+        :func:`shown_time` of the steps' sum."""
+        return shown_time(self.time)
+
     def finished(self) -> bool:
         m = self.model
         if m.steps is not None:
@@ -107,6 +116,18 @@ class _Run:
         if stages is None:
             return self.remaining()
         return min(self.remaining(), stages.next_time(self.stages_done) - self.time)
+
+
+# significant digits of the time the outputs show
+SHOWN_TIME_DIGITS = 12
+
+
+def shown_time(time: float) -> float:
+    """``time`` rounded to :data:`SHOWN_TIME_DIGITS` significant digits. The run's
+    clock is the floating-point sum of its steps, which carries their round-off
+    (315 steps of 0.01 s sum to 3.149999999999977 s); the outputs show 3.15 s. The
+    run itself goes on with the exact sum (its stages, loads and end)."""
+    return float(f"{time:.{SHOWN_TIME_DIGITS}g}")
 
 
 def _probes(model: Model, blocks: BlockSet, contacts: ContactSet | None = None) -> Probes | None:
@@ -170,7 +191,7 @@ def _equilibrium_start(run: _Run) -> None:
     run.start_newton_iterations = settled.newton_iterations
     run.start_method = settled.method
     log.info(
-        "equilibrium start (%s): %d contacts loaded, %d Newton iterations, %.2f s",
+        "equilibrium start (%s): %d contact(s) loaded, %d Newton iteration(s), %.2f s",
         settled.method,
         int(np.count_nonzero(settled.contacts.state != OPEN)),
         settled.newton_iterations,
@@ -261,6 +282,10 @@ def _advance(run: _Run) -> None:
         dt *= factor
         run.cut_steps += 1
         cut += 1
+    if cut:
+        run.smallest_cut_dt = min(run.smallest_cut_dt, dt)
+    if m.static:
+        run.last_moves = (solution.moves, run.blocks.vertex_owner, run.blocks.names)
     with run.timer("update"):
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
         ground = None if m.ground is None else m.ground.prescribed(run.blocks, ctx)
@@ -299,12 +324,12 @@ def _advance(run: _Run) -> None:
     if m.stages is not None:
         apply_due_stages(run)
     if run.probes is not None:
-        run.probes.record(run.step, run.time, run.blocks, run.contacts, m.bolts)
+        run.probes.record(run.step, run.shown_time, run.blocks, run.contacts, m.bolts)
 
 
 def _record(run: _Run, dt: float, solution: StepSolution) -> None:
     h = run.history
-    h["time"].append(run.time)
+    h["time"].append(run.shown_time)
     h["dt"].append(dt)
     h["iterations"].append(solution.iterations)
     h["max_penetration"].append(solution.max_penetration)
@@ -416,7 +441,7 @@ def run(
                     with state.timer("checkpoint"):
                         checkpoints.write(state, wallclock.perf_counter() - start)
                 if report:
-                    report(_fraction(state), {"step": state.step, "time": state.time})
+                    report(_fraction(state), {"step": state.step, "time": state.shown_time})
             if status == "interrupted" and checkpoints is not None:
                 checkpoints.write(state, wallclock.perf_counter() - start)
     except SimulationError as exc:
@@ -426,7 +451,10 @@ def run(
     finally:
         if report and hasattr(report, "close"):
             report.close()
-    return _result(state, frames, start, status)
+    result = _result(state, frames, start, status)
+    for text in result.summary["warnings"]:  # `dda run` shows them as warnings
+        log.info("warning: %s", text)
+    return result
 
 
 def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> Frame:
@@ -434,7 +462,7 @@ def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> F
     scene's coordinates (the run's own are ``origin`` less: dda.scene.local_frame)."""
     bolts = None if state.model.bolts is None else state.model.bolts.segments()
     frame = make_frame(
-        state.blocks, state.contacts, state.time, state.step, measured, bolts,
+        state.blocks, state.contacts, state.shown_time, state.step, measured, bolts,
         _plane_strain_poisson(state.model.scene, state.blocks),
     )  # fmt: skip
     return shifted(frame, origin)
@@ -519,7 +547,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "title": m.scene.title,
         "status": status,
         "steps": state.step,
-        "time": state.time,
+        "time": state.shown_time,
         "wall_seconds": round(wall, 6),
         "compile_seconds": round(compile_seconds() - state.compiled_before, 3),
         "blocks": state.blocks.count,
@@ -538,6 +566,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "start_in_situ_relaxed": state.in_situ_change[0] > IN_SITU_KEPT,
         "max_penetration": state.max_penetration,
         "cut_steps": state.cut_steps,
+        "smallest_cut_time_step": None if state.cut_steps == 0 else state.smallest_cut_dt,
         "search_redos": state.search_redos,
         "friction_dissipation": state.friction_dissipation,
         "contact_method": None if m.contact is None else m.scene.contact.method,
@@ -548,7 +577,30 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "external_work": state.energy.work,
         "environment": environment(),
         **_engineering_summary(state),
+        "warnings": _warnings(state),
     }
+
+
+def _warnings(state: _Run) -> list[str]:
+    """The run's warnings (:mod:`dda.run.run_warnings`), in the scene's units."""
+    m = state.model
+    units = getattr(m.scene, "units", None)
+    length = getattr(units, "length", "m")
+    found = [
+        penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
+        cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
+    ]
+    if state.last_moves is not None:
+        moves, owner, names = state.last_moves
+        size = np.hypot(moves[:, 0], moves[:, 1])
+        largest = int(np.argmax(size)) if len(size) else 0
+        if len(size):
+            found.append(
+                static_motion_warning(
+                    float(size[largest]), m.allowed_displacement, names[owner[largest]], length
+                )
+            )
+    return [text for text in found if text is not None]
 
 
 def _engineering_summary(state: _Run) -> dict:
