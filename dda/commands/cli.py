@@ -493,6 +493,8 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
         return stop.exit_code
     if not args.quiet:
         print(summary_paragraph(summary, folder.outdir))
+    for text in summary.get("warnings") or ():  # quiet or not: the user should know
+        print(f"dda run: warning: {text}", file=sys.stderr)
     return EXIT_OK
 
 
@@ -591,7 +593,8 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     """
     title = summary.get("title") or "run"
     parts = [
-        f"{title}: {summary.get('status', 'finished')} after {summary.get('steps', '?')} steps",
+        f"{title}: {summary.get('status', 'finished')} after "
+        f"{_counted(summary.get('steps', '?'), 'step')}",
         f"to t = {_number(summary.get('time'))} s",
         f"in {_number(summary.get('wall_seconds'), '.3g')} s wall time",
     ]
@@ -606,10 +609,15 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
         length = unit_name("length", units)
         text += f" Largest penetration {_number(summary['max_penetration'])} {length}."
     text += _start_sentence(summary)
+    if summary.get("cut_steps"):
+        shortest = _number(summary.get("smallest_cut_time_step"), ".3g")
+        text += (
+            f" Δt cut at {_counted(summary['cut_steps'], 'step')} (to {shortest} s at the least)."
+        )
     if summary.get("iterations") is not None:
-        text += f" {summary['iterations']} solves"
+        text += f" {_counted(summary['iterations'], 'solve')}"
         newton = summary.get("newton_iterations")
-        text += "." if newton is None else f" ({newton} Newton iterations)."
+        text += "." if newton is None else f" ({_counted(newton, 'Newton iteration')})."
     if summary.get("friction_dissipation"):
         energy = unit_name("energy", units)
         text += f" Friction dissipated {_number(summary['friction_dissipation'], '.3g')} {energy}."
@@ -622,11 +630,11 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     if summary.get("bolts") is not None:
         broke = len(summary.get("bolt_events") or ())
         text += f" {broke} of {_counted(summary['bolts'], 'bolt')} broke."
-    return text + f"\nOutput ({summary.get('frames_written', 0)} frames): {outdir}"
+    return text + f"\nOutput ({_counted(summary.get('frames_written', 0), 'frame')}): {outdir}"
 
 
-def _counted(count: int, noun: str) -> str:
-    """'1 stage', '2 stages'."""
+def _counted(count: Any, noun: str) -> str:
+    """'1 stage', '2 stages' (and '? stages' for a count not known)."""
     return f"{count} {noun}" + ("" if count == 1 else "s")
 
 
@@ -639,7 +647,7 @@ def _start_sentence(summary: dict[str, Any]) -> str:
         newton = summary.get("start_newton_iterations")
         seconds = _number(summary.get("start_seconds"), ".3g")
         method = summary.get("start_method")
-        text = f" Equilibrium start: {newton} Newton iterations, {seconds} s."
+        text = f" Equilibrium start: {_counted(newton, 'Newton iteration')}, {seconds} s."
         if method == "continuation":  # the interior point did not settle it
             text += " Its interior-point solve did not settle: it went on by continuation."
         if summary.get("start_in_situ_relaxed"):
@@ -718,9 +726,7 @@ def render_command(args: argparse.Namespace) -> int:
         clim = checked_range(args)
         found = find_frame(args.source, args.step)
         output = args.output or found.default_png(args.scalars)
-        if Path(output).suffix.lower() != ".png":
-            suffix = Path(output).suffix or "no suffix"
-            raise ValueError(f"-o {output}: a picture is written as .png, not {suffix}")
+        _check_png(output)
         check_output_file(output)
         frame = read_found_frame(found)
     except (FileNotFoundError, ValueError, OutputError) as exc:
@@ -738,6 +744,17 @@ def render_command(args: argparse.Namespace) -> int:
     logger.info("wrote %s", output)
     print(output)
     return EXIT_OK
+
+
+def _check_png(output: Path | str) -> None:
+    """A ValueError saying what to give when ``-o output`` does not end in .png."""
+    suffix = Path(output).suffix
+    if suffix.lower() == ".png":
+        return
+    given = f", not {suffix}" if suffix else ""
+    raise ValueError(
+        f"-o {output}: a picture is written as .png{given}; give a file name ending in .png"
+    )
 
 
 if __name__ == "__main__":

@@ -23,7 +23,8 @@ def register(subparsers: Any) -> None:
 
 
 def run_command(args: argparse.Namespace) -> int:
-    """Print the cache's folders and size, or clear it; 0 on success."""
+    """Print the cache's folders and size (where numba keeps kernels, when there are
+    none yet), or clear it; 0 on success."""
     from dda import jit
 
     if not jit.numba_enabled():
@@ -33,12 +34,21 @@ def run_command(args: argparse.Namespace) -> int:
 
     if args.clear:
         files, size = cache.clear()
-        print(f"removed {files} cached kernel files ({size / 2**20:.1f} MiB)")
+        print(f"removed {_counted(files, 'cached kernel file')} ({size / 2**20:.1f} MiB)")
         return 0
     files = cache.cache_files()
+    if not files:
+        print(f"0 cached kernel files: numba keeps them {cache.cache_home()}")
+        return 0
     folders = sorted({str(path.parent) for path in files})
     size = sum(path.stat().st_size for path in files)
-    print(f"{len(files)} cached kernel files ({size / 2**20:.1f} MiB) in {len(folders)} folders")
+    print(f"{_counted(len(files), 'cached kernel file')} ({size / 2**20:.1f} MiB) in "
+          f"{_counted(len(folders), 'folder')}")  # fmt: skip
     for folder in folders:
         print(f"  {folder}")
     return 0
+
+
+def _counted(count: int, noun: str) -> str:
+    """'1 folder', '2 folders'."""
+    return f"{count} {noun}" + ("" if count == 1 else "s")

@@ -62,7 +62,8 @@ def movie_format(path: str | os.PathLike[str] | None) -> str:
         return ".mp4" if mp4_available() else ".gif"
     suffix = Path(path).suffix.lower()
     if suffix not in FORMATS:
-        raise MovieError(f"{path}: a movie is .mp4 or .gif, not {suffix or 'no suffix'!r}")
+        given = f", not {suffix}" if suffix else ""
+        raise MovieError(f"{path}: a movie is .mp4 or .gif{given}; give a file name ending in one")
     if suffix == ".mp4" and not mp4_available():
         raise MovieError(
             f"{path}: MP4 needs imageio-ffmpeg (pip install 'dda-rock[movie]'); or name a .gif"

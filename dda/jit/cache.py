@@ -161,6 +161,22 @@ def cache_folders() -> Iterator[Path]:
             yield root / subpath
 
 
+def cache_home() -> str:
+    """Where numba keeps the package's kernel files, in a few words (numba's order):
+    under ``NUMBA_CACHE_DIR`` when it is set; else in ``__pycache__`` beside each module
+    when the package folder is writable; else under the user's cache folder."""
+    from numba.core import config
+    from numba.misc.appdirs import AppDirs
+
+    if config.CACHE_DIR:
+        return f"under {config.CACHE_DIR} (NUMBA_CACHE_DIR)"
+    pycache = PACKAGE_ROOT / "__pycache__"
+    if os.access(pycache if pycache.is_dir() else PACKAGE_ROOT, os.W_OK):
+        return f"in __pycache__ beside the modules under {PACKAGE_ROOT}"
+    user = AppDirs(appname="numba", appauthor=False).user_cache_dir
+    return f"under {user} (the user's cache: {PACKAGE_ROOT} is read-only)"
+
+
 def cache_files() -> list[Path]:
     """The package's kernel cache files (numba's ``.nbi`` indexes and ``.nbc`` code)."""
     found = []

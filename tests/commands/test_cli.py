@@ -269,6 +269,13 @@ def test_the_run_paragraph_counts_in_the_singular_and_the_plural():
     two = cli.summary_paragraph({**base, "stages_done": 2, "fracture_events": 3, "bolts": 2},
                                 Path("out"))  # fmt: skip
     assert " 3 fracture events. 2 stages applied. 0 of 2 bolts broke." in two
+    single = {**base, "steps": 1, "iterations": 1, "newton_iterations": 1, "frames_written": 1}
+    text = cli.summary_paragraph({**single, "start": "equilibrium", "start_newton_iterations": 1,
+                                  "start_seconds": 0.1}, Path("out"))  # fmt: skip
+    assert "finished after 1 step to" in text and "1 solve (1 Newton iteration)." in text
+    assert "Equilibrium start: 1 Newton iteration, 0.1 s." in text  # was "1 Newton iterations"
+    assert text.endswith("Output (1 frame): out")
+    assert "after ? steps" in cli.summary_paragraph({"title": "t"}, Path("out"))
 
 
 def test_the_run_paragraph_tells_the_newton_iterations_beside_the_solves():
@@ -324,9 +331,16 @@ def test_render_a_written_run(tmp_path, capsys):
     jpeg = tmp_path / "pic.jpg"  # was PNG bytes under a .jpg name
     assert cli.main(["render", str(tmp_path / "run"), "-o", str(jpeg), *small]) == 2
     assert capsys.readouterr().err == (
-        f"dda render: -o {jpeg}: a picture is written as .png, not .jpg\n"
+        f"dda render: -o {jpeg}: a picture is written as .png, not .jpg; give a file name "
+        "ending in .png\n"
     )
     assert not jpeg.exists()
+    bare = tmp_path / "pic"  # was "a picture is written as .png, not no suffix"
+    assert cli.main(["render", str(tmp_path / "run"), "-o", str(bare), *small]) == 2
+    assert capsys.readouterr().err == (
+        f"dda render: -o {bare}: a picture is written as .png; give a file name ending in .png\n"
+    )
+    assert not bare.exists()
 
 
 # ------------------------------------------------------------------ plugins
@@ -427,3 +441,28 @@ def test_progress_bar_on_a_narrow_terminal_fits_its_width(monkeypatch):
             bar.update(k, step=k, time=0.001 * k, contacts=1234, iterations=5, broken=17)
     redraws = stream.getvalue().strip("\n").split("\r")[1:]
     assert len(redraws) >= 2 and max(len(line) for line in redraws) <= 59
+
+
+def test_the_run_paragraph_tells_the_cut_steps():
+    base = {"title": "t", "steps": 78, "time": 2.0, "wall_seconds": 1.0}
+    text = cli.summary_paragraph({**base, "cut_steps": 75, "smallest_cut_time_step": 0.0133},
+                                 Path("out"))  # fmt: skip
+    assert "Δt cut at 75 steps (to 0.0133 s at the least)." in text
+    assert "cut" not in cli.summary_paragraph({**base, "cut_steps": 0}, Path("out"))
+
+
+def test_run_prints_the_run_warnings_quiet_or_not(tmp_path, monkeypatch, capsys):
+    """The sliding block at Δt = 1 s: its steps are cut at most steps (it slides off its
+    slab and falls), which `dda run -q` says on stderr although it prints no summary."""
+    monkeypatch.chdir(tmp_path)
+    scene = (Path(dda.__file__).parents[1] / "cases" / "sliding_block.toml").read_text()
+    scene = scene.replace("time_step = 0.01", "time_step = 1.0").replace(
+        "duration = 1.0", "duration = 2.0"
+    )
+    (tmp_path / "big_step.toml").write_text(scene)
+    assert cli.main(["run", "big_step.toml", "-q", "--no-picture", "-o", "out"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert "dda run: warning: the time step was cut at" in captured.err
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["warnings"] and summary["warnings"][0].startswith("the time step was cut")

@@ -181,3 +181,35 @@ def test_dda_kernels_clear_removes_the_cached_kernels(tmp_path):
 
     assert cleared.returncode == 0 and "removed 2 cached kernel files" in cleared.stdout
     assert sorted(p.name for p in pycache.iterdir()) == ["law.cpython-311.pyc"]
+    empty = subprocess.run(
+        [sys.executable, "-c", script, "kernels"],
+        capture_output=True, text=True, env=env, cwd=tmp_path,
+    )  # fmt: skip
+    assert empty.returncode == 0, empty.stderr  # was "0 cached kernel files ... in 0 folders"
+    assert empty.stdout == (
+        f"0 cached kernel files: numba keeps them under {tmp_path / 'numba'} (NUMBA_CACHE_DIR)\n"
+    )
+
+
+def test_dda_kernels_says_where_numba_keeps_them_when_there_are_none(monkeypatch, capsys):
+    """With no cache file yet: beside the modules, or (a read-only package) the user's
+    cache, by numba's order."""
+    from numba.core import config
+
+    from dda.commands import cli
+
+    if not jit.numba_enabled():
+        pytest.skip("numba is not in use")
+    monkeypatch.setattr(cache, "cache_files", list)
+    monkeypatch.setattr(config, "CACHE_DIR", "")
+    monkeypatch.setattr(cache.os, "access", lambda *args: True)
+    assert cli.main(["kernels"]) == 0
+    assert capsys.readouterr().out == (
+        "0 cached kernel files: numba keeps them in __pycache__ beside the modules under "
+        f"{cache.PACKAGE_ROOT}\n"
+    )
+    monkeypatch.setattr(cache.os, "access", lambda *args: False)
+    assert cli.main(["kernels"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("0 cached kernel files: numba keeps them under ")
+    assert out.endswith(f"numba (the user's cache: {cache.PACKAGE_ROOT} is read-only)\n")

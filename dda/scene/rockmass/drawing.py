@@ -16,10 +16,11 @@ which the block cutting then handles as if typed:
 
 A shape is a LINE, LWPOLYLINE or POLYLINE (arcs of bulges included), CIRCLE, ARC, ELLIPSE or
 SPLINE; curves are drawn as chords within ``arc_tolerance``. Coordinates are multiplied by
-``scale``. Refused, in one line naming the file, the layer and the entity (its DXF
-handle): an open shape where a closed one is needed, a layer the table names that the
-drawing does not have, a drawing whose units (``$INSUNITS``) are not the scene's length
-unit (unless ``scale`` says how to read them), an entity of another kind on a mapped layer.
+``scale``. Refused, in one line naming the scene file and its ``drawing.file`` key, then the
+DXF file, the layer and the entity (its DXF handle): a file ezdxf cannot read, an open
+shape where a closed one is needed, a layer the table names that the drawing does not
+have, a drawing whose units (``$INSUNITS``) are not the scene's length unit (unless
+``scale`` says how to read them), an entity of another kind on a mapped layer.
 
 ezdxf, the maintained DXF reader, is imported only when a scene has a drawing.
 """
@@ -36,7 +37,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from dda.errors import SceneError
+from dda.errors import SceneError, message
 from dda.scene.checks import POSITIVE, Checker
 
 log = logging.getLogger(__name__)
@@ -66,11 +67,12 @@ class Shape:
 
 @dataclass(frozen=True)
 class Expanded:
-    """A scene's drawing made rock-mass keys: the raw scene, and what each region it
-    added was drawn as (``regions[i]`` -> ``"layer BLOCKS: LWPOLYLINE (handle 2F)"``),
-    for messages about them."""
+    """A scene's drawing made rock-mass keys: the raw scene, the scene file it came from,
+    and what each region it added was drawn as (``regions[i]`` ->
+    ``"layer BLOCKS: LWPOLYLINE (handle 2F)"``), for messages about them."""
 
     raw: dict
+    source: str
     path: Path
     origins: dict[int, str]
 
@@ -83,7 +85,8 @@ class Expanded:
             r"regions\[(\d+)\]", lambda m: self.origins.get(int(m.group(1)), m.group(0)),
             exc.reason,
         )  # fmt: skip
-        return SceneError(str(self.path), self.origins[int(found.group(1))], reason)
+        drawn = SceneError(str(self.path), self.origins[int(found.group(1))], reason)
+        return of_scene(drawn, self.source, self.path)
 
 
 def expand_drawing(raw: Mapping[str, Any], source: str) -> Expanded:
@@ -94,8 +97,8 @@ def expand_drawing(raw: Mapping[str, Any], source: str) -> Expanded:
     Raises
     ------
     SceneError
-        Naming the DXF file (or the scene, for a key of ``[drawing]``), the layer and the
-        entity, and what is wrong.
+        Naming the scene file and its ``drawing.file`` key, then the DXF file, the layer
+        and the entity, and what is wrong (or the scene and a key of ``[drawing]``).
     """
     chk = Checker(source)
     table = chk.table(raw["drawing"], "drawing", DRAWING_KEYS)
@@ -106,6 +109,14 @@ def expand_drawing(raw: Mapping[str, Any], source: str) -> Expanded:
         where = "the current folder" if source.startswith("<") else "beside the scene file"
         chk.fail("drawing.file", f"no such file {path} (a drawing is read from {where})")
     layers = _layers(chk, table)
+    try:
+        return _read(chk, raw, table, layers, path)
+    except SceneError as exc:
+        raise of_scene(exc, source, path) from None
+
+
+def _read(chk: Checker, raw: Mapping, table: Mapping, layers: dict, path: Path) -> Expanded:
+    """The drawing at ``path`` read into rock-mass keys (its errors name ``path``)."""
     document = read_dxf(path)
     scale = _scale(chk, table, document, raw, path)
     drawn = _entities(document, path, layers)
@@ -115,6 +126,17 @@ def expand_drawing(raw: Mapping[str, Any], source: str) -> Expanded:
         tolerance = chk.real(table["arc_tolerance"], "drawing.arc_tolerance", POSITIVE)
     shapes = [_flattened(*entity, scale, tolerance, size) for entity in drawn]
     return _rock_mass(chk, raw, table, layers, shapes, path)
+
+
+def of_scene(exc: SceneError, source: str, path: Path) -> SceneError:
+    """``exc`` about the DXF file ``path`` said of the scene ``source`` that names it:
+    ``scene.toml: drawing.file: section.dxf: layer BLOCKS: ...``; a refused key of
+    ``[drawing]`` (``drawing.blocks``) stays that key; an error about the scene is kept."""
+    if exc.source != str(path):
+        return exc
+    if exc.key.startswith("drawing."):
+        return SceneError(source, exc.key, exc.reason)
+    return SceneError(source, "drawing.file", message(str(path), exc.key, exc.reason))
 
 
 def drawing_path(name: str, source: str) -> Path:
@@ -127,16 +149,21 @@ def drawing_path(name: str, source: str) -> Path:
 
 
 def read_dxf(path: Path) -> Any:
-    """The ezdxf document of ``path``, or a SceneError saying why it cannot be read."""
+    """The ezdxf document of ``path``, or a SceneError saying why it cannot be read (any
+    error of ezdxf's reader: a file cut short raises StopIteration, not a DXFError)."""
     import ezdxf
 
     if not path.is_file():
         raise SceneError(str(path), "<file>", "no such drawing file")
     try:
         return ezdxf.readfile(path)
-    except (OSError, ezdxf.DXFError) as exc:
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        reason = f"not a DXF drawing ezdxf can read ({reason})"
+    except Exception as exc:  # whatever stops the reader, said in one line
+        detail = " ".join(str(exc).split()) or type(exc).__name__
+        if isinstance(exc, StopIteration):
+            detail = "it ends early"
+        reason = "not a DXF drawing ezdxf can read"
+        if "is not a DXF file" not in detail:  # ezdxf's own words repeat the file name
+            reason = f"{reason} ({detail})"
         raise SceneError(str(path), "<file>", reason) from None
 
 
@@ -190,8 +217,8 @@ def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
         if (role.split(":")[0] in layers["given"] or role == "blocks") and layer not in present:
             listed = ", ".join(sorted(present)) or "none"
             key = f"drawing.{role.split(':')[0]}"
-            raise SceneError(str(path), key, f"no layer {layer!r} in the drawing (its layers: "
-                             f"{listed})")  # fmt: skip
+            raise SceneError(str(path), key, f"no layer {layer!r} in the drawing {path} (its "
+                             f"layers: {listed})")  # fmt: skip
     wanted = set(mapped.values())
     drawn = []
     for entity in entities:
@@ -266,7 +293,7 @@ def _rock_mass(
         out["fix"] = [*_list(raw, "fix"), *({"inside": s.points.tolist()} for s in fixed)]
     if holes:
         out.update(_excavation(chk, raw, table, holes))
-    return Expanded(out, path, origins)
+    return Expanded(out, chk.source, path, origins)
 
 
 def _closed(shapes: list[Shape], layer: str, path: Path) -> list[Shape]:

@@ -144,24 +144,47 @@ def _scene_for(tmp_path: Path, dxf: Path, **drawing) -> Path:
 SQUARE = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
 
 
+def _overlapping(path: Path) -> None:
+    """Two squares on BLOCKS that overlap (the cut refuses the regions they become)."""
+    drawings.drawing_with(path, "BLOCKS", SQUARE, closed=True)
+    import ezdxf
+
+    document = ezdxf.readfile(path)
+    moved = [(x + 5.0, y + 5.0) for x, y in SQUARE]
+    document.modelspace().add_lwpolyline(moved, close=True, dxfattribs={"layer": "BLOCKS"})
+    document.saveas(path)
+
+
 @pytest.mark.parametrize(
     ("make", "drawing", "message"),
     [
         (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=False), {},
-         "layer BLOCKS: LWPOLYLINE (handle 30) is open (from (0, 0) to (0, 10)): a block or "
-         "an excavation is a closed polyline"),
+         "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 30) is open "
+         "(from (0, 0) to (0, 10)): a block or an excavation is a closed polyline"),
         (lambda p: drawings.drawing_with(p, "ROCK", SQUARE, closed=True), {},
-         "drawing.blocks: no layer 'BLOCKS' in the drawing (its layers: 0, Defpoints, ROCK)"),
+         "scene.toml: drawing.blocks: no layer 'BLOCKS' in the drawing {dxf} (its layers: 0, "
+         "Defpoints, ROCK)"),
         (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=True), {"joints": "FAULTS"},
-         "drawing.joints: no layer 'FAULTS' in the drawing"),
+         "scene.toml: drawing.joints: no layer 'FAULTS' in the drawing {dxf}"),
         (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=True, units=4), {},
-         "$INSUNITS: the drawing is in mm ($INSUNITS = 4) and the scene in m ([units] "
-         "length): give [drawing] scale = 0.001 to read it in m"),
-        (lambda p: p.write_text("not a drawing"), {}, "not a DXF drawing ezdxf can read"),
+         "scene.toml: drawing.file: {dxf}: $INSUNITS: the drawing is in mm ($INSUNITS = 4) "
+         "and the scene in m ([units] length): give [drawing] scale = 0.001 to read it in m"),
+        (lambda p: p.write_text("not a drawing"), {},
+         "scene.toml: drawing.file: {dxf}: not a DXF drawing ezdxf can read"),
+        (lambda p: p.write_text("0\nSECTION\n2\nHEADER\n"), {},
+         "scene.toml: drawing.file: {dxf}: not a DXF drawing ezdxf can read (it ends early)"),
+        (lambda p: p.write_text("0\nSECTION\n2\nENTITIES\n0\nEOF\n"), {},
+         "scene.toml: drawing.file: {dxf}: not a DXF drawing ezdxf can read (DXFStructureError: "
+         "missing ENDSEC tag.)"),
+        (lambda p: drawings.drawing_with(p, "BLOCKS", [], closed=False), {},
+         "scene.toml: drawing.file: {dxf}: layer BLOCKS: holds no shape"),
+        (_overlapping, {},
+         "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 34): overlaps "
+         "layer BLOCKS: LWPOLYLINE (handle 30) (regions must not)"),
         (lambda p: None, {}, "scene.toml: drawing.file: no such file "),
     ],
     ids=["open polyline", "no blocks layer", "a named layer missing", "units", "not DXF",
-         "no file"],
+         "cut short", "broken DXF", "no shape", "overlap", "no file"],
 )  # fmt: skip
 def test_a_bad_drawing_is_refused_in_one_line(tmp_path, monkeypatch, capsys, make, drawing,
                                               message):  # fmt: skip
@@ -169,6 +192,7 @@ def test_a_bad_drawing_is_refused_in_one_line(tmp_path, monkeypatch, capsys, mak
     make(tmp_path / "bad.dxf")
     scene = _scene_for(tmp_path, tmp_path / "bad.dxf", **drawing)
     before = sorted(os.listdir(tmp_path))
+    message = message.format(dxf=tmp_path / "bad.dxf")
     for argv in (["cut", str(scene), "-o", "out.toml"], ["run", str(scene), "-o", "out"]):
         assert cli.main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
