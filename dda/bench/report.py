@@ -19,6 +19,23 @@ SHORT = {
     "update": "update",
     "output": "output",
 }
+# the table's columns before and after the stages' (each stage's: "<SHORT> ms/step")
+LEADING = (
+    "wall",
+    "blocks",
+    "method",
+    "start",
+    "start s",
+    "start Newton",
+    "start in steps",
+    "ms/step",
+    "after step 1",
+    "block-steps/s",
+    "iter/step",
+    "Newton/step",
+    "factorisations",
+)
+TRAILING = ("peak MiB", "status")
 
 
 def machine_line() -> str:
@@ -54,15 +71,11 @@ def table(measurements: Iterable[Measurement]) -> str:
     """Markdown table: one row per (size, method, start); the equilibrium start's wall
     time, Newton iterations and time in steps after step 1 ("start in steps"); ms/step
     is the whole run's (the start included) per step, "after step 1" a later step's;
-    stage seconds per step in ms."""
-    head = (
-        "| wall | blocks | method | start | start s | start Newton | start in steps "
-        "| ms/step | after step 1 | block-steps/s | iter/step | Newton/step | factor. |"
-        + "".join(f" {SHORT[s]} |" for s in STAGES)
-        + " peak MiB | status |"
-    )
-    rule = "|" + "---|" * (head.count("|") - 1)
-    lines = [head, rule]
+    "factorisations" the run's total; each stage's ms per step ("search ms/step", ...).
+    Every column: docs/benchmarks.md."""
+    names = (*LEADING, *(f"{SHORT[s]} ms/step" for s in STAGES), *TRAILING)
+    head = "| " + " | ".join(names) + " |"
+    lines = [head, "|" + "---|" * len(names)]
     for m in measurements:
         per_step = {s: 1000.0 * m.stage_seconds.get(s, 0.0) / max(m.steps, 1) for s in STAGES}
         started = m.start == "equilibrium"

@@ -20,7 +20,9 @@ def register(subparsers: Any) -> None:
         "bench",
         help="performance benchmark (wall of blocks on a base)",
         description="Time the engine on an n x n wall of unit blocks on a fixed base, "
-        "each size in its own process (peak memory per size).",
+        "each size in its own process (peak memory per size). The table's columns: "
+        "docs/benchmarks.md (factorisations: a count over the run; '<stage> ms/step': "
+        "ms a step in that stage).",
     )
     parser.add_argument(
         "--sizes",

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -16,25 +17,33 @@ from dda.io.output_paths import OutputError, check_output_dir
 
 log = logging.getLogger(__name__)
 
+WIDTH = 79  # the description's and the epilog's lines (argparse wraps the options' help)
+DESCRIPTION = (
+    "Run CASE (sliding_block, pushed_block, stack, wall or a scene file) for every "
+    "setting of the grid, measure the error against the closed form (or a fine run) and "
+    "the median wall time of repeated runs; write DIR/CASE.csv, DIR/CASE.md and "
+    "DIR/pareto_CASE.png. The client reads the case and sends scenes: workers need no files."
+)
+GRID_HELP = (
+    "KEY=V1,V2;... with the keys method (al, penalty), penalty (x E), tolerance "
+    "(x model size), time_step and ratio (g2), e.g. 'method=al;time_step=0.01,0.02'. "
+    "A key given replaces the case's values; a key not given keeps the case's whole "
+    "default list (below) and is swept too. Every combination is one setting, run "
+    "--repeats times."
+)
+
 
 def register(subparsers: Any) -> None:
     """Add the ``tradeoff`` sub-command (entry point of group ``dda.commands``)."""
     p = subparsers.add_parser(
         "tradeoff",
         help="accuracy against time: sweep contact and time-step settings",
-        description="Run CASE (sliding_block, pushed_block, stack, wall or a scene file) for every "
-        "setting of the grid, measure the error against the closed form (or a fine run) and "
-        "the median wall time of repeated runs; write DIR/CASE.csv, DIR/CASE.md and "
-        "DIR/pareto_CASE.png. The client reads the case and sends scenes: workers need no files.",
+        description=textwrap.fill(DESCRIPTION, WIDTH),
+        epilog=defaults_epilog(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,  # the epilog's lines as written
     )
     p.add_argument("case", help="built-in case name or scene file")
-    p.add_argument(
-        "--grid",
-        default="",
-        metavar="SPEC",
-        help="e.g. 'method=al,penalty;penalty=1,10;tolerance=1e-4;time_step=0.01;"
-        "ratio=0.01' (keys not given keep the case's defaults)",
-    )
+    p.add_argument("--grid", default="", metavar="SPEC", help=GRID_HELP)
     p.add_argument(
         "-o", "--outdir", type=output_path,
         help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff_CASE)",
@@ -53,6 +62,31 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=tradeoff_command)
 
 
+def defaults_epilog() -> str:
+    """Each case's default grid, in the --grid syntax, and its count of settings."""
+    from dda.tradeoff.grid import DEFAULT_GRIDS, SCENE_FILE, default_grid, expand, spec
+
+    said = (
+        "default grids (a key not given in --grid sweeps all of its values here; the "
+        "penalty method ignores the tolerance):"
+    )
+    lines = [textwrap.fill(said, WIDTH)]
+    for case in DEFAULT_GRIDS:
+        grid = default_grid(case, time_step=1.0)  # a scene file's own, for the count
+        head = f"{'a scene file' if case == SCENE_FILE else case} ({len(expand(grid))} settings)"
+        if case == SCENE_FILE:
+            grid["time_step"] = ["the scene's"]
+        lines.append(_indented(f"{head}: {spec(grid)}"))
+    return "\n".join(lines)
+
+
+def _indented(text: str) -> str:
+    """``text`` wrapped to the help's width, its later lines indented further."""
+    return textwrap.fill(
+        text, WIDTH, initial_indent="  ", subsequent_indent="      ", break_on_hyphens=False
+    )
+
+
 def _repeats(text: str) -> int:
     from dda.tradeoff.runner import MIN_REPEATS
 
@@ -66,7 +100,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study; return the exit code (0 ok, 2 bad input, 3 the reference run failed)."""
     from dda.tradeoff.cases import fine_setting, get_case
     from dda.tradeoff.grid import Setting, expand, parse_grid
-    from dda.tradeoff.report import markdown_table, pareto_plot, write_csv
+    from dda.tradeoff.report import markdown_table, pareto_plot, plan_line, write_csv
     from dda.tradeoff.runner import Cluster, SweepInterrupted, Task, add_errors, make_tasks, sweep
 
     args.outdir = args.outdir or default_outdir("tradeoff", args.case)
@@ -93,10 +127,11 @@ def tradeoff_command(args: argparse.Namespace) -> int:
         args.scheduler, args.scheduler_file, args.workers, getattr(args, "verbose", 0) > 0
     )
     print(
-        f"{case.name}: {len(settings)} settings x {args.repeats} runs"
-        + (" and the fine reference run" if reference else ""),
+        f"{case.name}: {plan_line(len(settings), args.repeats)}"
+        + (", and 1 fine reference run" if reference else ""),
         file=sys.stderr,
     )
+    print(_grid_line(grid, args.grid), file=sys.stderr)
     try:
         rows, fine_row = sweep(tasks, reference, cluster, serial=args.serial, progress=_progress)
     except SweepInterrupted as stopped:
@@ -114,6 +149,15 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     print(markdown_table(rows, case.quantity))
     print(f"wrote {outdir}/{case.name}.csv, .md and pareto_{case.name}.png", file=sys.stderr)
     return 0
+
+
+def _grid_line(grid: dict[str, list], text: str) -> str:
+    """The grid swept, naming the keys --grid left at the case's defaults."""
+    from dda.tradeoff.grid import KEYS, given_keys, spec
+
+    defaulted = [key for key in KEYS if key not in given_keys(text)]
+    said = f" ({', '.join(defaulted)}: the case's defaults)" if defaulted else ""
+    return f"grid: {spec(grid)}{said}"
 
 
 def _write_interrupted(stopped, case, reference, outdir: Path) -> int:

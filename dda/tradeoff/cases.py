@@ -28,7 +28,7 @@ import numpy as np
 import dda
 import dda.cases
 from dda.bench.scenes import wall_scene
-from dda.tradeoff.grid import Setting
+from dda.tradeoff.grid import SCENE_FILE, Setting, default_grid
 
 
 @dataclass(frozen=True)
@@ -84,19 +84,6 @@ def _row(result: dda.Result, name: str) -> int:
     return result.final.names.index(name)
 
 
-def _grid(
-    penalty: list, time_step: list, ratio: list, tolerance: list | None = None
-) -> dict[str, list]:
-    """A case's default sweep: both methods and the AL tolerances (1e-4, 1e-6), plus these."""
-    return {
-        "method": ["augmented-lagrangian", "penalty"],
-        "penalty": penalty,
-        "tolerance": tolerance or [1e-4, 1e-6],
-        "time_step": time_step,
-        "ratio": ratio,
-    }
-
-
 def slid_distance(r: dda.Result) -> np.ndarray:
     """How far the block called ``slider`` moved."""
     return np.array([np.linalg.norm(r.final.displacements[_row(r, "slider")])])
@@ -111,7 +98,7 @@ def sliding_block() -> Case:
         slid_distance,
         np.array([exact]),
         "distance slid in 1 s (m)",
-        _grid(penalty=[0.1, 1.0, 10.0], time_step=[0.02, 0.01, 0.005], ratio=[0.01, 0.002]),
+        default_grid("sliding_block"),
     )
 
 
@@ -137,7 +124,7 @@ def pushed_block() -> Case:
         acceleration,
         np.array([exact]),
         "acceleration (ft/s²)",
-        _grid(penalty=[1e-4, 1e-2, 1.0, 10.0], time_step=[0.02, 0.01, 0.005], ratio=[0.01]),
+        default_grid("pushed_block"),
     )
 
 
@@ -155,7 +142,7 @@ def stack() -> Case:
         bottom_stress,
         np.array([exact]),
         "σyy of the bottom block at 0.2 s (Pa)",
-        _grid(penalty=[0.1, 1.0, 10.0], time_step=[0.004, 0.002, 0.001], ratio=[0.01, 0.002]),
+        default_grid("stack"),
     )
 
 
@@ -183,7 +170,7 @@ def scene_file(path: str) -> Case:
         centroids,
         None,
         "final centroids (error / model size)",
-        _grid(penalty=[1.0, 10.0], time_step=[time_step], ratio=[0.01]),
+        default_grid(SCENE_FILE, time_step),
         per_model_size=True,
     )
 
@@ -198,7 +185,7 @@ def wall() -> Case:
         displacements,
         None,
         "block displacements at 0.1 s (error / largest displacement)",
-        _grid(penalty=[50.0], tolerance=[1e-3, 1e-4, 1e-5], time_step=[1e-3, 5e-4], ratio=[0.01]),
+        default_grid("wall"),
     )
 
 

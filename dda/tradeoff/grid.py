@@ -9,7 +9,9 @@ A grid is written ``key=v1,v2;key=v1,...`` with the keys
 * ``time_step``: the maximum time step, in the case's time unit;
 * ``ratio``: the maximum displacement ratio g2.
 
-Every combination is one run (a Cartesian product).
+Every combination is one setting (a Cartesian product), run ``--repeats`` times.
+A key the specification does not give sweeps every value of the case's default
+grid (:data:`DEFAULT_GRIDS`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,28 @@ ALIASES = {
     "penalty": "penalty",
 }
 KEYS = ("method", "penalty", "tolerance", "time_step", "ratio")
+SCENE_FILE = "scene file"  # any case that is not built in: its grid takes its time step
+
+
+def _sweep(penalty: list, time_step: list, ratio: list, tolerance: list | None = None) -> dict:
+    """A default grid: both methods and the AL tolerances (1e-4, 1e-6), plus these."""
+    return {
+        "method": ["augmented-lagrangian", "penalty"],
+        "penalty": penalty,
+        "tolerance": tolerance or [1e-4, 1e-6],
+        "time_step": time_step,
+        "ratio": ratio,
+    }
+
+
+# every case's default grid; a scene file's time step is its own (see default_grid)
+DEFAULT_GRIDS = {
+    "sliding_block": _sweep([0.1, 1.0, 10.0], [0.02, 0.01, 0.005], [0.01, 0.002]),
+    "pushed_block": _sweep([1e-4, 1e-2, 1.0, 10.0], [0.02, 0.01, 0.005], [0.01]),
+    "stack": _sweep([0.1, 1.0, 10.0], [0.004, 0.002, 0.001], [0.01, 0.002]),
+    "wall": _sweep([50.0], [1e-3, 5e-4], [0.01], tolerance=[1e-3, 1e-4, 1e-5]),
+    SCENE_FILE: _sweep([1.0, 10.0], [], [0.01]),
+}
 
 
 @dataclass(frozen=True)
@@ -42,6 +66,39 @@ class Setting:
     def label(self) -> str:
         tol = f" tol={self.tolerance:g}" if self.method != "penalty" else ""
         return f"{self.method} p={self.penalty:g}E{tol} dt={self.time_step:g} g2={self.ratio:g}"
+
+
+def default_grid(case: str, time_step: float | None = None) -> dict[str, list]:
+    """A copy of ``DEFAULT_GRIDS[case]``; a scene file's sweeps ``time_step``, its own."""
+    grid = {key: list(values) for key, values in DEFAULT_GRIDS[case].items()}
+    if case == SCENE_FILE:
+        grid["time_step"] = [time_step]
+    return grid
+
+
+def spec(grid: dict[str, list]) -> str:
+    """``grid`` in the specification syntax: ``"method=al,penalty; penalty=1,10; ..."``."""
+    short = {name: alias for alias, name in ALIASES.items() if len(alias) < len(name)}
+    words = {
+        key: [short.get(v, v) if key == "method" else _number(v) for v in grid[key]] for key in KEYS
+    }
+    return "; ".join(f"{key}={','.join(words[key])}" for key in KEYS)
+
+
+def _number(value: float | str) -> str:
+    """``1e-4`` and ``5e-4`` as written so; ``0.01`` and ``10`` too; words as they are."""
+    if isinstance(value, str):
+        return value
+    if 0 < abs(value) < 1e-3:
+        mantissa, _, exponent = f"{value:.12e}".partition("e")
+        return f"{mantissa.rstrip('0').rstrip('.')}e{int(exponent)}"
+    return f"{value:g}"
+
+
+def given_keys(text: str) -> list[str]:
+    """The keys a specification gives, in :data:`KEYS` order (unchecked: see parse_grid)."""
+    named = {part.partition("=")[0].strip() for part in text.split(";")}
+    return [key for key in KEYS if key in named]
 
 
 def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, list]:

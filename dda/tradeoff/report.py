@@ -68,8 +68,29 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
             )
     failed = sum(r["status"] != "finished" for r in rows)
     lines.append("")
-    lines.append(f"{len(rows)} runs, {failed} stopped with a SimulationError.")
+    stopped = plural(failed, "setting")
+    lines.append(f"{count_line(rows)}; {stopped} stopped with a SimulationError.")
     return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def count_line(rows: list[dict]) -> str:
+    """``"24 settings × 3 repeats = 72 runs"`` (a setting stops at its first failed run)."""
+    runs = sum(r["repeats"] for r in rows)
+    repeats = {r["repeats"] for r in rows}
+    if len(repeats) > 1:
+        return f"{plural(len(rows), 'setting')}, {plural(runs, 'run')} in all"
+    return plan_line(len(rows), repeats.pop() if repeats else 0)
+
+
+def plan_line(settings: int, repeats: int) -> str:
+    """``"24 settings × 3 repeats = 72 runs"``."""
+    runs = plural(settings * repeats, "run")
+    return f"{plural(settings, 'setting')} × {plural(repeats, 'repeat')} = {runs}"
+
+
+def plural(count: int, noun: str) -> str:
+    """``"1 run"``, ``"3 runs"``."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
 def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:

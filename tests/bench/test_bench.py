@@ -42,6 +42,20 @@ def test_measure_a_small_wall(method):
     assert "3x3" in table([m]) and "after step 1" in table([m]) and "Newton/step" in table([m])
 
 
+def test_the_table_names_its_counts_and_the_stages_units():
+    """The factorisations column is a count over the run; each stage's column says it is
+    ms a step; the header, the rule and a row have as many cells."""
+    m = Measurement(3, 3, "penalty", 4, 10, 0.2, 12, 5, stage_seconds={"factorisation": 0.01})
+    head, rule, row = table([m]).splitlines()
+    names = [cell.strip() for cell in head.strip("|").split("|")]
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    assert len(names) == len(cells) == rule.count("---")
+    assert cells[names.index("factorisations")] == "5"
+    assert cells[names.index("factor ms/step")] == "2.50"  # 10 ms over 4 steps
+    assert {"search ms/step", "law ms/step", "output ms/step"} <= set(names)
+    assert "factor." not in names and "factor" not in names
+
+
 def test_the_walls_start_as_users_runs_do_and_report_the_start():
     """By default the wall takes the engine's equilibrium start (and material damping),
     whose seconds and Newton iterations the table gives; ``start="unloaded"`` is Shi's

@@ -82,7 +82,9 @@ def test_serial_sweep_writes_csv_table_and_plot(tmp_path, capsys):
     assert "host" in (tmp_path / "sliding_block.csv").read_text().splitlines()[0]
     assert "| augmented-lagrangian |" in (tmp_path / "sliding_block.md").read_text()
     assert (tmp_path / "pareto_sliding_block.png").stat().st_size > 1000
-    assert "[2/2]" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "[2/2]" in err and "sliding_block: 2 settings × 3 repeats = 6 runs\n" in err
+    assert "2 settings × 3 repeats = 6 runs" in (tmp_path / "sliding_block.md").read_text()
 
 
 def test_unknown_case_is_bad_input(tmp_path):
