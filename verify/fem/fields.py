@@ -33,7 +33,7 @@ def stress_at_quadrature(solution: FemSolution) -> np.ndarray:
     lam = per_quadrature_point(solution.lam, basis)
     mu = per_quadrature_point(solution.mu, basis)
     tr = eps[0, 0] + eps[1, 1]
-    initial = initial_stress_at(solution.scene, basis.global_coordinates().value[1])
+    initial = initial_stress_at(solution.scene, np.asarray(basis.global_coordinates()[1]))
     return initial + np.stack(
         [2 * mu * eps[0, 0] + lam * tr, 2 * mu * eps[1, 1] + lam * tr, 2 * mu * eps[0, 1]]
     )

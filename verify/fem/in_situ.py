@@ -77,7 +77,7 @@ def initial_stress_load(scene: Scene, basis) -> np.ndarray:
     """−∫ σ0 : ε(v) dA over the meshed blocks (zero without ``[in_situ]``)."""
     if scene.in_situ is None:
         return np.zeros(basis.N)
-    sigma = _tensor(field_at(scene.in_situ, basis.global_coordinates().value[1]))
+    sigma = _tensor(field_at(scene.in_situ, np.asarray(basis.global_coordinates()[1])))
     return _initial_stress_form.assemble(basis, sigma=sigma)
 
 
@@ -112,7 +112,7 @@ def boundary_stress_load(written: Scene, bm: BlockMesh, element) -> np.ndarray:
         if not len(facets):
             continue
         basis = FacetBasis(bm.mesh, element, facets=facets)
-        sigma = _tensor(field_at(stress.field, basis.global_coordinates().value[1]))
+        sigma = _tensor(field_at(stress.field, np.asarray(basis.global_coordinates()[1])))
         load = _traction_form.assemble(basis, sigma=sigma)
         total = load if not len(total) else total + load
     return total
