@@ -650,11 +650,6 @@ def _start_sentence(summary: dict[str, Any]) -> str:
         text = f" Equilibrium start: {_counted(newton, 'Newton iteration')}, {seconds} s."
         if method == "continuation":  # the interior point did not settle it
             text += " Its interior-point solve did not settle: it went on by continuation."
-        if summary.get("start_in_situ_relaxed"):
-            change = summary.get("start_in_situ_change") or 0.0
-            block = summary.get("start_in_situ_change_block")
-            text += (f" It changed the in-situ stress by up to {100 * change:.0f} % (block "
-                     f"{block!r}): the field is not in equilibrium with the boundary.")  # fmt: skip
         return text
     if start is not None and start.startswith("unloaded ("):
         return " The equilibrium start did not settle: the run started unloaded."

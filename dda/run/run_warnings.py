@@ -1,17 +1,29 @@
-"""What a finished run should tell its user although nothing failed: contacts that
-sank deep into each other, a time step cut at most steps, a static analysis whose
-blocks still move. Each is one sentence in ``summary["warnings"]`` and a warning in the
-log, said once at the end of the run."""
+"""What a finished run should tell its user although nothing failed: energy the
+numerics created, contacts that sank deep into each other, a time step cut at most
+steps, a static analysis whose blocks still move. Each is one sentence in
+``summary["warnings"]``, said once at the end of the run (`dda run` prints them)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+
 import numpy as np
+
+# the stored energy above E0 + W, over the energy that moved in the run (or E0 + |W|,
+# the smaller), beyond which the run created energy that matters (numerics may
+# dissipate, never create: the standing stacks' tests hold every shipped method to it)
+ENERGY_WARNING = 0.01
 
 # the largest penetration, over the size (√area) of the smallest free block, beyond
 # which the contacts no longer model touching blocks (the shipped cases: ≤ 2.9e-4; the
 # paper's pure penalty case, Fig. 2a, 0.11: the penetration the augmented Lagrangian
 # removes)
 PENETRATION_WARNING = 0.01
+# the largest change of a free block's in-situ stress by the equilibrium start, as a
+# fraction of the field, that the run takes as the field kept (tunnel_deep: 0.046, at
+# one block beside the opening's stage; a field with free outer blocks and no boundary
+# stress: ~1)
+IN_SITU_KEPT = 0.1
 # the share of the steps cut (Δt shortened after a failed attempt) beyond which the
 # time step is too large for the model
 CUT_STEPS_WARNING = 0.5
@@ -62,4 +74,66 @@ def static_motion_warning(moved: float, allowed: float, block: str, length: str)
         f"the static analysis ended with blocks still moving: block {block!r} moved "
         f"{moved:.3g} {length} in the last step. A block without support has no "
         "equilibrium; else the analysis needs more steps"
+    )
+
+
+def energy_excess(
+    history: Mapping[str, Sequence[float]], initial: float, contacts: bool = True
+) -> tuple[float, float, float]:
+    """(the largest excess of the stored energy over E₀ + W at a step, the energy that
+    moved: the largest kinetic, |ΔV|, elastic, contact energy or |W| of the run, and
+    |E₀| + max |W|) of a run's ``history`` (its energy columns) and its E₀. Without
+    ``contacts`` the stored energy leaves out the contact springs' (what the blocks
+    hold and do: it cannot exceed E₀ + W either, the contacts being no source)."""
+    total = np.asarray(history["total_energy"], float)
+    if not len(total):
+        return 0.0, 0.0, 0.0
+    if not contacts:
+        total = total - np.asarray(history["contact_energy"], float)
+    work = np.asarray(history["external_work"], float)
+    potential = np.asarray(history["potential_energy"], float)
+    moved = max(
+        float(np.max(history["kinetic_energy"])),
+        float(np.abs(potential - potential[0]).max()),
+        float(np.max(history["elastic_energy"])),
+        float(np.max(history["contact_energy"])),
+        float(np.abs(work).max()),
+    )
+    excess = float(np.max(total - initial - work))
+    return excess, moved, abs(initial) + float(np.abs(work).max())
+
+
+def energy_warning(history: Mapping[str, Sequence[float]], initial: float) -> str | None:
+    """The sentence when the blocks' energy (kinetic, potential, elastic, bolts') rose
+    above E₀ + W by more than :data:`ENERGY_WARNING` of the energy that moved
+    (:func:`energy_excess` without the contacts' springs). The contact springs' own
+    share is left out: the history counts Σ N²/(2p), which overstates what an augmented
+    Lagrangian contact holds at its small penetration (the paper's two blocks: 1.12
+    ft·lb against 0.27 of work), so that the total rises as a block settles on its base
+    while nothing moves; energy that appears in the blocks came from nowhere."""
+    excess, moved, budget = energy_excess(history, initial, contacts=False)
+    scale = min(moved, budget)
+    if excess <= ENERGY_WARNING * scale + 1e-12 * budget:
+        return None
+    ratio = excess / scale
+    share = f"{100.0 * ratio:.2g} %" if ratio < 1.0 else f"{ratio:.3g} times"
+    return (
+        f"the run created energy: the blocks' energy rose {excess:.3g} above the initial "
+        f"energy plus the work of the loads ({share} the energy that moved). Known cause: "
+        "an impact at a small time step with the augmented Lagrangian, whose multipliers "
+        'push a block on as it leaves (docs/contact.md, energy); the "penalty" method '
+        "or a larger time_step avoid it"
+    )
+
+
+def in_situ_warning(change: float, block: str) -> str | None:
+    """The sentence when the equilibrium start changed a free block's in-situ stress by
+    more than :data:`IN_SITU_KEPT` of the field (``change``, the largest, at ``block``)."""
+    if change <= IN_SITU_KEPT:
+        return None
+    return (
+        f"the equilibrium start changed the in-situ stress of block {block!r} by "
+        f"{100.0 * change:.0f} % of the field (the largest): the field is not in "
+        "equilibrium with the model's boundary (give its free outer blocks "
+        "[[boundary_stresses]], or fix their neighbours)"
     )

@@ -26,7 +26,14 @@ from dda.run.environment import environment
 from dda.run.equilibrium_start import settle
 from dda.run.frames import make_frame, shifted
 from dda.run.measure import Probes
-from dda.run.run_warnings import cut_steps_warning, penetration_warning, static_motion_warning
+from dda.run.run_warnings import (
+    IN_SITU_KEPT,
+    cut_steps_warning,
+    energy_warning,
+    in_situ_warning,
+    penetration_warning,
+    static_motion_warning,
+)
 from dda.run.stages import apply_due_stages, set_strengths
 from dda.scene import Scene
 from dda.scene.limits import check_run_size
@@ -43,10 +50,6 @@ MAX_CUTS = 40  # halvings of one step before the run gives up
 GROWTH = 1.5  # time-step growth per accepted step, back up to the maximum after a cut
 MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time step
 BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
-# the largest change of a block's in-situ stress by the equilibrium start, as a fraction
-# of the field, that the run takes as the field kept (tunnel_deep: 0.046, at one block
-# beside the opening's stage; a field with free outer blocks and no boundary stress: ~1)
-IN_SITU_KEPT = 0.1
 # summary["start"] of a run whose equilibrium start did not settle
 UNSETTLED_START = "unloaded (the equilibrium start did not settle)"
 # energy columns of Result.history (dda.run.energy): stored terms, their total, work of the loads
@@ -212,13 +215,9 @@ def _in_situ_change(blocks, settled: np.ndarray) -> tuple[float, str]:
     change = np.abs(settled[free] - given[free]).max(axis=1) / scale
     k = int(np.argmax(change))
     largest, name = float(change[k]), blocks.names[free[k]]
-    if largest > IN_SITU_KEPT:
-        log.warning(
-            "the equilibrium start changed the in-situ stress of block %r by %.0f %% of the "
-            "field (the largest): the field is not in equilibrium with the model's boundary "
-            "(give its free outer blocks [[boundary_stresses]], or fix their neighbours)",
-            name, 100.0 * largest,
-        )  # fmt: skip
+    said = in_situ_warning(largest, name)
+    if said is not None:  # at once, as well as in the summary: a long run may be stopped
+        log.warning(said)
     return largest, name
 
 
@@ -587,6 +586,8 @@ def _warnings(state: _Run) -> list[str]:
     units = getattr(m.scene, "units", None)
     length = getattr(units, "length", "m")
     found = [
+        in_situ_warning(*state.in_situ_change),
+        energy_warning(state.history, state.energy.initial.total),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
     ]

@@ -24,6 +24,7 @@ import numpy as np
 
 import dda
 from dda.model import build
+from dda.run import run_warnings
 
 ENERGY_SLACK = 0.01
 AREA_SLACK = 1e-5
@@ -72,20 +73,9 @@ def check_penetration(scene: dda.Scene, result: dda.Result) -> None:
 
 
 def energy_excess(result: dda.Result) -> tuple[float, float, float]:
-    """(largest excess over E₀ + W, energy that moved, E₀ + max |W|)."""
-    h = result.history
-    if not len(h["total_energy"]):
-        return 0.0, 0.0, 0.0
-    initial = result.summary["initial_energy"]
-    excess = float(np.max(h["total_energy"] - initial - h["external_work"]))
-    moved = max(
-        h["kinetic_energy"].max(),
-        np.abs(h["potential_energy"] - h["potential_energy"][0]).max(),
-        h["elastic_energy"].max(),
-        h["contact_energy"].max(),
-        np.abs(h["external_work"]).max(),
-    )
-    return excess, float(moved), float(abs(initial) + np.abs(h["external_work"]).max())
+    """(largest excess over E₀ + W, energy that moved, E₀ + max |W|): the engine's
+    :func:`dda.run.run_warnings.energy_excess` of the run's history."""
+    return run_warnings.energy_excess(result.history, result.summary["initial_energy"])
 
 
 def check_energy(result: dda.Result) -> None:
