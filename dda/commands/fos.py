@@ -145,6 +145,7 @@ def fos_command(args: argparse.Namespace) -> int:
     from dda.parallel import Workers
     from dda.stability.search import search
     from dda.stability.store import RowStore, scene_hash
+    from dda.stability.strength_reduction import brittle_note
 
     prepared = prepare(args, "fos")
     if isinstance(prepared, str):
@@ -163,6 +164,9 @@ def fos_command(args: argparse.Namespace) -> int:
         f"{criterion.window * criterion.duration:g} {scene.units.time}",
         file=sys.stderr,
     )
+    note = brittle_note(scene)
+    if note is not None:
+        print(note, file=sys.stderr)
     with Workers(cluster) as workers:
         runner.workers = workers
         outcome = search(runner.run, fos.lower, fos.upper, fos.tolerance, workers.size)

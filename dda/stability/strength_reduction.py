@@ -73,3 +73,20 @@ def reducible(scene: Scene, intact: bool = False) -> bool:
     if intact:
         items += [m for m in scene.materials.values() if m.breakable]
     return any(i.friction_angle > 0 or i.cohesion > 0 or i.tensile_strength > 0 for i in items)
+
+
+def brittle_note(scene: Scene) -> str | None:
+    """A note naming the joints whose cohesion is lost when they slip (``cohesion`` above
+    ``residual_cohesion``, the default 0): strength reduction breaks such bonds contact by
+    contact, the least loaded first, and the factor it finds can fall below limit
+    equilibrium's (a block on a 35° plane, c = 3 kPa: 0.965 against 1.061); a ductile
+    joint (``residual_cohesion = cohesion``) meets it. None when no joint is brittle."""
+    brittle = [j.name for j in scene.joints.values() if j.cohesion > j.residual_cohesion]
+    if not brittle:
+        return None
+    names = ", ".join(repr(name) for name in brittle)
+    return (
+        f"note: joint(s) {names} lose their cohesion when they slip (residual_cohesion "
+        "below cohesion): their bonds break one contact at a time, and F can fall below "
+        "limit equilibrium's; set residual_cohesion = cohesion for a ductile joint"
+    )

@@ -11,6 +11,7 @@ the issue asks for ±0.02.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -22,9 +23,11 @@ import dda
 from dda.commands import cli
 from dda.stability.fos import factor_of_safety
 from dda.stability.search import bracket, next_factors, outcome
-from dda.stability.strength_reduction import reduce_strengths, reduced_angle
+from dda.stability.strength_reduction import brittle_note, reduce_strengths, reduced_angle
 from tests.helpers import G
 from tests.standing.incline import ROCK_1E9, incline_scene
+
+ROOT = Path(__file__).resolve().parents[2]
 
 TOLERANCE = 0.02  # on FoS (issue 39, acceptance 1 and 2)
 WEIGHT = ROCK_1E9["density"] * G * 1.0  # every block here has 1 m² (per unit thickness)
@@ -268,3 +271,16 @@ def test_the_plot_draws_trials_at_rest_on_a_marked_line_near_the_limit(tmp_path,
     stands, fails, at_rest = drawn
     assert stands[:3] == ([1.5], [2e-4], "o") and fails[:3] == ([2.0, 3.0], [0.5, math.nan], "x")
     assert at_rest[:3] == ([1.0], [BELOW_LIMIT * 1e-3], "v") and "below 1e-09 m/s" in at_rest[3]
+
+
+def test_brittle_joints_are_named_before_a_search():
+    """A joint that loses its cohesion when it slips (the default residual cohesion 0)
+    can give F below limit equilibrium's; `dda fos` names it, a ductile one it does not."""
+    brittle = dda.load_scene(ROOT / "cases" / "jointed_slope_fos.toml")
+    note = brittle_note(brittle)
+    assert note is not None and "'bedding'" in note
+    joints = {
+        name: dataclasses.replace(j, residual_cohesion=j.cohesion)
+        for name, j in brittle.joints.items()
+    }
+    assert brittle_note(dataclasses.replace(brittle, joints=joints)) is None
