@@ -587,7 +587,7 @@ def _warnings(state: _Run) -> list[str]:
     length = getattr(units, "length", "m")
     found = [
         in_situ_warning(*state.in_situ_change),
-        energy_warning(state.history, state.energy.initial.total),
+        None if m.static else energy_warning(state.history, state.energy.initial.total),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
     ]
