@@ -35,6 +35,7 @@ import numpy as np
 import dda
 from dda.commands import compile_helper
 from dda.io.fields import SCALARS
+from dda.io.wording import counted
 
 logger = logging.getLogger(__name__)
 
@@ -594,7 +595,7 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     title = summary.get("title") or "run"
     parts = [
         f"{title}: {summary.get('status', 'finished')} after "
-        f"{_counted(summary.get('steps', '?'), 'step')}",
+        f"{counted(summary.get('steps', '?'), 'step')}",
         f"to t = {_number(summary.get('time'))} s",
         f"in {_number(summary.get('wall_seconds'), '.3g')} s wall time",
     ]
@@ -612,30 +613,25 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
     if summary.get("cut_steps"):
         shortest = _number(summary.get("smallest_cut_time_step"), ".3g")
         text += (
-            f" Δt cut at {_counted(summary['cut_steps'], 'step')} (to {shortest} s at the least)."
+            f" Δt cut at {counted(summary['cut_steps'], 'step')} (to {shortest} s at the least)."
         )
     if summary.get("iterations") is not None:
-        text += f" {_counted(summary['iterations'], 'solve')}"
+        text += f" {counted(summary['iterations'], 'solve')}"
         newton = summary.get("newton_iterations")
-        text += "." if newton is None else f" ({_counted(newton, 'Newton iteration')})."
+        text += "." if newton is None else f" ({counted(newton, 'Newton iteration')})."
     if summary.get("friction_dissipation"):
         energy = unit_name("energy", units)
         text += f" Friction dissipated {_number(summary['friction_dissipation'], '.3g')} {energy}."
     events = summary.get("fracture_events") or 0
     count = events if isinstance(events, int) else len(events)
     if count:
-        text += f" {_counted(count, 'fracture event')}."
+        text += f" {counted(count, 'fracture event')}."
     if summary.get("stages_done"):
-        text += f" {_counted(summary['stages_done'], 'stage')} applied."
+        text += f" {counted(summary['stages_done'], 'stage')} applied."
     if summary.get("bolts") is not None:
         broke = len(summary.get("bolt_events") or ())
-        text += f" {broke} of {_counted(summary['bolts'], 'bolt')} broke."
-    return text + f"\nOutput ({_counted(summary.get('frames_written', 0), 'frame')}): {outdir}"
-
-
-def _counted(count: Any, noun: str) -> str:
-    """'1 stage', '2 stages' (and '? stages' for a count not known)."""
-    return f"{count} {noun}" + ("" if count == 1 else "s")
+        text += f" {broke} of {counted(summary['bolts'], 'bolt')} broke."
+    return text + f"\nOutput ({counted(summary.get('frames_written', 0), 'frame')}): {outdir}"
 
 
 def _start_sentence(summary: dict[str, Any]) -> str:
@@ -647,7 +643,7 @@ def _start_sentence(summary: dict[str, Any]) -> str:
         newton = summary.get("start_newton_iterations")
         seconds = _number(summary.get("start_seconds"), ".3g")
         method = summary.get("start_method")
-        text = f" Equilibrium start: {_counted(newton, 'Newton iteration')}, {seconds} s."
+        text = f" Equilibrium start: {counted(newton, 'Newton iteration')}, {seconds} s."
         if method == "continuation":  # the interior point did not settle it
             text += " Its interior-point solve did not settle: it went on by continuation."
         return text

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from dda.io.wording import counted
+
 
 def register(subparsers: Any) -> None:
     """Add ``dda kernels`` to the ``dda`` command's sub-commands."""
@@ -34,7 +36,7 @@ def run_command(args: argparse.Namespace) -> int:
 
     if args.clear:
         files, size = cache.clear()
-        print(f"removed {_counted(files, 'cached kernel file')} ({size / 2**20:.1f} MiB)")
+        print(f"removed {counted(files, 'cached kernel file')} ({size / 2**20:.1f} MiB)")
         return 0
     files = cache.cache_files()
     if not files:
@@ -42,13 +44,8 @@ def run_command(args: argparse.Namespace) -> int:
         return 0
     folders = sorted({str(path.parent) for path in files})
     size = sum(path.stat().st_size for path in files)
-    print(f"{_counted(len(files), 'cached kernel file')} ({size / 2**20:.1f} MiB) in "
-          f"{_counted(len(folders), 'folder')}")  # fmt: skip
+    print(f"{counted(len(files), 'cached kernel file')} ({size / 2**20:.1f} MiB) in "
+          f"{counted(len(folders), 'folder')}")  # fmt: skip
     for folder in folders:
         print(f"  {folder}")
     return 0
-
-
-def _counted(count: int, noun: str) -> str:
-    """'1 folder', '2 folders'."""
-    return f"{count} {noun}" + ("" if count == 1 else "s")

@@ -583,25 +583,26 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
 def _warnings(state: _Run) -> list[str]:
     """The run's warnings (:mod:`dda.run.run_warnings`), in the scene's units."""
     m = state.model
-    units = getattr(m.scene, "units", None)
-    length = getattr(units, "length", "m")
+    length = m.scene.units.length
     found = [
         in_situ_warning(*state.in_situ_change),
         None if m.static else energy_warning(state.history, state.energy.initial.total),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
+        _last_motion_warning(state, length),
     ]
-    if state.last_moves is not None:
-        moves, owner, names = state.last_moves
-        size = np.hypot(moves[:, 0], moves[:, 1])
-        largest = int(np.argmax(size)) if len(size) else 0
-        if len(size):
-            found.append(
-                static_motion_warning(
-                    float(size[largest]), m.allowed_displacement, names[owner[largest]], length
-                )
-            )
     return [text for text in found if text is not None]
+
+
+def _last_motion_warning(state: _Run, length: str) -> str | None:
+    """:func:`static_motion_warning` of a static run's last step (None otherwise)."""
+    if state.last_moves is None or not len(state.last_moves[0]):
+        return None
+    moves, owner, names = state.last_moves
+    size = np.hypot(moves[:, 0], moves[:, 1])
+    largest = int(np.argmax(size))
+    allowed = state.model.allowed_displacement
+    return static_motion_warning(float(size[largest]), allowed, names[owner[largest]], length)
 
 
 def _engineering_summary(state: _Run) -> dict:

@@ -6,6 +6,7 @@ import csv
 import math
 from pathlib import Path
 
+from dda.io.wording import counted
 from dda.tradeoff.pareto import fronts_by_method
 
 COLUMNS = (
@@ -68,7 +69,7 @@ def markdown_table(rows: list[dict], quantity: str = "") -> str:
             )
     failed = sum(r["status"] != "finished" for r in rows)
     lines.append("")
-    stopped = plural(failed, "setting")
+    stopped = counted(failed, "setting")
     lines.append(f"{count_line(rows)}; {stopped} stopped with a SimulationError.")
     return "\n".join(lines).lstrip("\n") + "\n"
 
@@ -78,19 +79,14 @@ def count_line(rows: list[dict]) -> str:
     runs = sum(r["repeats"] for r in rows)
     repeats = {r["repeats"] for r in rows}
     if len(repeats) > 1:
-        return f"{plural(len(rows), 'setting')}, {plural(runs, 'run')} in all"
+        return f"{counted(len(rows), 'setting')}, {counted(runs, 'run')} in all"
     return plan_line(len(rows), repeats.pop() if repeats else 0)
 
 
 def plan_line(settings: int, repeats: int) -> str:
     """``"24 settings × 3 repeats = 72 runs"``."""
-    runs = plural(settings * repeats, "run")
-    return f"{plural(settings, 'setting')} × {plural(repeats, 'repeat')} = {runs}"
-
-
-def plural(count: int, noun: str) -> str:
-    """``"1 run"``, ``"3 runs"``."""
-    return f"{count} {noun}{'' if count == 1 else 's'}"
+    runs = counted(settings * repeats, "run")
+    return f"{counted(settings, 'setting')} × {counted(repeats, 'repeat')} = {runs}"
 
 
 def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
