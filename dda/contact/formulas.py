@@ -172,26 +172,49 @@ def shear_energy(shear_base, shear_penalty, bound, slip):
 
 
 @formula
+def held_multiplier(multiplier, tension, penalty, allowance):
+    """λn held at or above −(T + p a): ``allowance`` a is 0 (λn ≥ −T), or the AL tolerance
+    in a dynamic step, where λn = N − p t may hold a contact's force N at a target
+    penetration t ≤ a (:func:`augmentation`)."""
+    return limited_normal(multiplier, tension + penalty * allowance)
+
+
+@formula
+def rest_target(found_penetration, tolerance, persistent):
+    """The penetration t that eq. 7 drives a contact to: 0, or where ``persistent`` (a
+    dynamic step) the penetration the contact started the step with, within
+    [0, tolerance]. Driving a contact already pressed in back to 0 within one step would
+    push its blocks apart with a force it never stored: energy the numerics make
+    (docs/contact.md, "Energy"); held at t, the update only stops it going deeper."""
+    return select(persistent, np.minimum(np.maximum(found_penetration, 0.0), tolerance), 0.0)
+
+
+@formula
 def augmentation(
     normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s,
-    fresh, found_penetration, carried_shear, tolerance,
+    fresh, found_penetration, carried_shear, tolerance, target, persistent,
 ):  # fmt: skip
     """Eq. 7 beyond the tolerance (docs/contact.md): (elastic, far, stuck, slid, λn', λt').
 
-    A contact on the elastic normal piece whose |g| exceeds ``tolerance`` is *far*: its
-    λn' = max(λn + p g, −T); off the elastic piece λn' = 0, else λn is kept. One found this
-    step already deeper than the tolerance (``fresh``, ``found_penetration``) keeps its
-    λn: the push-out takes its overlap (:mod:`dda.contact.push_out`). A stuck
-    contact (|λt + ps s| < b, ps > 0) that slid more than the tolerance carries
-    λt' = λt + ps s, else ``carried_shear``."""
+    A contact on the elastic normal piece whose |g − t| or g exceeds ``tolerance`` is
+    *far* (t = ``target``, :func:`rest_target`): its λn' = max(λn + p g, −T) − p t, the
+    force at the solution carried to g = t; off the elastic piece λn' = 0 (where
+    ``persistent``: min(λn, 0), so that a contact held at t > 0 stays there), else λn is
+    kept. One found this step already deeper than the tolerance (``fresh``,
+    ``found_penetration``) keeps its λn: the push-out takes its overlap
+    (:mod:`dda.contact.push_out`). A stuck contact (|λt + ps s| < b, ps > 0) that slid
+    more than the tolerance carries λt' = λt + ps s, else ``carried_shear``."""
     trial_n = normal_trial(normal_base, penalty, g)
     elastic = trial_n >= -tension
     found_deep = fresh & (found_penetration > tolerance)
-    far = elastic & (np.abs(g) > tolerance) & np.logical_not(found_deep)
+    beyond = (np.abs(g - target) > tolerance) | (g > tolerance)
+    far = elastic & beyond & np.logical_not(found_deep)
     trial_t = shear_trial(shear_base, shear_penalty, s)
     stuck = (np.abs(trial_t) < bound) & (shear_penalty > 0.0)
     slid = stuck & (np.abs(s) > tolerance)
-    normal = select(elastic, select(far, limited_normal(trial_n, tension), normal_base), 0.0)
+    carried = limited_normal(trial_n, tension) - penalty * target
+    opened = select(persistent, np.minimum(normal_base, 0.0), 0.0)
+    normal = select(elastic, select(far, carried, normal_base), opened)
     return elastic, far, stuck, slid, normal, select(slid, trial_t, carried_shear)
 
 
@@ -202,6 +225,13 @@ def grown_penalty(penalty, far, g, previous_g, shrink_target, max_penalty, growt
     else p."""
     slow = far & (np.abs(g) > shrink_target * np.abs(previous_g)) & (penalty < max_penalty)
     return select(slow, np.minimum(penalty * growth, max_penalty), penalty)
+
+
+@formula
+def rebased_multiplier(multiplier, penalty, new_penalty, target):
+    """λn − (p' − p) t: the multiplier of a contact whose penalty grew from p to p', its
+    force at the target penetration t unchanged."""
+    return multiplier - (new_penalty - penalty) * target
 
 
 @formula
@@ -218,12 +248,14 @@ def bond_lost(normal_base, penalty, tension, shear_base, shear_penalty, bound, g
 @formula
 def recorded(
     normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s,
-    normal_multiplier, limit_band,
+    normal_multiplier, limit_band, persistent,
 ):  # fmt: skip
     """A contact's record at the step's end: (state, λn, slide direction, N, F). Open
     where N is at its limit 0 (closed: on the elastic piece, or holding tension T > 0),
     else sliding where |λt + ps s| ≥ (1 − ``limit_band``) b or there is no shear term,
-    else locked; an open contact keeps no λn, N or F."""
+    else locked; an open contact keeps no N or F, and no λn but, where ``persistent``
+    and still pressed in (g > 0), a negative one: the target penetration it was held at
+    (:func:`augmentation`)."""
     closed = (normal_trial(normal_base, penalty, g) >= -tension) | (tension > 0.0)
     trial = shear_trial(shear_base, shear_penalty, s)
     stuck = (np.abs(trial) < (1.0 - limit_band) * bound) & (shear_penalty > 0.0)
@@ -231,18 +263,20 @@ def recorded(
     normal = select(closed, normal_force(normal_base, penalty, tension, g), 0.0)
     shear = select(closed, shear_force(shear_base, shear_penalty, bound, s), 0.0)
     direction = select(state == SLIDING, np.sign(trial), 0.0)
-    return state, select(closed, normal_multiplier, 0.0), direction, normal, shear
+    kept = select(persistent & (g > 0.0), np.minimum(normal_multiplier, 0.0), 0.0)
+    return state, select(closed, normal_multiplier, kept), direction, normal, shear
 
 
 @formula
-def first_bound(joint, intact, multiplier, penalty, gap0, last_normal, found_touching):
+def first_bound(joint, intact, multiplier, penalty, allowance, gap0, last_normal, found_touching):
     """A step's first friction bound: b of the larger of N at the start geometry,
-    max(max(λn, −T) + p g₀, −T), and the last step's N (a contact of blocks that turn
-    together may open by one step's second-order rotation and close again in the next:
-    its last force is the better guess); ``UNBOUNDED`` (stuck) for a contact found
-    touching this step, whose force is not known yet."""
+    max(λn + p g₀, −T) (λn :func:`held_multiplier`), and the last step's N (a contact
+    of blocks that turn together may open by one step's second-order rotation and close
+    again in the next: its last force is the better guess); ``UNBOUNDED`` (stuck) for a
+    contact found touching this step, whose force is not known yet."""
     tension = tension_held(joint, intact)
-    start = normal_force(limited_normal(multiplier, tension), penalty, tension, gap0)
+    held = held_multiplier(multiplier, tension, penalty, allowance)
+    start = normal_force(held, penalty, tension, gap0)
     bound = friction_bound(joint, np.maximum(start, last_normal), intact)
     return select(found_touching, UNBOUNDED, bound)
 

@@ -26,7 +26,7 @@ shear spring force); each step measures s from the step start.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -56,6 +56,9 @@ class ContactLaw:
         of the friction forces, measured like Newton's force residual; a
         max-norm against the largest bound let one flickering contact of a
         thousand, carrying 1 % of a block's weight, ask for ten more solves)
+    persistent : eq. 7 holds a contact at the penetration it started the step with
+        (within the tolerance) instead of driving it to 0: a dynamic step's AL
+        (:meth:`for_step`; :func:`dda.contact.formulas.rest_target`)
     """
 
     augmented: bool
@@ -66,6 +69,18 @@ class ContactLaw:
     shrink_target: float = 0.25
     max_penalty: float = np.inf
     friction_tolerance: float = 1e-3
+    persistent: bool = False
+
+    def for_step(self, static: bool) -> ContactLaw:
+        """The law of one step: persistent in a dynamic step of the AL."""
+        persistent = self.augmented and not static
+        return self if persistent == self.persistent else replace(self, persistent=persistent)
+
+    @property
+    def allowance(self) -> float:
+        """How far below −T a multiplier may lie, per unit penalty
+        (:func:`dda.contact.formulas.held_multiplier`): the tolerance when persistent."""
+        return self.tolerance if self.persistent else 0.0
 
 
 @dataclass
@@ -97,7 +112,7 @@ def contact_terms(
         normal_base, tension, shear_base, shear_penalty, bound = law_kernels.terms_kernel(
             contacts.intact, joint.kernel_strength(), floats(contacts.normal_multiplier),
             floats(contacts.shear_multiplier), floats(contacts.penalty), float(law.shear_ratio),
-            floats(bound), bool(law.friction),
+            floats(bound), bool(law.friction), float(law.allowance),
         )  # fmt: skip
         return ContactTerms(
             normal_base, contacts.penalty, tension, shear_base, shear_penalty, bound
@@ -109,7 +124,7 @@ def contact_terms(
     else:
         bound = shear_penalty = np.zeros(len(contacts))
     return ContactTerms(
-        normal_base=formulas.limited_normal(lam_n, tension),
+        normal_base=formulas.held_multiplier(lam_n, tension, contacts.penalty, law.allowance),
         penalty=contacts.penalty,
         tension=tension,
         shear_base=formulas.limited_shear(contacts.shear_multiplier, bound),
@@ -300,7 +315,7 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
             *terms.kernel_arrays(), floats(g), floats(s), previous, has_previous,
             contacts.fresh, floats(contacts.penetration), floats(contacts.shear_multiplier),
             float(tolerance), float(law.shrink_target), float(law.max_penalty),
-            float(law.penalty_growth),
+            float(law.penalty_growth), bool(law.persistent),
         )  # fmt: skip
         contacts.normal_multiplier, contacts.shear_multiplier = normal, shear
         if has_previous:
@@ -310,16 +325,19 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
     # fragments) is pushed out by its penalty spring (dda.contact.push_out), not
     # augmented: removing all of its overlap within one step can take more than any
     # multiplier gives once Δt is cut (a 4.6 cm overlap among fragments: cut to 1e-13 s)
+    target = formulas.rest_target(contacts.penetration, tolerance, law.persistent)
     elastic, far, stuck, slid, normal, shear = formulas.augmentation(
         *terms.kernel_arrays(), g, s, contacts.fresh, contacts.penetration,
-        contacts.shear_multiplier, tolerance,
+        contacts.shear_multiplier, tolerance, target, law.persistent,
     )  # fmt: skip
-    contacts.normal_multiplier, contacts.shear_multiplier = normal, shear
     if previous_g is not None:
+        penalty = contacts.penalty
         contacts.penalty = formulas.grown_penalty(
-            contacts.penalty, far, g, previous_g, law.shrink_target, law.max_penalty,
-            law.penalty_growth,
+            penalty, far, g - target, previous_g - target, law.shrink_target,
+            law.max_penalty, law.penalty_growth,
         )  # fmt: skip
+        normal = formulas.rebased_multiplier(normal, penalty, contacts.penalty, target)
+    contacts.normal_multiplier, contacts.shear_multiplier = normal, shear
     violation = max(
         float(np.max(np.abs(g[elastic]), initial=0.0)), float(np.max(np.abs(s[stuck]), initial=0.0))
     )
@@ -332,6 +350,7 @@ def record(
     g: np.ndarray,
     s: np.ndarray,
     limit_band: float = 0.0,
+    persistent: bool = False,
 ) -> None:
     """Write the step's solution into the contact set (in place).
 
@@ -350,6 +369,7 @@ def record(
             floats(s),
             floats(contacts.normal_multiplier),
             float(limit_band),
+            bool(persistent),
         )
         contacts.state, contacts.normal_multiplier = state, multiplier
         contacts.slide_direction = direction
@@ -358,7 +378,7 @@ def record(
         contacts.penetration, contacts.slip = g, s
         return
     state, multiplier, direction, normal, shear = formulas.recorded(
-        *terms.kernel_arrays(), g, s, contacts.normal_multiplier, limit_band
+        *terms.kernel_arrays(), g, s, contacts.normal_multiplier, limit_band, persistent
     )
     contacts.state = state.astype(np.int8)
     contacts.normal_multiplier, contacts.slide_direction = multiplier, direction

@@ -18,10 +18,12 @@ from dda.contact.formulas import (
     bond_lost,
     friction_bound,
     grown_penalty,
-    limited_normal,
+    held_multiplier,
     limited_shear,
     normal_force,
+    rebased_multiplier,
     recorded,
+    rest_target,
     shear_force,
     tension_held,
 )
@@ -29,9 +31,10 @@ from dda.contact.strength import joint_of
 from dda.jit import kernel
 
 
-def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, friction):
+def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, friction, allowance):
     """:func:`dda.contact.law.contact_terms`: (λn, T, λt, ps, b) of each contact; T the
-    tension held (:func:`~dda.contact.formulas.tension_held`), λn = max(multiplier, −T),
+    tension held (:func:`~dda.contact.formulas.tension_held`), λn the multiplier held
+    (:func:`~dda.contact.formulas.held_multiplier`),
     b = ``bound`` (0 without friction), λt = clamp(carried, −b, b), ps = ``shear_ratio`` p
     (0 without friction)."""
     m = penalty.shape[0]
@@ -39,7 +42,7 @@ def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, f
     shear_base, shear_penalty, bounds = np.empty(m), np.empty(m), np.empty(m)
     for c in range(m):
         tension[c] = tension_held(joint_of(strength, c), intact[c])
-        normal_base[c] = limited_normal(multiplier[c], tension[c])
+        normal_base[c] = held_multiplier(multiplier[c], tension[c], penalty[c], allowance)
         b = bound[c] if friction else 0.0
         bounds[c] = b
         shear_penalty[c] = shear_ratio * penalty[c] if friction else 0.0
@@ -71,7 +74,7 @@ def _forces_and_bounds(
 def _augment(
     normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s, previous_g,
     has_previous, fresh, penetration, shear_multiplier, tolerance, shrink_target,
-    max_penalty, growth,
+    max_penalty, growth, persistent,
 ):  # fmt: skip
     """:func:`dda.contact.law._augment`: the new (λn, λt, p), the contacts augmented and
     the largest |g| of an elastic contact or |s| of a stuck one."""
@@ -79,15 +82,19 @@ def _augment(
     new_n, new_t, new_p = np.empty(m), np.empty(m), np.empty(m)
     count, violation = 0, 0.0
     for c in range(m):
+        target = rest_target(penetration[c], tolerance, persistent)
         elastic, far, stuck, slid, new_n[c], new_t[c] = augmentation(
             normal_base[c], penalty[c], tension[c], shear_base[c], shear_penalty[c], bound[c],
-            g[c], s[c], fresh[c], penetration[c], shear_multiplier[c], tolerance,
+            g[c], s[c], fresh[c], penetration[c], shear_multiplier[c], tolerance, target,
+            persistent,
         )  # fmt: skip
         new_p[c] = penalty[c]
         if has_previous:
             new_p[c] = grown_penalty(
-                penalty[c], far, g[c], previous_g[c], shrink_target, max_penalty, growth
-            )
+                penalty[c], far, g[c] - target, previous_g[c] - target, shrink_target,
+                max_penalty, growth,
+            )  # fmt: skip
+            new_n[c] = rebased_multiplier(new_n[c], penalty[c], new_p[c], target)
         count += far or slid
         if elastic:
             violation = max(violation, abs(g[c]))
@@ -115,7 +122,7 @@ def _broken(
 
 def _recorded(
     normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s,
-    normal_multiplier, limit_band,
+    normal_multiplier, limit_band, persistent,
 ):  # fmt: skip
     """:func:`dda.contact.law.record`: (state, λn, slide direction, N, F) of each contact."""
     m = g.shape[0]
@@ -125,7 +132,7 @@ def _recorded(
     for c in range(m):
         state[c], new_n[c], direction[c], normal[c], shear[c] = recorded(
             normal_base[c], penalty[c], tension[c], shear_base[c], shear_penalty[c], bound[c],
-            g[c], s[c], normal_multiplier[c], limit_band,
+            g[c], s[c], normal_multiplier[c], limit_band, persistent,
         )  # fmt: skip
     return state, new_n, direction, normal, shear
 

@@ -123,10 +123,8 @@ def energy_warning(history: Mapping[str, Sequence[float]], initial: float) -> st
     return (
         f"the run created energy: the blocks' energy rose {excess:.3g} above the initial "
         f"energy plus the work of the loads ({share} the energy that moved). Known "
-        "causes: blocks drawn overlapping (the push-out of the overlap), and an impact "
-        "at a small time step with the augmented Lagrangian, whose multipliers push a "
-        'block on as it leaves (docs/contact.md, energy: the "penalty" method or a '
-        "larger time_step avoid it)"
+        "cause: blocks drawn overlapping, whose overlap's spring energy the push-out "
+        "hands to them (docs/contact.md, energy: draw the blocks apart or touching)"
     )
 
 

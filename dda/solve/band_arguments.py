@@ -114,6 +114,8 @@ class LawSettings(NamedTuple):
     max_penalty: float
     growth: float
     friction_tolerance: float
+    persistent: bool  # ContactLaw.persistent: a dynamic step's AL
+    allowance: float  # ContactLaw.allowance
 
 
 class LoopRules(NamedTuple):

@@ -50,7 +50,9 @@ band_minimise_kernel = band_newton.band_minimise_kernel
 potential_kernel = band_newton.potential_kernel
 
 
-def _first_bounds(intact, strength, multiplier, penalty, g0, last_normal, fresh, state, friction):
+def _first_bounds(
+    intact, strength, multiplier, penalty, allowance, g0, last_normal, fresh, state, friction
+):  # fmt: skip
     """:func:`dda.solve.step._first_bounds`: the bounds of the larger of N(g₀) and the
     last step's N (:func:`dda.contact.formulas.friction_bound`), a contact found
     touching this step ``UNBOUNDED``; 0 without friction."""
@@ -61,7 +63,7 @@ def _first_bounds(intact, strength, multiplier, penalty, g0, last_normal, fresh,
     for c in range(m):
         found_touching = fresh[c] and state[c] != OPEN
         bound[c] = first_bound(
-            joint_of(strength, c), intact[c], multiplier[c], penalty[c], g0[c],
+            joint_of(strength, c), intact[c], multiplier[c], penalty[c], allowance, g0[c],
             last_normal[c], found_touching,
         )  # fmt: skip
     return bound
@@ -154,8 +156,9 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
     normal_force, shear_force = last_normal.copy(), np.zeros(m)
     new_state, new_direction = state.copy(), direction.copy()
     bound = _first_bounds(
-        intact, strength, normal_multiplier, penalty, g0, last_normal, fresh, state, friction
-    )
+        intact, strength, normal_multiplier, penalty, law.allowance, g0, last_normal, fresh,
+        state, friction,
+    )  # fmt: skip
     points, residuals = np.zeros((DEPTH + 1, m)), np.zeros((DEPTH + 1, m))
     history = 0
     d, g, s = np.zeros(n), g0.copy(), s0.copy()
@@ -168,7 +171,7 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
         terms_penalty = penalty  # the terms' p: the law's update makes a new array
         normal_base, tension, shear_base, shear_penalty, bounds = terms_kernel(
             intact, strength, normal_multiplier, shear_multiplier, penalty, law.shear_ratio,
-            bound, friction,
+            bound, friction, law.allowance,
         )  # fmt: skip
         terms = BandTerms(normal_base, penalty, tension, shear_base, shear_penalty, bounds)
         first = solves == 0
@@ -225,7 +228,7 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
             new_n, new_t, new_p, count, _ = augment_kernel(
                 normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
                 previous_g, has_previous, fresh, penetration, shear_multiplier, law.tolerance,
-                law.shrink_target, law.max_penalty, law.growth,
+                law.shrink_target, law.max_penalty, law.growth, law.persistent,
             )  # fmt: skip
             normal_multiplier, shear_multiplier = new_n, new_t
             if has_previous:
@@ -253,7 +256,7 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
         new_state, normal_multiplier, new_direction, normal_force, shear_force = (
             recorded_kernel(
                 normal_base, terms_penalty, tension, shear_base, shear_penalty, bounds, g, s,
-                normal_multiplier, friction_tolerance,
+                normal_multiplier, friction_tolerance, law.persistent,
             )
         )  # fmt: skip
     return StepOutcome(
@@ -301,7 +304,7 @@ def solve_on_band(system, loop) -> tuple[np.ndarray, int, int, bool, float] | No
     settings = LawSettings(
         bool(law.friction), bool(law.augmented), float(law.shear_ratio), float(law.tolerance),
         float(law.shrink_target), float(law.max_penalty), float(law.penalty_growth),
-        float(law.friction_tolerance),
+        float(law.friction_tolerance), bool(law.persistent), float(law.allowance),
     )  # fmt: skip
     loop_rules = LoopRules(
         not loop.ctx.static, int(loop.budget), int(loop.between_bounds),

@@ -417,7 +417,7 @@ def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
         return np.zeros(len(contacts))
     found_touching = contacts.fresh & (contacts.state != OPEN)
     return first_bound(
-        joints, contacts.intact, contacts.normal_multiplier, contacts.penalty,
+        joints, contacts.intact, contacts.normal_multiplier, contacts.penalty, law.allowance,
         rows.penetration, contacts.normal_force, found_touching,
     )  # fmt: skip
 
@@ -546,7 +546,7 @@ class _StepLoop:
         with timer("contact_law"):
             g, s = geometry.at(d) if gaps is None else gaps
             dissipated = contact_law.friction_dissipation(terms, s)
-            contact_law.record(contacts, terms, g, s, law.friction_tolerance)
+            contact_law.record(contacts, terms, g, s, law.friction_tolerance, law.persistent)
         return d, solves, chords, converged, dissipated
 
 
@@ -590,7 +590,7 @@ def solve_step(
         finite = bool(np.all(np.isfinite(d)))
         return StepSolution(d, contacts, 1, made, finite, 0.0, newton_iterations=1)
 
-    law = cm.law
+    law = cm.law.for_step(ctx.static)
     with timer("contact_law"):
         rows = _rows_at(blocks, contacts, ctx)
         joint_rows = cm.joints.rows_for(blocks, contacts)

@@ -107,12 +107,13 @@ def contact_arrays(contacts: ContactSet) -> list[np.ndarray]:
 @pytest.mark.parametrize("seed", range(3))
 @pytest.mark.parametrize("friction", [True, False])
 @pytest.mark.parametrize("augmented", [True, False])
-def test_the_laws_passes_compiled_equal_numpy(monkeypatch, seed, friction, augmented):
+@pytest.mark.parametrize("static", [True, False])
+def test_the_laws_passes_compiled_equal_numpy(monkeypatch, seed, friction, augmented, static):
     contacts, joints = random_contacts(seed)
     rule = ContactLaw(
         augmented=augmented, tolerance=1e-4, shear_ratio=0.4, friction=friction,
         max_penalty=5e6,
-    )  # fmt: skip
+    ).for_step(static)  # fmt: skip
     bound = law.friction_bound(contacts, joints, np.abs(contacts.normal_force))
 
     def run():
@@ -122,7 +123,7 @@ def test_the_laws_passes_compiled_equal_numpy(monkeypatch, seed, friction, augme
         first = law.update(mine, terms, g, s, None, joints, rule)
         terms = law.contact_terms(mine, joints, rule, first.bound)
         second = law.update(mine, terms, 0.5 * g, s, g, joints, rule)
-        law.record(mine, terms, 0.5 * g, s, rule.friction_tolerance)
+        law.record(mine, terms, 0.5 * g, s, rule.friction_tolerance, rule.persistent)
         outcomes = [(o.settled, o.augmented, o.broken, o.max_violation) for o in (first, second)]
         bonded = contacts.copy()  # the bonds of an update that settled
         outcomes.append((law.break_bonds(bonded, terms, joints, g, s), bonded.intact))
