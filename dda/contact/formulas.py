@@ -180,6 +180,13 @@ def held_multiplier(multiplier, tension, penalty, allowance):
 
 
 @formula
+def multiplier_allowance(tolerance, persistent):
+    """How far below −T a multiplier may lie, per unit penalty (:func:`held_multiplier`):
+    the tolerance where ``persistent`` (a dynamic step's AL), else 0."""
+    return select(persistent, tolerance, 0.0)
+
+
+@formula
 def rest_target(found_penetration, tolerance, persistent):
     """The penetration t that eq. 7 drives a contact to: 0, or where ``persistent`` (a
     dynamic step) the penetration the contact started the step with, within
@@ -219,19 +226,17 @@ def augmentation(
 
 
 @formula
-def grown_penalty(penalty, far, g, previous_g, shrink_target, max_penalty, growth):
-    """The variable penalty (§3): p' = min(p × growth, p_max) where a far contact's |g| is
-    still above ``shrink_target`` × its |g| of the last solve (it did not shrink enough),
-    else p."""
-    slow = far & (np.abs(g) > shrink_target * np.abs(previous_g)) & (penalty < max_penalty)
-    return select(slow, np.minimum(penalty * growth, max_penalty), penalty)
-
-
-@formula
-def rebased_multiplier(multiplier, penalty, new_penalty, target):
-    """λn − (p' − p) t: the multiplier of a contact whose penalty grew from p to p', its
-    force at the target penetration t unchanged."""
-    return multiplier - (new_penalty - penalty) * target
+def grown_penalty(
+    multiplier, penalty, far, g, previous_g, target, shrink_target, max_penalty, growth
+):  # fmt: skip
+    """The variable penalty (§3): (λn', p'). p' = min(p × growth, p_max) where a far
+    contact's |g − t| is still above ``shrink_target`` × its |g − t| of the last solve (it
+    did not shrink enough), else p; λn' = λn − (p' − p) t keeps the force at the target
+    penetration t (:func:`rest_target`; 0: λn' = λn)."""
+    distance = np.abs(g - target)
+    slow = far & (distance > shrink_target * np.abs(previous_g - target)) & (penalty < max_penalty)
+    grown = select(slow, np.minimum(penalty * growth, max_penalty), penalty)
+    return multiplier - (grown - penalty) * target, grown
 
 
 @formula

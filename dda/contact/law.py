@@ -80,7 +80,7 @@ class ContactLaw:
     def allowance(self) -> float:
         """How far below −T a multiplier may lie, per unit penalty
         (:func:`dda.contact.formulas.held_multiplier`): the tolerance when persistent."""
-        return self.tolerance if self.persistent else 0.0
+        return float(formulas.multiplier_allowance(self.tolerance, self.persistent))
 
 
 @dataclass
@@ -331,12 +331,10 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
         contacts.shear_multiplier, tolerance, target, law.persistent,
     )  # fmt: skip
     if previous_g is not None:
-        penalty = contacts.penalty
-        contacts.penalty = formulas.grown_penalty(
-            penalty, far, g - target, previous_g - target, law.shrink_target,
+        normal, contacts.penalty = formulas.grown_penalty(
+            normal, contacts.penalty, far, g, previous_g, target, law.shrink_target,
             law.max_penalty, law.penalty_growth,
         )  # fmt: skip
-        normal = formulas.rebased_multiplier(normal, penalty, contacts.penalty, target)
     contacts.normal_multiplier, contacts.shear_multiplier = normal, shear
     violation = max(
         float(np.max(np.abs(g[elastic]), initial=0.0)), float(np.max(np.abs(s[stuck]), initial=0.0))

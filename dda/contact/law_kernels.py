@@ -21,7 +21,6 @@ from dda.contact.formulas import (
     held_multiplier,
     limited_shear,
     normal_force,
-    rebased_multiplier,
     recorded,
     rest_target,
     shear_force,
@@ -90,11 +89,10 @@ def _augment(
         )  # fmt: skip
         new_p[c] = penalty[c]
         if has_previous:
-            new_p[c] = grown_penalty(
-                penalty[c], far, g[c] - target, previous_g[c] - target, shrink_target,
+            new_n[c], new_p[c] = grown_penalty(
+                new_n[c], penalty[c], far, g[c], previous_g[c], target, shrink_target,
                 max_penalty, growth,
             )  # fmt: skip
-            new_n[c] = rebased_multiplier(new_n[c], penalty[c], new_p[c], target)
         count += far or slid
         if elastic:
             violation = max(violation, abs(g[c]))

@@ -115,7 +115,6 @@ class LawSettings(NamedTuple):
     growth: float
     friction_tolerance: float
     persistent: bool  # ContactLaw.persistent: a dynamic step's AL
-    allowance: float  # ContactLaw.allowance
 
 
 class LoopRules(NamedTuple):

@@ -22,7 +22,13 @@ import numpy as np
 
 from dda.contact import formulas, law_kernels
 from dda.contact import law as contact_law
-from dda.contact.formulas import first_bound, friction_bound, friction_work, remembered_pieces
+from dda.contact.formulas import (
+    first_bound,
+    friction_bound,
+    friction_work,
+    multiplier_allowance,
+    remembered_pieces,
+)
 from dda.contact.law import UNBOUNDED, BoundIteration
 from dda.contact.strength import joint_of
 from dda.jit import floats, kernel
@@ -150,13 +156,14 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
     normal_multiplier, shear_multiplier = contacts.normal_multiplier, contacts.shear_multiplier
     penalty = contacts.penalty
     friction, augmented, friction_tolerance = law.friction, law.augmented, law.friction_tolerance
+    allowance = multiplier_allowance(law.tolerance, law.persistent)
     budget = loop.budget
     m, n = g0.shape[0], forces.shape[0]
     intact = contacts.intact.copy()
     normal_force, shear_force = last_normal.copy(), np.zeros(m)
     new_state, new_direction = state.copy(), direction.copy()
     bound = _first_bounds(
-        intact, strength, normal_multiplier, penalty, law.allowance, g0, last_normal, fresh,
+        intact, strength, normal_multiplier, penalty, allowance, g0, last_normal, fresh,
         state, friction,
     )  # fmt: skip
     points, residuals = np.zeros((DEPTH + 1, m)), np.zeros((DEPTH + 1, m))
@@ -171,7 +178,7 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
         terms_penalty = penalty  # the terms' p: the law's update makes a new array
         normal_base, tension, shear_base, shear_penalty, bounds = terms_kernel(
             intact, strength, normal_multiplier, shear_multiplier, penalty, law.shear_ratio,
-            bound, friction, law.allowance,
+            bound, friction, allowance,
         )  # fmt: skip
         terms = BandTerms(normal_base, penalty, tension, shear_base, shear_penalty, bounds)
         first = solves == 0
@@ -304,7 +311,7 @@ def solve_on_band(system, loop) -> tuple[np.ndarray, int, int, bool, float] | No
     settings = LawSettings(
         bool(law.friction), bool(law.augmented), float(law.shear_ratio), float(law.tolerance),
         float(law.shrink_target), float(law.max_penalty), float(law.penalty_growth),
-        float(law.friction_tolerance), bool(law.persistent), float(law.allowance),
+        float(law.friction_tolerance), bool(law.persistent),
     )  # fmt: skip
     loop_rules = LoopRules(
         not loop.ctx.static, int(loop.budget), int(loop.between_bounds),

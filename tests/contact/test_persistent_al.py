@@ -64,9 +64,16 @@ def test_a_far_contact_carries_its_force_at_the_solution_to_its_target():
 
 
 def test_a_penalty_that_grows_keeps_the_force_at_the_target():
+    """Neither contact shrank its distance to the target to a quarter: both penalties grow
+    tenfold, and each contact's force at its target stays."""
     target = np.array([0.0, 4e-5])
     multiplier = np.array([2e5, 2e5])
-    grown = formulas.rebased_multiplier(multiplier, 1e9, 1e10, target)
+    g, previous = np.array([3e-4, 3e-4]), np.array([3.5e-4, 3.5e-4])
+    far = np.array([True, True])
+    grown, penalty = formulas.grown_penalty(
+        multiplier, np.full(2, 1e9), far, g, previous, target, 0.25, 1e12, 10.0
+    )
+    np.testing.assert_array_equal(penalty, [1e10, 1e10])
     np.testing.assert_allclose(grown + 1e10 * target, multiplier + 1e9 * target, rtol=1e-12)
     np.testing.assert_array_equal(grown[0], multiplier[0])
 
