@@ -11,6 +11,8 @@ leaves faster than it came (before this rule: at 19 m/s from a 10 m/s impact at
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -18,6 +20,7 @@ import dda
 from dda.contact import formulas
 from dda.contact.law import ContactLaw
 from dda.run.run_warnings import energy_excess
+from tests.standing.incline import incline_scene, largest_move, sliding_distance
 
 
 def test_the_target_is_the_start_penetration_within_the_tolerance_in_dynamic_steps():
@@ -129,3 +132,46 @@ def test_an_impact_keeps_the_penetration_within_the_tolerance():
     the block: the augmented Lagrangian's bound on penetration stands."""
     result = impact(1e-5, 10.0)
     assert max(result.history["max_penetration"]) <= 5e-4 * (1.0 + 1e-6)
+
+
+def held_incline(ratio: float, dt: float, duration: float, mode: str = "dynamic") -> dda.Result:
+    """tests/standing/incline.py's 1 x 1 m block on a 30° slope, p = E, released on
+    unloaded springs (``start = "unloaded"``) with a tolerance of 1e-6 m: it sinks past the
+    tolerance on the penalty springs, below its weight's 2.6e-5 m, and the AL then holds
+    its contacts at penetrations up to the tolerance (rest_target acts)."""
+    scene = incline_scene(ratio, dt, duration, 1.0, "augmented-lagrangian")
+    scene["contact"]["tolerance"] = 1e-6
+    scene["analysis"]["mode"] = mode
+    if mode == "dynamic":
+        scene["analysis"]["start"] = "unloaded"
+    return dda.simulate(scene)
+
+
+HELD_STEPS = [1e-3, 1e-4, pytest.param(2.5e-5, marks=pytest.mark.slow)]
+SLIDE_STEPS = [1e-3, *(pytest.param(dt, marks=pytest.mark.slow) for dt in (1e-4, 2.5e-5))]
+
+
+@pytest.mark.parametrize("dt", HELD_STEPS)
+def test_a_block_held_inside_its_friction_stands(dt):
+    """tan θ / tan φ = 0.5: the block moves at most twice its elastic settlement + 1 µm
+    (the settlement of Shi's static analysis of the scene: 1.13e-5 m) at every Δt;
+    measured 1.68e-5 to 1.71e-5 m at Δt = 1e-3, 1e-4, 2.5e-5. Its contacts were held
+    at their targets: the largest penetration is the tolerance's 0.87 to 1.0."""
+    result = held_incline(0.5, dt, 0.5)
+    settled = largest_move(held_incline(0.5, 1e-3, 0.3, mode="static"))
+    assert result.summary["cut_steps"] == 0
+    assert 0.5e-6 < result.summary["max_penetration"] <= 1e-6 * (1.0 + 1e-9)
+    assert largest_move(result) <= 2.0 * settled + 1e-6
+
+
+@pytest.mark.parametrize("dt", SLIDE_STEPS)
+def test_a_block_held_on_a_frictionless_slope_slides_as_the_closed_form(dt):
+    """φ = 0: ½ g sin θ t² (2.4525 m at 1 s) within 1e-6 relative at every Δt, its
+    contacts held at up to the tolerance. Measured 3e-12, 1.3e-8, −2.7e-7 at Δt = 1e-3,
+    1e-4, 2.5e-5; eq. 7 driving g to 0 gave 2.3e-12, 2.2e-9, −3.0e-7 (the error is the
+    unloaded release's ringing, which Shi's update damps less as Δt shrinks)."""
+    result = held_incline(math.inf, dt, 1.0)
+    moved = float(np.linalg.norm(result.final.displacements[1]))
+    exact = sliding_distance(math.inf, result.final.time)
+    assert result.summary["max_penetration"] > 0.5e-6
+    assert abs(moved - exact) <= 1e-6 * exact
