@@ -20,7 +20,7 @@ blocks' mass matrices (fixed blocks do not move).
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
+import scipy
 
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import ContactRows
@@ -61,8 +61,10 @@ def push_out_displacement(
     weighted = np.einsum("eij,ej->ei", np.linalg.inv(masses[blocks]), gradient)  # M⁻¹ rows
     cols = (6 * blocks[:, None] + np.arange(6)).ravel()
 
-    def spread(values: np.ndarray) -> sp.csr_matrix:
-        return sp.csr_matrix((values.ravel(), (np.repeat(which, 6), cols)), shape=(k, 6 * n))
+    def spread(values: np.ndarray) -> scipy.sparse.csr_matrix:
+        return scipy.sparse.csr_matrix(
+            (values.ravel(), (np.repeat(which, 6), cols)), shape=(k, 6 * n)
+        )
 
     g, g_weighted = spread(gradient), spread(weighted)
     coupling = (g @ g_weighted.T).toarray()  # G M⁻¹ Gᵀ

@@ -20,7 +20,7 @@ import copy
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import scipy.sparse as sp
+import scipy
 
 from dda.effects.pair_springs import PairSprings
 from dda.jit import compiled, kernel
@@ -315,7 +315,7 @@ def assemble(
     fixed: np.ndarray,
     terms: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]] = (),
     couplings: PairSprings | None = None,
-) -> sp.csc_matrix:
+) -> scipy.sparse.csc_matrix:
     """K over the free blocks in the pattern's order, as CSC.
 
     The data are written row by row (CSR); K is symmetric, so the same
@@ -337,15 +337,15 @@ def assemble(
     if couplings is not None:
         _add_couplings(pattern, data, couplings)
     n = pattern.size
-    return sp.csc_matrix((data, pattern.indices, pattern.indptr), shape=(n, n))
+    return scipy.sparse.csc_matrix((data, pattern.indices, pattern.indptr), shape=(n, n))
 
 
 def reassemble(
     pattern: BlockPattern,
-    matrix: sp.csc_matrix,
+    matrix: scipy.sparse.csc_matrix,
     changes: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
     contacts: np.ndarray,
-) -> sp.csc_matrix:
+) -> scipy.sparse.csc_matrix:
     """K' = K + Σ Δk [r_i r_j]ᵀ[r_i r_j] over a few contacts, K assembled on ``pattern``.
 
     Within a step the contact rows stay fixed and only the springs of the
@@ -362,7 +362,7 @@ def reassemble(
     """
     data = matrix.data.copy()
     _add_terms(pattern, data, changes, np.asarray(contacts, dtype=np.int64))
-    return sp.csc_matrix((data, matrix.indices, matrix.indptr), shape=matrix.shape)
+    return scipy.sparse.csc_matrix((data, matrix.indices, matrix.indptr), shape=matrix.shape)
 
 
 def _add_couplings(pattern: BlockPattern, data: np.ndarray, couplings: PairSprings) -> None:

@@ -98,6 +98,8 @@ class DenseSystem(NumpyPasses):
     friction : whether K holds the shear springs (else only their offsets enter F)
     couplings : springs between blocks (rock bolts), or None
     timer : a :class:`dda.solve.timing.StageTimer`
+    numpy_rows : up to this many unknowns K is solved by numpy's LU
+        (:class:`dda.solve.linsolve.DenseFactorisation`; the policy's ``numpy_solve_rows``)
     """
 
     def __init__(
@@ -111,8 +113,10 @@ class DenseSystem(NumpyPasses):
         friction: bool,
         couplings: PairSprings | None,
         timer,
+        numpy_rows: int = 0,
     ) -> None:
         self.free = np.flatnonzero(~fixed)
+        self.numpy_rows = numpy_rows
         position = np.full(len(fixed), -1, np.int64)
         position[self.free] = np.arange(len(self.free))
         count = len(self.free)
@@ -147,7 +151,7 @@ class DenseSystem(NumpyPasses):
             with self.timer("assembly"):
                 k = self._stiffness(kn, ks if self.friction else np.zeros_like(ks))
             with self.timer("factorisation"):
-                self._factor = DenseFactorisation(k)
+                self._factor = DenseFactorisation(k, numpy_rows=self.numpy_rows)
             self._springs = (kn, ks)
             self.factorisations += 1
         with self.timer("assembly"):

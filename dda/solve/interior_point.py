@@ -57,7 +57,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
+import scipy
 
 from dda.contact.potential import ContactTerms
 from dda.contact.strength import JointProperties
@@ -219,7 +219,7 @@ class NewtonMatrix:
         self.lu.factor(values)
 
     @property
-    def fill(self) -> sp.csr_matrix:
+    def fill(self) -> scipy.sparse.csr_matrix:
         """The (values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part of the
         values (:func:`_fill_matrix`), made at its first use (numpy's path)."""
         if self._fill is None:
@@ -257,7 +257,7 @@ class BlockPattern:
         self.indptr = _indptr(keys // max(count, 1), count)
         self.values = 36 * len(keys)
 
-    def csr(self) -> sp.csr_matrix:
+    def csr(self) -> scipy.sparse.csr_matrix:
         """The unknowns' pattern (values 0), column indices sorted in each row."""
         count, size = self.count, 6 * self.count
         row = self.keys // max(count, 1)
@@ -268,7 +268,7 @@ class BlockPattern:
         indices[place.reshape(-1)] = np.broadcast_to(columns, place.shape).reshape(-1)
         indptr = np.zeros(size + 1, dtype=np.int64)
         indptr[1:] = np.cumsum(np.repeat(6 * np.diff(self.indptr), 6))
-        return sp.csr_matrix((np.zeros(self.values), indices, indptr), shape=(size, size))
+        return scipy.sparse.csr_matrix((np.zeros(self.values), indices, indptr), shape=(size, size))
 
     def places(self, first: np.ndarray, second: np.ndarray) -> np.ndarray:
         """(k, 12, 12) the places among the values of the unknowns of blocks ``first`` (rows
@@ -302,7 +302,7 @@ def _dofs(column: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate([first, second], axis=1)
 
 
-def _fill_matrix(normal, shear, where, values: int) -> sp.csr_matrix:
+def _fill_matrix(normal, shear, where, values: int) -> scipy.sparse.csr_matrix:
     """The (pattern's values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part
     of the values: ∇g∇gᵀ, ∇s∇sᵀ and ∇s∇gᵀ of each contact at its blocks' unknowns
     (``where``: their places among the values, −1 for a fixed block's)."""
@@ -314,7 +314,7 @@ def _fill_matrix(normal, shear, where, values: int) -> sp.csr_matrix:
         (shear[:, :, None] * shear[:, None, :])[valid],
         (shear[:, :, None] * normal[:, None, :])[valid],
     ]
-    return sp.csr_matrix(
+    return scipy.sparse.csr_matrix(
         (
             np.concatenate(parts),
             (np.tile(where[valid], 3), np.concatenate([contact + k * m for k in range(3)])),
@@ -329,12 +329,12 @@ def _indptr(rows: np.ndarray, size: int) -> np.ndarray:
     return out
 
 
-def _rows_matrix(rows: np.ndarray, dofs: np.ndarray, size: int) -> sp.csr_matrix:
+def _rows_matrix(rows: np.ndarray, dofs: np.ndarray, size: int) -> scipy.sparse.csr_matrix:
     """The (m, size) matrix whose row c holds ``rows[c]`` at the unknowns ``dofs[c]``."""
     m = len(rows)
     valid = dofs >= 0
     contact = np.broadcast_to(np.arange(m)[:, None], dofs.shape)
-    return sp.csr_matrix((rows[valid], (contact[valid], dofs[valid])), shape=(m, size))
+    return scipy.sparse.csr_matrix((rows[valid], (contact[valid], dofs[valid])), shape=(m, size))
 
 
 class _Iterate:

@@ -25,8 +25,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.linalg import lapack
+import scipy
 from threadpoolctl import ThreadpoolController
 
 from dda.solve.pardiso_call import PardisoCall
@@ -46,7 +45,7 @@ class Factorisation:
     ``permc_spec="NATURAL"`` for a matrix already in a fill-reducing order.
     """
 
-    def __init__(self, matrix: sp.csc_matrix, permc_spec: str = "MMD_AT_PLUS_A") -> None:
+    def __init__(self, matrix: scipy.sparse.csc_matrix, permc_spec: str = "MMD_AT_PLUS_A") -> None:
         self.size = matrix.shape[0]
         if self.size == 0:
             self._lu = None
@@ -78,22 +77,46 @@ class DenseFactorisation:
     definite by round-off (a nearly singular K), SuperLU factorises it, as it
     did before there was a dense path (``permc_spec`` is its ordering). ``matrix``
     is sparse, or a dense array (the small steps' dense systems), left as it is.
+
+    A K of at most ``numpy_rows`` rows (the policy's ``numpy_solve_rows``) is kept as
+    it is and each solve is numpy's LU of it (``numpy.linalg.solve``, LAPACK's
+    ``dgesv``), so that a run of a few blocks never imports scipy; SuperLU takes a K
+    that numpy finds singular.
     """
 
-    def __init__(self, matrix: sp.spmatrix | np.ndarray, permc_spec: str = "NATURAL") -> None:
+    def __init__(
+        self,
+        matrix: scipy.sparse.spmatrix | np.ndarray,
+        permc_spec: str = "NATURAL",
+        numpy_rows: int = 0,
+    ) -> None:
         self.size = matrix.shape[0]
+        self.permc_spec = permc_spec
         self._fallback: Factorisation | None = None
-        dense = matrix.toarray() if sp.issparse(matrix) else np.array(matrix, dtype=float)
-        self._lower, info = lapack.dpotrf(dense, lower=1, clean=0, overwrite_a=1)
+        self._matrix: np.ndarray | None = None
+        dense = (
+            np.array(matrix, dtype=float) if isinstance(matrix, np.ndarray) else matrix.toarray()
+        )
+        if self.size <= numpy_rows:
+            self._matrix = dense
+            return
+        self._lower, info = scipy.linalg.lapack.dpotrf(dense, lower=1, clean=0, overwrite_a=1)
         if info != 0:
             log.debug("dense Cholesky failed (info %d): SuperLU factorises K", info)
-            self._fallback = Factorisation(sp.csc_matrix(matrix), permc_spec)
+            self._fallback = Factorisation(scipy.sparse.csc_matrix(matrix), permc_spec)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """x with K x = b; ``rhs`` may also be (n, r): X with K X = B."""
+        if self._matrix is not None:
+            try:
+                return np.linalg.solve(self._matrix, rhs)
+            except np.linalg.LinAlgError:
+                log.debug("numpy found K singular: SuperLU factorises it")
+                matrix, self._matrix = self._matrix, None
+                self._fallback = Factorisation(scipy.sparse.csc_matrix(matrix), self.permc_spec)
         if self._fallback is not None:
             return self._fallback.solve_many(rhs) if rhs.ndim == 2 else self._fallback.solve(rhs)
-        return lapack.dpotrs(self._lower, rhs, lower=1)[0]
+        return scipy.linalg.lapack.dpotrs(self._lower, rhs, lower=1)[0]
 
     solve_many = solve
 
@@ -121,14 +144,16 @@ class PardisoFactorisation:
     threads : the analysis' threads (the environment's policy when None)
     """
 
-    def __init__(self, matrix: sp.spmatrix, handle=None, threads: int | None = None) -> None:
+    def __init__(
+        self, matrix: scipy.sparse.spmatrix, handle=None, threads: int | None = None
+    ) -> None:
         self.size = matrix.shape[0]
         self.threads = current_policy().solver_threads() if threads is None else threads
         if handle is None:
             handle = new_pardiso_handle(self.threads)
         else:
             handle.set_phase(-1)
-            handle._call_pardiso(sp.csr_matrix((0, 0)), np.zeros(0))
+            handle._call_pardiso(scipy.sparse.csr_matrix((0, 0)), np.zeros(0))
         self._solver = handle
         rows = np.repeat(np.arange(self.size), np.diff(matrix.indptr))
         self._upper = np.flatnonzero(matrix.indices >= rows)
@@ -153,10 +178,10 @@ class PardisoFactorisation:
         """This thread's MKL calls on the analysis' threads (MKL keeps the count per thread)."""
         _set_mkl_threads(self._solver.libmkl, self.threads)
 
-    def _upper_values(self, matrix: sp.spmatrix) -> np.ndarray:
+    def _upper_values(self, matrix: scipy.sparse.spmatrix) -> np.ndarray:
         return np.asarray(matrix.data)[self._upper]
 
-    def factor(self, matrix: sp.spmatrix, threads: int) -> None:
+    def factor(self, matrix: scipy.sparse.spmatrix, threads: int) -> None:
         """Numeric factorisation of a matrix with the analysed pattern, on ``threads``
         (:meth:`dda.solve.policy.StepPolicy.solver_threads`): the pattern is analysed
         again first when they are not the analysis' threads."""
@@ -280,14 +305,14 @@ def block_ordering(nfree: int, pairs: np.ndarray) -> np.ndarray:
     cols = np.concatenate([j, i, np.arange(nfree)])
     # a diagonally dominant matrix with the graph's pattern: SuperLU orders it without pivoting
     values = np.concatenate([np.full(2 * len(i), -1.0), np.full(nfree, 1.0 + 2.0 * len(i))])
-    graph = sp.csc_matrix((values, (rows, cols)), shape=(nfree, nfree))
+    graph = scipy.sparse.csc_matrix((values, (rows, cols)), shape=(nfree, nfree))
     lu = _splu(
         graph, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
     )
     return np.asarray(lu.perm_c, dtype=np.int64)
 
 
-def _splu(matrix: sp.spmatrix, **options):
+def _splu(matrix: scipy.sparse.spmatrix, **options):
     """SuperLU (``scipy.sparse.linalg.splu``), imported at the first use: a run of one or
     two free blocks with a dense K never needs it."""
     from scipy.sparse.linalg import splu
@@ -296,7 +321,7 @@ def _splu(matrix: sp.spmatrix, **options):
 
 
 def pcg(
-    matrix: sp.spmatrix,
+    matrix: scipy.sparse.spmatrix,
     rhs: np.ndarray,
     preconditioner: Callable[[np.ndarray], np.ndarray],
     tolerance: float,
@@ -386,7 +411,7 @@ class ReusingSolver:
             backend = PARDISO_CHOICE if pardiso_available(self.policy) else "superlu"
         self.backend = backend
         self._factor: Factorisation | DenseFactorisation | PardisoFactorisation | None = None
-        self._factored: sp.spmatrix | None = None
+        self._factored: scipy.sparse.spmatrix | None = None
         self._key: object = None
         self._analysed_key: object = None
         self._stale = False
@@ -409,7 +434,7 @@ class ReusingSolver:
             "pcg_solves": self.pcg_solves,
         }
 
-    def resume(self, learned: dict[str, object], matrix: sp.csc_matrix | None) -> None:
+    def resume(self, learned: dict[str, object], matrix: scipy.sparse.csc_matrix | None) -> None:
         """The state :meth:`learned` gave, with ``matrix`` (the one the interrupted run had
         factorised, or None) factorised again: the resumed run's next solves (PCG on that
         factorisation) repeat those of the uninterrupted run. The count of
@@ -447,13 +472,13 @@ class ReusingSolver:
         return self._factor.solve(rhs)
 
     @property
-    def factored(self) -> sp.spmatrix | None:
+    def factored(self) -> scipy.sparse.spmatrix | None:
         """The matrix of the kept factorisation."""
         return self._factored
 
     def solve(
         self,
-        matrix: sp.csc_matrix,
+        matrix: scipy.sparse.csc_matrix,
         rhs: np.ndarray,
         key: object = None,
         timer=None,
@@ -491,7 +516,7 @@ class ReusingSolver:
         with stage("solve"):
             return self._factor.solve(rhs)
 
-    def _factorise(self, matrix: sp.csc_matrix, key: object) -> None:
+    def _factorise(self, matrix: scipy.sparse.csc_matrix, key: object) -> None:
         dense_rows = self.policy.dense_factor_rows
         if self.backend == PARDISO_CHOICE and matrix.shape[0] > dense_rows:
             threads = self.policy.solver_threads()  # once: the analysis' and the factor's
@@ -503,7 +528,7 @@ class ReusingSolver:
                 self._analysed_key = key
             self._factor.factor(matrix, threads)
         elif self.automatic and 0 < matrix.shape[0] <= dense_rows:
-            self._factor = DenseFactorisation(matrix, self.permc_spec)
+            self._factor = DenseFactorisation(matrix, self.permc_spec, self.policy.numpy_solve_rows)
         else:
             self._factor = Factorisation(matrix, self.permc_spec)
         self._factored, self._key, self._stale = matrix, key, False

@@ -24,8 +24,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
+import scipy
 
 from dda.contact.rows import ContactRows
 from dda.solve.assembly import BLOCK, BlockPattern
@@ -50,7 +49,7 @@ class StepUpdates:
 
     def __init__(
         self,
-        factored: sp.spmatrix,
+        factored: scipy.sparse.spmatrix,
         springs: np.ndarray,
         pattern: BlockPattern,
         rows: ContactRows,
@@ -72,9 +71,9 @@ class StepUpdates:
         self._solve_many = solve_many
         self._size = factored.shape[0]
         self._z: dict[tuple[int, int], np.ndarray] = {}
-        self._last: tuple[sp.spmatrix, Callable] | None = None
+        self._last: tuple[scipy.sparse.spmatrix, Callable] | None = None
 
-    def applies(self, factored: sp.spmatrix | None, pattern: BlockPattern) -> bool:
+    def applies(self, factored: scipy.sparse.spmatrix | None, pattern: BlockPattern) -> bool:
         """True while K_f is the kept factorisation and K has K_f's pattern (matrix order),
         for K of at least the policy's ``low_rank_min_rows`` rows."""
         big = self._size >= self.policy.low_rank_min_rows
@@ -85,7 +84,9 @@ class StepUpdates:
         kind, contact = np.nonzero(springs != self.springs)
         return kind, contact, (springs - self.springs)[kind, contact]
 
-    def solve(self, matrix: sp.spmatrix, rhs: np.ndarray, springs: np.ndarray) -> np.ndarray | None:
+    def solve(
+        self, matrix: scipy.sparse.spmatrix, rhs: np.ndarray, springs: np.ndarray
+    ) -> np.ndarray | None:
         """x with K x = F by PCG preconditioned with (K_f + U c Uᵀ)⁻¹; None when the
         change has more than the policy's ``low_rank_columns`` springs or PCG does not
         converge."""
@@ -110,15 +111,15 @@ class StepUpdates:
         z = self._inverse_columns(kind, contact, at, values)
         capacitance = np.diag(1.0 / change) + np.einsum("qk,qkr->qr", values, z[at])
         try:
-            factors = sla.lu_factor(capacitance)
-        except (ValueError, sla.LinAlgError):
+            factors = scipy.linalg.lu_factor(capacitance)
+        except (ValueError, scipy.linalg.LinAlgError):
             return None
 
         solve_many = self._solve_many  # not self: no reference cycle through the closure
 
         def precondition(b: np.ndarray) -> np.ndarray:
             y = solve_many(b[:, None])[:, 0]
-            w = sla.lu_solve(factors, np.einsum("qk,qk->q", values, y[at]))
+            w = scipy.linalg.lu_solve(factors, np.einsum("qk,qk->q", values, y[at]))
             return y - np.einsum("nr,r->n", z, w)
 
         self._last = (matrix, precondition)

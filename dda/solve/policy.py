@@ -131,6 +131,10 @@ class StepPolicy:
     # run takes 7.5-10.5 ms a step against SuperLU's 9.2-12.2. SuperLU factorises where
     # PARDISO is not installed (or DDA_SOLVER asks for it)
     dense_factor_rows: int = 240
+    # up to this many rows a dense K is solved by numpy's LU at each solve (LAPACK gesv:
+    # 5-12 µs at 12-36 rows against 2-6 µs for scipy's Cholesky and its solve), so that
+    # a run of a few blocks never imports scipy (0.13 s of a small run's process)
+    numpy_solve_rows: int = 36
     # PCG stops at ‖F - K x‖ ≤ this · ‖F‖ (a direct solve's level)
     pcg_tolerance: float = 1e-13
     # beyond this a new factorisation is cheaper (and is made)

@@ -618,7 +618,7 @@ def solve_step(
         with timer("assembly"):
             return DenseSystem(
                 blocks.fixed, contacts.block_a, contacts.block_b, rows, base_k, base_f,
-                law.friction, couplings, timer,
+                law.friction, couplings, timer, policy.numpy_solve_rows,
             )  # fmt: skip
 
     system: StepSystems

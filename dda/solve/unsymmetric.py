@@ -14,7 +14,7 @@ so its Newton matrix is not symmetric.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
+import scipy
 
 from dda.solve.linsolve import new_pardiso_handle, pardiso_available
 from dda.solve.pardiso_call import PardisoCall
@@ -28,7 +28,7 @@ class UnsymmetricLU:
     the last factorisation. The symbolic analysis is done once, at the first
     :meth:`factor`."""
 
-    def __init__(self, pattern: sp.csr_matrix) -> None:
+    def __init__(self, pattern: scipy.sparse.csr_matrix) -> None:
         self.pattern = pattern
         self._pardiso: PardisoCall | None = None
         self._lu = None
@@ -42,7 +42,7 @@ class UnsymmetricLU:
     def factor(self, values: np.ndarray) -> None:
         """Factorise the matrix of the pattern with the CSR ``values``."""
         if self._pardiso is None:
-            matrix = sp.csr_matrix((values, self.pattern.indices, self.pattern.indptr),
+            matrix = scipy.sparse.csr_matrix((values, self.pattern.indices, self.pattern.indptr),
                                    shape=self.pattern.shape)  # fmt: skip
             from scipy.sparse.linalg import splu
 

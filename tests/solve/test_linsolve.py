@@ -113,6 +113,30 @@ def test_dense_cholesky_hands_a_matrix_it_cannot_factorise_to_superlu():
     np.testing.assert_array_equal(dense.solve(f), Factorisation(k, "NATURAL").solve(f))
 
 
+def test_a_small_k_solved_by_numpy_equals_the_cholesky():
+    """Up to ``numpy_rows`` rows K is kept and numpy's LU solves it each time (no scipy):
+    the same x as the Cholesky to 1e-12, one right-hand side or several."""
+    k = spd_matrix(5).toarray()[:30, :30]
+    f = np.linspace(-1.0, 1.0, 30)
+    by_numpy = linsolve.DenseFactorisation(k, numpy_rows=30)
+    assert by_numpy._matrix is not None
+    np.testing.assert_allclose(by_numpy.solve(f), linsolve.DenseFactorisation(k).solve(f),
+                               rtol=1e-12, atol=1e-15)  # fmt: skip
+    columns = np.stack([f, f**2, np.ones(30)], axis=1)
+    np.testing.assert_allclose(k @ by_numpy.solve_many(columns), columns, rtol=1e-12, atol=1e-12)
+    assert linsolve.DenseFactorisation(k, numpy_rows=29)._matrix is None
+
+
+def test_a_small_k_that_numpy_finds_singular_goes_to_superlu():
+    """numpy's LU refuses an exactly singular K; SuperLU is then asked, as the Cholesky's
+    failure asks it (and says so in the same way: it cannot factorise it either)."""
+    k = np.zeros((6, 6))
+    dense = linsolve.DenseFactorisation(k, numpy_rows=6)
+    with pytest.raises(RuntimeError):
+        dense.solve(np.ones(6))
+    assert dense._matrix is None and dense._fallback is None
+
+
 def test_automatic_solver_uses_a_dense_cholesky_for_small_k_and_never_pcg(monkeypatch):
     solver = ReusingSolver()
     k = spd_matrix(14)
