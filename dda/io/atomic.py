@@ -57,8 +57,9 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     Path
         The temporary path to write to. If the ``with`` block raises, or
         writes nothing, the temporary file is removed and ``path`` is left as
-        it was; an OSError of the block that names a file is raised again
-        naming ``path`` (what the user asked for, not the temporary name).
+        it was; an OSError of the block (with an error number) is raised again
+        naming ``path`` (what the user asked for, not the temporary name, nor no
+        name: writers that fill the disk often give none).
 
     Examples
     --------
@@ -72,8 +73,8 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         if not tmp.exists():
             raise FileNotFoundError(f"the writer produced no file for {path}")
         os.replace(tmp, path)
-    except OSError as exc:  # the error names the file asked for, never the temporary one
-        if exc.errno is not None and exc.filename is not None:
+    except OSError as exc:  # the error names the file asked for, never the temporary one,
+        if exc.errno is not None:  # and one that names none (a full disk in a writer) too
             raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
         raise
     finally:

@@ -10,6 +10,7 @@ Forces are per metre of the section's thickness (``kN/m``): a 2-D model's forces
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import logging
 import textwrap
@@ -75,16 +76,27 @@ def group_columns(columns: list[str]) -> dict[str, list[str]]:
 def plot_histories(
     outdir: Path, folder: Path | None = None, title: str = "", units: Mapping | None = None
 ) -> list[Path]:
-    """Draw one PNG per quantity into ``folder`` (default ``outdir/plots``); return them."""
+    """Draw one PNG per quantity into ``folder`` (default ``outdir/plots``); return them.
+    When one cannot be written (a full disk) into a folder this call made, the folder and
+    what was written into it are removed: nothing is left half done."""
     table = read_points(outdir / POINTS_NAME)
     folder = folder or outdir / "plots"
+    made = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
     written = []
-    for quantity, columns in group_columns(list(table)).items():
-        path = folder / f"{quantity}.png"
-        _draw(path, table["time"], {c: table[c] for c in columns}, quantity, title, units)
-        written.append(path)
-        logger.info("wrote %s", path)
+    try:
+        for quantity, columns in group_columns(list(table)).items():
+            path = folder / f"{quantity}.png"
+            _draw(path, table["time"], {c: table[c] for c in columns}, quantity, title, units)
+            written.append(path)
+            logger.info("wrote %s", path)
+    except BaseException:
+        if made:
+            for path in written:
+                path.unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
     return written
 
 

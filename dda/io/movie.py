@@ -185,7 +185,9 @@ def _write_mp4(pictures: Iterable[np.ndarray], path: Path, fps: float, size, nam
     """MP4 (H.264, yuv420p) through imageio-ffmpeg, one picture at a time. ffmpeg's own
     messages go to a temporary file, not the terminal: when it fails, an
     :class:`FfmpegError` says so in one line that names ``name`` (the file asked for)
-    and ends with ffmpeg's last message."""
+    and ends with ffmpeg's last message. ffmpeg logs at its "error" level only, and
+    imageio-ffmpeg's ``close`` does not look at how ffmpeg ended (a full disk leaves a
+    movie without its index and exits 0 there), so anything ffmpeg said is its failure."""
     import imageio_ffmpeg
 
     with tempfile.TemporaryFile() as said:
@@ -201,12 +203,20 @@ def _write_mp4(pictures: Iterable[np.ndarray], path: Path, fps: float, size, nam
                 writer.send(np.ascontiguousarray(picture))
                 count += 1
             writer.close()
+            if _said_anything(said):
+                raise RuntimeError("ffmpeg reported an error")
         except (OSError, RuntimeError) as exc:
             with contextlib.suppress(OSError, RuntimeError):
                 writer.close()
             said_last = _last_words(said, exc)
             raise FfmpegError(f"{name}: ffmpeg could not write the movie ({said_last})") from None
     return count
+
+
+def _said_anything(log: IO[bytes]) -> bool:
+    """True when ffmpeg wrote a line that is not blank to ``log``."""
+    log.seek(0)
+    return bool(log.read().strip())
 
 
 @contextlib.contextmanager

@@ -89,3 +89,31 @@ def test_a_disk_too_full_to_start_the_outputs_names_the_file(tmp_path, capsys, m
     err = capsys.readouterr().err
     assert f"{disk}/run/" in err and "No space left on device" in err
     assert "Traceback" not in err
+
+
+def test_pictures_on_a_full_disk_name_the_file_and_leave_nothing(tmp_path, capsys):
+    """The commands that draw (render, plot, movie as GIF and MP4, cut's picture) say
+    which file a full disk stopped, exit 1 and leave no file or folder half made: an
+    MP4 whose index ffmpeg could not write is not reported as written."""
+    from dda.io.movie import mp4_available
+
+    run = tmp_path / "run"  # a scene with [[measure]]: dda plot draws its histories
+    assert main(["run", "bolted_block", "-q", "--no-picture", "-o", str(run)]) == 0
+    capsys.readouterr()
+    with mounted(tmp_path / "tiny", size="8k") as disk:
+        commands = {
+            "render": (["render", str(run), "-o", str(disk / "r.png")], disk / "r.png"),
+            "plot": (["plot", str(run), "-o", str(disk / "plots")], disk / "plots/"),
+            "movie": (["movie", str(run), "--every", "50", "-o", str(disk / "m.gif")],
+                      disk / "m.gif"),
+            "cut": (["cut", "tunnel", "-o", str(disk / "t.toml")], disk / "t.png"),
+        }  # fmt: skip
+        if mp4_available():
+            mp4 = ["movie", str(run), "--every", "50", "-o", str(disk / "m.mp4")]
+            commands["movie mp4"] = (mp4, disk / "m.mp4")
+        for command, (argv, named) in commands.items():
+            assert main(argv) == 1, command
+            err = capsys.readouterr().err
+            assert str(named).rstrip("/") in err, (command, err)
+            assert "No space left on device" in err and "Traceback" not in err, (command, err)
+            assert list(disk.iterdir()) == [], (command, list(disk.iterdir()))
