@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from dda.commands.cli import output_path
+from dda.commands.cli import EXIT_FAILURE, output_path
 from dda.commands.cluster_options import add_cluster_options, count
 from dda.commands.fos import EXIT_INPUT, add_fos_options, prepare
 
@@ -47,7 +47,8 @@ def register(subparsers: Any) -> None:
 
 
 def ensemble_command(args: argparse.Namespace) -> int:
-    """Run the realisations; return the exit code (0 done, 2 bad input, 130 interrupted)."""
+    """Run the realisations; return the exit code (0 done, 1 every realisation refused,
+    2 bad input, 130 interrupted)."""
     from dda.stability.store import RowStore, scene_hash
 
     prepared = prepare(args, "ensemble", reduced=args.fos, edit=_ensemble_overrides(args))
@@ -73,6 +74,12 @@ def ensemble_command(args: argparse.Namespace) -> int:
           f"{len(rows)} reused), drawing " + ", ".join(keys), file=sys.stderr)  # fmt: skip
     frames = _run(raw, source, args.fos, ensemble.realisations, rows, store, cluster, keys)
     _finish(outdir, raw, source, scene, rows, frames, keys, args.fos)
+    if rows and all(r["failed"] is None for r in rows.values()):  # no answer: say why
+        first = rows[min(rows)]
+        print(f"dda ensemble: {source}: every realisation was refused (realisation "
+              f"{first['realisation']}: {first['status']}); no probability of failure",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_FAILURE
     return 0
 
 

@@ -154,6 +154,14 @@ class Checker:
             return value
         self.fail(key, f"expected a list, got {value_kind(value)}")
 
+    def listed(self, value: object, key: str) -> Sequence[Any]:
+        """A list that is not empty: a key whose empty list would do nothing (stage
+        changes, moving or watched blocks) is refused rather than ignored."""
+        items = self.sequence(value, key)
+        if len(items) == 0:
+            self.fail(key, "is empty: list at least one, or leave the key out")
+        return items
+
     def real(self, value: object, key: str, interval: Interval = ANY) -> float:
         """A finite real number (not a boolean) inside ``interval``."""
         if type(value) is not float:

@@ -39,6 +39,7 @@ from dda.scene.checks import (
     table_list,
 )
 from dda.scene.in_situ import BoundaryStress, boundary_stress
+from dda.scene.text_file import UnreadableText, read_text
 
 ENGINEERING_KEYS = ("bolts", "seismic", "water", "measure", "stages")
 ON_BLOCK = 1e-9  # a point within this fraction of a block's size lies on it
@@ -382,9 +383,11 @@ def _seismic(
         "file": Checker.text,
         "component": choice("x", "y"),
         "scale": real(),
-        "blocks": lambda chk, value, key: chk.sequence(value, key),
+        "blocks": Checker.listed,
     }
     values = checked_fields(chk, raw["seismic"], "seismic", specs)
+    if values.get("scale") == 0.0:
+        chk.fail("seismic.scale", "is 0: the ground would not move (leave [seismic] out)")
     if ("acceleration" in values) == ("file" in values):
         chk.fail("seismic", "give the record as acceleration = [[t, ax, ay], ...] or as file")
     if analysis.mode != "dynamic":
@@ -421,9 +424,9 @@ def _read_record(chk: Checker, name: str) -> list[list[float]]:
     base = Path(chk.source).parent if chk.source.endswith(".toml") else Path.cwd()
     path = base / name
     try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        chk.fail("seismic.file", f"cannot read {str(path)!r} ({exc.strerror or exc})")
+        lines = read_text(path, "a record is rows of numbers").splitlines()
+    except UnreadableText as exc:
+        chk.fail("seismic.file", f"{str(path)!r} {exc}")
     rows = []
     for number, line in enumerate(lines, start=1):
         text = line.split("#", 1)[0].strip()
@@ -511,14 +514,14 @@ def _stages(
 ) -> tuple[Stage, ...]:
     specs: dict[str, Spec] = {
         "time": real(POSITIVE),
-        "remove": lambda chk, value, key: chk.sequence(value, key),
+        "remove": Checker.listed,
         "polygon": Checker.simple_polygon,
-        "bolts": lambda chk, value, key: chk.sequence(value, key),
+        "bolts": Checker.listed,
         "strength_factor": real(POSITIVE),
         "intact": Checker.boolean,
-        "boundary_stresses": lambda chk, value, key: chk.sequence(value, key),
+        "boundary_stresses": Checker.listed,
         "remove_boundary_stresses": lambda chk, value, key: tuple(
-            chk.text(v, f"{key}[{k}]") for k, v in enumerate(chk.sequence(value, key))
+            chk.text(v, f"{key}[{k}]") for k, v in enumerate(chk.listed(value, key))
         ),
     }
     stages: list[Stage] = []

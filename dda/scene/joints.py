@@ -92,6 +92,17 @@ _PEAK_OF = {
 }
 
 
+def other_model(key: str, model: str) -> str | None:
+    """The joint model that ``key`` belongs to when a joint of ``model`` cannot take it
+    (jrc and jcs are Barton–Bandis keys, friction_angle and the residual cohesion and
+    tension Coulomb ones), else None."""
+    if model == "barton-bandis" and key in _ONLY_COULOMB:
+        return "coulomb"
+    if model != "barton-bandis" and key in ("jrc", "jcs"):
+        return "barton-bandis"
+    return None
+
+
 def joint(chk: Checker, name: str, value: object) -> Joint:
     """One ``[joints.NAME]`` table, checked: the keys of its model, residual strengths
     no higher than the peak ones."""

@@ -32,7 +32,7 @@ from dda.scene.checks import (
     real,
     table_list,
 )
-from dda.scene.joints import JRC, RESTITUTION
+from dda.scene.joints import JRC, RESTITUTION, other_model
 
 STABILITY_KEYS = ("fos", "ensemble")
 # a trial fails when its watched blocks move faster, over the last `window` of the trial,
@@ -120,7 +120,7 @@ _FOS: dict[str, Spec] = {
     "velocity": real(POSITIVE),
     "acceleration": real(POSITIVE),
     "window": real(UNIT_FRACTION),
-    "blocks": Checker.sequence,
+    "blocks": Checker.listed,
     "intact": Checker.boolean,
 }
 
@@ -256,6 +256,12 @@ def _target(
         joints = written.get("joints", {})
         if parts[1] != "default" and not (isinstance(joints, Mapping) and parts[1] in joints):
             chk.fail(key, f"no joint {parts[1]!r} in [joints]")
+        table = joints.get(parts[1], {}) if isinstance(joints, Mapping) else {}
+        model = table.get("model", "coulomb") if isinstance(table, Mapping) else "coulomb"
+        owner = other_model(parts[2], model)
+        if owner is not None:
+            chk.fail(key, f"{parts[2]} is a key of model = {owner!r}; joints.{parts[1]} is "
+                     f"{model!r}")  # fmt: skip
         if parts[2] in _JOINT_VALUES:
             return _JOINT_VALUES[parts[2]], False
     match = _SET_KEY.match(target)

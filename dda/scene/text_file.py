@@ -1,4 +1,5 @@
-"""Read a scene file's text: UTF-8, with or without a byte-order mark; others explained.
+"""Read a scene file's text (or a file it names): UTF-8, with or without a byte-order
+mark; others explained.
 
 TOML is UTF-8. Windows Notepad may write a byte-order mark before it (EF BB BF),
 which tomllib takes for text ("Invalid statement at line 1, column 1"): it is
@@ -39,22 +40,38 @@ def read_scene_text(path: Path) -> str:
         Key ``<file>``: the file cannot be read, or is not UTF-8 (with the fix).
     """
     try:
+        return read_text(path, "a scene is TOML text")
+    except UnreadableText as exc:
+        raise SceneError(str(path), "<file>", str(exc)) from None
+
+
+class UnreadableText(ValueError):
+    """A text file that cannot be read, or is not UTF-8 text: the reason and the fix."""
+
+
+def read_text(path: Path, expected: str) -> str:
+    """The UTF-8 text of ``path`` (a byte-order mark dropped); ``expected`` says what the
+    file should hold, for a binary one ("a scene is TOML text").
+
+    Raises
+    ------
+    UnreadableText
+        The file cannot be read, is UTF-16 or in a one-byte code page, or is binary.
+    """
+    try:
         data = path.read_bytes()
     except OSError as exc:
-        raise SceneError(str(path), "<file>", f"cannot read: {exc.strerror or exc}") from None
+        raise UnreadableText(f"cannot read: {exc.strerror or exc}") from None
     data = data.removeprefix(codecs.BOM_UTF8)
     if _utf16(data):
-        raise SceneError(str(path), "<file>", f"is UTF-16 text, not UTF-8; {HINT}")
+        raise UnreadableText(f"is UTF-16 text, not UTF-8; {HINT}")
     if b"\x00" in data[:SNIFFED]:
-        raise SceneError(
-            str(path), "<file>", "is not a text file (binary data): a scene is TOML text"
-        )
+        raise UnreadableText(f"is not a text file (binary data): {expected}")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
-        reason = (
+        raise UnreadableText(
             f"is not UTF-8 text (byte 0x{data[exc.start]:02x} on line {line}: Latin-1 or "
             f"Windows-1252?); {HINT}"
-        )
-        raise SceneError(str(path), "<file>", reason) from None
+        ) from None

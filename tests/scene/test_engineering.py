@@ -138,6 +138,10 @@ REFUSED = [
     (("stages", 0, "time"), 2.0, "stages[0].time", "not before the end of the run"),
     (("stages", 0, "polygon"), rectangle(-9, 5, 9, 6), "stages[0].polygon", "no block"),
     (("stages", 0, "remove"), ["zz"], "stages[0].remove[0]", "unknown block or group 'zz'"),
+    # an empty list would do nothing, silently: refused as the key left out is
+    (("stages", 0, "remove"), [], "stages[0].remove", "is empty: list at least one"),
+    (("seismic", "blocks"), [], "seismic.blocks", "is empty: list at least one"),
+    (("seismic", "scale"), 0.0, "seismic.scale", "the ground would not move"),
     (("stages", 0, "polygon"), rectangle(-0.5, 0.2, 0.8, 0.8), "stages[0].remove",
      "removes block 'a', which measure[0].point is attached to"),
     (("stages", 0, "polygon"), rectangle(-9, -0.5, 9, 9), "stages",
@@ -224,3 +228,26 @@ def test_a_bad_first_row_of_a_record_is_refused_by_its_line(tmp_path):
     (tmp_path / "s.toml").write_text(tomli_w.dumps(raw))
     with pytest.raises(SceneError, match=r"quake.csv line 2: not numbers: '0,1.5x'"):
         dda.load_scene(tmp_path / "s.toml")
+
+
+@pytest.mark.parametrize(
+    ("data", "reason"),
+    [
+        ("# café record\n0 0.5\n0.2 0.5\n".encode("latin-1"), "is not UTF-8 text (byte 0xe9"),
+        ("0 0.5\n0.2 0.5\n".encode("utf-16"), "is UTF-16 text, not UTF-8"),
+        (b"\x89PNG\r\n\x1a\n\x00\x00", "is not a text file (binary data)"),
+    ],
+    ids=["latin-1", "utf-16", "binary"],
+)
+def test_a_record_file_that_is_not_utf8_text_is_refused_with_the_fix(tmp_path, data, reason):
+    """A Latin-1 record crashed the scene check (AttributeError: a UnicodeDecodeError has
+    no strerror), exit 1 without the key."""
+    import tomli_w
+
+    (tmp_path / "rec.txt").write_bytes(data)
+    raw = base_scene()
+    raw["seismic"] = {"file": "rec.txt", "blocks": ["floor"]}
+    (tmp_path / "s.toml").write_text(tomli_w.dumps(raw))
+    with pytest.raises(SceneError) as info:
+        dda.load_scene(tmp_path / "s.toml")
+    assert info.value.key == "seismic.file" and reason in info.value.reason

@@ -225,6 +225,14 @@ def lognormal_of_mean_zero(raw: dict) -> dict:  # divided by zero in the samplin
     return raw
 
 
+def jrc_of_a_coulomb_joint(raw: dict) -> dict:  # refused by every realisation, once
+    raw["ensemble"] = {
+        "vary": [{"key": "joints.default.jrc", "distribution": "uniform", "low": 5.0,
+                  "high": 10.0}]
+    }  # fmt: skip
+    return raw
+
+
 def nothing_drawn(raw: dict) -> dict:
     raw.pop("ensemble", None)
     return raw
@@ -235,6 +243,11 @@ def nothing_drawn(raw: dict) -> dict:
     [
         (negative_spacing, "ensemble.vary[0].low: joint_sets[0].spacing must be > 0, got -1"),
         (nothing_drawn, "ensemble.vary: the scene draws no value"),
+        (
+            jrc_of_a_coulomb_joint,
+            "ensemble.vary[0].key: jrc is a key of model = 'barton-bandis'; joints.default is "
+            "'coulomb'",
+        ),
         (
             lognormal_of_mean_zero,
             "ensemble.vary[0].mean: a lognormal distribution's mean must be > 0, got 0",
@@ -278,3 +291,23 @@ def test_a_failing_realisations_picture_names_its_drawn_values_with_their_units(
     assert drawn == "friction_angle = 28.12°, cohesion = 2388 Pa, spacing = 2.835 m"
     feet = _drawn(row, keys[1:], Units(length="ft", force="lbf"))
     assert feet == "cohesion = 2388 lbf/ft², spacing = 2.835 ft"
+
+
+def test_an_ensemble_whose_every_realisation_is_refused_gives_no_answer(
+    tmp_path, capsys, monkeypatch
+):
+    """Spacings that cut more blocks than cutting.max_blocks refuse each realisation as it
+    comes: no probability of failure, exit 1 and the first reason (it said
+    P(failure) = nan with exit 0)."""
+    monkeypatch.chdir(tmp_path)
+    raw = tomllib.loads((CASES / "jointed_slope_fos.toml").read_text())
+    raw["ensemble"] = {
+        "realisations": 2,
+        "vary": [{"key": "joint_sets[0].spacing", "distribution": "uniform", "low": 0.001,
+                  "high": 0.002}],
+    }  # fmt: skip
+    write_scene(tmp_path / "slope.toml", raw)
+    assert cli.main(["ensemble", "slope.toml", "-o", "out", "--serial"]) == 1
+    err = capsys.readouterr().err
+    assert "every realisation was refused (realisation 0: refused: joint_sets[0].spacing" in err
+    assert "Traceback" not in err

@@ -135,10 +135,17 @@ def test_dda_cut_reads_a_drawing_with_the_scene_of_its_name(tmp_path, monkeypatc
 
 def _scene_for(tmp_path: Path, dxf: Path, **drawing) -> Path:
     raw = EXAMPLE.read_text().replace('file = "drawing_example.dxf"', f'file = "{dxf.name}"')
-    extra = "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in drawing.items())
+    extra = "".join(f"{k} = {_toml(v)}\n" for k, v in drawing.items())
     path = tmp_path / "scene.toml"
     path.write_text(raw.replace("[drawing]\n", "[drawing]\n" + extra))
     return path
+
+
+def _toml(value) -> str:
+    """A value of a [drawing] key as TOML: a string, a number, or an inline table."""
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + "}"
+    return repr(value).replace("'", '"')
 
 
 SQUARE = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
@@ -221,3 +228,16 @@ def test_a_scale_reads_a_drawing_in_other_units(tmp_path):
     scene.write_text(text)
     loaded = dda.load_scene(scene)
     assert sorted(shapely.Polygon(b.vertices).area for b in loaded.blocks) == [50.0, 50.0]
+
+
+def test_a_joint_beside_a_joints_table_is_refused(tmp_path, monkeypatch, capsys):
+    """[drawing] joint names the joint of a single joints layer; beside a table of layers
+    it was ignored without a word (the traces took the table's joints)."""
+    monkeypatch.chdir(tmp_path)
+    drawings.drawing_with(tmp_path / "bad.dxf", "BLOCKS", SQUARE, closed=True)
+    scene = _scene_for(tmp_path, tmp_path / "bad.dxf", joints={"JOINTS": "bedding"})
+    assert 'joint = "bedding"' in scene.read_text()  # the example's own
+    assert cli.main(["cut", str(scene), "-o", "out.toml"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "scene.toml: drawing.joint: the joints table names each" in err[0]
+    assert not (tmp_path / "out.toml").exists()
