@@ -114,9 +114,17 @@ def _box(chk: Checker, value: object, key: str) -> tuple[float, float, float, fl
     return (x0, y0, x1, y1)
 
 
+def _name(chk: Checker, value: object, key: str) -> str:
+    """A boundary stress's name: text that is not blank (a stage takes it away by it)."""
+    name = chk.text(value, key)
+    if not name.strip():
+        chk.fail(key, "is blank: name it, or leave the key out (its key names it then)")
+    return name
+
+
 def boundary_stress(chk: Checker, value: object, key: str, on: float = 0.0) -> BoundaryStress:
     """One ``[[boundary_stresses]]`` table (in the scene or in a stage starting at ``on``)."""
-    values = _stress_field(chk, value, key, {"box": _box, "name": Checker.text})
+    values = _stress_field(chk, value, key, {"box": _box, "name": _name})
     require(chk, values, key, ("box",))
     return BoundaryStress(values.get("name", key), values["field"], values["box"], on)
 

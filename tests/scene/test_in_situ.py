@@ -255,6 +255,15 @@ def refused(raw, key, words):
             "of the free blocks there at that time (a fixed block takes no boundary stress)",
         ),  # fmt: skip
         (
+            {
+                "boundary_stresses": [
+                    {"stress": [-1.0, -1.0, 0.0], "box": [-2, -2, 5, 5], "name": " "}
+                ]
+            },
+            "boundary_stresses[0].name",
+            "is blank",
+        ),  # fmt: skip
+        (
             {"stages": [{"time": 0.05, "remove_boundary_stresses": ["far"]}]},
             "stages[0].remove_boundary_stresses",
             "'far' is no boundary stress",

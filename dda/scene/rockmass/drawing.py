@@ -174,6 +174,9 @@ def _layers(chk: Checker, table: Mapping) -> dict[str, Any]:
     for role, default in LAYERS.items():
         value = table.get(role, default)
         if role == "joints" and isinstance(value, Mapping):
+            if not value:
+                chk.fail("drawing.joints", "is an empty table: give a layer, or a table "
+                         "{LAYER = \"joint name\", ...}")  # fmt: skip
             if "joint" in table:  # it would be ignored
                 chk.fail("drawing.joint", "the joints table names each layer's joint: give "
                          "joint only with a single joints layer (joints = \"LAYER\")")  # fmt: skip

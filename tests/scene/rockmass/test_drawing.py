@@ -241,3 +241,13 @@ def test_a_joint_beside_a_joints_table_is_refused(tmp_path, monkeypatch, capsys)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "scene.toml: drawing.joint: the joints table names each" in err[0]
     assert not (tmp_path / "out.toml").exists()
+
+
+def test_an_empty_joints_table_is_refused_as_such(tmp_path, monkeypatch, capsys):
+    """joints = {} was refused by what followed from it (every free block removed)."""
+    monkeypatch.chdir(tmp_path)
+    drawings.drawing_with(tmp_path / "bad.dxf", "BLOCKS", SQUARE, closed=True)
+    scene = _scene_for(tmp_path, tmp_path / "bad.dxf", joints={})
+    assert cli.main(["cut", str(scene), "-o", "out.toml"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "scene.toml: drawing.joints: is an empty table" in err[0]
