@@ -180,7 +180,7 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
         "judged": len(judged),
         "refused": refused,
         "failures": failures,
-        "p_failure": p,
+        "p_failure": p if judged else None,  # JSON has no NaN
         "interval_95": [low, high],
         "interval": "Wilson score",
     }

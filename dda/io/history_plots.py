@@ -77,11 +77,12 @@ def plot_histories(
     outdir: Path, folder: Path | None = None, title: str = "", units: Mapping | None = None
 ) -> list[Path]:
     """Draw one PNG per quantity into ``folder`` (default ``outdir/plots``); return them.
-    When one cannot be written (a full disk) into a folder this call made, the folder and
-    what was written into it are removed: nothing is left half done."""
+    When one cannot be written (a full disk) into a folder this call made, that folder
+    (and the parents it made) and what was written into it are removed: nothing is left
+    half done."""
     table = read_points(outdir / POINTS_NAME)
     folder = folder or outdir / "plots"
-    made = not folder.exists()
+    made = [p for p in (folder, *folder.parents) if not p.exists()]  # deepest first
     folder.mkdir(parents=True, exist_ok=True)
     written = []
     try:
@@ -95,7 +96,8 @@ def plot_histories(
             for path in written:
                 path.unlink(missing_ok=True)
             with contextlib.suppress(OSError):
-                folder.rmdir()
+                for path in made:
+                    path.rmdir()
         raise
     return written
 

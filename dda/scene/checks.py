@@ -159,7 +159,7 @@ class Checker:
         changes, moving or watched blocks) is refused rather than ignored."""
         items = self.sequence(value, key)
         if len(items) == 0:
-            self.fail(key, "is empty: list at least one, or leave the key out")
+            self.fail(key, "is empty: list at least one (an empty list would do nothing)")
         return items
 
     def real(self, value: object, key: str, interval: Interval = ANY) -> float:

@@ -497,7 +497,7 @@ def _named_blocks(
 ) -> tuple[str, ...]:
     """Block names from a list of block or group names (groups expanded), in order."""
     out: list[str] = []
-    for k, item in enumerate(value or ()):
+    for k, item in enumerate(() if value is None else value):  # a list or a numpy array
         name = chk.known(item, f"{key}[{k}]", {**geometry.row, **groups}, "block or group")
         members = groups[name] if name in groups and name not in geometry.row else (name,)
         out += [m for m in members if m not in out]

@@ -117,3 +117,13 @@ def test_pictures_on_a_full_disk_name_the_file_and_leave_nothing(tmp_path, capsy
             assert str(named).rstrip("/") in err, (command, err)
             assert "No space left on device" in err and "Traceback" not in err, (command, err)
             assert list(disk.iterdir()) == [], (command, list(disk.iterdir()))
+
+
+def test_plots_into_new_nested_folders_on_a_full_disk_leave_no_folder(tmp_path, capsys):
+    """dda plot -o a/b/plots made a, b and plots: a full disk removes all three."""
+    run = tmp_path / "run"
+    assert main(["run", "bolted_block", "-q", "--no-picture", "-o", str(run)]) == 0
+    with mounted(tmp_path / "tiny", size="8k") as disk:
+        assert main(["plot", str(run), "-o", str(disk / "a" / "b" / "plots")]) == 1
+        assert list(disk.iterdir()) == []
+    assert "No space left on device" in capsys.readouterr().err

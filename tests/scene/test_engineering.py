@@ -140,6 +140,10 @@ REFUSED = [
     (("stages", 0, "remove"), ["zz"], "stages[0].remove[0]", "unknown block or group 'zz'"),
     # an empty list would do nothing, silently: refused as the key left out is
     (("stages", 0, "remove"), [], "stages[0].remove", "is empty: list at least one"),
+    (("stages", 0, "bolts"), [], "stages[0].bolts", "is empty: list at least one"),
+    (("stages", 0, "boundary_stresses"), [], "stages[0].boundary_stresses", "is empty"),
+    (("stages", 0, "remove_boundary_stresses"), [], "stages[0].remove_boundary_stresses",
+     "is empty"),
     (("seismic", "blocks"), [], "seismic.blocks", "is empty: list at least one"),
     (("seismic", "scale"), 0.0, "seismic.scale", "the ground would not move"),
     (("stages", 0, "polygon"), rectangle(-0.5, 0.2, 0.8, 0.8), "stages[0].remove",

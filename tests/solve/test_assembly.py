@@ -256,3 +256,29 @@ def test_stacked_takes_consecutive_halves_without_a_copy():
     assert single.shape == (1, 5, 6) and not np.shares_memory(single, rows.normal_i)
     apart = [np.ones((5, 6)), np.zeros((5, 6))]
     np.testing.assert_array_equal(assembly.stacked(apart), np.stack(apart))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_block_order_conversions_equal_the_masked_ones(seed):
+    """The gathers by the kept inverse numbering give what boolean masks give, to the bit:
+    none or some blocks fixed, natural or reversed order, (n, 6) and (n, 6, 6) values."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 12))
+    fixed = rng.random(n) < (0.0 if seed % 3 == 0 else 0.4)
+    fixed[int(rng.integers(n))] = False  # at least one free block
+    a, b = rng.integers(0, n, 8), rng.integers(0, n, 8)
+    keep = a != b
+    pattern = BlockPattern(fixed, a[keep], b[keep], reversed_order if seed % 2 else None)
+    rows = pattern.block_of_row
+    for shape in ((n, 6), (n, 6, 6)):
+        values = rng.standard_normal(shape)
+        masked = np.empty((pattern.nfree, *shape[1:]))
+        masked[rows[~fixed]] = values[~fixed]
+        ordered = pattern.to_matrix_order(values, fixed)
+        assert ordered.tobytes() == masked.tobytes()
+    solution = rng.standard_normal(6 * pattern.nfree)
+    masked = np.zeros((n, 6))
+    masked[rows >= 0] = solution.reshape(-1, 6)[rows[rows >= 0]]
+    assert pattern.from_matrix_order(solution, n).tobytes() == masked.tobytes()
+    with pytest.raises(ValueError, match="not the pattern's"):
+        pattern.to_matrix_order(values, ~fixed)

@@ -311,3 +311,5 @@ def test_an_ensemble_whose_every_realisation_is_refused_gives_no_answer(
     err = capsys.readouterr().err
     assert "every realisation was refused (realisation 0: refused: joint_sets[0].spacing" in err
     assert "Traceback" not in err
+    summary = json.loads((tmp_path / "out" / "ensemble.json").read_text())  # strict JSON
+    assert summary["p_failure"] is None and summary["refused"] == 2
