@@ -597,6 +597,9 @@ def _check_removals(
     ]
     for k, bolt in enumerate(sections["bolts"]):
         users += [(host, f"bolts[{k}]") for host in bolt.blocks]
+    seismic = sections["seismic"]  # the fixed blocks it names move with the ground
+    if seismic is not None:
+        users += [(name, f"seismic.blocks[{k}]") for k, name in enumerate(seismic.blocks)]
     for i, stage in enumerate(sections["stages"]):
         for k, bolt in enumerate(stage.bolts):
             users += [(host, f"stages[{i}].bolts[{k}]") for host in bolt.blocks]

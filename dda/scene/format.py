@@ -976,5 +976,20 @@ def _build_scene(
         **in_situ,
         **parse_stability(chk, raw, written, blocks, groups),
     )
+    _check_intact(chk, scene)
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene
+
+
+def _check_intact(chk: Checker, scene: Scene) -> None:
+    """Refuse ``intact = true`` (a stage's, or [fos]'s) where no block's material is
+    breakable: there would be no intact rock's strength to divide, and it did nothing
+    without a word."""
+    if any(scene.materials[b.material].breakable for b in scene.blocks):
+        return
+    keys = [f"stages[{k}].intact" for k, stage in enumerate(scene.stages) if stage.intact]
+    if scene.fos is not None and scene.fos.intact:
+        keys.append("fos.intact")
+    if keys:
+        chk.fail(keys[0], "no block's material is breakable (cohesion and friction_angle "
+                 "in [materials.NAME]): there is no intact rock to weaken")  # fmt: skip

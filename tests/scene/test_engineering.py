@@ -148,6 +148,10 @@ REFUSED = [
     (("seismic", "scale"), 0.0, "seismic.scale", "the ground would not move"),
     (("stages", 0, "polygon"), rectangle(-0.5, 0.2, 0.8, 0.8), "stages[0].remove",
      "removes block 'a', which measure[0].point is attached to"),
+    (("stages", 0), {"time": 0.5, "strength_factor": 2.0, "intact": True}, "stages[0].intact",
+     "no block's material is breakable"),
+    (("stages", 0, "remove"), ["floor"], "stages[0].remove",  # it carries the earthquake
+     "removes block 'floor', which seismic.blocks[0] is attached to"),
     (("stages", 0, "polygon"), rectangle(-9, -0.5, 9, 9), "stages",
      "remove every free block"),
 ]  # fmt: skip

@@ -222,6 +222,8 @@ REFUSED = [
     (frictionless, [], "joints: nothing can fail by strength reduction"),
     (all_fixed_watched, [], "fos.blocks: every watched block is fixed: a trial could never fail"),
     (none_watched, [], "fos.blocks: is empty: list at least one (an empty list would do"),
+    # nothing to weaken: --intact did nothing, silently
+    (None, ["--intact"], "fos.intact: no block's material is breakable"),
     (static, [], "analysis.mode: a strength-reduction trial needs a dynamic run"),
     (no_gravity, [], "fos.velocity: is required without gravity"),
     (None, ["--lower", "2", "--upper", "1"], "fos.upper: must exceed fos.lower (2), got 1"),
