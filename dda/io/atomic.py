@@ -98,7 +98,7 @@ def write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
         ``path``.
     """
     path = Path(path)
-    with naming(path), atomic_path(path) as tmp:  # a full disk names the file
+    with atomic_path(path) as tmp:  # a full disk names the file
         with open(tmp, "xb") as stream:
             stream.write(data)
     return path

@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from dda.io.atomic import TEMP_MARK, append_whole, naming, write_text
+from dda.io.atomic import TEMP_MARK, append_whole, write_text
 from dda.io.images import render_frame
 from dda.io.picture_process import PictureProcess
 from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
@@ -144,15 +144,12 @@ class RunWriter:
         blocks, contacts = (
             self.frames_dir / f"{kind}_{stem}.vtu" for kind in ("blocks", "contacts")
         )
-        with naming(blocks):
-            write_blocks_vtu(frame, blocks)
-        with naming(contacts):
-            write_contacts_vtu(frame, contacts)
+        write_blocks_vtu(frame, blocks)  # atomic writes: a full disk names the file
+        write_contacts_vtu(frame, contacts)
         bolts = None
         if frame.bolts is not None:  # drawn by dda render and movie; none in place: empty
             bolts = self.frames_dir / f"bolts_{stem}.vtu"
-            with naming(bolts):
-                write_bolts_vtu(frame, bolts)
+            write_bolts_vtu(frame, bolts)
         self.blocks_index.add(frame.time, blocks)
         self.contacts_index.add(frame.time, contacts)
         if bolts is not None:

@@ -988,7 +988,7 @@ def _check_intact(chk: Checker, scene: Scene) -> None:
     if any(scene.materials[b.material].breakable for b in scene.blocks):
         return
     keys = [f"stages[{k}].intact" for k, stage in enumerate(scene.stages) if stage.intact]
-    if scene.fos is not None and scene.fos.intact:
+    if scene.fos.intact:
         keys.append("fos.intact")
     if keys:
         chk.fail(keys[0], "no block's material is breakable (cohesion and friction_angle "

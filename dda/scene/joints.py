@@ -84,6 +84,7 @@ _KEYS: dict[str, Spec] = {
     "restitution": real(RESTITUTION),
 }
 _ONLY_COULOMB = ("friction_angle", "residual_cohesion", "residual_tensile_strength")
+_ONLY_BARTON_BANDIS = ("jrc", "jcs")
 _BARTON_BANDIS = ("jrc", "jcs", "residual_friction_angle")
 _PEAK_OF = {
     "residual_friction_angle": "friction_angle",
@@ -98,7 +99,7 @@ def other_model(key: str, model: str) -> str | None:
     tension Coulomb ones), else None."""
     if model == "barton-bandis" and key in _ONLY_COULOMB:
         return "coulomb"
-    if model != "barton-bandis" and key in ("jrc", "jcs"):
+    if model != "barton-bandis" and key in _ONLY_BARTON_BANDIS:
         return "barton-bandis"
     return None
 
@@ -117,7 +118,7 @@ def joint(chk: Checker, name: str, value: object) -> Joint:
                 why = "a barton-bandis joint takes jrc, jcs and residual_friction_angle"
                 chk.fail(join_key(key, other), f"is a key of model = 'coulomb'; {why}")
     else:
-        for other in ("jrc", "jcs"):
+        for other in _ONLY_BARTON_BANDIS:
             if other in values:
                 chk.fail(join_key(key, other), "is a key of model = 'barton-bandis'")
         for residual, peak in _PEAK_OF.items():

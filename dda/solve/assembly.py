@@ -88,11 +88,11 @@ class BlockPattern:
             np.arange(self.nfree) if ordering is None else np.asarray(ordering(self.nfree, pairs))
         )
         self.block_of_row = np.where(rows >= 0, self.position[np.maximum(rows, 0)], -1)
-        free = np.flatnonzero(self.block_of_row >= 0)
-        self._block_at_row = np.empty(self.nfree, dtype=np.int64)  # the inverse of the above
-        self._block_at_row[self.block_of_row[free]] = free
-        self._fixed_blocks = np.flatnonzero(self.block_of_row < 0)
-        self._row_of_block = np.maximum(self.block_of_row, 0)  # fixed blocks: any row
+        # the conversions' gathers (hot: two a linear solve): the block of each matrix row,
+        # and each block's row (a fixed block's: any, zeroed after)
+        self._block_at_row = np.empty(self.nfree, dtype=np.int64)
+        self._block_at_row[self.block_of_row[~self._fixed]] = np.flatnonzero(~self._fixed)
+        self._row_of_block = np.maximum(self.block_of_row, 0)
         self._build_structure(pairs)
         self._contact_slots(block_a, block_b)
         self._flat_targets: np.ndarray | None = None
@@ -224,23 +224,16 @@ class BlockPattern:
             self._diagonal_targets = base + r * stride + c
         return self._diagonal_targets
 
-    def to_matrix_order(self, values: np.ndarray, fixed: np.ndarray) -> np.ndarray:
-        """(n, ...) per-block values -> (nfree, ...) in matrix block order; ``fixed``: the
-        pattern's fixed blocks (a pattern is made for them: its key holds them). One
-        gather by the kept inverse of :attr:`block_of_row` (3 µs against 25 for masks
-        at 900 blocks; the chord steps call this twice a solve)."""
-        if not np.array_equal(fixed, self._fixed):
-            raise ValueError("to_matrix_order: the fixed blocks are not the pattern's")
+    def to_matrix_order(self, values: np.ndarray) -> np.ndarray:
+        """(n, ...) per-block values -> (nfree, ...) of the free blocks in matrix block
+        order: one gather (3 µs against 25 with boolean masks at 900 blocks)."""
         return np.take(values, self._block_at_row, axis=0)
 
-    def from_matrix_order(self, solution: np.ndarray, n: int) -> np.ndarray:
+    def from_matrix_order(self, solution: np.ndarray) -> np.ndarray:
         """Solution vector (6 nfree,) -> (n, 6) float per block, zeros for fixed blocks."""
-        if n != len(self.block_of_row):
-            raise ValueError(f"from_matrix_order: {n} blocks, the pattern has "
-                             f"{len(self.block_of_row)}")  # fmt: skip
         rows = np.asarray(solution, dtype=np.float64).reshape(-1, BLOCK)
         d = np.take(rows, self._row_of_block, axis=0)
-        d[self._fixed_blocks] = 0.0
+        d[self._fixed] = 0.0
         return d
 
 
@@ -343,7 +336,7 @@ def assemble(
         the pattern must hold the pairs of free blocks they join
     """
     data = np.zeros(pattern.nnz)
-    data[pattern.diagonal_targets()] = pattern.to_matrix_order(diagonal, fixed).reshape(-1, 36)
+    data[pattern.diagonal_targets()] = pattern.to_matrix_order(diagonal).reshape(-1, 36)
     _add_terms(pattern, data, terms, None)
     if couplings is not None:
         _add_couplings(pattern, data, couplings)

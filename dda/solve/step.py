@@ -270,7 +270,7 @@ def _solve(
     ``updates``: the :class:`StepUpdates` of this step's factorised K, and ``raw`` K's
     springs per contact: a few changed springs are solved for through that factorisation.
     """
-    rhs = pattern.to_matrix_order(forces, blocks.fixed).ravel()
+    rhs = pattern.to_matrix_order(forces).ravel()
     x = None
     if updates is not None and updates.applies(cache.solver.factored, pattern):
         with timer("solve"):
@@ -280,7 +280,7 @@ def _solve(
         x = cache.solver.solve(k, rhs, key=pattern.key, timer=timer, similar=similar)
     if springs is not None and cache.solver.factored is k:
         cache.coefficients = springs
-    return pattern.from_matrix_order(x, blocks.count)
+    return pattern.from_matrix_order(x)
 
 
 class _PieceSystem(NumpyPasses):
@@ -360,10 +360,10 @@ class _PieceSystem(NumpyPasses):
         this pattern (:func:`dda.solve.newton.minimise`'s chord steps), else None."""
         if self.pattern is None:
             return None
-        rhs = self.pattern.to_matrix_order(residual, self.blocks.fixed).ravel()
+        rhs = self.pattern.to_matrix_order(residual).ravel()
         with self.timer("solve"):
             x = self.cache.solver.solve_kept(rhs, self.pattern.key)
-        return None if x is None else self.pattern.from_matrix_order(x, self.blocks.count)
+        return None if x is None else self.pattern.from_matrix_order(x)
 
     def contact_vector(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """Σ N ∇g + Σ F ∇s over the contacts, (n, 6)."""
