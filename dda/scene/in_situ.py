@@ -199,20 +199,36 @@ def _check_selects(chk, stress: BoundaryStress, key: str, polygons, present, fix
 
 
 def _check_tension(chk, field: StressField, blocks, polygons, joints, interfaces) -> None:
-    """Refuse in-situ tension across a joint whose tensile strength is below it."""
+    """Refuse in-situ tension across a joint whose tensile strength is below it, naming
+    the part of the field that puts it there (:func:`_tension_key`)."""
     pieces = covered_pieces(polygons)
     sigma = field.normal_stress(pieces.midpoint, pieces.normal)
     strength = _piece_joints(pieces, blocks, joints, interfaces)
     tensile = np.array([joints[name].tensile_strength for name in strength])
-    over = sigma - tensile > TENSION_TOLERANCE * field.scale
+    scale = float(np.abs(field.at(pieces.midpoint[:, 1])).max(initial=0.0))
+    over = sigma - tensile > TENSION_TOLERANCE * scale
     if not np.any(over):
         return
     k = int(np.argmax(np.where(over, sigma - tensile, -np.inf)))
     x, y = pieces.midpoint[k]
     a, b = blocks[pieces.block[k]].name, blocks[pieces.other[k]].name
-    chk.fail("in_situ.stress", f"puts a tension of {sigma[k]:.6g} across joint "
+    key, hint = _tension_key(field, pieces.normal[k], float(y), float(sigma[k]))
+    chk.fail(key, f"puts a tension of {sigma[k]:.6g} across joint "
              f"{strength[k]!r} (tensile_strength {tensile[k]:g}) between blocks {a!r} and "
-             f"{b!r} at ({x:.6g}, {y:.6g}): the joint would open at t = 0")  # fmt: skip
+             f"{b!r} at ({x:.6g}, {y:.6g}): the joint would open at t = 0{hint}")  # fmt: skip
+
+
+def _tension_key(field: StressField, normal: np.ndarray, y: float, sigma: float):
+    """(key, hint): ``in_situ.gradient`` where the gradient's part of n·σ·n at height y
+    is the larger tension (with the sign convention that explains it), else
+    ``in_situ.stress``."""
+    constant = StressField(field.stress).normal_stress(np.zeros((1, 2)), normal[None, :])[0]
+    if sigma - constant <= constant:
+        return "in_situ.stress", ""
+    return "in_situ.gradient", (
+        " (the stress at height y is stress + gradient · y, tension positive: below y = 0 "
+        "a compressive field that grows with depth has a positive gradient)"
+    )
 
 
 def _piece_joints(pieces: EdgePieces, blocks, joints, interfaces) -> list[str]:

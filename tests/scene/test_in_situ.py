@@ -282,6 +282,18 @@ def test_in_situ_tension_across_a_joint_without_tensile_strength_is_refused():
     assert dda.load_scene(raw).in_situ.stress == (1.0e3, -1.0e6, 0.0)
 
 
+def test_tension_from_the_gradient_names_the_gradient():
+    """A depth gradient of the wrong sign (stress 0, σyy = +ρ g y above y = 0: the
+    overburden's sign flipped) is refused under in_situ.gradient, with the sign
+    convention, not under in_situ.stress, which is 0; a pure-gradient field's tension is
+    judged against the field's size, not against the size of ``stress`` alone."""
+    field = {"stress": [0.0, 0.0, 0.0], "gradient": [0.0, RHO * G, 0.0]}
+    raw = scene(uniform("ring"), in_situ=field)
+    refused(raw, "in_situ.gradient", "a compressive field that grows with depth has a positive")
+    field["gradient"] = [0.0, -RHO * G, 0.0]  # compressive above y = 0: accepted
+    assert dda.load_scene(scene(uniform("ring"), in_situ=field)).in_situ is not None
+
+
 def test_a_field_the_start_cannot_keep_is_said_not_relaxed_silently(caplog):
     """Free blocks in a field with nothing to hold it (no ring, no boundary stress): the
     equilibrium start relaxes it (the blocks stay, their stress goes); the run says so
