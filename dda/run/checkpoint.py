@@ -63,7 +63,7 @@ log = logging.getLogger(__name__)
 # 5: the blocks' mass areas, the material damping, the equilibrium start's preloads;
 # 6: the solver's state by the names of ReusingSolver.learned; 7: a block pattern's
 # inverse numbering, dda.solve.assembly.BlockPattern)
-FORMAT = 7
+FORMAT = 8
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
 NOT_SAVED = ("model", "linear")  # run attributes rebuilt from the scene, or saved apart

@@ -24,6 +24,7 @@ from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
 from dda.run.energy import TERMS, EnergyAccount
 from dda.run.environment import environment
 from dda.run.equilibrium_start import settle
+from dda.run.floating import note_unbalanced
 from dda.run.frames import make_frame, shifted
 from dda.run.measure import Probes
 from dda.run.run_warnings import (
@@ -92,6 +93,7 @@ class _Run:
         self.start_method = None  # how its limit solve settled (dda.run.equilibrium_start)
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.in_situ_change = (0.0, "")  # what the start changed of the in-situ field
+        self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -409,6 +411,8 @@ def run(
             _equilibrium_start(state)
     elif scene.in_situ is not None:  # an unloaded or static start: the contacts carry it
         _touching_at_start(state)
+    if resume is None:
+        note_unbalanced(state, "at the start")
     first = state.probes.take() if state.probes is not None and resume is None else None
     with run_work(len(scene.blocks), _expected_steps(model)):  # its contacts' rows: numpy
         frames = [_frame(state, first, origin)]  # in a small run, as the steps compute them
@@ -586,6 +590,7 @@ def _warnings(state: _Run) -> list[str]:
     length = m.scene.units.length
     found = [
         in_situ_warning(*state.in_situ_change),
+        *state.unbalanced,
         None if m.static else energy_warning(state.history, state.energy.initial.total),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),

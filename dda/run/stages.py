@@ -29,6 +29,7 @@ from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
 from dda.fracture.effect import Strength
 from dda.fracture.fragments import replace_blocks
+from dda.run.floating import note_unbalanced
 from dda.scene.stage_plan import StagePlan
 
 log = logging.getLogger(__name__)
@@ -49,6 +50,7 @@ def apply_due_stages(run) -> None:
         run.stages_done += 1
         if not np.isnan(plan.strength_factors[k]):
             set_strengths(run)
+        note_unbalanced(run, f"after stages[{k}] (t = {run.shown_time:.6g} s)")
         log.info("stage %d applied at t = %.6g", k + 1, run.time)
 
 

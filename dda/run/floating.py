@@ -1,0 +1,99 @@
+"""A model that nothing fixed holds: the net load that moves it as a whole.
+
+A model without a fixed block or fixed point, whose outer edges carry
+``[[boundary_stresses]]`` (UDEC's ``bound stress``), is held by the balance of its loads
+alone. Boundary stresses are dead loads: nothing reacts to the part of the loads they
+do not balance. A stage that removes blocks removes their weight, not the boundary's
+share that carried it: a tunnel's core, whose weight the far field held up, leaves a
+net upward force F = W_core, and the whole section accelerates at a = |F| / M, a
+drift that grows as ½ a t² and adds to every displacement. :func:`unbalanced_warning`
+says so, at the start and after each stage, with the remedy: a fixed base block (a
+support takes the difference, as the rock below does).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from dda.blocks import BlockSet
+from dda.effects.base import StepContext
+from dda.model import Model
+
+log = logging.getLogger(__name__)
+
+# the net external force over the sum of the blocks' external forces' magnitudes beyond
+# which a model that nothing fixed holds moves as a whole (round-off: ~1e-15; the
+# tunnel at depth with free outer blocks all round, once its core is excavated: 8e-4)
+UNBALANCED = 1e-6
+# the effects whose forces load the model from outside (the rest act between blocks,
+# on a block's own strain, or hold it: inertia, elasticity, bolts, fixed points)
+EXTERNAL = frozenset({"gravity", "loads", "boundary_stresses", "water"})
+
+
+def net_load(model: Model, blocks: BlockSet, ctx: StepContext) -> tuple[np.ndarray, float]:
+    """(Σ F, Σ |F_i|): the net force (2,) of the external effects on the free blocks in
+    the step ``ctx``, and the sum of the blocks' force magnitudes (the scale)."""
+    free = ~blocks.fixed
+    net, scale = np.zeros(2), 0.0
+    for effect in model.effects:
+        if effect.name not in EXTERNAL:
+            continue
+        forces = effect.forces(blocks, ctx)
+        if forces is None:
+            continue
+        translation = forces[free, 0:2]
+        net += translation.sum(axis=0)
+        scale += float(np.hypot(translation[:, 0], translation[:, 1]).sum())
+    return net, scale
+
+
+def held_by_loads_alone(model: Model, blocks: BlockSet, ctx: StepContext) -> bool:
+    """True when no block is fixed, no fixed point holds one, and boundary stresses load
+    the model in the step ``ctx``."""
+    if blocks.fixed.any():
+        return False
+    names = {effect.name: effect for effect in model.effects}
+    if "fixed_points" in names or "boundary_stresses" not in names:
+        return False
+    return bool(names["boundary_stresses"].factors(ctx.time).any())
+
+
+def unbalanced_warning(
+    model: Model, blocks: BlockSet, ctx: StepContext, when: str, remaining: float
+) -> str | None:
+    """The sentence when the model is held by its loads alone (:func:`held_by_loads_alone`)
+    and they do not balance (beyond :data:`UNBALANCED`), else None. ``when``: "at the
+    start", "after stages[k]"; ``remaining``: the run's time left (s), for the drift."""
+    if not held_by_loads_alone(model, blocks, ctx):
+        return None
+    net, scale = net_load(model, blocks, ctx)
+    force = float(np.hypot(*net))
+    if scale == 0.0 or force <= UNBALANCED * scale:
+        return None
+    mass = float((model.material_density[blocks.material] * blocks.mass_area).sum())
+    acceleration = force / mass
+    units = model.scene.units
+    drift = ""
+    if np.isfinite(remaining) and remaining > 0.0:
+        drift = f" ({0.5 * acceleration * remaining**2:.3g} {units.length} by the run's end)"
+    return (
+        f"nothing fixed holds the model and its loads do not balance {when}: a net force "
+        f"({net[0]:.4g}, {net[1]:.4g}) {units.force} moves it as a whole at "
+        f"{acceleration:.3g} {units.length}/{units.time}²{drift}, a drift"
+        " that adds to every displacement. Boundary stresses are dead loads: they do not "
+        "follow what a stage removes (the excavated blocks' weight was theirs to carry). "
+        "Fix a block along the model's base (its support takes the difference), or "
+        "balance the loads"
+    )
+
+
+def note_unbalanced(run, when: str) -> None:
+    """Say :func:`unbalanced_warning` of ``run`` (dda.run.simulation's run) for its next
+    step, at once and among the summary's warnings (``run.unbalanced``)."""
+    ctx = StepContext(dt=run.dt, time=run.time + run.dt, step=run.step + 1, static=run.model.static)
+    said = unbalanced_warning(run.model, run.blocks, ctx, when, run.remaining())
+    if said is not None:
+        log.warning(said)
+        run.unbalanced.append(said)
