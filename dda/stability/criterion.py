@@ -8,7 +8,10 @@ of that, from T₀ to T, is judged by the mean speed of each watched block over 
 
 c the centroid, θ the accumulated rotation and r the largest distance of a vertex from
 the centroid (a block that appears inside the window, a fragment, is measured from the
-first frame it is in). s is the mean speed over the window of the block's fastest
+first frame it is in). In a scene with ``[seismic]``, c is measured from the ground:
+less the motion of the fixed blocks that follow it (a rigid translation), which keeps
+the last velocity of its record and would otherwise count as every block's motion.
+s is the mean speed over the window of the block's fastest
 point, bounded by its largest: motion that accumulates (a slide, a topple) counts in
 full, a vibration about a position that stands counts only by its amplitude over the
 window's length (a block ringing at 1 µm and 300 Hz has speeds of 2 mm/s but s of at
@@ -41,6 +44,7 @@ class Criterion:
     velocity: float  # the speed limit
     blocks: tuple[str, ...] = ()  # watched blocks (empty: every free block)
     start: float = 0.0  # when the strengths are divided (the end of a staged scene's run)
+    ground: tuple[str, ...] = ()  # the fixed blocks that follow [seismic]'s ground motion
 
     @property
     def end(self) -> float:
@@ -90,7 +94,8 @@ def criterion_of(scene: Scene) -> Criterion:
             )
         velocity = fos.acceleration * g * duration
     start = run_length(scene) if scene.stages else 0.0
-    return Criterion(duration, fos.window, velocity, fos.blocks, start)
+    ground = () if scene.seismic is None else tuple(scene.seismic.blocks)
+    return Criterion(duration, fos.window, velocity, fos.blocks, start, ground)
 
 
 def watched_blocks(criterion: Criterion, scene: Scene) -> tuple[str, ...]:
@@ -109,7 +114,9 @@ def watched_blocks(criterion: Criterion, scene: Scene) -> tuple[str, ...]:
 def criterion_record(criterion: Criterion, scene: Scene) -> dict:
     """The criterion as ``fos.json`` holds it: ``duration``, ``window``, ``velocity``,
     ``start`` (when the strengths are divided), ``watched`` (``"every free block"`` or
-    ``"[fos] blocks"``: which rule chose them) and ``blocks``, the watched blocks' names."""
+    ``"[fos] blocks"``: which rule chose them), ``blocks``, the watched blocks' names, and
+    ``ground``, the blocks that follow [seismic]'s ground, whose motion is taken off (empty
+    without)."""
     return {
         "duration": criterion.duration,
         "window": criterion.window,
@@ -117,6 +124,7 @@ def criterion_record(criterion: Criterion, scene: Scene) -> dict:
         "start": criterion.start,
         "watched": "[fos] blocks" if criterion.blocks else "every free block",
         "blocks": list(watched_blocks(criterion, scene)),
+        "ground": list(criterion.ground),
     }
 
 
@@ -137,7 +145,7 @@ class SpeedWatch:
     def __init__(self, criterion: Criterion) -> None:
         self.criterion = criterion
         self._ids = np.zeros(0, np.int64)  # blocks seen in the window, sorted ...
-        self._first = np.zeros((0, 4))  # ... their first (time, x, y, θ) in it
+        self._first = np.zeros((0, 6))  # ... their first (time, x, y, θ, ground x, y) in it
         self._last: Frame | None = None
 
     def __call__(self, frame: Frame) -> None:
@@ -146,13 +154,23 @@ class SpeedWatch:
         ids = np.asarray(frame.ids, np.int64)
         new = ~np.isin(ids, self._ids)
         if new.any():
-            state = np.column_stack(
-                [np.full(int(new.sum()), frame.time), frame.centroids[new], frame.rotations[new]]
-            )
+            count = int(new.sum())
+            state = np.column_stack([
+                np.full(count, frame.time), frame.centroids[new], frame.rotations[new],
+                np.repeat(self._ground(frame)[None, :], count, axis=0),
+            ])  # fmt: skip
             order = np.argsort(np.concatenate([self._ids, ids[new]]), kind="stable")
             self._ids = np.concatenate([self._ids, ids[new]])[order]
             self._first = np.concatenate([self._first, state])[order]
         self._last = frame
+
+    def _ground(self, frame: Frame) -> np.ndarray:
+        """(2,) where the ground is in ``frame``: the mean centroid of the criterion's
+        ``ground`` blocks, which move together (0 without them)."""
+        if not self.criterion.ground:
+            return np.zeros(2)
+        rows = np.isin(np.asarray(frame.names), self.criterion.ground)
+        return frame.centroids[rows].mean(axis=0) if rows.any() else np.zeros(2)
 
     def speeds(self) -> dict[str, float]:
         """Each watched block's mean speed over the window, by name (empty before the
@@ -169,7 +187,8 @@ class SpeedWatch:
         watched &= elapsed > 0.0
         if not watched.any():
             return {}
-        moved = np.linalg.norm(frame.centroids - first[:, 1:3], axis=1)
+        ground = self._ground(frame) - first[:, 4:6]  # the ground's motion since then
+        moved = np.linalg.norm(frame.centroids - first[:, 1:3] - ground, axis=1)
         turned = np.abs(frame.rotations - first[:, 3]) * block_radii(frame)
         speed = (moved + turned)[watched] / elapsed[watched]
         names = [n for n, w in zip(frame.names, watched, strict=True) if w]
