@@ -39,8 +39,9 @@ PACKAGE = Path(dda.__file__).resolve().parent
 #         band systems: the step's loop and Newton compiled, the contacts refreshed in
 #         one compiled call
 #   sparse: the same wall on the sparse systems: the loop and Newton in Python
-#   ringing: the wall from the unloaded start, its joints with restitution 0.5 (the
-#         contact dashpots couple blocks: the numpy line search), on the sparse systems
+#   ringing: the wall from the unloaded start, penalty contacts, its joints with
+#         restitution 0.5 (the contact dashpots couple blocks: the numpy line search),
+#         on the sparse systems
 #   pieces: the ringing wall with its contacts refreshed stage by stage (the compiled
 #         refresh off); numpy sift, numpy detect: likewise, with the compiled sifting of
 #         the pairings, or the narrow phase's one compiled call, off too
@@ -131,7 +132,8 @@ def _scene(name: str):
         analysis = dataclasses.replace(scene.analysis, duration=None, steps=6)
         return dataclasses.replace(scene, analysis=analysis)
     start = "equilibrium" if name == "wall" else "unloaded"
-    scene = wall_scene(4, method="augmented-lagrangian", steps=6, start=start)
+    method = "penalty" if name == "ringing" else "augmented-lagrangian"  # restitution's
+    scene = wall_scene(4, method=method, steps=6, start=start)
     if name == "ringing":
         scene["joints"]["default"]["restitution"] = 0.5
     return dda.load_scene(scene)
