@@ -8,7 +8,8 @@ share that carried it: a tunnel's core, whose weight the far field held up, leav
 net upward force F = W_core, and the whole section accelerates at a = |F| / M, a
 drift that grows as ½ a t² and adds to every displacement. :func:`unbalanced_warning`
 says so, at the start and after each stage, with the remedy: a fixed base block (a
-support takes the difference, as the rock below does).
+support takes the difference, as the rock below does). It says so too of a model given
+an in-situ field with nothing fixed and no boundary stresses, whose weight then moves it.
 """
 
 from __future__ import annotations
@@ -49,51 +50,77 @@ def net_load(model: Model, blocks: BlockSet, ctx: StepContext) -> tuple[np.ndarr
     return net, scale
 
 
-def held_by_loads_alone(model: Model, blocks: BlockSet, ctx: StepContext) -> bool:
-    """True when no block is fixed, no fixed point holds one, and boundary stresses load
-    the model in the step ``ctx``."""
-    if blocks.fixed.any():
+def boundary_loaded(model: Model, ctx: StepContext) -> bool:
+    """True when boundary stresses load the model in the step ``ctx``."""
+    effect = next((e for e in model.effects if e.name == "boundary_stresses"), None)
+    return effect is not None and bool(effect.factors(ctx.time).any())
+
+
+def meant_to_stand(model: Model, blocks: BlockSet, ctx: StepContext) -> bool:
+    """True when nothing fixed holds the model (no fixed block, no fixed point) although
+    it is meant to stand: boundary stresses load it in the step ``ctx``, or it is given
+    an in-situ field (the stress it stands in, in the ground)."""
+    if blocks.fixed.any() or any(e.name == "fixed_points" for e in model.effects):
         return False
-    names = {effect.name: effect for effect in model.effects}
-    if "fixed_points" in names or "boundary_stresses" not in names:
-        return False
-    return bool(names["boundary_stresses"].factors(ctx.time).any())
+    return boundary_loaded(model, ctx) or model.scene.in_situ is not None
 
 
 def unbalanced_warning(
-    model: Model, blocks: BlockSet, ctx: StepContext, when: str, remaining: float
-) -> str | None:
-    """The sentence when the model is held by its loads alone (:func:`held_by_loads_alone`)
-    and they do not balance (beyond :data:`UNBALANCED`), else None. ``when``: "at the
-    start", "after stages[k]"; ``remaining``: the run's time left (s), for the drift."""
-    if not held_by_loads_alone(model, blocks, ctx):
+    model: Model,
+    blocks: BlockSet,
+    ctx: StepContext,
+    when: str,
+    remaining: float,
+    said: tuple[float, float] = (0.0, 0.0),
+) -> tuple[str, tuple[float, float]] | None:
+    """(the sentence, the net force) when nothing fixed holds a model meant to stand
+    (:func:`meant_to_stand`) and its loads do not balance (beyond :data:`UNBALANCED`),
+    unless the net force is the one ``said`` already; else None. ``when``: "at the start",
+    "after stages[k]"; ``remaining``: the run's time left (s), for the drift."""
+    if not meant_to_stand(model, blocks, ctx):
         return None
     net, scale = net_load(model, blocks, ctx)
     force = float(np.hypot(*net))
     if scale == 0.0 or force <= UNBALANCED * scale:
         return None
+    if float(np.hypot(*(net - np.asarray(said)))) <= UNBALANCED * scale:
+        return None  # said already, at the start or after an earlier stage
     mass = float((model.material_density[blocks.material] * blocks.mass_area).sum())
     acceleration = force / mass
     units = model.scene.units
     drift = ""
     if np.isfinite(remaining) and remaining > 0.0:
         drift = f" ({0.5 * acceleration * remaining**2:.3g} {units.length} by the run's end)"
-    return (
+    if boundary_loaded(model, ctx):
+        why = (
+            "Boundary stresses are dead loads: they do not follow what a stage removes (the "
+            "excavated blocks' weight was theirs to carry). Fix a block along the model's "
+            "base (its support takes the difference), or balance the loads"
+        )
+    else:
+        why = (
+            "No block is fixed and no [[boundary_stresses]] load its outer edges. Give them "
+            "the in-situ field's traction as [[boundary_stresses]] and rest the model on a "
+            'fixed block along its base (docs/engineering.md, "A tunnel at depth")'
+        )
+    sentence = (
         f"nothing fixed holds the model and its loads do not balance {when}: a net force "
         f"({net[0]:.4g}, {net[1]:.4g}) {units.force} moves it as a whole at "
-        f"{acceleration:.3g} {units.length}/{units.time}²{drift}, a drift"
-        " that adds to every displacement. Boundary stresses are dead loads: they do not "
-        "follow what a stage removes (the excavated blocks' weight was theirs to carry). "
-        "Fix a block along the model's base (its support takes the difference), or "
-        "balance the loads"
+        f"{acceleration:.3g} {units.length}/{units.time}²{drift}, a drift that adds to every "
+        f"displacement. {why}"
     )
+    return sentence, (float(net[0]), float(net[1]))
 
 
 def note_unbalanced(run, when: str) -> None:
     """Say :func:`unbalanced_warning` of ``run`` (dda.run.simulation's run) for its next
-    step, at once and among the summary's warnings (``run.unbalanced``)."""
+    step, at once and among the summary's warnings (``run.unbalanced``); a net force said
+    already (``run.unbalanced_force``) is not said again."""
     ctx = StepContext(dt=run.dt, time=run.time + run.dt, step=run.step + 1, static=run.model.static)
-    said = unbalanced_warning(run.model, run.blocks, ctx, when, run.remaining())
-    if said is not None:
-        log.warning(said)
-        run.unbalanced.append(said)
+    found = unbalanced_warning(
+        run.model, run.blocks, ctx, when, run.remaining(), run.unbalanced_force
+    )
+    if found is not None:
+        sentence, run.unbalanced_force = found
+        log.warning(sentence)
+        run.unbalanced.append(sentence)

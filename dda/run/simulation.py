@@ -94,6 +94,7 @@ class _Run:
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.in_situ_change = (0.0, "")  # what the start changed of the in-situ field
         self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
+        self.unbalanced_force = (0.0, 0.0)  # ... and the net force the last one said
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)

@@ -76,3 +76,19 @@ def test_a_balanced_section_is_not_said_at_the_start():
     result = dda.simulate(dda.load_scene(raw))
     assert not [text for text in result.summary["warnings"] if "nothing fixed holds" in text]
     assert np.abs(result.final.displacements).max() < 1e-9
+
+
+def test_a_section_in_its_field_that_nothing_holds_is_said_at_the_start():
+    """In-situ stress, gravity, no fixed block and no boundary stress: its weight moves it
+    as a whole at g (the momentum closed form, ½ g t²), said at the start with the remedy
+    and not again after a stage that leaves the net force as it was."""
+    raw = section(base=False)
+    del raw["boundary_stresses"]
+    raw["stages"] = [{"time": STAGE, "strength_factor": 1.5}]
+    result = dda.simulate(dda.load_scene(raw))
+    said = [text for text in result.summary["warnings"] if "nothing fixed holds" in text]
+    assert len(said) == 1 and "at the start" in said[0], result.summary["warnings"]
+    assert f"at {G:.3g} m/s²" in said[0] and "[[boundary_stresses]]" in said[0]
+    times = np.array([f.time for f in result.frames])
+    fall = np.array([f.centroids[:, 1].mean() for f in result.frames]) - 1.5
+    assert fall[1:] == pytest.approx(-0.5 * G * times[1:] ** 2, rel=1e-6)
