@@ -63,6 +63,9 @@ class Frame:
     measured: dict[str, np.ndarray] | None = None
     # (b, 2, 2) start and end points of the rock bolts in place; None without [[bolts]]
     bolts: np.ndarray | None = None
+    # (b,) the tension of each of those bolts (force, tension positive); None without
+    # [[bolts]] (or read from bolts files written without it)
+    bolt_tensions: np.ndarray | None = None
     # (n,) the out-of-plane stress szz = ν (sxx + syy) of a plane-strain scene; None in
     # plane stress (szz = 0)
     out_of_plane: np.ndarray | None = None

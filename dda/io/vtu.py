@@ -154,15 +154,19 @@ def write_contacts_vtu(frame: Frame, path: str | os.PathLike[str]) -> Path:
 
 def bolts_mesh(frame: Frame) -> meshio.Mesh:
     """The rock bolts of ``frame`` (its ``bolts``, not None) as a meshio mesh: one
-    ``line`` cell a bolt, from its start to its end point, cell array ``bolt`` (its row)."""
+    ``line`` cell a bolt, from its start to its end point, cell arrays ``bolt`` (its row)
+    and ``tension`` (its tension, the scene's force unit; NaN where the frame has none)."""
     ends = np.asarray(frame.bolts, dtype=float).reshape(-1, 2, 2)
     count = len(ends)
     if count == 0:  # see the module docstring
         cells = [("polygon", np.zeros((1, 0), dtype=np.int64))]
-        no_bolt = {"bolt": [np.array([-1], dtype=np.int64)]}
+        no_bolt = {"bolt": [np.array([-1], dtype=np.int64)], "tension": [np.array([np.nan])]}
         return meshio.Mesh(np.zeros((0, 3)), cells, cell_data=no_bolt)
     lines = np.arange(2 * count, dtype=np.int64).reshape(count, 2)
-    cell_data = {"bolt": [np.arange(count, dtype=np.int64)]}
+    tension = np.full(count, np.nan)
+    if frame.bolt_tensions is not None:
+        tension = np.asarray(frame.bolt_tensions, dtype=float)
+    cell_data = {"bolt": [np.arange(count, dtype=np.int64)], "tension": [tension]}
     return meshio.Mesh(as_3d(ends.reshape(-1, 2)), [("line", lines)], cell_data=cell_data)
 
 
@@ -221,22 +225,26 @@ def read_frame(
         fixed=data["fixed"].astype(bool),
         contacts=_read_contacts(contacts_path, ids) if contacts_path else Contacts.empty(),
         out_of_plane=data["szz"].astype(float) if "szz" in data else None,
-        bolts=_read_bolts(bolts_path) if bolts_path else None,
+        **_read_bolts(bolts_path),
     )
 
 
-def _read_bolts(path: str | os.PathLike[str]) -> np.ndarray | None:
-    """(b, 2, 2) bolt ends from a file of :func:`write_bolts_vtu` ((0, 2, 2): no bolt in
-    place), None without one."""
-    if not Path(path).is_file():
-        return None
+def _read_bolts(path: str | os.PathLike[str] | None) -> dict:
+    """The frame's ``bolts``, (b, 2, 2) bolt ends from a file of :func:`write_bolts_vtu`
+    ((0, 2, 2): no bolt in place; None without a file), and ``bolt_tensions`` (None from
+    a file written without them)."""
+    if not path or not Path(path).is_file():
+        return {"bolts": None, "bolt_tensions": None}
     mesh = _read_vtu(path)
     kept = [k for k, block in enumerate(mesh.cells) if block.type == "line"]
     if not kept:
-        return np.zeros((0, 2, 2))
+        return {"bolts": np.zeros((0, 2, 2)), "bolt_tensions": np.zeros(0)}
     lines = np.concatenate([mesh.cells[k].data for k in kept])
     order = np.argsort(np.concatenate([mesh.cell_data["bolt"][k] for k in kept]), kind="stable")
-    return mesh.points[lines[order], :2].copy()
+    tensions = None
+    if "tension" in mesh.cell_data:
+        tensions = np.concatenate([mesh.cell_data["tension"][k] for k in kept])[order]
+    return {"bolts": mesh.points[lines[order], :2].copy(), "bolt_tensions": tensions}
 
 
 def _read_contacts(path: str | os.PathLike[str], ids: np.ndarray) -> Contacts:

@@ -38,9 +38,11 @@ def make_frame(
     measured: dict[str, np.ndarray] | None = None,
     bolts: np.ndarray | None = None,
     poisson: np.ndarray | None = None,
+    bolt_tensions: np.ndarray | None = None,
 ) -> Frame:
     """Copy the current state into an immutable Frame (``measured``: the
-    ``[[measure]]`` rows since the previous frame; ``bolts``: the bolts' end points;
+    ``[[measure]]`` rows since the previous frame; ``bolts``: the bolts' end points,
+    ``bolt_tensions`` their tensions;
     ``poisson``: each block's Poisson's ratio in a plane-strain scene, whose frames carry
     szz = ν (sxx + syy), None in plane stress)."""
     out_of_plane = None
@@ -62,6 +64,7 @@ def make_frame(
         contacts=frame_contacts(blocks, contacts),
         measured=measured,
         bolts=bolts,
+        bolt_tensions=bolt_tensions,
         out_of_plane=out_of_plane,
     )
 

@@ -464,10 +464,12 @@ def run(
 def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> Frame:
     """The frame of the run's state (with the measurement rows ``measured``), in the
     scene's coordinates (the run's own are ``origin`` less: dda.scene.local_frame)."""
-    bolts = None if state.model.bolts is None else state.model.bolts.segments()
+    placed = state.model.bolts
+    bolts = None if placed is None else placed.segments()
+    tensions = None if placed is None else placed.tension()[placed.active]
     frame = make_frame(
         state.blocks, state.contacts, state.shown_time, state.step, measured, bolts,
-        _plane_strain_poisson(state.model.scene, state.blocks),
+        _plane_strain_poisson(state.model.scene, state.blocks), tensions,
     )  # fmt: skip
     return shifted(frame, origin)
 

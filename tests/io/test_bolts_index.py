@@ -6,6 +6,7 @@ import dataclasses
 
 import meshio
 import numpy as np
+import pytest
 
 from dda.io import RunWriter, read_pvd
 from dda.io.frame_files import all_frames, read_found_frame
@@ -93,3 +94,23 @@ def test_resume_before_the_first_bolts_file_leaves_no_stale_index(tmp_path):
     resumed.add_frame(bolted(2))
     assert [t for t, _ in read_pvd(tmp_path / "bolts.pvd")] == [0.2]
     resumed.finish(None, status="finished")
+
+
+def test_the_bolts_files_carry_each_bolt_s_tension(tmp_path):
+    """cases/bolted_block.toml: the bolt's tension in the final frame, in its bolts file
+    (cell array ``tension``, for ParaView to colour by) and read back, is the anchor's
+    measured force (closed form W (sin 30° − cos 30° tan 20°) = 2447.30 N)."""
+    import dda.cases
+    from dda.io.vtu import read_frame, write_blocks_vtu, write_bolts_vtu
+
+    result = dda.simulate(dda.cases.folder().joinpath("bolted_block.toml"))
+    final = result.final
+    measured = result.measurements["anchor.force"][-1]
+    assert final.bolt_tensions is not None and len(final.bolt_tensions) == 1
+    assert final.bolt_tensions[0] == measured == pytest.approx(2447.30, rel=0.01)
+    path = write_bolts_vtu(final, tmp_path / "bolts.vtu")
+    assert meshio.read(path).cell_data["tension"][0][0] == measured
+    blocks = write_blocks_vtu(final, tmp_path / "blocks.vtu")
+    again = read_frame(blocks, bolts_path=path)
+    np.testing.assert_array_equal(again.bolt_tensions, final.bolt_tensions)
+    np.testing.assert_array_equal(again.bolts, final.bolts)
