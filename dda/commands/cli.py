@@ -643,7 +643,9 @@ def _start_sentence(summary: dict[str, Any]) -> str:
         newton = summary.get("start_newton_iterations")
         seconds = _number(summary.get("start_seconds"), ".3g")
         method = summary.get("start_method")
-        text = f" Equilibrium start: {counted(newton, 'Newton iteration')}, {seconds} s."
+        compiling = summary.get("start_compile_seconds") or 0.0
+        aside = f" ({compiling:.3g} s of it compiling kernels)" if compiling >= 1.0 else ""
+        text = f" Equilibrium start: {counted(newton, 'Newton iteration')}, {seconds} s{aside}."
         if method == "continuation":  # the interior point did not settle it
             text += " Its interior-point solve did not settle: it went on by continuation."
         return text

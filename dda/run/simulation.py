@@ -92,6 +92,7 @@ class _Run:
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
         self.start_method = None  # how its limit solve settled (dda.run.equilibrium_start)
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
+        self.start_compile_seconds = 0.0  # ... and its share of compile_seconds()
         self.in_situ_change = (0.0, "")  # what the start changed of the in-situ field
         self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
         self.unbalanced_force = (0.0, 0.0)  # ... and the net force the last one said
@@ -178,11 +179,12 @@ def _equilibrium_start(run: _Run) -> None:
     """Load the contacts that touch at t = 0, the blocks and the effects' springs
     (dda.run.equilibrium_start); a start that does not settle leaves the run unloaded."""
     m = run.model
-    started = wallclock.perf_counter()
+    started, compiled = wallclock.perf_counter(), compile_seconds()
     _touching_at_start(run)
     with run.timer("start"):  # its own stages apart: the steps' stay the steps'
         settled = settle(m, run.blocks, run.contacts, StageTimer())
     run.start_seconds = wallclock.perf_counter() - started
+    run.start_compile_seconds = compile_seconds() - compiled
     if settled is None:
         run.contacts = ContactSet.empty()  # step 1 finds them afresh, as an unloaded start
         run.start = UNSETTLED_START
@@ -567,6 +569,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "start_newton_iterations": state.start_newton_iterations,
         "start_method": state.start_method,
         "start_seconds": round(state.start_seconds, 6),
+        "start_compile_seconds": round(state.start_compile_seconds, 3),  # of start_seconds
         "start_in_situ_change": state.in_situ_change[0],  # over the field (0 without one)
         "start_in_situ_change_block": state.in_situ_change[1],
         "start_in_situ_relaxed": state.in_situ_change[0] > IN_SITU_KEPT,

@@ -295,6 +295,9 @@ def test_the_run_paragraph_tells_how_the_run_started():
     text = cli.summary_paragraph({**loaded, "start_seconds": 0.0312}, Path("out"))
     assert "Equilibrium start: 12 Newton iterations, 0.0312 s." in text
     assert "continuation" not in text
+    compiled = {**loaded, "start_seconds": 47.3, "start_compile_seconds": 46.8}
+    text = cli.summary_paragraph(compiled, Path("out"))  # the first run after installing
+    assert "Equilibrium start: 12 Newton iterations, 47.3 s (46.8 s of it compiling" in text
     by_continuation = {**loaded, "start_seconds": 0.0312, "start_method": "continuation"}
     text = cli.summary_paragraph(by_continuation, Path("out"))
     assert "interior-point solve did not settle: it went on by continuation" in text
