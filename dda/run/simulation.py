@@ -96,6 +96,7 @@ class _Run:
         self.in_situ_change = (0.0, "")  # what the start changed of the in-situ field
         self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
         self.unbalanced_force = (0.0, 0.0)  # ... and the net force the last one said
+        self.pushed_steps = 0  # steps whose push-out removed an overlap
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -290,6 +291,8 @@ def _advance(run: _Run) -> None:
         run.smallest_cut_dt = min(run.smallest_cut_dt, dt)
     if m.static:
         run.last_moves = (solution.moves, run.blocks.vertex_owner, run.blocks.names)
+    if solution.pushed is not None and np.any(solution.pushed):
+        run.pushed_steps += 1
     with run.timer("update"):
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
         ground = None if m.ground is None else m.ground.prescribed(run.blocks, ctx)
@@ -597,12 +600,28 @@ def _warnings(state: _Run) -> list[str]:
     found = [
         in_situ_warning(*state.in_situ_change),
         *state.unbalanced,
-        None if m.static else energy_warning(state.history, state.energy.initial.total),
+        None if m.static else _energy_warning(state),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
         _last_motion_warning(state, length),
     ]
     return [text for text in found if text is not None]
+
+
+def _energy_warning(state: _Run) -> str | None:
+    """:func:`energy_warning` of the run, with the evidence for its cause: the steps the
+    push-out acted at, and the fastest free block at the end (name, speed, slenderness)."""
+    blocks, units = state.blocks, state.model.scene.units
+    free = np.flatnonzero(~blocks.fixed)
+    fastest = None
+    if len(free):
+        speed = np.hypot(blocks.velocity[free, 0], blocks.velocity[free, 1])
+        k = free[int(np.argmax(speed))]
+        corners = blocks.vertices[blocks.offsets[k] : blocks.offsets[k + 1]]
+        half = 0.5 * np.linalg.norm(np.diff(corners, axis=0, append=corners[:1]), axis=1).sum()
+        fastest = (blocks.names[k], float(speed.max()), float(half**2 / blocks.area[k]))
+    history, initial = state.history, state.energy.initial.total
+    return energy_warning(history, initial, state.pushed_steps, fastest, (units.length, units.time))
 
 
 def _last_motion_warning(state: _Run, length: str) -> str | None:

@@ -134,6 +134,19 @@ def test_energy_the_blocks_gain_from_nowhere_is_said():
     assert energy_warning(loaded, 100.0) is None
 
 
+def test_the_energy_warning_gives_the_evidence_for_its_cause():
+    """The steps the push-out acted at, when it did; the fastest block at the end, a
+    sliver called one; the advice of a smaller time step."""
+    created = _history([100.0, 50.0, 101.5], [0.0, 50.0, 0.0])
+    rattled = energy_warning(created, 100.0, 0, ("b6", 7.43, 34.0))
+    assert "push-out" not in rattled
+    assert "'b6' (7.43 m/s, a sliver 34 times as long as thick)" in rattled
+    assert "smaller analysis.time_step" in rattled
+    pushed = energy_warning(created, 100.0, 3, ("b1", 0.2, 4.0), ("ft", "s"))
+    assert "The push-out removed overlaps at 3 step(s)" in pushed
+    assert "'b1' (0.2 ft/s):" in pushed and "as long as thick" not in pushed
+
+
 def test_the_contact_springs_share_is_left_out_of_the_energy_warning():
     """The history counts a contact's Σ N²/(2p), more than an augmented-Lagrangian
     contact holds: the paper's two blocks settle with 1.12 ft·lb there against 0.27 of
