@@ -186,8 +186,10 @@ def _equilibrium_start(run: _Run) -> None:
         settled = settle(m, run.blocks, run.contacts, StageTimer())
     run.start_seconds = wallclock.perf_counter() - started
     run.start_compile_seconds = compile_seconds() - compiled
-    if settled is None:
-        run.contacts = ContactSet.empty()  # step 1 finds them afresh, as an unloaded start
+    if settled is None:  # the run starts as an unloaded start would
+        if m.scene.in_situ is None:
+            run.contacts = ContactSet.empty()  # step 1 finds them afresh
+        # else the contacts found at t = 0 carry the in-situ field (_touching_at_start)
         run.start = UNSETTLED_START
         return
     run.contacts = settled.contacts

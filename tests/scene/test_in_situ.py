@@ -310,3 +310,16 @@ def test_a_field_the_start_cannot_keep_is_said_not_relaxed_silently(caplog):
     assert not held.summary["start_in_situ_relaxed"]
     assert held.summary["start_in_situ_change"] < 1e-6
     assert "changed the in-situ stress" not in caplog.text
+
+
+def test_a_start_that_does_not_settle_keeps_the_field_as_the_unloaded_start_does(monkeypatch):
+    """Where the equilibrium start falls back to the unloaded start, the contacts found
+    at t = 0 still carry the in-situ field, as those of ``start = "unloaded"`` do: the
+    held assembly keeps σ to 1e-6 (it relaxed by 7 % into unloaded contact springs)."""
+    import dda.run.simulation as simulation
+
+    monkeypatch.setattr(simulation, "settle", lambda *args: None)
+    sections = {"in_situ": {"stress": list(FIELD)}}
+    result = dda.simulate(dda.load_scene(scene(uniform("ring"), **sections)))
+    assert result.summary["start"] == simulation.UNSETTLED_START
+    assert np.abs(result.final.stresses[:9] - FIELD).max() <= 1e-6 * 2.0e6
