@@ -1,18 +1,29 @@
 """Contacts that carry a stress field from t = 0 (``[in_situ]``).
 
-A touching contact P1 (block i) on the edge P2P3 (block j) stands at one end of the
-stretch of joint its vertex's own edge shares with P2P3: from P1 along that edge to
-the nearer of its far end and the edge's end, length L, other end Q. The joint's
-traction on block j there is t = σ·n (n the edge's outward normal, σ(y) the field),
-and of the forces at the stretch's two ends that do its work against Shi's linear
-displacement fields the contact takes f = L (t(P1)/3 + t(Q)/6) (the contact at Q takes
-the rest): N = −n·f (compression positive), F = t_e·f along the edge direction t_e
-(the shear force the contact carries, :mod:`dda.contact.rows`). The contact starts with
-them as its multipliers, λn = N − p g0 (so that λn + p g0 = N) and λt = F: a block
-whose stress is σ is then in equilibrium with its contacts before anything moves.
+The joint between two touching blocks i and j is the set of pieces of their edges that
+the other block covers (:func:`dda.scene.edge_cover.covered_pieces`), each a segment AB
+of an edge of one of them, j say. The field's traction on block j there is t = σ·n (n
+that edge's outward normal, σ(y) the field), linear along AB, and the end forces that do
+its work against Shi's linear displacement fields are f_A = L (t(A)/3 + t(B)/6) and
+f_B = L (t(A)/6 + t(B)/3) (:meth:`dda.scene.in_situ.StressField.segment_forces`). A
+piece's ends are vertices of i or j, where the two blocks' touching contact stands (one
+a point: a vertex–vertex pair is resolved to one contact): each contact takes the end
+forces of the pieces of its pair that end at its point, and a vertex where the joint
+bends (a polygonal opening's) takes those of the pieces on both sides. With f the sum,
+the force on the contact's edge block, its normal force is N = −n_c·f (compression
+positive) and its shear force F = t_c·f (n_c, t_c its edge's outward normal and
+direction, :mod:`dda.contact.rows`). An end where no contact of the pair stands gives
+its force to the pair's nearest contact. The contact starts with them as its
+multipliers, λn = N − p g0 (so that λn + p g0 = N) and λt = F: a block whose boundary
+its touching neighbours cover is in equilibrium with its contacts before anything moves,
+when the field is in equilibrium with the loads.
 
-A vertex whose edges meet P2P3 at an angle (a corner on an edge) shares no stretch and
-carries nothing at first; the equilibrium start loads it.
+A contact at a corner that touches an edge at a point ends no piece: it carries nothing
+at first, and the equilibrium start loads it. A block's corner that sits in a concave
+corner of its neighbour is one contact, on one of the two edges there: it takes both
+pieces' end forces, and the share of the other edge's normal force becomes shear along
+its own, which friction may not hold (the start then loads it as it can: 18 % of the
+field changed at the floor corner of a horseshoe section's core).
 """
 
 from __future__ import annotations
@@ -21,32 +32,54 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.contact_set import ContactSet
-from dda.contact.narrow import SHARED_LINE_COSINE
 from dda.contact.rows import contact_rows
+from dda.geometry import unpack_polygons
 from dda.result import OPEN
+from dda.scene.edge_cover import EdgePieces, covered_pieces
 from dda.scene.in_situ import StressField
 
 
-def shared_stretches(blocks: BlockSet, contacts: ContactSet, tangent: np.ndarray):
-    """(L, Q): per contact the length of the stretch of the contact edge that its vertex's
-    own edges lie along, from P1, and its other end Q (L = 0: none)."""
-    v = blocks.vertices
-    p1, p2, p3 = v[contacts.vertex], v[contacts.edge], v[blocks.next_vertex[contacts.edge]]
-    edge_length = np.einsum("ij,ij->i", p3 - p2, tangent)
-    at = np.einsum("ij,ij->i", p1 - p2, tangent)  # P1's place along P2P3
-    best, end = np.zeros(len(p1)), p1.copy()
-    for neighbour in (blocks.next_vertex, blocks.previous_vertex):
-        far = v[neighbour[contacts.vertex]]
-        u = far - p1
-        size = np.linalg.norm(u, axis=1)
-        along = np.einsum("ij,ij->i", u, tangent)
-        parallel = np.abs(along) >= SHARED_LINE_COSINE * size
-        reach = np.clip(at + along, 0.0, edge_length)  # the far end, clipped to the edge
-        length = np.where(parallel, np.abs(reach - at), 0.0)
-        better = length > best
-        best = np.where(better, length, best)
-        end = np.where(better[:, None], p2 + reach[:, None] * tangent, end)
-    return best, end
+def joint_pieces(blocks: BlockSet) -> EdgePieces:
+    """Each stretch of joint once: the covered pieces of the blocks' edges whose block is
+    the lower-numbered of the two."""
+    pieces = covered_pieces(unpack_polygons(blocks.vertices, blocks.offsets))
+    return pieces.subset(np.flatnonzero(pieces.block < pieces.other))
+
+
+def pair_key(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
+    """One integer per unordered pair of blocks."""
+    return np.minimum(a, b).astype(np.int64) * count + np.maximum(a, b)
+
+
+def nearest_contact(
+    contacts: ContactSet,
+    contact_points: np.ndarray,
+    usable: np.ndarray,
+    points: np.ndarray,
+    keys: np.ndarray,
+    count: int,
+) -> np.ndarray:
+    """For each of ``points``, of the block pair ``keys`` (:func:`pair_key`), the
+    ``usable`` contact of that pair whose point P1 (``contact_points``) is nearest; -1
+    where the pair has none."""
+    best = np.full(len(keys), -1)
+    own = np.flatnonzero(usable)
+    if not len(own):
+        return best
+    own_keys = pair_key(contacts.block_a[own], contacts.block_b[own], count)
+    order = np.argsort(own_keys, kind="stable")
+    own, own_keys = own[order], own_keys[order]
+    lo = np.searchsorted(own_keys, keys, "left")
+    hi = np.searchsorted(own_keys, keys, "right")
+    best_distance = np.full(len(keys), np.inf)
+    for offset in range(int((hi - lo).max(initial=0))):  # a pair's few contacts, not the points
+        at = lo + offset
+        candidate = own[np.minimum(at, len(own) - 1)]
+        distance = np.linalg.norm(contact_points[candidate] - points, axis=1)
+        better = (at < hi) & (distance < best_distance)
+        best = np.where(better, candidate, best)
+        best_distance = np.where(better, distance, best_distance)
+    return best
 
 
 def carry_stress(blocks: BlockSet, contacts: ContactSet, field: StressField) -> ContactSet:
@@ -54,12 +87,22 @@ def carry_stress(blocks: BlockSet, contacts: ContactSet, field: StressField) -> 
     if not len(contacts):
         return contacts
     rows = contact_rows(blocks, contacts)
-    length, far = shared_stretches(blocks, contacts, rows.tangents)
-    n = rows.normals
-    f, _ = field.segment_forces(rows.points, far, n)
-    normal = -np.einsum("ij,ij->i", f, n)
-    shear = np.einsum("ij,ij->i", f, rows.tangents)
-    carries = (contacts.state != OPEN) & (length > 0.0)
+    pieces = joint_pieces(blocks)
+    f_start, f_end = field.segment_forces(pieces.start, pieces.end, pieces.normal)
+    ends = np.concatenate([pieces.start, pieces.end])
+    forces = np.concatenate([f_start, f_end])  # on the piece's block
+    on = np.concatenate([pieces.block, pieces.block])
+    keys = pair_key(on, np.concatenate([pieces.other, pieces.other]), blocks.count)
+    touching = contacts.state != OPEN
+    holder = nearest_contact(contacts, rows.points, touching, ends, keys, blocks.count)
+    held = holder >= 0
+    sign = np.where(contacts.block_b[holder[held]] == on[held], 1.0, -1.0)  # on the edge block
+    total = np.zeros((len(contacts), 2))
+    np.add.at(total, holder[held], sign[:, None] * forces[held])
+    carries = np.zeros(len(contacts), bool)
+    carries[holder[held]] = True
+    normal = -np.einsum("ij,ij->i", total, rows.normals)
+    shear = np.einsum("ij,ij->i", total, rows.tangents)
     out = contacts.copy()
     out.normal_multiplier = np.where(
         carries, normal - contacts.penalty * rows.penetration, contacts.normal_multiplier

@@ -20,7 +20,7 @@ ENERGY_WARNING = 0.01
 # removes)
 PENETRATION_WARNING = 0.01
 # the largest change of a free block's in-situ stress by the equilibrium start, as a
-# fraction of the field, that the run takes as the field kept (tunnel_deep: 0.046, at
+# fraction of the field, that the run takes as the field kept (tunnel_deep: 0.0033, at
 # one block beside the opening's stage; a field with free outer blocks and no boundary
 # stress: ~1)
 IN_SITU_KEPT = 0.1
