@@ -29,6 +29,9 @@ log = logging.getLogger(__name__)
 
 CLIP_MARGIN = 1e-3  # traces are clipped to the rock grown by this fraction of its size
 GRID = 1e-12  # precision grid of the noded joints, as a fraction of the rock size
+# ... and at least this fraction of the coordinates' magnitude: 45 times a double's
+# relative spacing, the round-off of a point computed on a line there
+ROUND_OFF = 1e-14
 
 
 def cut_faces(
@@ -51,7 +54,7 @@ def cut_faces(
     kept = ~shapely.is_empty(clipped)
     clipped, sources = clipped[kept], traces.source[kept]
     linework = np.concatenate([shapely.boundary(np.asarray(domain.parts, dtype=object)), clipped])
-    grid = 10.0 ** np.floor(np.log10(GRID * domain.size))  # decimal: round inputs stay put
+    grid = noding_grid(domain)
     if len(clipped) >= LARGE:
         faces = _faces_along(linework, set_turn(traces, densest_set(traces, sources)), grid, report)
     else:  # snap rounding on a fine grid: nodes closer than the grid become one
@@ -69,6 +72,19 @@ def cut_faces(
         "%d faces from %d joint pieces, %d inside the rock", len(faces), len(clipped), len(first)
     )
     return faces[face_index[first]], region_index[first]
+
+
+def noding_grid(domain: Domain) -> float:
+    """The grid the joints are noded on: :data:`GRID` of the rock's size, and at least
+    :data:`ROUND_OFF` of its coordinates' magnitude, rounded down to a power of ten (round
+    inputs stay put). A joint drawn to end on the boundary or on another joint ends
+    there to the round-off of its coordinates, which at map coordinates (4.2e6 m: 9e-10
+    m between doubles) is coarser than the rock's 1e-12: it missed the line and cut
+    nothing."""
+    x0, y0, x1, y1 = domain.bounds
+    magnitude = max(abs(x0), abs(y0), abs(x1), abs(y1))
+    fine = max(GRID * domain.size, ROUND_OFF * magnitude, np.finfo(float).tiny)
+    return float(10.0 ** np.floor(np.log10(fine)))
 
 
 def _faces_along(

@@ -728,3 +728,26 @@ def test_a_region_on_one_line_is_refused_as_such():
     raw = base_scene(regions=[{"polygon": [[0, 0], [20, 0], [40, 0]]}])
     with pytest.raises(SceneError, match=r"regions\[0\]\.polygon: encloses no area"):
         expand_rock_mass(raw, "scene.toml")
+
+
+@pytest.mark.parametrize("offset", [(0.0, 0.0), (1.0e5, 1.0e5), (5.0e5, 4.2e6)])
+def test_joints_drawn_to_end_on_the_face_or_a_joint_cut_at_map_coordinates(offset):
+    """Six joints from the base of a slope to points on its face, a + t (b − a) (CAD's
+    'nearest' snap), and two that end on the first: eight cuts at the origin and at map
+    coordinates alike (at (5e5, 4.2e6) the ends missed the face by round-off, 9e-10 m
+    between doubles, finer than the noding grid of 1e-12 of the rock: 3 blocks)."""
+    x0, y0 = offset
+    slope = [[x0 + x, y0 + y] for x, y in [[0, 0], [70, 0], [70, 40], [40, 40], [20, 10], [0, 10]]]
+    a, b = np.array([x0 + 20.0, y0 + 10.0]), np.array([x0 + 40.0, y0 + 40.0])
+    lines = []
+    for k, t in enumerate([0.13, 0.29, 0.41, 0.57, 0.73, 0.89]):
+        end = a + t * (b - a)
+        lines.append({"points": [[x0 + 22.0 + 3.0 * k, y0], end.tolist()], "joint": "bed"})
+    first = np.array(lines[0]["points"])
+    for t in (0.3, 0.6):
+        on = first[0] + t * (first[1] - first[0])
+        lines.append({"points": [[x0, y0 + 9.0 * t], on.tolist()], "joint": "cross"})
+    raw = base_scene(regions=[{"polygon": slope, "material": "rock"}], joint_lines=lines)
+    out = expand_rock_mass(raw, "<test>")
+    assert len(out["blocks"]) == 9
+    assert_tiles(polygons(out), shapely.Polygon(slope))
