@@ -20,7 +20,11 @@ SPLINE; curves are drawn as chords within ``arc_tolerance``. Coordinates are mul
 DXF file, the layer and the entity (its DXF handle): a file ezdxf cannot read, an open
 shape where a closed one is needed, a layer the table names that the drawing does not
 have, a drawing whose units (``$INSUNITS``) are not the scene's length unit (unless
-``scale`` says how to read them), an entity of another kind on a mapped layer.
+``scale`` says how to read them; ``metre``, ``feet`` and the like are read as ``m``,
+``ft``), an entity of another kind on a mapped layer, a material or joint that the scene
+does not define, an ``excavation_time`` with nothing to excavate. Layer names are
+matched in any case, as CAD matches them. A joint line of no length (a point that CAD
+left) is left out, with a warning.
 
 ezdxf, the maintained DXF reader, is imported only when a scene has a drawing.
 """
@@ -38,7 +42,7 @@ import numpy as np
 import shapely
 
 from dda.errors import SceneError, message
-from dda.scene.checks import POSITIVE, Checker
+from dda.scene.checks import POSITIVE, Checker, suggest
 
 log = logging.getLogger(__name__)
 
@@ -53,6 +57,15 @@ INSUNITS = {1: ("in", 0.0254), 2: ("ft", 0.3048), 3: ("mi", 1609.344), 4: ("mm",
             5: ("cm", 1e-2), 6: ("m", 1.0), 7: ("km", 1e3), 10: ("yd", 0.9144),
             14: ("dm", 0.1)}  # fmt: skip
 METRES = {name: metres for name, metres in INSUNITS.values()}
+# other spellings of the scene's [units] length (compared in lower case)
+LENGTH_NAMES = {
+    "metre": "m", "metres": "m", "meter": "m", "meters": "m",
+    "millimetre": "mm", "millimetres": "mm", "millimeter": "mm", "millimeters": "mm",
+    "centimetre": "cm", "centimetres": "cm", "centimeter": "cm", "centimeters": "cm",
+    "kilometre": "km", "kilometres": "km", "kilometer": "km", "kilometers": "km",
+    "foot": "ft", "feet": "ft", "inch": "in", "inches": "in", "yard": "yd", "yards": "yd",
+    "mile": "mi", "miles": "mi",
+}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -195,10 +208,19 @@ def _scale(chk: Checker, table: Mapping, document: Any, raw: Mapping, path: Path
         return chk.real(table["scale"], "drawing.scale", POSITIVE)
     code = int(document.header.get("$INSUNITS", 0) or 0)
     units = raw.get("units", {})
-    length = units.get("length", "m") if isinstance(units, Mapping) else "m"
-    if code == 0 or code not in INSUNITS or length not in METRES:
+    given = units.get("length", "m") if isinstance(units, Mapping) else "m"
+    length = _length_name(given)
+    if code == 0 or code not in INSUNITS:
         return 1.0
     name, metres = INSUNITS[code]
+    if length is None:
+        raise SceneError(
+            str(path),
+            "$INSUNITS",
+            f"the drawing is in {name} ($INSUNITS = {code}) and the scene's length unit "
+            f"{given!r} ([units] length) is none this check knows: give [drawing] scale, "
+            "the scene's length unit in one drawing unit",
+        )
     if name != length:
         factor = metres / METRES[length]
         raise SceneError(
@@ -211,6 +233,16 @@ def _scale(chk: Checker, table: Mapping, document: Any, raw: Mapping, path: Path
     return 1.0
 
 
+def _length_name(given: Any) -> str | None:
+    """The $INSUNITS name of the scene's length unit (``m`` for ``metre``, ``M``...),
+    None for one it does not know."""
+    text = str(given).strip()
+    if text in METRES:
+        return text
+    lower = text.lower()
+    return lower if lower in METRES else LENGTH_NAMES.get(lower)
+
+
 def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
     """(layer, description, ezdxf path) of every model-space entity on a mapped layer; a
     layer the table names (or the blocks layer) must be in the drawing."""
@@ -219,17 +251,20 @@ def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
     mapped = _mapped(layers)
     entities = list(document.modelspace())
     present = {layer.dxf.name for layer in document.layers} | {e.dxf.layer for e in entities}
+    known = {name.upper() for name in present}
     for role, layer in mapped.items():
-        if (role.split(":")[0] in layers["given"] or role == "blocks") and layer not in present:
+        if (role.split(":")[0] in layers["given"] or role == "blocks") and (
+            layer.upper() not in known
+        ):
             listed = ", ".join(sorted(present)) or "none"
             key = f"drawing.{role.split(':')[0]}"
             raise SceneError(str(path), key, f"no layer {layer!r} in the drawing {path} (its "
                              f"layers: {listed})")  # fmt: skip
-    wanted = set(mapped.values())
+    wanted = {layer.upper(): layer for layer in mapped.values()}  # CAD: names in any case
     drawn = []
     for entity in entities:
-        layer = entity.dxf.layer
-        if layer not in wanted:
+        layer = wanted.get(entity.dxf.layer.upper())
+        if layer is None:
             continue
         what = f"{entity.dxftype()} (handle {entity.dxf.handle})"
         if entity.dxftype() not in SHAPES:
@@ -294,11 +329,15 @@ def _rock_mass(
             origins[len(regions)] = f"layer {shape.layer}: {shape.what}"
             regions.append(region)
     out["regions"] = regions
+    _check_joint_names(chk, table, layers, raw)
     out["joint_lines"] = [*_list(raw, "joint_lines"), *_joint_lines(chk, table, layers, shapes)]
     if fixed:
         out["fix"] = [*_list(raw, "fix"), *({"inside": s.points.tolist()} for s in fixed)]
     if holes:
         out.update(_excavation(chk, raw, table, holes))
+    elif "excavation_time" in table:
+        chk.fail("drawing.excavation_time", f"the drawing has no closed shape on layer "
+                 f"{layers['excavation']!r} to excavate")  # fmt: skip
     return Expanded(out, chk.source, path, origins)
 
 
@@ -357,6 +396,9 @@ def _joint_lines(chk: Checker, table: Mapping, layers: dict, shapes: list[Shape]
         names = {joints: chk.text(table.get("joint", ""), "drawing.joint")}
     lines = []
     for shape in shapes:
+        if shape.layer in names and len(shape.points) < 2:  # a CAD leftover: a point
+            log.warning("layer %s: %s has no length: left out", shape.layer, shape.what)
+            continue
         if shape.layer in names:
             points = (
                 shape.points if not shape.closed else np.vstack([shape.points, shape.points[:1]])
@@ -368,10 +410,32 @@ def _joint_lines(chk: Checker, table: Mapping, layers: dict, shapes: list[Shape]
     return lines
 
 
+def _check_joint_names(chk: Checker, table: Mapping, layers: dict, raw: Mapping) -> None:
+    """Refuse a joint the drawing's lines would name (``drawing.joint``, or a joints
+    table's ``drawing.joints.LAYER``) that ``[joints]`` does not define, under its own key."""
+    defined = raw.get("joints", {})
+    if not isinstance(defined, Mapping):
+        return  # checked with the scene
+    joints = layers["joints"]
+    if isinstance(joints, Mapping):
+        named = {f"drawing.joints.{layer}": joint for layer, joint in joints.items()}
+    else:
+        named = {"drawing.joint": table.get("joint", "")} if table.get("joint") else {}
+    for key, joint in named.items():
+        if joint and joint != "default" and joint not in defined:
+            chk.fail(key, f"unknown joint {joint!r}: {suggest(str(joint), list(defined))}")
+
+
 def _material(chk: Checker, table: Mapping, raw: Mapping) -> str:
     """``[drawing] material``, or the scene's only material."""
     if "material" in table:
-        return chk.text(table["material"], "drawing.material")
+        name = chk.text(table["material"], "drawing.material")
+        defined = raw.get("materials", {})
+        if isinstance(defined, Mapping) and name not in defined:
+            chk.fail(
+                "drawing.material", f"unknown material {name!r}: {suggest(name, list(defined))}"
+            )
+        return name
     materials = raw.get("materials", {})
     if isinstance(materials, Mapping) and len(materials) == 1:
         return next(iter(materials))

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from dda.scene.checks import ANY, NON_NEGATIVE, POSITIVE, Checker, Interval
+from dda.scene.checks import ANY, NON_NEGATIVE, POSITIVE, Checker, Interval, suggest
 from dda.scene.rockmass.spec import (
     DEFAULT_MAX_BLOCKS,
     CuttingOptions,
@@ -87,8 +87,7 @@ def _entries(chk: Checker, raw: Mapping[str, Any], key: str) -> list[tuple[int, 
 
 def _known(chk: Checker, key: str, name: str, known: set[str] | None, what: str) -> str:
     if known is not None and name not in known:
-        listed = ", ".join(sorted(known)) or "none"
-        chk.fail(key, f"unknown {what} {name!r} (defined: {listed})")
+        chk.fail(key, f"unknown {what} {name!r}: {suggest(name, known)}")
     return name
 
 

@@ -159,6 +159,8 @@ def _overlapping(path: Path) -> None:
     document = ezdxf.readfile(path)
     moved = [(x + 5.0, y + 5.0) for x, y in SQUARE]
     document.modelspace().add_lwpolyline(moved, close=True, dxfattribs={"layer": "BLOCKS"})
+    hole = [(x / 5.0 + 1.0, y / 5.0 + 1.0) for x, y in SQUARE]  # the scene's excavation
+    document.modelspace().add_lwpolyline(hole, close=True, dxfattribs={"layer": "EXCAVATION"})
     document.saveas(path)
 
 
@@ -251,3 +253,85 @@ def test_an_empty_joints_table_is_refused_as_such(tmp_path, monkeypatch, capsys)
     assert cli.main(["cut", str(scene), "-o", "out.toml"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "scene.toml: drawing.joints: is an empty table" in err[0]
+
+
+def _cad_drawing(path: Path, layers=("Blocks", "joints", "Excavation"), units: int = 6) -> Path:
+    """A 10 m square cut by one joint, with a hole to excavate, on layers named as a CAD
+    user may name them; a stray zero-length LINE on the joints layer."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    document.header["$INSUNITS"] = units
+    space = document.modelspace()
+    blocks, joints, excavation = layers
+    space.add_lwpolyline(SQUARE, close=True, dxfattribs={"layer": blocks})
+    space.add_line((-1.0, 5.0), (11.0, 5.0), dxfattribs={"layer": joints})
+    space.add_line((3.0, 3.0), (3.0, 3.0), dxfattribs={"layer": joints})  # a CAD leftover
+    hole = [(6.0, 6.0), (8.0, 6.0), (8.0, 8.0), (6.0, 8.0)]
+    space.add_lwpolyline(hole, close=True, dxfattribs={"layer": excavation})
+    document.saveas(path)
+    return path
+
+
+def _cad_scene(tmp_path: Path, drawing: str, units: str = "m") -> Path:
+    path = tmp_path / "cad.toml"
+    path.write_text(
+        f'[units]\nlength = "{units}"\n'
+        '[analysis]\nmode = "dynamic"\ntime_step = 0.001\nduration = 0.1\n'
+        "[materials.rock]\ndensity = 2600.0\nyoung = 1e9\npoisson = 0.25\n"
+        "[joints.default]\nfriction_angle = 30.0\n[joints.bedding]\nfriction_angle = 25.0\n"
+        "[[fix]]\ninside = [[-1, -1], [11, -1], [11, 5.5], [-1, 5.5]]\n"
+        f'[drawing]\nfile = "cad.dxf"\n{drawing}'
+    )
+    return path
+
+
+def test_layers_units_and_names_are_read_as_cad_gives_them(tmp_path, caplog):
+    """Layer names in any case (CAD matches them so; layers Blocks, joints and Excavation
+    were the default BLOCKS, JOINTS and EXCAVATION only in capitals, and were left out
+    without a word), a length unit spelt "metre", a zero-length joint line left out with a
+    warning."""
+    _cad_drawing(tmp_path / "cad.dxf")
+    scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\nexcavation_time = 0.05\n'))
+    areas = sorted(shapely.Polygon(b.vertices).area for b in scene.blocks)
+    # cut by the joint; the hole a block of its own, the rock around it split in two (a
+    # block has no holes: [cutting] holes = "split")
+    assert areas == pytest.approx([4.0, 13.0, 33.0, 50.0])
+    (stage,) = scene.stages  # the excavation: the hole's block
+    removed = [b for b in scene.blocks if b.name in stage.remove]
+    assert [shapely.Polygon(b.vertices).area for b in removed] == pytest.approx([4.0])
+    assert "has no length: left out" in caplog.text
+    _cad_drawing(tmp_path / "cad.dxf", units=4)  # drawn in mm
+    for spelt in ("metre", "meters", "M"):
+        with pytest.raises(dda.SceneError, match=r"give \[drawing\] scale = 0.001"):
+            dda.load_scene(
+                _cad_scene(tmp_path, 'joint = "bedding"\nexcavation_time = 0.05\n', spelt)
+            )
+    with pytest.raises(dda.SceneError, match="length unit 'furlong' .* is none this check knows"):
+        dda.load_scene(_cad_scene(tmp_path, "excavation_time = 0.05\n", "furlong"))
+
+
+@pytest.mark.parametrize(
+    ("drawing", "key", "words"),
+    [
+        ('joint = "beding"\nexcavation_time = 0.05\n', "drawing.joint",
+         "unknown joint 'beding': did you mean 'bedding'?"),
+        ('material = "rok"\nexcavation_time = 0.05\n', "drawing.material",
+         "unknown material 'rok': did you mean 'rock'?"),
+        ('excavation_time = 0.05\nexcavation = "HOLES"\n', "drawing.excavation",
+         "no layer 'HOLES' in the drawing"),
+    ],
+)  # fmt: skip
+def test_a_drawing_s_own_keys_are_named_in_its_refusals(tmp_path, drawing, key, words):
+    _cad_drawing(tmp_path / "cad.dxf")
+    with pytest.raises(dda.SceneError) as caught:
+        dda.load_scene(_cad_scene(tmp_path, drawing))
+    assert caught.value.key == key and words in str(caught.value), str(caught.value)
+
+
+def test_an_excavation_time_with_nothing_to_excavate_is_refused(tmp_path):
+    _cad_drawing(tmp_path / "cad.dxf", layers=("BLOCKS", "JOINTS", "OTHER"))
+    with pytest.raises(dda.SceneError) as caught:
+        dda.load_scene(_cad_scene(tmp_path, "excavation_time = 0.05\n"))
+    assert caught.value.key == "drawing.excavation_time"
+    assert "no closed shape on layer 'EXCAVATION' to excavate" in str(caught.value)
