@@ -52,6 +52,10 @@ SHAPES = ("LINE", "LWPOLYLINE", "POLYLINE", "CIRCLE", "ARC", "ELLIPSE", "SPLINE"
 EXCAVATION_GROUP = "excavation"
 ARC_TOLERANCE = 1e-3  # default chord tolerance of curves, as a fraction of the drawing's size
 CLOSED = 1e-9  # of the drawing's size: a shape whose ends are this close is closed
+# an open joint line is drawn on by this many arc tolerances at both ends: one snapped to
+# a curve ends on the curve, which the rock's chords leave up to an arc tolerance away
+# (on the concave side it ended inside the rock, and cut nothing)
+JOINT_REACH = 2.0
 # $INSUNITS codes -> (name, metres); 0 is "unitless": read in the scene's unit
 INSUNITS = {1: ("in", 0.0254), 2: ("ft", 0.3048), 3: ("mi", 1609.344), 4: ("mm", 1e-3),
             5: ("cm", 1e-2), 6: ("m", 1.0), 7: ("km", 1e3), 10: ("yd", 0.9144),
@@ -138,7 +142,7 @@ def _read(chk: Checker, raw: Mapping, table: Mapping, layers: dict, path: Path) 
     if "arc_tolerance" in table:
         tolerance = chk.real(table["arc_tolerance"], "drawing.arc_tolerance", POSITIVE)
     shapes = [_flattened(*entity, scale, tolerance, size) for entity in drawn]
-    return _rock_mass(chk, raw, table, layers, shapes, path)
+    return _rock_mass(chk, raw, table, layers, shapes, path, tolerance)
 
 
 def of_scene(exc: SceneError, source: str, path: Path) -> SceneError:
@@ -314,7 +318,13 @@ def _flattened(
 
 
 def _rock_mass(
-    chk: Checker, raw: Mapping, table: Mapping, layers: dict, shapes: list[Shape], path: Path
+    chk: Checker,
+    raw: Mapping,
+    table: Mapping,
+    layers: dict,
+    shapes: list[Shape],
+    path: Path,
+    tolerance: float,
 ) -> Expanded:
     """The raw scene with the drawing's regions, joint lines, fixed rules, groups, stage."""
     rock = _closed(shapes, layers["blocks"], path)
@@ -330,7 +340,8 @@ def _rock_mass(
             regions.append(region)
     out["regions"] = regions
     _check_joint_names(chk, table, layers, raw)
-    out["joint_lines"] = [*_list(raw, "joint_lines"), *_joint_lines(chk, table, layers, shapes)]
+    drawn = _joint_lines(chk, table, layers, shapes, JOINT_REACH * tolerance)
+    out["joint_lines"] = [*_list(raw, "joint_lines"), *drawn]
     if fixed:
         out["fix"] = [*_list(raw, "fix"), *({"inside": s.points.tolist()} for s in fixed)]
     if holes:
@@ -386,9 +397,12 @@ def _ring(ring: Any) -> list[list[float]]:
     return np.asarray(ring.coords)[:-1].tolist()
 
 
-def _joint_lines(chk: Checker, table: Mapping, layers: dict, shapes: list[Shape]) -> list[dict]:
+def _joint_lines(
+    chk: Checker, table: Mapping, layers: dict, shapes: list[Shape], reach: float
+) -> list[dict]:
     """A ``[[joint_lines]]`` entry per shape on a joints layer (a closed one back to its
-    start); its joint: the table's ``joint``, or the joint a joints table maps its layer to."""
+    start, an open one drawn on by ``reach`` at both ends: :data:`JOINT_REACH`); its joint:
+    the table's ``joint``, or the joint a joints table maps its layer to."""
     joints = layers["joints"]
     if isinstance(joints, Mapping):
         names = dict(joints)
@@ -401,7 +415,9 @@ def _joint_lines(chk: Checker, table: Mapping, layers: dict, shapes: list[Shape]
             continue
         if shape.layer in names:
             points = (
-                shape.points if not shape.closed else np.vstack([shape.points, shape.points[:1]])
+                _drawn_on(shape.points, reach)
+                if not shape.closed
+                else np.vstack([shape.points, shape.points[:1]])
             )
             entry = {"points": points.tolist(), "name": shape.layer}
             if names[shape.layer]:
@@ -424,6 +440,18 @@ def _check_joint_names(chk: Checker, table: Mapping, layers: dict, raw: Mapping)
     for key, joint in named.items():
         if joint and joint != "default" and joint not in defined:
             chk.fail(key, f"unknown joint {joint!r}: {suggest(str(joint), list(defined))}")
+
+
+def _drawn_on(points: np.ndarray, reach: float) -> np.ndarray:
+    """``points`` with their first and last point moved on by ``reach`` along the end
+    segments."""
+    out = np.array(points, float)
+    for end, inner in ((0, 1), (-1, -2)):
+        step = out[end] - out[inner]
+        length = float(np.hypot(*step))
+        if length > 0.0:
+            out[end] = out[end] + reach * step / length
+    return out
 
 
 def _material(chk: Checker, table: Mapping, raw: Mapping) -> str:

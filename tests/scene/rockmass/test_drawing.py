@@ -273,14 +273,19 @@ def _cad_drawing(path: Path, layers=("Blocks", "joints", "Excavation"), units: i
     return path
 
 
-def _cad_scene(tmp_path: Path, drawing: str, units: str = "m") -> Path:
+def _cad_scene(
+    tmp_path: Path,
+    drawing: str,
+    units: str = "m",
+    fix: str = "inside = [[-1, -1], [11, -1], [11, 5.5], [-1, 5.5]]",
+) -> Path:
     path = tmp_path / "cad.toml"
     path.write_text(
         f'[units]\nlength = "{units}"\n'
         '[analysis]\nmode = "dynamic"\ntime_step = 0.001\nduration = 0.1\n'
         "[materials.rock]\ndensity = 2600.0\nyoung = 1e9\npoisson = 0.25\n"
         "[joints.default]\nfriction_angle = 30.0\n[joints.bedding]\nfriction_angle = 25.0\n"
-        "[[fix]]\ninside = [[-1, -1], [11, -1], [11, 5.5], [-1, 5.5]]\n"
+        f"[[fix]]\n{fix}\n"
         f'[drawing]\nfile = "cad.dxf"\n{drawing}'
     )
     return path
@@ -335,3 +340,23 @@ def test_an_excavation_time_with_nothing_to_excavate_is_refused(tmp_path):
         dda.load_scene(_cad_scene(tmp_path, "excavation_time = 0.05\n"))
     assert caught.value.key == "drawing.excavation_time"
     assert "no closed shape on layer 'EXCAVATION' to excavate" in str(caught.value)
+
+
+def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path):
+    """The top of a slab drawn as an arc sagging 3 m (a bulge), a joint from the base to a
+    point on the true arc (CAD's 'nearest' snap): the rock's chords leave the arc by up
+    to the arc tolerance, on this concave side inside the rock, where the joint ended and
+    cut nothing (1 block); drawn on by two arc tolerances it cuts (2 blocks)."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    outline = [(0, 0, 0), (70, 0, 0), (70, 40, 0), (40, 40, 0), (20, 10, -0.3), (0, 10, 0)]
+    space.add_lwpolyline(outline, format="xyb", close=True, dxfattribs={"layer": "BLOCKS"})
+    chord, sagitta = 20.0, 3.0
+    radius = (chord * chord / 4.0 + sagitta * sagitta) / (2.0 * sagitta)
+    y = 7.0 + radius - math.sqrt(radius * radius - (4.0 - 10.0) ** 2)  # the arc at x = 4
+    space.add_line((4.0, 0.0), (4.0, y), dxfattribs={"layer": "JOINTS"})
+    document.saveas(tmp_path / "cad.dxf")
+    scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\n', fix='sides = ["right"]'))
+    assert len(scene.blocks) == 2
