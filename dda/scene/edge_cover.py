@@ -1,11 +1,10 @@
 """Which parts of the blocks' edges another block covers, and which are outer.
 
-An edge of a block is *covered* where an edge of another block lies on it (on its line,
-to a tolerance, and overlapping it): there the two blocks touch along a joint. The rest
-of the edge is *outer*: it touches no block, and a boundary stress
-(``[[boundary_stresses]]``) may load it. Both are found at once for all edges, as
-parameter intervals along each edge: the pairs of edges near each other from an STRtree
-of the edges (shapely), their lines and overlaps in numpy.
+An edge of a block is *covered* where another block's polygon (grown by a tolerance)
+lies on it: there the two blocks touch along a joint. The rest of the edge is *outer*:
+it touches no block, and a boundary stress (``[[boundary_stresses]]``) may load it.
+Both are found at once for all edges with shapely (an STRtree of the grown polygons,
+their intersections with the edges), as parameter intervals along each edge.
 """
 
 from __future__ import annotations
@@ -16,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-# edges lie on one line within this fraction of the model's extent: blocks drawn or cut
-# to share an edge meet to round-off, far closer than this
+# polygons grow by this fraction of the model's extent: blocks drawn or cut to share an
+# edge meet to round-off, far closer than this
 TOUCH = 1e-9
 # a covered or outer piece shorter than this fraction of the model's extent is none (a
 # corner that touches an edge covers TOUCH of it)
@@ -75,50 +74,44 @@ class _Edges:
 
 def _edges(polygons: Sequence[np.ndarray]) -> _Edges:
     counts = np.array([len(p) for p in polygons])
-    start = np.concatenate(polygons) if len(polygons) else np.zeros((0, 2))
-    first = np.concatenate(([0], np.cumsum(counts)[:-1]))
-    following = np.arange(len(start)) + 1
-    following[first + counts - 1] = first  # each polygon's last vertex: back to its first
+    start = np.concatenate(polygons)
+    end = np.concatenate([np.roll(p, -1, axis=0) for p in polygons])
     block = np.repeat(np.arange(len(polygons)), counts)
-    vertex = np.arange(len(start)) - np.repeat(first, counts)
-    return _Edges(block, vertex, start, start[following])
+    vertex = np.concatenate([np.arange(c) for c in counts])
+    return _Edges(block, vertex, start, end)
 
 
 def covered_intervals(polygons: Sequence[np.ndarray], present: np.ndarray | None = None):
     """(edges, edge index, other block, t0, t1) of every stretch [t0, t1] (parameters
-    along the edge, 0 at its start) that an edge of another present block lies on, with
-    the edges of all ``polygons`` (counter-clockwise (k, 2) arrays); ``present``: which
-    blocks count (default: all). One stretch for each pair of edges that lie on one line
-    (both ends of the other edge within ``TOUCH`` of the model's extent of this one's
-    line) and overlap by more than ``MIN_PIECE`` of it: pairs found by an STRtree of the
-    edges' boxes (grown by that tolerance), tested in numpy."""
+    along the edge, 0 at its start) that another present block covers, with the edges of
+    all ``polygons`` (counter-clockwise (k, 2) arrays); ``present``: which blocks count
+    (default: all)."""
     edges = _edges(polygons)
     present = np.ones(len(polygons), bool) if present is None else np.asarray(present, bool)
     extent = edges.extent
-    reach = TOUCH * extent
-    low = np.minimum(edges.start, edges.end) - reach
-    high = np.maximum(edges.start, edges.end) + reach
-    boxes = shapely.box(low[:, 0], low[:, 1], high[:, 0], high[:, 1])
-    this, that = shapely.STRtree(boxes).query(boxes)  # the boxes that meet: candidates
-    keep = (edges.block[this] != edges.block[that]) & present[edges.block[this]]
-    keep &= present[edges.block[that]]
-    this, that = this[keep], that[keep]
-    start, direction = edges.start[this], edges.end[this] - edges.start[this]
-    square = np.einsum("ij,ij->i", direction, direction)
-    length = np.sqrt(square)
-    ends = (edges.start[that], edges.end[that])
-    off = [np.abs(_cross(direction, end - start)) / length for end in ends]
-    along = [np.einsum("ij,ij->i", end - start, direction) / square for end in ends]
-    t0 = np.clip(np.minimum(*along), 0.0, 1.0)
-    t1 = np.clip(np.maximum(*along), 0.0, 1.0)
-    on_line = (off[0] <= reach) & (off[1] <= reach)
-    long = on_line & ((t1 - t0) * length > MIN_PIECE * extent)
-    return edges, this[long], edges.block[that][long], t0[long], t1[long]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The z component of a × b, row by row."""
-    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    rings = shapely.linearrings(edges.start, indices=edges.block)
+    grown = shapely.buffer(shapely.polygons(rings), TOUCH * extent, join_style="mitre")
+    lines = shapely.linestrings(np.stack([edges.start, edges.end], axis=1))
+    edge_at, other = shapely.STRtree(grown).query(lines, predicate="intersects")
+    keep = (other != edges.block[edge_at]) & present[other] & present[edges.block[edge_at]]
+    edge_at, other = edge_at[keep], other[keep]
+    parts, part_of = shapely.get_parts(
+        shapely.intersection(lines[edge_at], grown[other]), return_index=True
+    )
+    coords, coord_of = shapely.get_coordinates(parts, return_index=True)
+    pair = part_of[coord_of]
+    e = edge_at[pair]
+    direction = edges.end[e] - edges.start[e]
+    t = np.einsum("ij,ij->i", coords - edges.start[e], direction) / np.einsum(
+        "ij,ij->i", direction, direction
+    )
+    t0 = np.full(len(parts), np.inf)
+    t1 = np.full(len(parts), -np.inf)
+    np.minimum.at(t0, coord_of, np.clip(t, 0.0, 1.0))
+    np.maximum.at(t1, coord_of, np.clip(t, 0.0, 1.0))
+    edge_of_part = edge_at[part_of]
+    long = (t1 - t0) * edges.length[edge_of_part] > MIN_PIECE * extent
+    return edges, edge_of_part[long], other[part_of][long], t0[long], t1[long]
 
 
 def covered_pieces(polygons: Sequence[np.ndarray], present: np.ndarray | None = None):
