@@ -984,12 +984,15 @@ def _build_scene(
 
 def _check_restitution(chk: Checker, scene: Scene) -> None:
     """Refuse a joint's ``restitution`` (given, or drawn by ``[[ensemble.vary]]``) with the
-    augmented Lagrangian: its multiplier, once an impact's penetration passes the
+    augmented Lagrangian (the method the run will use: ``[analysis] accuracy`` may set
+    it): its multiplier, once an impact's penetration passes the
     tolerance, stiffens the contact beyond the penalty the dashpot is tuned to, and the
     rebound is not e (a block dropped 0.4 m at Δt = 1e-4 s rebounds at 0.43 for e = 0.3,
     0.64 for 0.8 and 0.77 for 1, and further from e at smaller Δt; the penalty method
     gives 0.285, 0.800 and 0.996)."""
-    if scene.contact.method != "augmented-lagrangian":
+    from dda.scene.presets import apply_preset  # the method the run will use
+
+    if apply_preset(scene).contact.method != "augmented-lagrangian":
         return
     keys = [f"joints.{name}.restitution" for name, joint in scene.joints.items()
             if joint.restitution is not None]  # fmt: skip

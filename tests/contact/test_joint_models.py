@@ -229,6 +229,10 @@ def test_restitution_with_the_augmented_lagrangian_is_refused():
     with pytest.raises(SceneError) as caught:
         dda.load_scene(raw)
     assert caught.value.key == "ensemble.vary[0].key"
+    fast = dropped(0.5, 1e-4, 0.1)  # the default method, which accuracy = "fast" makes penalty
+    del fast["contact"]["method"]
+    fast["analysis"]["accuracy"] = "fast"
+    assert dda.load_scene(fast).joints["default"].restitution == 0.5
 
 
 def test_the_damping_ratio_gives_the_coefficient_of_restitution():
