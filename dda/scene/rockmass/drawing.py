@@ -52,9 +52,10 @@ SHAPES = ("LINE", "LWPOLYLINE", "POLYLINE", "CIRCLE", "ARC", "ELLIPSE", "SPLINE"
 EXCAVATION_GROUP = "excavation"
 ARC_TOLERANCE = 1e-3  # default chord tolerance of curves, as a fraction of the drawing's size
 CLOSED = 1e-9  # of the drawing's size: a shape whose ends are this close is closed
-# an open joint line is drawn on by this many arc tolerances at both ends: one snapped to
-# a curve ends on the curve, which the rock's chords leave up to an arc tolerance away
-# (on the concave side it ended inside the rock, and cut nothing)
+# an open joint line's end within an arc tolerance of the rock's outline is drawn on by
+# this many arc tolerances: one snapped to a curve ends on the curve, which the rock's
+# chords leave up to an arc tolerance away (on the concave side it ended inside the
+# rock, and cut nothing)
 JOINT_REACH = 2.0
 # $INSUNITS codes -> (name, metres); 0 is "unitless": read in the scene's unit
 INSUNITS = {1: ("in", 0.0254), 2: ("ft", 0.3048), 3: ("mi", 1609.344), 4: ("mm", 1e-3),
@@ -340,7 +341,8 @@ def _rock_mass(
             regions.append(region)
     out["regions"] = regions
     _check_joint_names(chk, table, layers, raw)
-    drawn = _joint_lines(chk, table, layers, shapes, JOINT_REACH * tolerance)
+    outline = shapely.union_all([shapely.boundary(_polygon(s, path)) for s in rock + fixed + holes])
+    drawn = _joint_lines(chk, table, layers, shapes, outline, tolerance)
     out["joint_lines"] = [*_list(raw, "joint_lines"), *drawn]
     if fixed:
         out["fix"] = [*_list(raw, "fix"), *({"inside": s.points.tolist()} for s in fixed)]
@@ -398,11 +400,17 @@ def _ring(ring: Any) -> list[list[float]]:
 
 
 def _joint_lines(
-    chk: Checker, table: Mapping, layers: dict, shapes: list[Shape], reach: float
+    chk: Checker,
+    table: Mapping,
+    layers: dict,
+    shapes: list[Shape],
+    outline: Any,
+    tolerance: float,
 ) -> list[dict]:
     """A ``[[joint_lines]]`` entry per shape on a joints layer (a closed one back to its
-    start, an open one drawn on by ``reach`` at both ends: :data:`JOINT_REACH`); its joint:
-    the table's ``joint``, or the joint a joints table maps its layer to."""
+    start; an open one's ends within ``tolerance`` of the rock's ``outline`` drawn on by
+    :data:`JOINT_REACH` tolerances); its joint: the table's ``joint``, or the joint a joints
+    table maps its layer to."""
     joints = layers["joints"]
     if isinstance(joints, Mapping):
         names = dict(joints)
@@ -415,7 +423,7 @@ def _joint_lines(
             continue
         if shape.layer in names:
             points = (
-                _drawn_on(shape.points, reach)
+                _drawn_on(shape.points, outline, tolerance)
                 if not shape.closed
                 else np.vstack([shape.points, shape.points[:1]])
             )
@@ -442,15 +450,18 @@ def _check_joint_names(chk: Checker, table: Mapping, layers: dict, raw: Mapping)
             chk.fail(key, f"unknown joint {joint!r}: {suggest(str(joint), list(defined))}")
 
 
-def _drawn_on(points: np.ndarray, reach: float) -> np.ndarray:
-    """``points`` with their first and last point moved on by ``reach`` along the end
-    segments."""
+def _drawn_on(points: np.ndarray, outline: Any, tolerance: float) -> np.ndarray:
+    """``points`` with each end that lies within ``tolerance`` of ``outline`` (on a curved
+    boundary, the rock's chords are up to that far) moved on by :data:`JOINT_REACH`
+    tolerances along its end segment: it then crosses the chord. An end farther from the
+    outline (a joint that stops short of it, by design) stays."""
     out = np.array(points, float)
     for end, inner in ((0, 1), (-1, -2)):
         step = out[end] - out[inner]
         length = float(np.hypot(*step))
-        if length > 0.0:
-            out[end] = out[end] + reach * step / length
+        near = shapely.distance(shapely.Point(out[end]), outline) <= tolerance
+        if length > 0.0 and near:
+            out[end] = out[end] + JOINT_REACH * tolerance * step / length
     return out
 
 

@@ -346,7 +346,9 @@ def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path):
     """The top of a slab drawn as an arc sagging 3 m (a bulge), a joint from the base to a
     point on the true arc (CAD's 'nearest' snap): the rock's chords leave the arc by up
     to the arc tolerance, on this concave side inside the rock, where the joint ended and
-    cut nothing (1 block); drawn on by two arc tolerances it cuts (2 blocks)."""
+    cut nothing (1 block); drawn on by two arc tolerances it cuts (2 blocks). A joint that
+    stops 0.5 m short of the top (by design: more than the 0.08 m arc tolerance) stays
+    short and cuts nothing."""
     import ezdxf
 
     document = ezdxf.new("R2010")
@@ -357,6 +359,7 @@ def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path):
     radius = (chord * chord / 4.0 + sagitta * sagitta) / (2.0 * sagitta)
     y = 7.0 + radius - math.sqrt(radius * radius - (4.0 - 10.0) ** 2)  # the arc at x = 4
     space.add_line((4.0, 0.0), (4.0, y), dxfattribs={"layer": "JOINTS"})
+    space.add_line((60.0, 0.0), (60.0, 39.5), dxfattribs={"layer": "JOINTS"})  # stops short
     document.saveas(tmp_path / "cad.dxf")
     scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\n', fix='sides = ["right"]'))
     assert len(scene.blocks) == 2
