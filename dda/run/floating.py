@@ -76,7 +76,8 @@ def unbalanced_warning(
     """(the sentence, the net force) when nothing fixed holds a model meant to stand
     (:func:`meant_to_stand`) and its loads do not balance (beyond :data:`UNBALANCED`),
     unless the net force is the one ``said`` already; else None. ``when``: "at the start",
-    "after stages[k]"; ``remaining``: the run's time left (s), for the drift."""
+    "after stages[k]"; ``remaining``: the run's time left (s), for the drift: ½ a t² in a
+    dynamic run, ½ a Δt t in a static one (½ a Δt² a step, each from rest)."""
     if not meant_to_stand(model, blocks, ctx):
         return None
     net, scale = net_load(model, blocks, ctx)
@@ -89,8 +90,9 @@ def unbalanced_warning(
     acceleration = force / mass
     units = model.scene.units
     drift = ""
-    if np.isfinite(remaining) and remaining > 0.0:
-        drift = f" ({0.5 * acceleration * remaining**2:.3g} {units.length} by the run's end)"
+    if np.isfinite(remaining) and remaining > 0.0:  # a static run starts each step at rest
+        moved = 0.5 * acceleration * (ctx.dt if ctx.static else remaining) * remaining
+        drift = f" ({moved:.3g} {units.length} by the run's end)"
     if boundary_loaded(model, ctx):
         why = (
             "Boundary stresses are dead loads: they do not follow what a stage removes (the "

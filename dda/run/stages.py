@@ -41,8 +41,10 @@ def apply_due_stages(run) -> None:
     """Apply every stage whose time the run has reached (``run``: dda.run.simulation's run)."""
     plan = run.model.stages
     tolerance = TIME_TOLERANCE * run.model.max_time_step
+    applied = []
     while run.stages_done < len(plan.times) and run.time >= plan.times[run.stages_done] - tolerance:
         k = run.stages_done
+        applied.append(k)
         if len(plan.removed[k]):
             _remove(run, plan.removed[k])
         if len(plan.bolts[k]):
@@ -50,8 +52,10 @@ def apply_due_stages(run) -> None:
         run.stages_done += 1
         if not np.isnan(plan.strength_factors[k]):
             set_strengths(run)
-        note_unbalanced(run, f"after stages[{k}] (t = {run.shown_time:.6g} s)")
         log.info("stage %d applied at t = %.6g", k + 1, run.time)
+    if applied:  # once all of this step's stages are in (each may add or take loads)
+        names = ", ".join(f"stages[{k}]" for k in applied)
+        note_unbalanced(run, f"after {names} (t = {run.shown_time:.6g} s)")
 
 
 def set_strengths(run) -> None:

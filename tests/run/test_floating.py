@@ -92,3 +92,18 @@ def test_a_section_in_its_field_that_nothing_holds_is_said_at_the_start():
     times = np.array([f.time for f in result.frames])
     fall = np.array([f.centroids[:, 1].mean() for f in result.frames]) - 1.5
     assert fall[1:] == pytest.approx(-0.5 * G * times[1:] ** 2, rel=1e-6)
+
+
+def test_a_static_run_that_nothing_holds_drifts_half_a_dt_t():
+    """In a static analysis every step starts at rest, so the section's weight moves it by
+    ½ g Δt² a step: ½ g Δt T by the end, as the warning says (½ g T² there would be 50
+    times too much)."""
+    raw = section(base=False)
+    del raw["stages"], raw["boundary_stresses"]
+    raw["analysis"].update(mode="static", duration=0.05)
+    result = dda.simulate(dda.load_scene(raw))
+    expected = 0.5 * G * 1e-3 * 0.05
+    (said,) = [text for text in result.summary["warnings"] if "nothing fixed holds" in text]
+    assert f"({expected:.3g} m by the run's end)" in said
+    fall = result.frames[0].centroids[:, 1].mean() - result.final.centroids[:, 1].mean()
+    assert fall == pytest.approx(expected, rel=1e-3)
