@@ -28,6 +28,8 @@ field changed at the floor corner of a horseshoe section's core).
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from dda.blocks import BlockSet
@@ -37,6 +39,8 @@ from dda.geometry import unpack_polygons
 from dda.result import OPEN
 from dda.scene.edge_cover import EdgePieces, covered_pieces
 from dda.scene.in_situ import StressField
+
+log = logging.getLogger(__name__)
 
 
 def joint_pieces(blocks: BlockSet) -> EdgePieces:
@@ -96,6 +100,9 @@ def carry_stress(blocks: BlockSet, contacts: ContactSet, field: StressField) -> 
     touching = contacts.state != OPEN
     holder = nearest_contact(contacts, rows.points, touching, ends, keys, blocks.count)
     held = holder >= 0
+    if not held.all():  # a covered stretch whose blocks have no touching contact
+        log.info("in-situ stress: %d joint piece end(s) without a touching contact of their "
+                 "two blocks carry nothing", int((~held).sum()))  # fmt: skip
     sign = np.where(contacts.block_b[holder[held]] == on[held], 1.0, -1.0)  # on the edge block
     total = np.zeros((len(contacts), 2))
     np.add.at(total, holder[held], sign[:, None] * forces[held])

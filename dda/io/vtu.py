@@ -238,7 +238,8 @@ def _read_bolts(path: str | os.PathLike[str] | None) -> dict:
     mesh = _read_vtu(path)
     kept = [k for k, block in enumerate(mesh.cells) if block.type == "line"]
     if not kept:
-        return {"bolts": np.zeros((0, 2, 2)), "bolt_tensions": np.zeros(0)}
+        tensions = np.zeros(0) if "tension" in mesh.cell_data else None
+        return {"bolts": np.zeros((0, 2, 2)), "bolt_tensions": tensions}
     lines = np.concatenate([mesh.cells[k].data for k in kept])
     order = np.argsort(np.concatenate([mesh.cell_data["bolt"][k] for k in kept]), kind="stable")
     tensions = None
