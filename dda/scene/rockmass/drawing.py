@@ -18,7 +18,8 @@ A shape is a LINE, LWPOLYLINE or POLYLINE (arcs of bulges included), CIRCLE, ARC
 SPLINE; curves are drawn as chords within ``arc_tolerance``. Coordinates are multiplied by
 ``scale``. Refused, in one line naming the scene file and its ``drawing.file`` key, then the
 DXF file, the layer and the entity (its DXF handle): a file ezdxf cannot read, an open
-shape where a closed one is needed, a layer the table names that the drawing does not
+shape where a closed one is needed (open shapes that close a ring end to end, an exploded
+polyline, are that ring), a layer the table names that the drawing does not
 have, a drawing whose units (``$INSUNITS``) are not the scene's length unit (unless
 ``scale`` says how to read them; ``metre``, ``feet`` and the like are read as ``m``,
 ``ft``), an entity of another kind on a mapped layer, a material or joint that the scene
@@ -355,18 +356,44 @@ def _rock_mass(
 
 
 def _closed(shapes: list[Shape], layer: str, path: Path) -> list[Shape]:
-    """The shapes of ``layer``, each closed (an open one is refused)."""
+    """The shapes of ``layer``, each closed: its closed shapes, and the rings that its open
+    ones close end to end (an exploded polyline: LINEs and ARCs, :func:`_rings`); an open
+    shape that closes no ring is refused."""
     found = [s for s in shapes if s.layer == layer]
-    for shape in found:
-        if not shape.closed:
-            (x0, y0), (x1, y1) = shape.points[0], shape.points[-1]
-            raise SceneError(
-                str(path),
-                f"layer {layer}",
-                f"{shape.what} is open (from ({x0:.6g}, {y0:.6g}) to ({x1:.6g}, {y1:.6g})): "
-                "a block or an excavation is a closed polyline",
-            )
-    return found
+    rings, left = _rings([s for s in found if not s.closed], layer)
+    for shape in left:
+        (x0, y0), (x1, y1) = shape.points[0], shape.points[-1]
+        raise SceneError(
+            str(path),
+            f"layer {layer}",
+            f"{shape.what} is open (from ({x0:.6g}, {y0:.6g}) to ({x1:.6g}, {y1:.6g})) and "
+            "closes no ring with the layer's other open shapes: a block or an excavation "
+            "is a closed polyline",
+        )
+    return [s for s in found if s.closed] + rings
+
+
+def _rings(shapes: list[Shape], layer: str) -> tuple[list[Shape], list[Shape]]:
+    """(the closed rings that ``shapes``, all open, make end to end, each named by its
+    pieces; the shapes no ring takes). Ends within :data:`CLOSED` of the shapes' extent
+    meet (their coordinates put on a grid that fine, then ``shapely.polygonize``)."""
+    if not shapes:
+        return [], []
+    points = np.concatenate([s.points for s in shapes])
+    grid = CLOSED * float(np.ptp(points, axis=0).max() or 1.0)
+    lines = shapely.set_precision(
+        np.array([shapely.LineString(s.points) for s in shapes], dtype=object), grid
+    )
+    polygons = shapely.get_parts(shapely.polygonize(lines))
+    rings, used = [], np.zeros(len(shapes), bool)
+    for polygon in polygons:
+        edge = polygon.exterior
+        pieces = np.flatnonzero(shapely.distance(lines, edge) <= grid)
+        pieces = pieces[[shapely.covered_by(lines[k], edge.buffer(grid)) for k in pieces]]
+        used[pieces] = True
+        what = " + ".join(shapes[k].what for k in pieces)
+        rings.append(Shape(layer, what, np.asarray(edge.coords)[:-1], True))
+    return rings, [s for s, taken in zip(shapes, used, strict=True) if not taken]
 
 
 def _polygon(shape: Shape, path: Path) -> shapely.Polygon:

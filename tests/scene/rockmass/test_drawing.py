@@ -169,7 +169,8 @@ def _overlapping(path: Path) -> None:
     [
         (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=False), {},
          "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 30) is open "
-         "(from (0, 0) to (0, 10)): a block or an excavation is a closed polyline"),
+         "(from (0, 0) to (0, 10)) and closes no ring with the layer's other open shapes: a "
+         "block or an excavation is a closed polyline"),
         (lambda p: drawings.drawing_with(p, "ROCK", SQUARE, closed=True), {},
          "scene.toml: drawing.blocks: no layer 'BLOCKS' in the drawing {dxf} (its layers: 0, "
          "Defpoints, ROCK)"),
@@ -363,3 +364,24 @@ def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path):
     document.saveas(tmp_path / "cad.dxf")
     scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\n', fix='sides = ["right"]'))
     assert len(scene.blocks) == 2
+
+
+def test_an_exploded_outline_is_read_as_the_shape_it_closes(tmp_path):
+    """The slab's outline as CAD explodes a polyline: separate LINEs and an ARC end to
+    end (one LINE's end 1e-10 m off), on the blocks layer; read as the closed shape they
+    make (it was refused as an open LINE), named by its pieces."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    blocks = {"layer": "BLOCKS"}
+    space.add_line((0.0, 0.0), (10.0, 0.0), dxfattribs=blocks)
+    space.add_line((10.0, 0.0), (10.0, 10.0 + 1e-10), dxfattribs=blocks)
+    space.add_arc((5.0, 10.0), 5.0, 0.0, 180.0, dxfattribs=blocks)  # the top: a half circle
+    space.add_line((0.0, 10.0), (0.0, 0.0), dxfattribs=blocks)
+    space.add_line((-1.0, 5.0), (11.0, 5.0), dxfattribs={"layer": "JOINTS"})
+    document.saveas(tmp_path / "cad.dxf")
+    scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\n', fix='sides = ["bottom"]'))
+    areas = sorted(shapely.Polygon(b.vertices).area for b in scene.blocks)
+    assert len(areas) == 2 and areas[0] == pytest.approx(50.0)
+    assert sum(areas) == pytest.approx(100.0 + math.pi * 25.0 / 2.0, rel=1e-3)  # chords
