@@ -89,6 +89,10 @@ class BlockSet:
         """(n,) current density over the material's: mass_area / area."""
         return self.mass_area / self.area
 
+    def masses(self, material_density: np.ndarray) -> np.ndarray:
+        """(n,) m_i = ρ_i mass_area_i, ρ the density of each block's material."""
+        return material_density[self.material] * self.mass_area
+
     @property
     def count(self) -> int:
         return len(self.names)

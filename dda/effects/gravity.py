@@ -20,11 +20,11 @@ class Gravity(Effect):
 
     def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray:
         f = np.zeros((blocks.count, 6))
-        mass = self.material_density[blocks.material] * blocks.mass_area
+        mass = blocks.masses(self.material_density)
         f[:, 0:2] = mass[:, None] * self.gravity[None, :]
         return f
 
     def potential_energy(self, blocks: BlockSet) -> float:
         """-Σ m g·x_c (zero at the origin)."""
-        mass = self.material_density[blocks.material] * blocks.mass_area
+        mass = blocks.masses(self.material_density)
         return float(-np.sum(mass * (blocks.centroid @ self.gravity)))

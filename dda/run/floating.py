@@ -86,7 +86,7 @@ def unbalanced_warning(
         return None
     if float(np.hypot(*(net - np.asarray(said)))) <= UNBALANCED * scale:
         return None  # said already, at the start or after an earlier stage
-    mass = float((model.material_density[blocks.material] * blocks.mass_area).sum())
+    mass = float(blocks.masses(model.material_density).sum())
     acceleration = force / mass
     units = model.scene.units
     drift = ""

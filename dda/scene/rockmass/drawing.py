@@ -388,8 +388,7 @@ def _rings(shapes: list[Shape], layer: str) -> tuple[list[Shape], list[Shape]]:
     rings, used = [], np.zeros(len(shapes), bool)
     for polygon in polygons:
         edge = polygon.exterior
-        pieces = np.flatnonzero(shapely.distance(lines, edge) <= grid)
-        pieces = pieces[[shapely.covered_by(lines[k], edge.buffer(grid)) for k in pieces]]
+        pieces = np.flatnonzero(shapely.covered_by(lines, shapely.buffer(edge, grid)))
         used[pieces] = True
         what = " + ".join(shapes[k].what for k in pieces)
         rings.append(Shape(layer, what, np.asarray(edge.coords)[:-1], True))
@@ -436,43 +435,45 @@ def _joint_lines(
 ) -> list[dict]:
     """A ``[[joint_lines]]`` entry per shape on a joints layer (a closed one back to its
     start; an open one's ends within ``tolerance`` of the rock's ``outline`` drawn on by
-    :data:`JOINT_REACH` tolerances); its joint: the table's ``joint``, or the joint a joints
-    table maps its layer to."""
-    joints = layers["joints"]
-    if isinstance(joints, Mapping):
-        names = dict(joints)
-    else:
-        names = {joints: chk.text(table.get("joint", ""), "drawing.joint")}
+    :data:`JOINT_REACH` tolerances); its joint: :func:`_layer_joints`."""
+    joints = _layer_joints(chk, table, layers)
     lines = []
     for shape in shapes:
-        if shape.layer in names and len(shape.points) < 2:  # a CAD leftover: a point
+        if shape.layer not in joints:
+            continue
+        if len(shape.points) < 2:  # a CAD leftover: a point
             log.warning("layer %s: %s has no length: left out", shape.layer, shape.what)
             continue
-        if shape.layer in names:
-            points = (
-                _drawn_on(shape.points, outline, tolerance)
-                if not shape.closed
-                else np.vstack([shape.points, shape.points[:1]])
-            )
-            entry = {"points": points.tolist(), "name": shape.layer}
-            if names[shape.layer]:
-                entry["joint"] = names[shape.layer]
-            lines.append(entry)
+        points = (
+            _drawn_on(shape.points, outline, tolerance)
+            if not shape.closed
+            else np.vstack([shape.points, shape.points[:1]])
+        )
+        entry = {"points": points.tolist(), "name": shape.layer}
+        joint = joints[shape.layer][1]
+        if joint:
+            entry["joint"] = joint
+        lines.append(entry)
     return lines
 
 
+def _layer_joints(chk: Checker, table: Mapping, layers: dict) -> dict[str, tuple[str, str]]:
+    """Joints layer -> (the ``[drawing]`` key that names its joint, the joint its lines
+    take: the table's ``joint``, or the joint a joints table maps the layer to; "" for the
+    default)."""
+    joints = layers["joints"]
+    if isinstance(joints, Mapping):
+        return {layer: (f"drawing.joints.{layer}", joint) for layer, joint in joints.items()}
+    return {joints: ("drawing.joint", chk.text(table.get("joint", ""), "drawing.joint"))}
+
+
 def _check_joint_names(chk: Checker, table: Mapping, layers: dict, raw: Mapping) -> None:
-    """Refuse a joint the drawing's lines would name (``drawing.joint``, or a joints
-    table's ``drawing.joints.LAYER``) that ``[joints]`` does not define, under its own key."""
+    """Refuse a joint the drawing's lines would name (:func:`_layer_joints`) that
+    ``[joints]`` does not define, under its own key."""
     defined = raw.get("joints", {})
     if not isinstance(defined, Mapping):
         return  # checked with the scene
-    joints = layers["joints"]
-    if isinstance(joints, Mapping):
-        named = {f"drawing.joints.{layer}": joint for layer, joint in joints.items()}
-    else:
-        named = {"drawing.joint": table.get("joint", "")} if table.get("joint") else {}
-    for key, joint in named.items():
+    for key, joint in _layer_joints(chk, table, layers).values():
         if joint and joint != "default" and joint not in defined:
             chk.fail(key, f"unknown joint {joint!r}: {suggest(str(joint), list(defined))}")
 
