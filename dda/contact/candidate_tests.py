@@ -109,6 +109,15 @@ def inside_corner(depth, other_depth, inside_depth):
 
 
 @formula
+def nested_in_corner(corner_reflex, vertex_reflex):
+    """A convex vertex at a reflex corner of the other block: it is held by both of the
+    corner's edges (it is inside once it is behind either line), so it is paired with
+    both. Paired with one, it entered the block through the other within a step
+    (a wedge nested in a horseshoe's floor corner: 7.8 mm at every other step)."""
+    return corner_reflex & np.logical_not(vertex_reflex)
+
+
+@formula
 def off_edge(along, length, slack):
     """P1 projects beyond the edge's ends by more than ``slack`` (m)."""
     return np.maximum(-along, along - 1.0) * length > slack

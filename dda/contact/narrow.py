@@ -15,9 +15,10 @@ when P1 lies on the inner side of the edge.
   radii, each at most ``VERTEX_RADIUS_FRACTION`` of the shortest edge at the
   vertex (a search distance larger than a small block's edges must not pair
   vertices across the block); the V-E test excludes the same zones. One
-  contact per pair: of the four edges meeting at P1 and P2, take the one
-  that best separates the opposite vertex's fan of edges (largest min over
-  the fan of u·n_out): the edge the vertex will enter.
+  contact per pair (but for a nested corner, below): of the four edges
+  meeting at P1 and P2, take the one that best separates the opposite
+  vertex's fan of edges (largest min over the fan of u·n_out): the edge the
+  vertex will enter.
   Scores within ``ANGLE_TIE`` of the best are a tie, broken by last step's
   pairing (within the contact tolerance in depth), else by position: the
   edge whose line the vertex lies furthest outside of (least penetration).
@@ -25,6 +26,9 @@ when P1 lies on the inner side of the edge.
   behind the line of (beyond its ends, or much deeper than behind the
   corner's other edge), and the vertex that touches when the other one is
   inside the block by more than the contact tolerance.
+  A convex vertex at a reflex corner of the other block (nested in it) is
+  paired with both of the corner's edges: it is inside once it is behind
+  either line, and with one pairing it entered through the other within a step.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ from dda.contact.candidate_tests import (
     fan_separation,
     inside_corner,
     line_depth,
+    nested_in_corner,
     off_edge,
     projects_inside,
     within_reach,
@@ -505,7 +510,15 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     verts = np.column_stack([c[0] for c in candidates])
     edges = np.column_stack([c[1] for c in candidates])
     rows = np.arange(len(p1))
-    return verts[rows, best], edges[rows, best]
+    # a convex vertex nested in a reflex corner is paired with the corner's other edge too
+    group = best - best % 2
+    corner, entering = np.where(group == 0, p2, p1), np.where(group == 0, p1, p2)
+    nested = nested_in_corner(fans.reflex[corner], fans.reflex[entering])
+    other = (group + 1 - best % 2)[nested]
+    return (
+        np.concatenate([verts[rows, best], verts[rows[nested], other]]),
+        np.concatenate([edges[rows, best], edges[rows[nested], other]]),
+    )
 
 
 def _shares_line(outward, prv, vertex, other_edge):
@@ -530,8 +543,11 @@ def _resolve(
 ):
     """Compiled :func:`_resolve_vertex_vertex` (the same rules, candidate by candidate)."""
     k = p1.shape[0]
-    out_v = np.empty(k, np.int64)
-    out_e = np.empty(k, np.int64)
+    out_v = np.empty(2 * k, np.int64)  # one pairing each, then the nested corners' second
+    out_e = np.empty(2 * k, np.int64)
+    second_v = np.empty(k, np.int64)
+    second_e = np.empty(k, np.int64)
+    seconds = 0
     verts = np.empty(4, np.int64)
     edges = np.empty(4, np.int64)
     score = np.empty(4)
@@ -614,7 +630,15 @@ def _resolve(
             if reflex[corner] and max(depth[first], depth[first + 1]) > 0.0:
                 best = first if depth[first] >= depth[first + 1] else first + 1
         out_v[i], out_e[i] = verts[best], edges[best]
-    return out_v, out_e
+        group = best - best % 2
+        corner, entering = (b, a) if group == 0 else (a, b)
+        if nested_in_corner(reflex[corner], reflex[entering]):
+            other = group + 1 - best % 2
+            second_v[seconds], second_e[seconds] = verts[other], edges[other]
+            seconds += 1
+    for s in range(seconds):  # a loop, not slices (dda.jit's docstring)
+        out_v[k + s], out_e[k + s] = second_v[s], second_e[s]
+    return out_v[: k + seconds], out_e[: k + seconds]
 
 
 _resolve_kernel = kernel(_resolve)

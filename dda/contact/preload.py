@@ -7,7 +7,8 @@ that edge's outward normal, σ(y) the field), linear along AB, and the end force
 its work against Shi's linear displacement fields are f_A = L (t(A)/3 + t(B)/6) and
 f_B = L (t(A)/6 + t(B)/3) (:meth:`dda.scene.in_situ.StressField.segment_forces`). A
 piece's ends are vertices of i or j, where the two blocks' touching contact stands (one
-a point: a vertex–vertex pair is resolved to one contact): each contact takes the end
+a point: a vertex–vertex pair is resolved to one contact, but for a nested corner,
+below): each contact takes the end
 forces of the pieces of its pair that end at its point, and a vertex where the joint
 bends (a polygonal opening's) takes those of the pieces on both sides. With f the sum,
 the force on the contact's edge block, its normal force is N = −n_c·f (compression
@@ -20,10 +21,9 @@ when the field is in equilibrium with the loads.
 
 A contact at a corner that touches an edge at a point ends no piece: it carries nothing
 at first, and the equilibrium start loads it. A block's corner that sits in a concave
-corner of its neighbour is one contact, on one of the two edges there: it takes both
-pieces' end forces, and the share of the other edge's normal force becomes shear along
-its own, which friction may not hold (the start then loads it as it can: 18 % of the
-field changed at the floor corner of a horseshoe section's core).
+corner of its neighbour is two contacts at one point, one on each edge there
+(:mod:`dda.contact.narrow`): each takes the end forces of the pieces along its own edge
+(of the contacts at a piece's end, the one whose edge lies along the piece).
 """
 
 from __future__ import annotations
@@ -42,6 +42,9 @@ from dda.scene.in_situ import StressField
 
 log = logging.getLogger(__name__)
 
+# contacts this close to one another, relative to the coordinates' size, stand at one point
+AT_ONE_POINT = 1e-9
+
 
 def joint_pieces(blocks: BlockSet) -> EdgePieces:
     """Each stretch of joint once: the covered pieces of the blocks' edges whose block is
@@ -58,14 +61,18 @@ def pair_key(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
 def nearest_contact(
     contacts: ContactSet,
     contact_points: np.ndarray,
+    contact_normals: np.ndarray,
     usable: np.ndarray,
     points: np.ndarray,
+    normals: np.ndarray,
     keys: np.ndarray,
     count: int,
 ) -> np.ndarray:
     """For each of ``points``, of the block pair ``keys`` (:func:`pair_key`), the
     ``usable`` contact of that pair whose point P1 (``contact_points``) is nearest; -1
-    where the pair has none."""
+    where the pair has none. Of contacts at one point (a corner nested in a reflex
+    corner: one per edge there), the one whose edge (``contact_normals``) lies along
+    the piece (``normals``): |n_c · n| largest."""
     best = np.full(len(keys), -1)
     own = np.flatnonzero(usable)
     if not len(own):
@@ -75,14 +82,20 @@ def nearest_contact(
     own, own_keys = own[order], own_keys[order]
     lo = np.searchsorted(own_keys, keys, "left")
     hi = np.searchsorted(own_keys, keys, "right")
+    tie = AT_ONE_POINT * max(1.0, float(np.abs(points).max(initial=0.0)))
     best_distance = np.full(len(keys), np.inf)
+    best_alignment = np.full(len(keys), -np.inf)
     for offset in range(int((hi - lo).max(initial=0))):  # a pair's few contacts, not the points
         at = lo + offset
         candidate = own[np.minimum(at, len(own) - 1)]
         distance = np.linalg.norm(contact_points[candidate] - points, axis=1)
-        better = (at < hi) & (distance < best_distance)
+        alignment = np.abs(np.einsum("ij,ij->i", contact_normals[candidate], normals))
+        nearer = distance < best_distance - tie
+        aligned = (np.abs(distance - best_distance) <= tie) & (alignment > best_alignment)
+        better = (at < hi) & (nearer | aligned)
         best = np.where(better, candidate, best)
-        best_distance = np.where(better, distance, best_distance)
+        best_distance = np.where(better, np.minimum(distance, best_distance), best_distance)
+        best_alignment = np.where(better, alignment, best_alignment)
     return best
 
 
@@ -98,7 +111,10 @@ def carry_stress(blocks: BlockSet, contacts: ContactSet, field: StressField) -> 
     on = np.concatenate([pieces.block, pieces.block])
     keys = pair_key(on, np.concatenate([pieces.other, pieces.other]), blocks.count)
     touching = contacts.state != OPEN
-    holder = nearest_contact(contacts, rows.points, touching, ends, keys, blocks.count)
+    normals = np.concatenate([pieces.normal, pieces.normal])
+    holder = nearest_contact(
+        contacts, rows.points, rows.normals, touching, ends, normals, keys, blocks.count
+    )
     held = holder >= 0
     if not held.all():  # a covered stretch whose blocks have no touching contact
         log.info("in-situ stress: %d joint piece end(s) without a touching contact of their "

@@ -515,3 +515,27 @@ def test_a_vertex_inside_a_sliver_is_in_contact_with_the_edge_it_entered(monkeyp
     found = detect(blocks, np.array([[0, 1]]), c.search_distance, c.vertex_radius)
     tip = found.vertex == 0
     assert sorted(found.edge[tip].tolist()) == [3]  # the bottom edge, (0, 0)-(10, 0)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_corner_nested_in_a_reflex_corner_pairs_with_both_edges(monkeypatch, compiled):
+    """A unit square in the inner corner of an L: its corner at the L's reflex corner is
+    in contact with both of the corner's edges (the floor's and the wall's), the
+    square's other corners with the face each lies on, and the L's corner with neither
+    of the square's edges (a reflex vertex enters no edge)."""
+    if not compiled:
+        monkeypatch.setattr(narrow, "_detect_kernel", None)
+        monkeypatch.setattr(narrow, "_screen_kernel", None)
+    ell = [(-1.0, -1.0), (3.0, -1.0), (3.0, 0.0), (0.0, 0.0), (0.0, 3.0), (-1.0, 3.0)]
+    raw = scene([block("L", ell, fixed=True), block("square", rectangle(0.0, 0.0, 1.0, 1.0))])
+    model = build(dda.load_scene(raw))
+    blocks = model.blocks
+    c = model.contact
+    found = detect(blocks, np.array([[0, 1]]), c.search_distance, c.vertex_radius)
+    ell_at = blocks.offsets[0]
+    corner = blocks.offsets[1]  # the square's (0, 0)
+    pairs = {(int(v), int(e)) for v, e in zip(found.vertex, found.edge, strict=True)}
+    floor, wall = ell_at + 2, ell_at + 3  # edges (3, 0)->(0, 0) and (0, 0)->(0, 3)
+    assert {(corner, floor), (corner, wall)} <= pairs
+    assert (corner + 1, floor) in pairs and (corner + 3, wall) in pairs
+    assert len(pairs) == 4

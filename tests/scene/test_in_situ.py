@@ -350,3 +350,23 @@ def test_a_joint_that_bends_at_vertices_carries_the_field(start):
     result = dda.simulate(dda.load_scene(scene(arch("ring"), start=start, **sections)))
     assert np.abs(result.final.stresses[:2] - FIELD).max() <= 1e-6 * 2.0e6
     assert np.abs(result.final.displacements[:2]).max() <= 1e-12
+
+
+@pytest.mark.parametrize("start", ["equilibrium", "unloaded"])
+def test_a_corner_nested_in_a_reflex_corner_carries_the_field(start):
+    """A 2 x 2 square in a fixed ring, cut into an L and the unit square in its inner
+    corner: the square's corner at the L's reflex corner is two contacts, one per edge
+    there, and each takes the end forces of the pieces along its own edge. Both blocks
+    keep σ to 1e-6, nothing moves beyond round-off, with a friction angle of 20°
+    (|T|/N = 0.15 and 0.3 on the two contacts, below tan 20° = 0.36). With one contact
+    there, it took both edges' forces and the other edge's normal force became shear
+    along its own (|T|/N = 0.41): it slipped."""
+    ell = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]
+    blocks = [
+        {"name": "ell", "material": "rock", "vertices": ell},
+        {"name": "square", "material": "rock", "vertices": square(1, 1, 2, 2)},
+    ]
+    sections = {"in_situ": {"stress": list(FIELD)}, "joints": {"default": {"friction_angle": 20.0}}}
+    result = dda.simulate(dda.load_scene(scene(blocks + ring(2), start=start, **sections)))
+    assert np.abs(result.final.stresses[:2] - FIELD).max() <= 1e-6 * 2.0e6
+    assert np.abs(result.final.displacements[:2]).max() <= 1e-12

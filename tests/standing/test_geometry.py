@@ -94,3 +94,29 @@ def test_sliver_of_aspect_ratio_thousand(case):
     }[case]
     result = run_checked(scene(blocks, {"duration": 0.3}))
     assert result.final.centroids[1, 1] > 0.0  # the sliver is on the base, not through it
+
+
+# a fixed L whose inner (reflex) corner is at the origin: floor y ≤ 0, wall x ≤ 0
+ELL = [(-1.0, -1.0), (3.0, -1.0), (3.0, 0.0), (0.0, 0.0), (0.0, 3.0), (-1.0, 3.0)]
+
+
+@pytest.mark.parametrize("dt", [2e-3, 1e-4])
+def test_a_block_nested_in_a_reflex_corner_stands(dt):
+    """A unit square in the L's inner corner, pressed into both faces by gravity at
+    (-0.8, -0.6) g, frictionless: its corner at the L's corner is paired with both of
+    the corner's edges, so it stands where it is drawn (no motion beyond 1e-9 m, no
+    energy made). Paired with one edge, the corner entered the other face within a
+    step, the push-out threw it back, and the square turned 1.8e-3 rad in 0.3 s and
+    gained 99 J (1.13 times the energy that moved)."""
+    square = rectangle(0.0, 0.0, 1.0, 1.0)
+    gravity = [-0.8 * 9.81, -0.6 * 9.81]
+    raw = scene(
+        [block("L", ELL, fixed=True), block("square", square)],
+        {"gravity": gravity, "time_step": dt, "duration": 0.3 if dt > 1e-3 else 0.03},
+        friction=0.0,
+    )
+    result = run_checked(raw)
+    final = result.final
+    moved = np.abs(final.vertices[final.block("square")] - np.array(square)).max()
+    assert moved < 1e-9
+    assert result.summary["warnings"] == []
