@@ -124,12 +124,21 @@ def off_edge(along, length, slack):
 
 
 @formula
-def deeper_of_opposed(depth, other_depth, normal_dot):
+def deeper_of_opposed(depth, other_depth, normal_dot, nested):
     """Of one vertex's two contacts with edges of one block facing opposite ways
     (``normal_dot`` < 0), both behind their lines: True for the deeper one (it entered
-    a thin part of the block through the other edge)."""
+    a thin part of the block through the other edge). Not where the two edges meet at a
+    reflex corner of the block (``nested``, :func:`meet_at_reflex`): the vertex is
+    nested in a notch narrower than 90° and is held by both."""
     opposed = (normal_dot < 0.0) & (depth > 0.0) & (other_depth > 0.0)
-    return opposed & (depth > other_depth)
+    return opposed & (depth > other_depth) & np.logical_not(nested)
+
+
+@formula
+def meet_at_reflex(first, next_of_first, second, next_of_second, reflex_first, reflex_second):
+    """Edges ``first`` and ``second`` of one block (numbered by their start vertices) are
+    consecutive and the vertex they share is reflex."""
+    return ((next_of_first == second) & reflex_second) | ((next_of_second == first) & reflex_first)
 
 
 @formula
@@ -138,3 +147,23 @@ def edge_along(wx, wy, ex, ey):
     vertex-vertex resolution's measure; :func:`edge_parameter` divides by l² of the
     computed length, the screen's)."""
     return (wx * ex + wy * ey) / (ex * ex + ey * ey)
+
+
+@formula
+def geometrically_sound(far, penetration, boundary, to_block, tolerance, slack):
+    """False for a pairing that only the edge's extended line makes look like a contact.
+
+    * A vertex behind the edge's line must be about as near the edge (``far``) as it is
+      to the edge block's whole boundary (``boundary``, within ``slack``): a vertex lying
+      on one edge of a block (a T-junction, a corner) is not also "behind" another edge
+      of that block. In front of the line (``penetration`` ≤ 0) it is a gap the vertex
+      may close, however near another edge is: a corner sliding along a floor into a
+      reflex corner faces the wall there (with the test, its contact with the wall was
+      dropped while it was more than ``slack`` away, and at 6 mm a step it crossed the
+      wall by 2.9 mm).
+    * A vertex that penetrates more than ``tolerance`` must lie inside the block
+      (``to_block`` within ``slack``).
+    """
+    near_enough = (far <= boundary + slack) | (penetration <= 0.0)
+    inside = (penetration <= tolerance) | (to_block <= slack)
+    return near_enough & inside

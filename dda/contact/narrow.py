@@ -50,6 +50,7 @@ from dda.contact.candidate_tests import (
     fan_separation,
     inside_corner,
     line_depth,
+    meet_at_reflex,
     nested_in_corner,
     off_edge,
     projects_inside,
@@ -277,7 +278,7 @@ def _detect(
     edge = np.concatenate((ve_e, vv_e))
     kind = np.zeros(vertex.shape[0], np.bool_)
     kind[ve_v.shape[0] :] = True
-    keep = _pairings_kernel(vertex, edge, v, owner, outward, blocks_count)
+    keep = _pairings_kernel(vertex, edge, v, nxt, reflex, owner, outward, blocks_count)
     return vertex[keep], edge[keep], kind[keep]
 
 
@@ -757,7 +758,9 @@ def _opposed_deeper(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge
     the vertex being behind both edges' lines: it is inside a thin part of that
     block, a wedge near its tip or a sliver, and entered it through the shallower
     edge. (In a notch, where two edges also face each other, a vertex touching one
-    wall is in front of the other's line: both contacts stay.)
+    wall is in front of the other's line: both contacts stay; and a vertex nested in a
+    notch narrower than 90°, behind both walls' lines where they meet at the notch's
+    reflex corner, is held by both: they stay.)
 
     Both contacts would push the vertex across the block, each towards the other
     edge: their forces cancel, the penetration does not shrink however large they
@@ -780,8 +783,10 @@ def _opposed_deeper(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge
     normal = _outward_normal(blocks, fans, edge[shared])
     depth = _depth(blocks, fans, vertex[shared], edge[shared])
     facing = np.einsum("ij,ij->i", normal[first], normal[second])
-    drop[shared[first[deeper_of_opposed(depth[first], depth[second], facing)]]] = True
-    drop[shared[second[deeper_of_opposed(depth[second], depth[first], facing)]]] = True
+    a, b = edge[shared][first], edge[shared][second]
+    nested = meet_at_reflex(a, fans.next[a], b, fans.next[b], fans.reflex[a], fans.reflex[b])
+    drop[shared[first[deeper_of_opposed(depth[first], depth[second], facing, nested)]]] = True
+    drop[shared[second[deeper_of_opposed(depth[second], depth[first], facing, nested)]]] = True
     return drop
 
 
@@ -796,7 +801,7 @@ def _pairs_within_groups(sorted_group: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return first[later], second[later]
 
 
-def _pairings(vertex, edge, v, owner, outward, count):
+def _pairings(vertex, edge, v, nxt, reflex, owner, outward, count):
     """Compiled :func:`_first_of_each`, then the rows :func:`_opposed_deeper` keeps: the
     same rows, in the same (ascending) order."""
     if vertex.shape[0] == 0:
@@ -813,7 +818,9 @@ def _pairings(vertex, edge, v, owner, outward, count):
         for a in range(start, end):
             for b in range(a + 1, end):
                 i, j = by_group[a], by_group[b]
-                _drop_deeper_if_opposed(rows[i], rows[j], i, j, vertex, edge, v, outward, drop)
+                _drop_deeper_if_opposed(
+                    rows[i], rows[j], i, j, vertex, edge, v, nxt, reflex, outward, drop
+                )
         start = end
     return rows[~drop]
 
@@ -827,16 +834,17 @@ def _first_rows(key):
     return np.flatnonzero(first)
 
 
-def _drop_deeper_if_opposed(row_i, row_j, i, j, vertex, edge, v, outward, drop):
+def _drop_deeper_if_opposed(row_i, row_j, i, j, vertex, edge, v, nxt, reflex, outward, drop):
     """Of one vertex's two pairings with edges of one block facing opposite ways, both
     behind their lines, mark the deeper one (:func:`_opposed_deeper`)."""
     ei, ej, p = edge[row_i], edge[row_j], vertex[row_i]
     facing = outward[ei, 0] * outward[ej, 0] + outward[ei, 1] * outward[ej, 1]
     di = line_depth(v[ei, 0] - v[p, 0], v[ei, 1] - v[p, 1], outward[ei, 0], outward[ei, 1])
     dj = line_depth(v[ej, 0] - v[p, 0], v[ej, 1] - v[p, 1], outward[ej, 0], outward[ej, 1])
-    if deeper_of_opposed(di, dj, facing):
+    nested = meet_at_reflex(ei, nxt[ei], ej, nxt[ej], reflex[ei], reflex[ej])
+    if deeper_of_opposed(di, dj, facing, nested):
         drop[i] = True
-    elif deeper_of_opposed(dj, di, facing):
+    elif deeper_of_opposed(dj, di, facing, nested):
         drop[j] = True
 
 

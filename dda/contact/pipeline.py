@@ -7,6 +7,7 @@ import shapely
 
 from dda.blocks import BlockSet
 from dda.contact.broad import KeptPairs, candidate_pairs
+from dda.contact.candidate_tests import geometrically_sound
 from dda.contact.contact_set import (
     CARRIED,
     KEY_SCALE,
@@ -46,7 +47,7 @@ def refresh_contacts(
     vertex paired with the far side of a block. Persisting contacts may be
     deeper (a soft penalty lets blocks sink). Pairings that only an edge's
     extended line makes look like contacts are dropped (see
-    ``_geometrically_sound`` and ``_blocks_touch``), and so are new pairings
+    ``geometrically_sound`` and ``_blocks_touch``), and so are new pairings
     deeper behind their edge's line than the vertex is from the block's boundary
     (by more than the contact tolerance): the vertex is nearer another edge, and
     the depth would push it out by far more than its overlap (fresh fracture
@@ -122,7 +123,7 @@ def _sift_numpy(blocks, found, previous_keys, search, slack, tolerance, depth_to
     new_and_deep = ~persisting & (penetration > tolerance)
     boundary, to_block = _distances_where(blocks, found.vertex, found.edge, doubtful | new_and_deep)
     plausible = persisting | (penetration <= search)
-    plausible &= ~doubtful | _geometrically_sound(
+    plausible &= ~doubtful | geometrically_sound(
         far, penetration, boundary, to_block, tolerance, slack
     )
     plausible &= ~new_and_deep | (penetration <= boundary + depth_tolerance)
@@ -179,8 +180,9 @@ def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, sl
     for k in range(m):
         keep = previous_rows[k] >= 0 or penetration[k] <= search
         if doubtful[k]:
-            near_enough = far[k] <= boundary[k] + slack
-            keep = keep and near_enough and (penetration[k] <= tolerance or to_block[k] <= slack)
+            keep = keep and geometrically_sound(
+                far[k], penetration[k], boundary[k], to_block[k], tolerance, slack
+            )
         if new_and_deep[k]:
             keep = keep and penetration[k] <= boundary[k] + depth_tolerance
         plausible[k] = keep
@@ -273,19 +275,6 @@ def _distances_where(blocks, vertex, edge, needed) -> tuple[np.ndarray, np.ndarr
         blocks, blocks.vertices[vertex[rows]], blocks.vertex_owner[edge[rows]]
     )
     return boundary, to_block
-
-
-def _geometrically_sound(far, penetration, boundary, to_block, tolerance, slack) -> np.ndarray:
-    """Drop pairings that only the edge's extended line makes look like contacts.
-
-    * The vertex must be about as near its edge (``far``) as it is to the edge
-      block's whole boundary: a vertex lying on one edge of a block (a
-      T-junction, a corner) is not also "behind" another edge of that block.
-    * A vertex that penetrates must lie inside the block (within ``slack``).
-    """
-    near_enough = far <= boundary + slack
-    inside = (penetration <= tolerance) | (to_block <= slack)
-    return near_enough & inside
 
 
 def _blocks_touch(blocks, vertex, edge, to_block, asked, tolerance) -> np.ndarray:

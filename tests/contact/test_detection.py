@@ -408,8 +408,8 @@ def test_compiled_pairings_kept_equal_numpy(seed):
     keep = narrow._first_of_each(vertex, edge)
     dropped = narrow._opposed_deeper(blocks, fans, vertex[keep], edge[keep])
     compiled = narrow._pairings_kernel(
-        vertex, edge, blocks.vertices, blocks.vertex_owner.astype(np.int64), fans.outward,
-        blocks.count,
+        vertex, edge, blocks.vertices, fans.next.astype(np.int64), fans.reflex,
+        blocks.vertex_owner.astype(np.int64), fans.outward, blocks.count,
     )  # fmt: skip
     assert dropped.sum() > 10
     np.testing.assert_array_equal(compiled, keep[~dropped])
