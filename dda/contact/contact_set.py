@@ -76,6 +76,22 @@ class ContactSet:
         return ContactSet(**{f.name: getattr(self, f.name)[rows] for f in fields(self)})
 
 
+def carried_over(
+    contacts: ContactSet, old: BlockSet, new: BlockSet, row_of: np.ndarray
+) -> ContactSet:
+    """The contacts between blocks that stay when ``old`` becomes ``new`` (an excavation,
+    a fracture), with their rows and vertex numbers renumbered: ``row_of`` gives each old
+    block's new row, −1 for one that is gone (its vertices keep their order)."""
+    stays = row_of >= 0
+    owner = old.vertex_owner
+    local = np.arange(len(owner)) - old.offsets[owner]
+    vertex_of = new.offsets[np.maximum(row_of, 0)[owner]] + local
+    kept = contacts.subset(np.flatnonzero(stays[contacts.block_a] & stays[contacts.block_b]))
+    kept.vertex, kept.edge = vertex_of[kept.vertex], vertex_of[kept.edge]
+    kept.block_a, kept.block_b = row_of[kept.block_a], row_of[kept.block_b]
+    return kept
+
+
 def vertex_key_parts(blocks: BlockSet) -> np.ndarray:
     """Per packed vertex: block id x 2**10 + local number, the halves of a contact key;
     kept on ``blocks`` while its ``offsets`` and ``ids`` are the same arrays (like

@@ -107,13 +107,17 @@ def failure_mode(
 ) -> np.ndarray:
     """Mode of failure of each block: ``NONE``, ``SHEAR`` or ``TENSION``.
 
-    Shear (22): σ1 ≤ −C0 + σ3 N while σ1 < σ1c.
-    Tension (23): σ3 ≥ T0 while σ1 ≥ σ1c.
+    Shear (22): σ1 < −C0 + σ3 N while σ1 < σ1c.
+    Tension (23): σ3 > T0 while σ1 ≥ σ1c.
+
+    A block fails once its stress is beyond the criterion, not on it: with no
+    tensile strength (T0 = 0, or s0 = 0), an unstressed block is on it, and was
+    split at every step (1 block into 64 in 6 steps, with no load).
     """
     n_phi, c0, sigma1c = strength_numbers(cohesion, friction_angle, tensile_strength)
     s1, s3 = principal.sigma1, principal.sigma3
-    shear = (s1 <= -c0 + s3 * n_phi) & (s1 < sigma1c)
-    tension = (s3 >= tensile_strength) & (s1 >= sigma1c)
+    shear = (s1 < -c0 + s3 * n_phi) & (s1 < sigma1c)
+    tension = (s3 > tensile_strength) & (s1 >= sigma1c)
     mode = np.full(s1.shape, NONE, dtype=np.int8)
     mode[shear] = SHEAR
     mode[tension] = TENSION

@@ -12,7 +12,7 @@ import numpy as np
 from dda.blocks import BlockSet
 from dda.contact import reach
 from dda.contact.broad import KeptPairs
-from dda.contact.contact_set import ContactSet
+from dda.contact.contact_set import ContactSet, carried_over
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
 from dda.effects.base import StepContext
@@ -350,7 +350,11 @@ def _record(run: _Run, dt: float, solution: StepSolution) -> None:
 
 
 def _fracture(run: _Run, ctx: StepContext) -> None:
-    """Let the fracture effect split blocks; re-home contacts and tracked points."""
+    """Let the fracture effect split blocks; re-home contacts and tracked points.
+
+    The contacts between blocks that did not break go on as they were (their state,
+    bonds and forces: a joint that failed stays failed, an in-situ field stays carried);
+    those of the broken blocks go, and the next step's search finds their pieces'."""
     old = run.blocks
     new, events = run.model.fracture.after_step(old, ctx)
     if not events:
@@ -364,8 +368,11 @@ def _fracture(run: _Run, ctx: StepContext) -> None:
         effect.on_blocks_replaced(old, new, parent_of)
     if run.probes is not None:
         run.probes.on_blocks_replaced(old, new, parent_of)
+    whole = np.flatnonzero(np.isin(new.ids, old.ids))  # fragments have fresh ids
+    new_row = np.full(old.count, -1)
+    new_row[parent_of[whole]] = whole
+    run.contacts = carried_over(run.contacts, old, new, new_row)
     run.blocks = new
-    run.contacts = ContactSet.empty()  # rebuilt from the new geometry next step
     run.events.extend(events)
 
 

@@ -26,7 +26,7 @@ import numpy as np
 import shapely
 
 from dda.blocks import BlockSet
-from dda.contact.contact_set import ContactSet
+from dda.contact.contact_set import carried_over
 from dda.fracture.effect import Strength
 from dda.fracture.fragments import replace_blocks
 from dda.run.floating import note_unbalanced
@@ -90,21 +90,10 @@ def _remove(run, ids: np.ndarray) -> None:
         effect.on_blocks_replaced(old, new, keep)
     if run.probes is not None:
         run.probes.on_blocks_replaced(old, new, keep)
-    run.contacts = _kept_contacts(run.contacts, old, new, gone)
+    run.contacts = carried_over(run.contacts, old, new, np.where(gone, -1, np.cumsum(~gone) - 1))
     run.blocks = new
     run.excavated_energy += before - run.energy.measure(new, run.contacts).total
     log.info("removed %d block(s)", int(gone.sum()))
-
-
-def _kept_contacts(contacts: ContactSet, old: BlockSet, new: BlockSet, gone: np.ndarray):
-    """The contacts between blocks that stay, with their rows and vertex numbers renumbered."""
-    row_of = np.cumsum(~gone) - 1  # new row of every kept block
-    owner = old.vertex_owner
-    vertex_of = new.offsets[row_of[owner]] + (np.arange(len(owner)) - old.offsets[owner])
-    kept = contacts.subset(np.flatnonzero(~gone[contacts.block_a] & ~gone[contacts.block_b]))
-    kept.vertex, kept.edge = vertex_of[kept.vertex], vertex_of[kept.edge]
-    kept.block_a, kept.block_b = row_of[kept.block_a], row_of[kept.block_b]
-    return kept
 
 
 def _install(run, plan: StagePlan, bolts: np.ndarray) -> None:

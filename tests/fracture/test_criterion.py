@@ -113,3 +113,15 @@ def test_intact_blocks_have_no_planes():
     state = evaluate(np.zeros((4, 3)), S0, PHI, T0)
     assert (state.mode == NONE).all() and np.isnan(state.planes).all()
     assert state.failing.size == 0
+
+
+@pytest.mark.parametrize("cohesion, tensile", [(1e5, 0.0), (0.0, 0.0)])
+def test_a_block_with_no_tensile_strength_breaks_beyond_the_criterion_not_on_it(cohesion, tensile):
+    """T0 = 0 (and s0 = 0): an unstressed block lies on the criterion and stays whole
+    (it was split at every step, 1 block into 64 in 6 steps, with no load); the least
+    tension (1 Pa) breaks it, or, without cohesion, σ1 < N σ3 (N = 3 at 30°)."""
+    phi = math.radians(30.0)
+    assert evaluate([[0.0, 0.0, 0.0]], cohesion, phi, tensile).mode[0] == NONE
+    assert evaluate([[1.0, 0.0, 0.0]], cohesion, phi, tensile).mode[0] == TENSION
+    if cohesion == 0.0:
+        assert evaluate([[-1.0, -4.0, 0.0]], cohesion, phi, tensile).mode[0] == SHEAR

@@ -341,3 +341,107 @@ def test_paper_fig3_on_frictionless_platens_with_three_times_the_load_breaks_in_
     assert result.summary["status"] == "finished" and result.final.step == 120
     for f in result.frames:
         assert_valid_blocks(f)
+
+
+# ------------------------------------------- a fracture leaves other contacts be
+
+
+def far_break_scene(breakable: bool) -> dict:
+    """Block S on a fixed base, bonded (c = T = 5e4 Pa, φ = φr = 30°, no residual
+    cohesion): a pulse of 1e5 N breaks the bond, S slides and stops; from 0.15 s a pull
+    of 3e4 N, above the residual bound (14.2 kN) and below the peak (64.2 kN), slides
+    it. Block B, 10 m away in free fall, is pulled apart and breaks in tension at
+    about 0.1 s (``breakable``; else it stays whole)."""
+    bar = {"density": 2500.0, "young": 1e9, "poisson": 0.25, "damping": 0.0}
+    strong = {"cohesion": 1e6, "friction_angle": 30.0, "tensile_strength": 1e5}
+    return {
+        "analysis": {
+            "time_step": 1e-3,
+            "duration": 0.25,
+            "save_every": 250,
+            "gravity": [0.0, -9.81],
+        },
+        "materials": {"rock": bar, "brk": {**bar, **(strong if breakable else {})}},
+        "joints": {
+            "default": {"friction_angle": 30.0},
+            "bond": {
+                "friction_angle": 30.0,
+                "cohesion": 5e4,
+                "tensile_strength": 5e4,
+                "residual_friction_angle": 30.0,
+            },
+            "crack": {"friction_angle": 30.0},
+        },  # fmt: skip
+        "fracture": {"joint": "crack"},
+        "interfaces": [{"blocks": ["base", "S"], "joint": "bond"}],
+        "blocks": [
+            {"name": "base", "material": "rock", "fixed": True, "vertices": rect(-5, -1, 20, 0)},
+            {"name": "S", "material": "rock", "vertices": rect(0, 0, 1, 1)},
+            {"name": "B", "material": "brk", "vertices": rect(10, 50, 14, 51)},
+        ],  # fmt: skip
+        "loads": [
+            {
+                "block": "S",
+                "point": [0.5, 0.05],
+                "force": [1.0, 0.0],
+                "history": [[0, 1e5], [0.01, 1e5], [0.0101, 0], [0.15, 0], [0.1501, 3e4], [1, 3e4]],
+            },
+            {"block": "B", "point": [14, 50.5], "force": [4e5, 0], "history": [[0, 0], [0.2, 1]]},
+            {"block": "B", "point": [10, 50.5], "force": [-4e5, 0], "history": [[0, 0], [0.2, 1]]},
+        ],  # fmt: skip
+    }
+
+
+def test_a_fracture_elsewhere_leaves_a_failed_joint_failed():
+    """S's bond has failed before B breaks, 10 m away: under the pull S slides on its
+    residual friction, v = (3e4 N − tan 30° m g) / m × 0.1 s = 0.633 m/s at 0.25 s, as it
+    does where B does not break (to 1 %: B's pieces cut the run's time step, 808 steps
+    against 250). Every contact of the model was rebuilt after a fracture, bonded
+    again: S stood still under the pull until B's pieces broke again."""
+    expected = (3e4 - math.tan(math.radians(30.0)) * 2500.0 * 9.81) / 2500.0 * 0.0999
+    for breakable in (True, False):
+        result = dda.simulate(dda.load_scene(far_break_scene(breakable)))
+        assert bool(result.fracture_events) == breakable
+        if breakable:
+            assert result.fracture_events[0].time < 0.15
+        final = result.final
+        assert final.velocities[final.block("S"), 0] == pytest.approx(expected, rel=0.01)
+
+
+def test_a_fracture_elsewhere_leaves_the_in_situ_field_carried():
+    """A 3 x 3 grid in a fixed U, in its gravity field (K0 = 0.5: σyy = ρ g y, σxx =
+    σyy / 2, y ≤ 0), stands as it is; block B, 20 m away above the ground, is pulled
+    apart and breaks. The grid keeps its field to 1e-9 and does not move (1e-12 m).
+    Every contact was rebuilt after a fracture, its in-situ forces lost: the grid sank
+    2.4 µm and its middle block lost 4.6 % of σyy."""
+    rho, g = 2500.0, 9.81
+    rock = {"density": rho, "young": 1e9, "poisson": 0.25, "damping": 0.0}
+    strong = {"cohesion": 1e6, "friction_angle": 30.0, "tensile_strength": 1e5}
+    fixed = [rect(-1, -4, 0, 0), rect(3, -4, 4, 0), rect(0, -4, 3, -3)]
+    blocks = [{"name": f"u{k}", "material": "rock", "fixed": True, "vertices": v}
+              for k, v in enumerate(fixed)]  # fmt: skip
+    blocks += [{"name": f"g{i}{j}", "material": "rock",
+                "vertices": rect(i, j - 3, i + 1, j - 2)}
+               for i in range(3) for j in range(3)]  # fmt: skip
+    blocks.append({"name": "B", "material": "brk", "vertices": rect(20, 0.2, 24, 1.2)})
+    raw = {
+        "analysis": {"time_step": 1e-3, "duration": 0.1, "gravity": [0.0, -g]},
+        "in_situ": {"stress": [0.0, 0.0, 0.0], "gradient": [rho * g / 2, rho * g, 0.0]},
+        "materials": {"rock": rock, "brk": {**rock, **strong}},
+        "joints": {"default": {"friction_angle": 30.0}, "crack": {"friction_angle": 30.0}},
+        "fracture": {"joint": "crack"},
+        "blocks": blocks,
+        "loads": [
+            {"block": "B", "point": [24, 0.7], "force": [4e5, 0], "history": [[0, 0], [0.2, 1]]},
+            {"block": "B", "point": [20, 0.7], "force": [-4e5, 0], "history": [[0, 0], [0.2, 1]]},
+        ],  # fmt: skip
+    }
+    result = dda.simulate(dda.load_scene(raw))
+    assert result.fracture_events
+    first, final = result.frames[0], result.final
+    grid = [final.block(f"g{i}{j}") for i in range(3) for j in range(3)]
+    at_start = [first.block(f"g{i}{j}") for i in range(3) for j in range(3)]
+    y = first.centroids[at_start, 1]
+    field = np.column_stack([rho * g * y / 2, rho * g * y, 0.0 * y])
+    np.testing.assert_allclose(final.stresses[grid], field, atol=1e-9 * rho * g * 3)
+    assert np.abs(final.displacements[grid]).max() <= 1e-12
