@@ -188,7 +188,9 @@ def test_stored_fos(name):
 # the continuation's (the two starts' normal forces differ by 2e-5 of their sum, within
 # the continuation's friction tolerance, 1e-3 of the bounds), docs/stability.md
 STORED_ENSEMBLE = {
-    "jointed_slope_ensemble": {0: True, 1: False, 2: True, 3: False, 4: False, 5: True,
+    # realisation 5 is near its limit (factor of safety 1.045): it slid while a corner
+    # nested in a fixed block's reflex corner 13 m away had one contact, not two
+    "jointed_slope_ensemble": {0: True, 1: False, 2: True, 3: False, 4: False, 5: False,
                                6: False, 7: False, 8: False, 9: False},
 }  # fmt: skip
 
