@@ -20,9 +20,8 @@ ENERGY_WARNING = 0.01
 # removes)
 PENETRATION_WARNING = 0.01
 # the largest change of a free block's in-situ stress by the equilibrium start, as a
-# fraction of the field, that the run takes as the field kept (tunnel_deep: 0.0033, at
-# one block beside the opening's stage; a field with free outer blocks and no boundary
-# stress: ~1)
+# fraction of the field, that the run takes as the field kept (tunnel_deep: 6e-5; a
+# field with free outer blocks and no boundary stress: ~1)
 IN_SITU_KEPT = 0.1
 # the share of the steps cut (Δt shortened after a failed attempt) beyond which the
 # time step is too large for the model
@@ -49,6 +48,25 @@ def penetration_warning(
         f"{100.0 * max_penetration / size:.3g} % of the smallest free block's size "
         f"({size:.3g} {length}): raise [contact] penalty, or use the "
         '"augmented-lagrangian" method'
+    )
+
+
+def fracture_warning(min_area: float, areas: np.ndarray, length: str) -> str | None:
+    """The sentence when ``[fracture]`` can break no block: no free block's material is
+    breakable (``areas``, of the free breakable blocks, empty), or none is as large as
+    two pieces of ``min_area`` (the smallest a block must be to split); else None."""
+    areas = np.asarray(areas, float)
+    if not len(areas):
+        return (
+            "[fracture] is set, but no free block's material has the strength keys "
+            "(cohesion, friction_angle, tensile_strength): no block could break"
+        )
+    if areas.max() >= 2.0 * min_area:
+        return None
+    return (
+        f"[fracture] min_area {min_area:.3g} {length}² is more than half of every "
+        f"breakable block's area (the largest {areas.max():.3g} {length}²): no block "
+        "could break (a block splits into pieces of at least min_area)"
     )
 
 

@@ -31,6 +31,7 @@ from dda.run.run_warnings import (
     IN_SITU_KEPT,
     cut_steps_warning,
     energy_warning,
+    fracture_warning,
     in_situ_warning,
     penetration_warning,
     static_motion_warning,
@@ -613,8 +614,21 @@ def _warnings(state: _Run) -> list[str]:
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
         _last_motion_warning(state, length),
+        _fracture_warning(state, length),
     ]
     return [text for text in found if text is not None]
+
+
+def _fracture_warning(state: _Run, length: str) -> str | None:
+    """:func:`fracture_warning` of a run with ``[fracture]`` in which no block broke (no
+    breakable material: the model has no fracture effect, but the scene set its table)."""
+    fracture, settings = state.model.fracture, state.model.scene.fracture
+    if state.events or (fracture is None and settings == type(settings)()):
+        return None
+    if fracture is None:
+        return fracture_warning(0.0, np.zeros(0), length)
+    areas = state.blocks.area[fracture.candidates(state.blocks)]
+    return fracture_warning(fracture.min_area, areas, length)
 
 
 def _energy_warning(state: _Run) -> str | None:

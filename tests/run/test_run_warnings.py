@@ -178,3 +178,33 @@ def test_a_static_analysis_is_not_held_to_an_energy_balance():
     excess, moved, _ = energy_excess(result.history, result.summary["initial_energy"], False)
     assert excess > 10 * moved
     assert not any("created energy" in text for text in result.summary["warnings"])
+
+
+@pytest.mark.parametrize(
+    "materials, min_area, said",
+    [
+        ({"rock": {"cohesion": 1e5, "friction_angle": 30.0, "tensile_strength": 1e4}}, 0.5, None),
+        ({"rock": {"cohesion": 1e5, "friction_angle": 30.0, "tensile_strength": 1e4}}, 0.6,
+         "min_area 0.6 m² is more than half of every breakable block's area"),
+        ({}, 0.01, "no free block's material has the strength keys"),
+    ],
+    ids=["can-break", "min-area-too-large", "no-breakable-material"],
+)  # fmt: skip
+def test_a_fracture_that_can_break_nothing_is_said(materials, min_area, said):
+    """[fracture] on a 1 m² block with strength keys and min_area 0.5 m² can split it
+    (two pieces of 0.5); with 0.6 m², or without strength keys, nothing can break, and
+    the run says so (it was silent). The block is unloaded: nothing breaks either way."""
+    rock = {"density": 2500.0, "young": 1e9, "poisson": 0.25, **materials.get("rock", {})}
+    raw = {
+        "analysis": {"mode": "static", "time_step": 0.01, "steps": 2},
+        "materials": {"rock": rock},
+        "joints": {"crack": {"friction_angle": 30.0}},
+        "fracture": {"joint": "crack", "min_area": min_area},
+        "blocks": [{"name": "a", "material": "rock",
+                    "vertices": [[0, 0], [1, 0], [1, 1], [0, 1]]}],
+    }  # fmt: skip
+    warnings = dda.simulate(dda.load_scene(raw)).summary["warnings"]
+    if said is None:
+        assert warnings == []
+    else:
+        assert len(warnings) == 1 and said in warnings[0]
