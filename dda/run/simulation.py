@@ -328,11 +328,11 @@ def _advance(run: _Run) -> None:
     run.friction_dissipation += solution.friction_dissipation
     run.max_penetration = max(run.max_penetration, solution.max_penetration)
     _record(run, dt, solution)
+    if m.stages is not None:  # first: a strength reduced at t is the one judged at t
+        apply_due_stages(run)
     if m.fracture is not None:
         with run.timer("fracture"):
             _fracture(run, ctx)
-    if m.stages is not None:
-        apply_due_stages(run)
     if run.probes is not None:
         run.probes.record(run.step, run.shown_time, run.blocks, run.contacts, m.bolts)
 

@@ -445,3 +445,16 @@ def test_a_fracture_elsewhere_leaves_the_in_situ_field_carried():
     field = np.column_stack([rho * g * y / 2, rho * g * y, 0.0 * y])
     np.testing.assert_allclose(final.stresses[grid], field, atol=1e-9 * rho * g * 3)
     assert np.abs(final.displacements[grid]).max() <= 1e-12
+
+
+def test_a_stage_that_weakens_the_rock_breaks_it_at_the_stage_time():
+    """The rock carries 0.98 C0 between platens and stands; a stage at 0.05 s divides
+    its strength by 1.1 (``intact``): it breaks in shear at the step that ends at the
+    stage time, 0.05 s (the stages apply before the criterion is judged); it broke at
+    0.058 s (step 9), when the criterion was judged before the stages."""
+    raw = platen_scene(0.98, steps=8)
+    raw["stages"] = [{"time": 0.05, "strength_factor": 1.1, "intact": True}]
+    result = dda.simulate(dda.load_scene(raw))
+    first = result.fracture_events[0]
+    assert (first.parent, first.mode) == ("rock", "shear")
+    assert first.time == pytest.approx(0.05, abs=1e-12)
