@@ -109,12 +109,19 @@ def inside_corner(depth, other_depth, inside_depth):
 
 
 @formula
-def nested_in_corner(corner_reflex, vertex_reflex):
-    """A convex vertex at a reflex corner of the other block: it is held by both of the
-    corner's edges (it is inside once it is behind either line), so it is paired with
-    both. Paired with one, it entered the block through the other within a step
-    (a wedge nested in a horseshoe's floor corner: 7.8 mm at every other step)."""
-    return corner_reflex & np.logical_not(vertex_reflex)
+def nested_in_corner(corner_reflex, vertex_reflex, depth, other_depth, inside_depth):
+    """A convex vertex nested at a reflex corner of the other block: it is held by both
+    of the corner's edges (it is inside once it is behind either line), so it is paired
+    with both. Paired with one, it entered the block through the other within a step
+    (a wedge nested in a horseshoe's floor corner: 7.8 mm at every other step).
+
+    Nested: in front of both lines (``depth``, ``other_depth`` within ``inside_depth``),
+    or behind both (in the block, past the corner). Not a vertex behind one line only:
+    across a floor or wall thinner than the vertex radius, outside the block, where the
+    other edge's line is a phantom wall (a block sliding under a 1 cm floor hit it)."""
+    in_front = (depth <= inside_depth) & (other_depth <= inside_depth)
+    behind = (depth > inside_depth) & (other_depth > inside_depth)
+    return corner_reflex & np.logical_not(vertex_reflex) & (in_front | behind)
 
 
 @formula

@@ -514,7 +514,10 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     # a convex vertex nested in a reflex corner is paired with the corner's other edge too
     group = best - best % 2
     corner, entering = np.where(group == 0, p2, p1), np.where(group == 0, p1, p2)
-    nested = nested_in_corner(fans.reflex[corner], fans.reflex[entering])
+    nested = nested_in_corner(
+        fans.reflex[corner], fans.reflex[entering], depth[rows, group], depth[rows, group + 1],
+        inside_depth,
+    )  # fmt: skip
     other = (group + 1 - best % 2)[nested]
     return (
         np.concatenate([verts[rows, best], verts[rows[nested], other]]),
@@ -633,7 +636,9 @@ def _resolve(
         out_v[i], out_e[i] = verts[best], edges[best]
         group = best - best % 2
         corner, entering = (b, a) if group == 0 else (a, b)
-        if nested_in_corner(reflex[corner], reflex[entering]):
+        if nested_in_corner(
+            reflex[corner], reflex[entering], depth[group], depth[group + 1], inside
+        ):
             other = group + 1 - best % 2
             second_v[seconds], second_e[seconds] = verts[other], edges[other]
             seconds += 1

@@ -11,6 +11,7 @@ of the edge: s0 = (P1-P0)·t, Es = tᵀ T_i(P1), Gs = -tᵀ T_j(P0).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -132,7 +133,11 @@ def contact_rows(blocks: BlockSet, contacts: ContactSet) -> ContactRows:
     v = blocks.vertices
     nxt, prv = blocks.next_vertex, blocks.previous_vertex
     if compiled(_rows_kernel):
-        return _contact_rows_compiled(blocks, contacts, nxt, prv)
+        rows = _contact_rows_compiled(blocks, contacts, nxt, prv)
+        rows.length = carried_once(
+            v, contacts.vertex, contacts.block_b, nxt, prv, rows.tangents, rows.length
+        )
+        return rows
     i, j = contacts.block_a, contacts.block_b
     p1, p2, p3 = v[contacts.vertex], v[contacts.edge], v[nxt[contacts.edge]]
     ci, cj = blocks.centroid[i], blocks.centroid[j]
@@ -166,7 +171,15 @@ def contact_rows(blocks: BlockSet, contacts: ContactSet) -> ContactRows:
         parameter=np.einsum("ij,ij->i", w, e) / length**2,
         normals=-inward,
         tangents=tangent,
-        length=_carried_length(v, contacts.vertex, nxt, prv, tangent),
+        length=carried_once(
+            v,
+            contacts.vertex,
+            contacts.block_b,
+            nxt,
+            prv,
+            tangent,
+            _carried_length(v, contacts.vertex, nxt, prv, tangent),
+        ),  # fmt: skip
         points=p1,
     )
 
@@ -286,6 +299,58 @@ def _rows(
 
 
 _rows_kernel = kernel(_rows)
+
+
+# the cosine of the largest angle between a vertex's own edge and a contact edge along
+# which that own edge still counts as lying (for the second of two contacts that would
+# carry the same own edge: :func:`carried_once`)
+ALONG = math.cos(math.radians(10.0))
+
+
+def carried_once(
+    v: np.ndarray,
+    vertex: np.ndarray,
+    block_b: np.ndarray,
+    nxt: np.ndarray,
+    prv: np.ndarray,
+    tangents: np.ndarray,
+    carried: np.ndarray,
+) -> np.ndarray:
+    """``carried`` where a vertex has two contacts with one block (a corner nested in a
+    reflex corner: one contact on each edge there): each carries half of the own edge
+    that lies along its edge (within 10°), each own edge once, else nothing.
+
+    A single contact carries half the vertex's own edge best aligned with its edge
+    (:func:`_carried_length`), however far from it. Two would count one own edge twice,
+    or count an edge that touches nothing: a square on a base with a 2° kink under its
+    corner had 1.5 m of bonded length for 1 m, and held 1.7 times its cohesion's load;
+    with a 60° kink, 1.5 m too. Where both contacts' own edge is the same, the better
+    aligned contact carries it.
+    """
+    order = np.lexsort((block_b, vertex))
+    same = (np.diff(vertex[order]) == 0) & (np.diff(block_b[order]) == 0)
+    if not same.any():
+        return carried
+    first, second = order[:-1][same], order[1:][same]
+    k = len(first)
+    pair = np.concatenate([first, second])
+    own = np.stack([v[nxt[vertex[pair]]], v[prv[vertex[pair]]]]) - v[vertex[pair]]
+    lengths = np.linalg.norm(own, axis=2)
+    cosine = np.abs(np.einsum("kij,ij->ki", own, tangents[pair])) / np.where(
+        lengths > 0, lengths, 1.0
+    )
+    along = cosine >= ALONG  # (2, 2k): own edge (next, previous) along the contact's edge
+    choice = np.where(cosine[0] >= cosine[1], 0, 1)
+    rows = np.arange(2 * k)
+    partner = np.concatenate([rows[k:], rows[:k]])
+    better = cosine[choice, rows] > cosine[choice[partner], partner]
+    better |= (cosine[choice, rows] == cosine[choice[partner], partner]) & (rows < k)
+    # an own edge the partner also chose and carries better goes to the partner
+    ceded = (choice == choice[partner]) & along[choice, partner] & ~better
+    choice = np.where(ceded, 1 - choice, choice)
+    out = carried.copy()
+    out[pair] = np.where(along[choice, rows], 0.5 * lengths[choice, rows], 0.0)
+    return out
 
 
 def _carried_length(v, vertex, nxt, prv, tangent):

@@ -18,7 +18,7 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.effects.base import Effect, StepContext
-from dda.fracture.criterion import MODE_NAMES, evaluate
+from dda.fracture.criterion import MODE_NAMES, evaluate, strength_numbers
 from dda.fracture.fragments import Fragments, replace_blocks
 from dda.fracture.split import DEFAULT_MIN_AREA_RATIO, split_polygon_detailed
 from dda.result import FractureEvent
@@ -62,6 +62,33 @@ class Strength:
         )
 
 
+_SAID: set[tuple[str, float, float]] = set()  # the notes of _note_tension_beyond_shear
+
+
+def _note_tension_beyond_shear(names: list[str], strength: Strength) -> None:
+    """Say which materials have a tensile strength T0 above the shear criterion's own
+    tension intercept C0 / N: uniaxial tension breaks such a block in shear at C0 / N,
+    and the tension cut-off acts only where both principal stresses are tensile."""
+    n_phi, c0, _ = strength_numbers(
+        strength.cohesion, strength.friction_angle, strength.tensile_strength
+    )
+    with np.errstate(invalid="ignore"):
+        intercept = c0 / n_phi
+        beyond = strength.tensile_strength > intercept  # NaN (unbreakable): False
+    for k in np.flatnonzero(beyond):
+        said = (names[k], float(strength.tensile_strength[k]), float(intercept[k]))
+        if said in _SAID:  # once a process: dda fos and dda ensemble build many models
+            continue
+        _SAID.add(said)
+        log.warning(
+            "materials.%s: tensile_strength %.4g is above the shear criterion's tension "
+            "intercept C0 / N = %.4g (cohesion, friction_angle): uniaxial tension breaks "
+            "the block in shear at %.4g, and the tension cut-off acts only under biaxial "
+            "tension",
+            names[k], strength.tensile_strength[k], intercept[k], intercept[k],
+        )  # fmt: skip
+
+
 class FractureEffect(Effect):
     """Breaks failing blocks after each accepted step.
 
@@ -97,6 +124,7 @@ class FractureEffect(Effect):
             smallest = blocks.area[breakable].min() if breakable.any() else 0.0
             min_area = DEFAULT_MIN_AREA_RATIO * smallest
         next_id = int(blocks.ids.max()) + 1 if blocks.count else 0
+        _note_tension_beyond_shear(list(scene.materials), strength)
         return cls(strength, crack, min_area, next_id)
 
     def candidates(self, blocks: BlockSet) -> np.ndarray:

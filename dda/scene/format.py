@@ -474,29 +474,7 @@ def _material(chk: Checker, name: str, value: object) -> Material:
             f"is required because {', '.join(given)} given: a breakable material "
             "needs all of cohesion, friction_angle and tensile_strength",
         )
-    elif given:
-        _note_tension_beyond_shear(key, values)
     return Material(name=name, **values)
-
-
-def _note_tension_beyond_shear(key: str, values: Mapping[str, Any]) -> None:
-    """Say when a material's tensile strength T0 is above the Mohr–Coulomb line's own
-    tension intercept C0 / N: uniaxial tension then breaks the block in shear at C0 / N,
-    and the tension cut-off acts only where both principal stresses are tensile."""
-    from dda.fracture.criterion import strength_numbers
-
-    if not all(math.isfinite(values[k]) for k in _STRENGTH_KEYS):
-        return
-    n_phi, c0, _ = strength_numbers(
-        values["cohesion"], math.radians(values["friction_angle"]), values["tensile_strength"]
-    )
-    if values["tensile_strength"] > c0 / n_phi:
-        logger.warning(
-            "%s: tensile_strength %.4g is above the shear criterion's tension intercept "
-            "C0 / N = %.4g (cohesion, friction_angle): uniaxial tension breaks the block in "
-            "shear at %.4g, and the tension cut-off acts only under biaxial tension",
-            key, values["tensile_strength"], c0 / n_phi, c0 / n_phi,
-        )  # fmt: skip
 
 
 def _materials(chk: Checker, raw: Mapping[str, Any]) -> Mapping[str, Material]:

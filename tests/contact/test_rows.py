@@ -140,3 +140,32 @@ def test_edge_geometry_gives_depth_parameter_and_segment_distance(monkeypatch, c
     assert (
         d[0] == pytest.approx(0.01) and t[0] == pytest.approx(0.5) and r[0] == pytest.approx(0.01)
     )
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("kink, bonded", [(90.0, 2.0), (60.0, 1.0), (30.0, 1.0), (2.0, 1.0)])
+def test_a_corner_in_a_concave_corner_carries_each_own_edge_once(monkeypatch, compiled, kink,
+                                                                  bonded):  # fmt: skip
+    """A unit square on a fixed base whose top bends up at its corner (by ``kink``; 90°:
+    an L): the corner is two contacts, one on each edge there, and the length the square's
+    contacts with the base carry for cohesion and tensile strength is that of its edges
+    lying on the base: 1 m, both edges (2 m) in the L. Each contact took half the own
+    edge best aligned with its edge: 1.5 m at 2° to 60° (the bottom edge twice, or the
+    left edge, which touches nothing), and the square held 1.7 times its cohesion's
+    load at 2°."""
+    import math
+
+    from dda.model import build
+    from tests.helpers import rectangle
+    from tests.standing.scenes import block, scene
+
+    if not compiled:
+        monkeypatch.setattr(rows_module, "_rows_kernel", None)
+    if kink == 90.0:
+        base = [(-3, -1), (3, -1), (3, 0), (0, 0), (0, 3), (-3, 3)]
+    else:
+        base = [(-3, -1), (3, -1), (3, 0), (0, 0), (-3, 3 * math.tan(math.radians(kink)))]
+    raw = scene([block("base", base, fixed=True), block("b", rectangle(0, 0, 1, 1))])
+    model = build(dda.load_scene(raw))
+    contacts = refresh_contacts(model.blocks, ContactSet.empty(), model.contact)
+    assert contact_rows(model.blocks, contacts).length.sum() == pytest.approx(bonded, rel=1e-12)

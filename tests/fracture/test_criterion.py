@@ -128,11 +128,17 @@ def test_a_block_with_no_tensile_strength_breaks_beyond_the_criterion_not_on_it(
 
 
 @pytest.mark.parametrize("tensile, said", [(2e5, True), (1e5, False)])
-def test_a_tensile_strength_above_the_shear_lines_intercept_is_said(caplog, tensile, said):
+def test_a_tensile_strength_above_the_shear_lines_intercept_is_said(
+    caplog, monkeypatch, tensile, said
+):
     """c = 1e5 Pa and φ = 30° put the shear criterion's tension intercept at C0 / N =
     1.155e5 Pa: a tensile strength above it is never reached in uniaxial tension (the
-    block breaks in shear first), and loading the scene says so; below it, nothing."""
+    block breaks in shear first), and building the model says so; below it, nothing."""
     import dda
+    import dda.fracture.effect
+    from dda.model import build
+
+    monkeypatch.setattr(dda.fracture.effect, "_SAID", set())  # said once a process
 
     rock = {"density": 2500.0, "young": 1e9, "poisson": 0.25, "cohesion": 1e5,
             "friction_angle": 30.0, "tensile_strength": tensile}  # fmt: skip
@@ -142,7 +148,7 @@ def test_a_tensile_strength_above_the_shear_lines_intercept_is_said(caplog, tens
         "blocks": [{"name": "a", "material": "rock", "vertices": [[0, 0], [1, 0], [1, 1], [0, 1]]}],
     }
     with caplog.at_level("WARNING"):
-        dda.load_scene(raw)
+        build(dda.load_scene(raw))
     noted = [r.getMessage() for r in caplog.records if "tension intercept" in r.getMessage()]
     assert bool(noted) == said
     if said:

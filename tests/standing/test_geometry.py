@@ -172,3 +172,29 @@ def test_a_block_sliding_into_a_channels_inner_corner_meets_the_wall_flat():
     final = result.final
     assert abs(final.velocities[final.block("b"), 2]) < 1e-9
     assert final.velocities[final.block("b"), 0] < -0.5  # bounced back
+
+
+def test_a_block_sliding_under_a_thin_floor_meets_no_phantom_wall():
+    """An L whose floor is 1 cm thick (thinner than the vertex radius, 0.1 m) and a
+    block sliding frictionlessly 1 mm under that floor, on fixed ground, towards the
+    line of the L's inner wall: its corner, 5 cm from that line, is behind the floor's
+    top line only by extension (it is outside the L), so it is no corner nested in the
+    L's reflex corner and gets no pairing with the wall. It slides on at the closed form
+    vx = −g t / 2 (1e-9), without spinning. Paired with the wall, it hit the wall's line
+    through the floor at 0.13 s and slowed to −0.98 m/s, spinning at 0.17 rad/s."""
+    floor = 0.01
+    ell = [(-1.0, -floor), (3.0, -floor), (3.0, 0.0), (0.0, 0.0), (0.0, 3.0), (-1.0, 3.0)]
+    top = -floor - 1e-3
+    raw = scene(
+        [
+            block("L", ell, fixed=True),
+            block("ground", rectangle(-4.0, top - 2.0, 4.0, top - 1.0), fixed=True),
+            block("A", rectangle(0.05, top - 1.0, 1.05, top)),
+        ],
+        {"gravity": [-0.5 * 9.81, -9.81], "duration": 0.3, "time_step": 2e-3},
+        friction=0.0,
+    )
+    result = run_checked(raw)
+    vx, _, omega = result.final.velocities[result.final.block("A")]
+    assert vx == pytest.approx(-0.5 * 9.81 * 0.3, rel=1e-9)
+    assert abs(omega) < 1e-12
