@@ -549,8 +549,6 @@ def _resolve(
     k = p1.shape[0]
     out_v = np.empty(2 * k, np.int64)  # one pairing each, then the nested corners' second
     out_e = np.empty(2 * k, np.int64)
-    second_v = np.empty(k, np.int64)
-    second_e = np.empty(k, np.int64)
     seconds = 0
     verts = np.empty(4, np.int64)
     edges = np.empty(4, np.int64)
@@ -640,10 +638,8 @@ def _resolve(
             reflex[corner], reflex[entering], depth[group], depth[group + 1], inside
         ):
             other = group + 1 - best % 2
-            second_v[seconds], second_e[seconds] = verts[other], edges[other]
+            out_v[k + seconds], out_e[k + seconds] = verts[other], edges[other]
             seconds += 1
-    for s in range(seconds):  # a loop, not slices (dda.jit's docstring)
-        out_v[k + s], out_e[k + s] = second_v[s], second_e[s]
     return out_v[: k + seconds], out_e[: k + seconds]
 
 

@@ -161,6 +161,7 @@ def test_a_corner_in_a_concave_corner_carries_each_own_edge_once(monkeypatch, co
 
     if not compiled:
         monkeypatch.setattr(rows_module, "_rows_kernel", None)
+        monkeypatch.setattr(rows_module, "_carried_once_kernel", None)
     if kink == 90.0:
         base = [(-3, -1), (3, -1), (3, 0), (0, 0), (0, 3), (-3, 3)]
     else:
@@ -169,3 +170,35 @@ def test_a_corner_in_a_concave_corner_carries_each_own_edge_once(monkeypatch, co
     model = build(dda.load_scene(raw))
     contacts = refresh_contacts(model.blocks, ContactSet.empty(), model.contact)
     assert contact_rows(model.blocks, contacts).length.sum() == pytest.approx(bonded, rel=1e-12)
+
+
+@pytest.mark.skipif(rows_module._carried_once_kernel is None, reason="numba is not in use")
+@pytest.mark.parametrize("seed", range(3))
+def test_carried_once_compiled_equals_numpy(seed):
+    """The declared pair of :func:`dda.contact.rows.carried_once`: the compiled pass and
+    the numpy sort give the same lengths, on random contacts of a jittered wall's
+    vertices, a third of them paired with a second contact with the same block, their
+    edges at random directions (some within 10° of an own edge, some not)."""
+    from tests.contact.test_detection import wall_blocks
+
+    _, blocks = wall_blocks(4, 3, jitter=0.3, seed=seed)
+    rng = np.random.default_rng(seed)
+    n = len(blocks.vertices)
+    vertex = rng.permutation(n)[: n // 2]
+    block_b = rng.integers(0, blocks.count, len(vertex))
+    twice = vertex[: len(vertex) // 3]
+    vertex = np.concatenate([vertex, twice])
+    block_b = np.concatenate([block_b, block_b[: len(twice)]])
+    order = rng.permutation(len(vertex))
+    vertex, block_b = vertex[order], block_b[order]
+    own = blocks.vertices[blocks.next_vertex[vertex]] - blocks.vertices[vertex]
+    angle = np.arctan2(own[:, 1], own[:, 0]) + rng.normal(scale=0.3, size=len(vertex))
+    tangents = np.column_stack([np.cos(angle), np.sin(angle)])
+    carried = rng.random(len(vertex))
+    args = (blocks.vertices, vertex.astype(np.int64), block_b.astype(np.int64),
+            blocks.next_vertex.astype(np.int64), blocks.previous_vertex.astype(np.int64),
+            tangents, carried)  # fmt: skip
+    numpy_lengths = rows_module._carried_once_numpy(*args)
+    compiled_lengths = rows_module._carried_once_kernel(*args, rows_module.ALONG)
+    assert not np.array_equal(numpy_lengths, carried)  # pairs were changed
+    np.testing.assert_array_equal(compiled_lengths, numpy_lengths)

@@ -77,6 +77,7 @@ TWINS = {
     ("contact/pipeline.py", "_refresh_kernel"): "wall",
     ("contact/pipeline.py", "_sift_kernel"): "pieces",
     ("contact/point_distance.py", "_distances_kernel"): "slope sift",
+    ("contact/rows.py", "_carried_once_kernel"): "wall",
     ("contact/rows.py", "_edge_geometry_kernel"): "numpy sift",
     ("contact/rows.py", "_gaps_kernel"): "sparse",
     ("contact/rows.py", "_rows_kernel"): "wall",
