@@ -174,14 +174,16 @@ def test_a_block_sliding_into_a_channels_inner_corner_meets_the_wall_flat():
     assert final.velocities[final.block("b"), 0] < -0.5  # bounced back
 
 
-def test_a_block_sliding_under_a_thin_floor_meets_no_phantom_wall():
+@pytest.mark.parametrize("dt", [2e-3, 1e-4])
+def test_a_block_sliding_under_a_thin_floor_meets_no_phantom_wall(dt):
     """An L whose floor is 1 cm thick (thinner than the vertex radius, 0.1 m) and a
     block sliding frictionlessly 1 mm under that floor, on fixed ground, towards the
     line of the L's inner wall: its corner, 5 cm from that line, is behind the floor's
     top line only by extension (it is outside the L), so it is no corner nested in the
     L's reflex corner and gets no pairing with the wall. It slides on at the closed form
-    vx = −g t / 2 (1e-9), without spinning. Paired with the wall, it hit the wall's line
-    through the floor at 0.13 s and slowed to −0.98 m/s, spinning at 0.17 rad/s."""
+    vx = −g t / 2 (1e-9), without spinning, at Δt = 2e-3 and 1e-4 s. Paired with the
+    wall, it hit the wall's line through the floor at 0.13 s and slowed to −0.98 m/s,
+    spinning at 0.17 rad/s."""
     floor = 0.01
     ell = [(-1.0, -floor), (3.0, -floor), (3.0, 0.0), (0.0, 0.0), (0.0, 3.0), (-1.0, 3.0)]
     top = -floor - 1e-3
@@ -191,10 +193,38 @@ def test_a_block_sliding_under_a_thin_floor_meets_no_phantom_wall():
             block("ground", rectangle(-4.0, top - 2.0, 4.0, top - 1.0), fixed=True),
             block("A", rectangle(0.05, top - 1.0, 1.05, top)),
         ],
-        {"gravity": [-0.5 * 9.81, -9.81], "duration": 0.3, "time_step": 2e-3},
+        {"gravity": [-0.5 * 9.81, -9.81], "duration": 0.3, "time_step": dt},
         friction=0.0,
     )
     result = run_checked(raw)
     vx, _, omega = result.final.velocities[result.final.block("A")]
     assert vx == pytest.approx(-0.5 * 9.81 * 0.3, rel=1e-9)
     assert abs(omega) < 1e-12
+
+
+@pytest.mark.parametrize("dt", [1e-3, 1e-4])
+@pytest.mark.parametrize("kink", [None, 2.0], ids=["flat", "kink-2"])
+def test_a_bonded_block_over_a_kink_holds_and_slides_as_on_a_flat_base(kink, dt):
+    """A unit square bonded to a fixed base (c = T = 1e4 Pa, φ = 0) under a horizontal
+    pull of gravity: 5e3 N holds it where it stands (within 1e-6 m) and 6e3 N slides it,
+    on a flat base and on one bent up by 2° under its corner, at both Δt. Over the kink
+    its corner is two contacts, which carried the bottom edge's bonded length twice: it
+    held up to 9e3 N."""
+    import math
+
+    if kink is None:
+        base = [(-3, -1), (3, -1), (3, 0), (-3, 0)]
+    else:
+        base = [(-3, -1), (3, -1), (3, 0), (0, 0), (-3, 3 * math.tan(math.radians(kink)))]
+    moved = {}
+    for force in (5e3, 6e3):
+        raw = scene(
+            [block("base", base, fixed=True), block("b", rectangle(0, 0, 1, 1))],
+            {"gravity": [force / 2500.0, -9.81], "duration": 0.05, "time_step": dt},
+        )
+        raw["joints"] = {"default": {"friction_angle": 0.0, "cohesion": 1e4,
+                                     "tensile_strength": 1e4}}  # fmt: skip
+        result = run_checked(raw)
+        moved[force] = abs(result.final.displacements[result.final.block("b"), 0])
+    assert moved[5e3] < 1e-6
+    assert moved[6e3] > 1e-3
