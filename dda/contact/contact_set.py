@@ -76,6 +76,14 @@ class ContactSet:
         return ContactSet(**{f.name: getattr(self, f.name)[rows] for f in fields(self)})
 
 
+def joined(first: ContactSet, second: ContactSet) -> ContactSet:
+    """The rows of ``first``, then those of ``second``."""
+    return ContactSet(
+        **{f.name: np.concatenate([getattr(first, f.name), getattr(second, f.name)])
+           for f in fields(ContactSet)}
+    )  # fmt: skip
+
+
 def carried_over(
     contacts: ContactSet, old: BlockSet, new: BlockSet, row_of: np.ndarray
 ) -> ContactSet:

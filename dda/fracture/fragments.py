@@ -81,6 +81,16 @@ class Fragments:
         )
 
 
+def parent_rows(old: BlockSet, new: BlockSet) -> np.ndarray:
+    """Each new block's row in ``old``: its own, or its parent's for a piece (named
+    "parent/k")."""
+    row_of = {name: row for row, name in enumerate(old.names)}
+    return np.array(
+        [row_of[name] if name in row_of else row_of[name.rsplit("/", 1)[0]] for name in new.names],
+        dtype=np.int64,
+    )
+
+
 def replace_blocks(
     blocks: BlockSet, broken: list[Fragments], removed: np.ndarray | None = None
 ) -> BlockSet:

@@ -12,11 +12,13 @@ import numpy as np
 from dda.blocks import BlockSet
 from dda.contact import reach
 from dda.contact.broad import KeptPairs
-from dda.contact.contact_set import ContactSet, carried_over
+from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
 from dda.effects.base import StepContext
 from dda.errors import SimulationError
+from dda.fracture.fragments import parent_rows
+from dda.fracture.inherited_contacts import after_breaking
 from dda.jit import compile_seconds, run_work
 from dda.model import SEARCH_FACTOR, Model, build
 from dda.result import OPEN, FractureEvent, Frame, Result
@@ -353,26 +355,20 @@ def _record(run: _Run, dt: float, solution: StepSolution) -> None:
 def _fracture(run: _Run, ctx: StepContext) -> None:
     """Let the fracture effect split blocks; re-home contacts and tracked points.
 
-    The contacts between blocks that did not break go on as they were (their state,
-    bonds and forces: a joint that failed stays failed, an in-situ field stays carried);
-    those of the broken blocks go, and the next step's search finds their pieces'."""
+    The contacts go on as they were (their state, bonds and forces: a joint that failed
+    stays failed, an in-situ field stays carried), those of the broken blocks on their
+    pieces (:mod:`dda.fracture.inherited_contacts`); the next step's search finds the
+    cracks' own."""
     old = run.blocks
     new, events = run.model.fracture.after_step(old, ctx)
     if not events:
         return
-    row_of = {name: row for row, name in enumerate(old.names)}  # fragments: "parent/k"
-    parent_of = np.array(
-        [row_of[name] if name in row_of else row_of[name.rsplit("/", 1)[0]] for name in new.names],
-        dtype=np.int64,
-    )
+    parent_of = parent_rows(old, new)
     for effect in run.model.effects:
         effect.on_blocks_replaced(old, new, parent_of)
     if run.probes is not None:
         run.probes.on_blocks_replaced(old, new, parent_of)
-    whole = np.flatnonzero(np.isin(new.ids, old.ids))  # fragments have fresh ids
-    new_row = np.full(old.count, -1)
-    new_row[parent_of[whole]] = whole
-    run.contacts = carried_over(run.contacts, old, new, new_row)
+    run.contacts = after_breaking(run.contacts, old, new, parent_of)
     run.blocks = new
     run.events.extend(events)
 
