@@ -98,13 +98,6 @@ def _piece_vertices(new: BlockSet, pieces: np.ndarray) -> np.ndarray:
     return np.concatenate([np.arange(new.offsets[p], new.offsets[p + 1]) for p in pieces])
 
 
-def _next_vertex(blocks: BlockSet, vertex: np.ndarray) -> np.ndarray:
-    """The packed number of the vertex after each of ``vertex`` around its block."""
-    owner = blocks.vertex_owner[vertex]
-    after = vertex + 1
-    return np.where(after == blocks.offsets[owner + 1], blocks.offsets[owner], after)
-
-
 def _same_vertex(old, new, vertex, pieces, size):
     """The pieces' vertex at each old ``vertex``'s point (−1 where none is)."""
     if not len(vertex):
@@ -123,9 +116,9 @@ def _same_edge(old, new, vertex, edge, reference, pieces, size):
     ``vertex``, −1 where none lies along it; the shear reference on it)."""
     if not len(edge):
         return np.zeros(0, np.int64), np.zeros(0)
-    p2, p3 = old.vertices[edge], old.vertices[_next_vertex(old, edge)]
+    p2, p3 = old.vertices[edge], old.vertices[old.next_vertex[edge]]
     starts = _piece_vertices(new, pieces)
-    q2, q3 = new.vertices[starts], new.vertices[_next_vertex(new, starts)]
+    q2, q3 = new.vertices[starts], new.vertices[new.next_vertex[starts]]
     along = p3 - p2  # (m, 2)
     length = np.linalg.norm(along, axis=1)[:, None]
     unit = along / length

@@ -322,6 +322,8 @@ def _truncate_run(outdir: Path, step: int) -> tuple[list, list, list]:
         for path in (outdir / "frames").glob(pattern):
             if TEMP_MARK in path.name or step_of_file(path) > step:
                 path.unlink(missing_ok=True)
+    for path in outdir.glob(f"*{TEMP_MARK}*"):  # a write the stop cut short (a picture)
+        path.unlink(missing_ok=True)
     _truncate_history(outdir / "history.csv", step)
     # the measurements were written up to the last frame kept (dda.run.measure)
     last = max((step_of_file(file) for file, _ in kept[0]), default=-1)

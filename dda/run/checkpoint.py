@@ -43,6 +43,7 @@ import logging
 import os
 import time
 import types
+import zipfile
 from array import array
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -212,6 +213,8 @@ def read_checkpoint(path: str | os.PathLike[str]) -> Checkpoint:
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(path, "no checkpoint to resume from")
+    if not zipfile.is_zipfile(path):  # numpy's own message would offer to unpickle it
+        raise CheckpointError(path, "not a dda checkpoint (not a zip of numpy arrays)")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {name: data[name] for name in data.files}
@@ -279,6 +282,45 @@ def restore(run: Any, checkpoint: Checkpoint) -> None:
         reason = f"cannot restore the run's state ({exc})"
         raise CheckpointError(checkpoint.source, reason) from None
     loader.check_complete()
+    damage = _damage(run.blocks, run.contacts)
+    if damage:
+        raise CheckpointError(checkpoint.source, f"cannot restore the run's state ({damage})")
+
+
+# the blocks' arrays of one row a block, which must be finite (a fragment's acceleration
+# is not known until its first step: NaN)
+_PER_BLOCK = ("ids", "material", "velocity", "stress", "rotation", "displacement", "fixed",
+              "centroid", "area", "ixx", "iyy", "ixy", "origin", "mass_area")  # fmt: skip
+
+
+def _damage(blocks: Any, contacts: Any) -> str:
+    """What makes the restored blocks and contacts unusable (arrays of other lengths than
+    their blocks' and contacts' count, non-finite geometry or motion, contacts naming
+    vertices or blocks that are not there), or "" (a checkpoint damaged inside a valid
+    zip)."""
+    n, vertices = len(blocks.names), len(blocks.vertices)
+    for name in (*_PER_BLOCK, "acceleration"):
+        values = getattr(blocks, name)
+        if len(values) != n:
+            return f"blocks.{name} has {len(values)} rows for {n} blocks"
+        if name in _PER_BLOCK and values.dtype.kind == "f" and not np.all(np.isfinite(values)):
+            return f"blocks.{name} is not finite"
+    offsets = blocks.offsets
+    if len(offsets) != n + 1 or offsets[-1] != vertices or len(blocks.edge_joint) != vertices:
+        return "the blocks' vertex offsets do not match their vertices"
+    if np.any(np.diff(offsets) < 3) or not np.all(np.isfinite(blocks.vertices)):
+        return "blocks.vertices are not polygons"
+    m = len(contacts.vertex)
+    for f in dataclasses.fields(contacts):
+        if len(getattr(contacts, f.name)) != m:
+            return f"contacts.{f.name} has {len(getattr(contacts, f.name))} rows for {m}"
+    indices = (contacts.vertex, contacts.edge, contacts.block_a, contacts.block_b)
+    if m and any(
+        np.any((i < 0) | (i >= top))
+        for i, top in zip(indices, (vertices,) * 2 + (n,) * 2, strict=True)
+    ):
+        return "the contacts name vertices or blocks that are not there"
+    return ""
 
 
 # --------------------------------------------------------------------------- solver cache

@@ -530,3 +530,15 @@ def test_the_bolts_are_written_beside_the_frame_and_read_back(tmp_path):
     np.testing.assert_array_equal(frames[1].bolts, ends + 5)
     assert frames[2].bolts is None
     assert len(meshio.read(tmp_path / "run" / "frames" / "bolts_000000.vtu").cells[0]) == 2
+
+
+def test_resume_removes_the_temporary_files_of_writes_a_stop_cut_short(tmp_path):
+    """A second Ctrl-C while the final picture was written left
+    final.tmp-6de09a84.tmp-579eae21.png, which the resumed run kept."""
+    writer = RunWriter(tmp_path, image=False)
+    writer.add_frame(make_frame(step=0))
+    writer.finish(None, status="interrupted")
+    stray = tmp_path / "final.tmp-6de09a84.tmp-579eae21.png"
+    stray.write_bytes(b"")
+    RunWriter(tmp_path, image=False, resume_step=0).finish(None, status="finished")
+    assert not stray.exists()

@@ -176,8 +176,27 @@ def test_a_checkpoint_of_another_scene_or_version_is_refused(tmp_path):
     with pytest.raises(CheckpointError, match="another version of dda.*lacks"):
         dda.simulate(scene, resume=dataclasses.replace(checkpoint, arrays=arrays))
     (tmp_path / "bad.npz").write_bytes(b"not a zip")
-    with pytest.raises(CheckpointError, match="bad.npz: not a dda checkpoint"):
+    with pytest.raises(CheckpointError, match="bad.npz: not a dda checkpoint") as caught:
         read_checkpoint(tmp_path / "bad.npz")
+    assert "pickle" not in str(caught.value)  # numpy's advice to load it unsafely
+
+
+def test_a_checkpoint_damaged_inside_a_valid_zip_is_refused(tmp_path):
+    """Arrays of the wrong length or not finite (bits changed before the zip's checksums
+    were made) are refused at the resume, not met as an IndexError or a non-finite
+    step later."""
+    scene = slope_scene(3)
+    plan = CheckpointPlan(tmp_path / "c.npz", None, None)
+    dda.simulate(scene, stop=stop_after(2), checkpoints=plan)
+    checkpoint = read_checkpoint(tmp_path / "c.npz")
+    for key, damage in (
+        ("run/blocks/ids", lambda a: a[:-1]),
+        ("run/blocks/velocity", lambda a: np.where(a == a.flat[0], np.nan, a)),
+        ("run/contacts/block_b", lambda a: a + 1000),
+    ):
+        arrays = {**checkpoint.arrays, key: damage(checkpoint.arrays[key])}
+        with pytest.raises(CheckpointError, match=r"c\.npz: cannot restore the run's state"):
+            dda.simulate(scene, resume=dataclasses.replace(checkpoint, arrays=arrays))
     write_checkpoint(tmp_path / "copy.npz", checkpoint)
     assert read_checkpoint(tmp_path / "copy.npz").step == 2
 
