@@ -6,13 +6,14 @@ Per step the engine records (``Result.history``)::
                                                Mᵢ = ρ ∫ Tᵢᵀ Tᵢ dA, docs/theory.md §3)
     potential V = Σ mᵢ g·(x_low − x_cᵢ)         (gravity; datum: the lowest vertex
                                                of the model at t = 0, so V ≥ 0 there)
+              + Σ ∫_blockᵢ p dA                 (water pressure p below the table: the
+                                               potential of its loads, a fixed field)
     elastic   U = ½ Σ Sᵢ σᵢᵀ Eᵢ⁻¹ σᵢ
     contact   C = Σ N²/2p + Σ F²/2p_s          (closed contacts: the contact springs
                                                at their forces after the step)
     springs   ½ Σ p_f |x − x₀|²                (fixed points)
               + Σ f0 e + ½ k e²                (rock bolts: pretension f0, stretch e)
     work      W = Σ_steps Σ_loads F(t)·T(x) D  (point loads, boundary stresses)
-              + Σ_steps F_w·D                   (water pressure, at the step start)
               + Σ_steps Σ (N ∇g_j + F ∇s_j)·D_j (the ground moving fixed blocks by D_j:
                                                 contacts, and T r_j·D_j of bolts)
 
@@ -306,6 +307,8 @@ class EnergyAccount:
             if self.gravity is not None:
                 potential = gravity_potential(density, blocks, self.gravity, self.datum)
             elastic = elastic_energy(elasticity, blocks)
+        if self.water is not None:
+            potential += self.water.energy(blocks)
         return EnergyTerms(
             kinetic=kinetic,
             potential=potential,
@@ -323,11 +326,10 @@ class EnergyAccount:
         prescribed: np.ndarray | None = None,
     ) -> float:
         """Add the external work over the accepted step ``d`` (before the blocks move):
-        the loads', the water's and, when fixed blocks moved by ``prescribed`` (part of
-        ``d``), the ground's through ``contacts`` (their forces at the step's end)."""
+        the loads' and, when fixed blocks moved by ``prescribed`` (part of ``d``), the
+        ground's through ``contacts`` (their forces at the step's end). The water's
+        pressure is a potential (``potential``), not work."""
         w = sum(load_work(loads, blocks, d, time) for loads in self.loads)
-        if self.water is not None:
-            w += float(np.sum(self.water.forces(blocks)[~blocks.fixed] * d[~blocks.fixed]))
         if prescribed is not None:
             w += ground_work(blocks, contacts, self.bolts, d, prescribed)
         self.work += w
