@@ -30,6 +30,9 @@ CUT_STEPS_WARNING = 0.5
 # allowed displacement per step: the blocks have not come to rest (a settled model's
 # last step moves them by 0; a block without support by its free fall in one step)
 STATIC_MOTION_WARNING = 1e-3
+# ... or with a force its last step's damping (2M/Δt² D) held above this share of a
+# block's weight: the forces are not yet those of equilibrium
+STATIC_UNBALANCED_WARNING = 1e-3
 
 
 def penetration_warning(
@@ -83,16 +86,51 @@ def cut_steps_warning(
     )
 
 
-def static_motion_warning(moved: float, allowed: float, block: str, length: str) -> str | None:
-    """The sentence when a static analysis's last step still moved a vertex by more than
-    :data:`STATIC_MOTION_WARNING` of the allowed displacement per step."""
-    if moved <= STATIC_MOTION_WARNING * allowed:
+def static_motion_warning(
+    moved: float,
+    before: float,
+    allowed: float,
+    block: str,
+    length: str,
+    unbalanced: tuple[float, str] = (0.0, ""),
+) -> str | None:
+    """The sentence when a static analysis has not come to rest: the blocks' way still to
+    go, :func:`still_to_go` of the last step's largest vertex move ``moved`` (of ``block``)
+    and the one before it ``before``, above :data:`STATIC_MOTION_WARNING` of the allowed
+    displacement per step; or a block's force that the last step's damping held,
+    ``unbalanced`` = (its share of the block's weight, the block), above
+    :data:`STATIC_UNBALANCED_WARNING` (a stiff bolt or contact that creeps by next to
+    nothing a step still misses that share of its force)."""
+    left = still_to_go(moved, before, allowed)
+    share, heaviest = unbalanced
+    if left <= STATIC_MOTION_WARNING * allowed and share <= STATIC_UNBALANCED_WARNING:
         return None
+    more = "" if not np.isfinite(left) else f", about {left:.3g} {length} more at that rate"
+    held = ""
+    if share > STATIC_UNBALANCED_WARNING:
+        held = f"; the last step's damping held {share:.2g} of block {heaviest!r}'s weight"
     return (
         f"the static analysis ended with blocks still moving: block {block!r} moved "
-        f"{moved:.3g} {length} in the last step. A block without support has no "
-        "equilibrium; else the analysis needs more steps"
+        f"{moved:.3g} {length} in the last step{more}{held}. A block without support has "
+        "no equilibrium; else the analysis needs more steps (or a larger time_step: in a "
+        "static analysis Δt sets how far a step goes)"
     )
+
+
+def still_to_go(moved: float, before: float, allowed: float) -> float:
+    """How far the blocks of a static analysis still move, from the last two steps'
+    largest vertex moves: a static step of Shi's takes each slow mode a fraction ρ of the
+    way left (its moves fall by ρ = 1 − k Δt² / 2m a step: a block held by a bolt of
+    stiffness k at Δt = 1e-4 creeps by 1e-8 m a step with 5e-4 m to go), so the way left
+    is moved ρ / (1 − ρ) with ρ = moved / before; infinite where the moves do not fall
+    (a block without support), and the last move itself where there is no step before.
+    Moves at round-off (1e-12 of the allowed step) count as none."""
+    if moved <= 1e-12 * allowed:
+        return 0.0
+    if before <= 0.0:
+        return moved
+    ratio = moved / before
+    return moved * ratio / (1.0 - ratio) if ratio < 1.0 else np.inf
 
 
 def energy_excess(

@@ -16,6 +16,7 @@ from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
 from dda.effects.base import StepContext
+from dda.effects.gravity import Gravity
 from dda.errors import SimulationError
 from dda.fracture.fragments import parent_rows
 from dda.fracture.inherited_contacts import after_breaking
@@ -82,6 +83,10 @@ class _Run:
         self.cut_steps = 0
         self.smallest_cut_dt = np.inf  # the shortest step a cut made
         self.last_moves = None  # a static run's last step: (vertex moves, owners, names)
+        self.move_before = 0.0  # a static run's largest vertex move in the step before
+        # a static run's last step: the largest force its damping held, over the block's
+        # weight, and that block's row
+        self.static_held = (0.0, -1)
         self.max_iterations_step = 0
         self.friction_dissipation = 0.0
         self.max_penetration = 0.0
@@ -295,7 +300,9 @@ def _advance(run: _Run) -> None:
     if cut:
         run.smallest_cut_dt = min(run.smallest_cut_dt, dt)
     if m.static:
+        run.move_before = _largest_move(run.last_moves)
         run.last_moves = (solution.moves, run.blocks.vertex_owner, run.blocks.names)
+        run.static_held = _held_by_damping(m, run.blocks, solution.d, dt)
     if solution.pushed is not None and np.any(solution.pushed):
         run.pushed_steps += 1
     with run.timer("update"):
@@ -651,7 +658,35 @@ def _last_motion_warning(state: _Run, length: str) -> str | None:
     size = np.hypot(moves[:, 0], moves[:, 1])
     largest = int(np.argmax(size))
     allowed = state.model.allowed_displacement
-    return static_motion_warning(float(size[largest]), allowed, names[owner[largest]], length)
+    block = names[owner[largest]]
+    share, row = state.static_held
+    held = (share, state.blocks.names[row] if 0 <= row < state.blocks.count else "")
+    return static_motion_warning(
+        float(size[largest]), state.move_before, allowed, block, length, held
+    )
+
+
+def _held_by_damping(model: Model, blocks: BlockSet, d: np.ndarray, dt: float) -> tuple[float, int]:
+    """(the largest force a static step's damping held, (2/Δt²) |(M D)ᵢ| over the
+    translations, over that block's weight mᵢ|g|; the block's row), (0, −1) without
+    gravity. At rest it is 0; a block without support has its whole weight held."""
+    gravity = next((e for e in model.effects if isinstance(e, Gravity)), None)
+    free = np.flatnonzero(~blocks.fixed)
+    if gravity is None or not len(free):
+        return 0.0, -1
+    masses = model.inertia.masses(blocks)[free]
+    held = (2.0 / dt**2) * np.einsum("nij,nj->ni", masses[:, :2, :], d[free])
+    weight = masses[:, 0, 0] * float(np.hypot(*gravity.gravity))
+    share = np.hypot(held[:, 0], held[:, 1]) / weight
+    k = int(np.argmax(share))
+    return float(share[k]), int(free[k])
+
+
+def _largest_move(last_moves) -> float:
+    """The largest vertex move of a static step's ``last_moves`` (0 before the first)."""
+    if last_moves is None or not len(last_moves[0]):
+        return 0.0
+    return float(np.hypot(last_moves[0][:, 0], last_moves[0][:, 1]).max())
 
 
 def _engineering_summary(state: _Run) -> dict:

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -47,9 +48,15 @@ def test_cut_steps_warn_beyond_their_share():
 
 
 def test_static_motion_warns_beyond_its_fraction_of_the_allowed_step():
-    assert static_motion_warning(STATIC_MOTION_WARNING * 0.02, 0.02, "a", "m") is None
-    text = static_motion_warning(1.1 * STATIC_MOTION_WARNING * 0.02, 0.02, "a", "m")
+    assert static_motion_warning(STATIC_MOTION_WARNING * 0.02, 0.0, 0.02, "a", "m") is None
+    text = static_motion_warning(1.1 * STATIC_MOTION_WARNING * 0.02, 0.0, 0.02, "a", "m")
     assert text is not None and "'a'" in text
+    # moves that fall slowly: little a step, much still to go (ρ / (1 − ρ) of the last)
+    creep = 1e-8
+    assert static_motion_warning(creep, creep / 0.5, 0.02, "a", "m") is None
+    text = static_motion_warning(creep, creep / (1 - 2e-5), 0.02, "a", "m")
+    assert text is not None and "about 0.0005 m more" in text
+    assert static_motion_warning(1e-15, 1e-15, 0.02, "a", "m") is None  # round-off
 
 
 def test_a_block_without_support_in_a_static_analysis_is_said_to_move():
@@ -208,3 +215,23 @@ def test_a_fracture_that_can_break_nothing_is_said(materials, min_area, said):
         assert warnings == []
     else:
         assert len(warnings) == 1 and said in warnings[0]
+
+
+@pytest.mark.parametrize(("dt", "said"), [(1e-2, False), (1e-3, True)])
+def test_a_static_bolt_short_of_its_force_is_said(dt, said):
+    """cases/bolted_block.toml (static) holds the closed form T = W (sin 30° − cos 30°
+    tan 20°) = 2447.30 N to 2e-8 at its Δt = 1e-2. At Δt = 1e-3 a static step goes a
+    hundredth as far: after its 1,000 steps the bolt carries 2386.2 N (2.5 % short) while
+    the block creeps by 2.3e-8 m a step, 6e-6 m from rest, and the last step's damping
+    holds 0.46 % of its weight: said (before, no warning)."""
+    scene = tomllib.loads((CASES / "bolted_block.toml").read_text())
+    scene["analysis"]["time_step"] = dt
+    result = dda.simulate(scene)
+    tension = result.final.bolt_tensions[0]
+    text = " ".join(result.summary["warnings"])
+    assert ("still moving" in text) == said
+    if said:
+        assert "held 0.0046 of block 'slider''s weight" in text
+        assert tension == pytest.approx(2386.23, rel=1e-4)
+    else:
+        assert tension == pytest.approx(2447.30, rel=1e-5)
