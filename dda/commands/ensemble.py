@@ -68,7 +68,9 @@ def ensemble_command(args: argparse.Namespace) -> int:
     columns = (*BASE_COLUMNS, *keys, *OUTCOME_COLUMNS)
     unsized = {**raw, "ensemble": {k: v for k, v in raw["ensemble"].items() if k != "realisations"}}
     store = RowStore(outdir / "ensemble.csv", columns, scene_hash(unsized, source, args.fos))
-    rows = {int(r["realisation"]): _parse(r, keys) for r in store.open()}
+    rows = {r["realisation"]: r for r in store.open(lambda row: _parse(row, keys))}
+    for note in store.notes():
+        print(f"dda ensemble: {note}", file=sys.stderr)
     rows = {k: r for k, r in rows.items() if k < ensemble.realisations}
     print(f"{source}: {ensemble.realisations} realisations (seed {ensemble.seed}; "
           f"{len(rows)} reused), drawing " + ", ".join(keys), file=sys.stderr)  # fmt: skip
@@ -131,7 +133,9 @@ def _progress(done: int, total: int, row: dict, keys: list[str]) -> None:
 
 
 def _parse(row: dict[str, str], keys: list[str]) -> dict:
-    failed = {"True": True, "False": False}.get(row["failed"])
+    from dda.stability.store import flag
+
+    failed = flag(row["failed"], refused=True)
     return {
         "realisation": int(row["realisation"]),
         "seed": int(row["seed"]),
@@ -242,4 +246,7 @@ def _failure_pictures(outdir, raw, source, scene, rows, frames, keys) -> list[st
                      title=f"realisation {k}: {drawn}", scene_title=scene.title,
                      units=units)  # fmt: skip
         names.append(f"failing_{k}.png")
+    for stale in outdir.glob("failing_*.png"):  # of an earlier ensemble (another seed)
+        if stale.name not in names:
+            stale.unlink(missing_ok=True)
     return names

@@ -183,9 +183,10 @@ class _Runner:
 
         self.raw, self.source, self.store, self.unit = raw, source, store, speed_unit
         self.rows: dict[float, dict] = {}
-        for row in store.open():
-            parsed = _parse_row(row)
+        for parsed in store.open(_parse_row):
             self.rows[round(parsed["factor"], DIGITS)] = parsed
+        for note in store.notes():
+            print(f"dda fos: {note}", file=sys.stderr)
         self.frames: dict[float, Any] = {}
         self.moving: dict[float, list[dict]] = {}  # the blocks faster than the limit
         self.workers = None
@@ -221,9 +222,11 @@ class _Runner:
 
 
 def _parse_row(row: dict[str, str]) -> dict:
+    from dda.stability.store import flag
+
     return {
         "factor": float(row["factor"]),
-        "failed": row["failed"] == "True",
+        "failed": flag(row["failed"]),
         "speed": float(row["speed"]),
         "limit": float(row["limit"]),
         "steps": int(row["steps"]),

@@ -15,13 +15,14 @@ import io
 import json
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from dda.io.atomic import append_whole, write_text
 
 HASH_COLUMN = "scene_hash"
+T = TypeVar("T")
 
 
 def scene_hash(raw: Mapping[str, Any], *extra: object) -> str:
@@ -37,15 +38,38 @@ class RowStore:
         self.path = Path(path)
         self.columns = [*columns, HASH_COLUMN]
         self.digest = digest
+        self.dropped = self.damaged = 0  # rows :meth:`open` left out
 
-    def open(self) -> list[dict[str, str]]:
-        """The rows of an earlier run of the same scene (as text); the file is started
-        afresh (header and those rows only) so that later rows are appended to it."""
-        kept = [r for r in self._read() if r.get(HASH_COLUMN) == self.digest]
+    def open(self, parse: Callable[[dict[str, str]], T]) -> list[T]:
+        """The rows of an earlier run of the same scene, each read by ``parse``; the file
+        is started afresh (header and those rows only) so that later rows are appended
+        to it. A row ``parse`` cannot read (a damaged value: ValueError, KeyError) is
+        left out, to be run again; ``dropped`` counts the rows of another scene (or
+        seed) and ``damaged`` those."""
+        rows = self._read()
+        same = [r for r in rows if r.get(HASH_COLUMN) == self.digest]
+        self.dropped = len(rows) - len(same)
+        kept, parsed = [], []
+        for row in same:
+            try:
+                parsed.append(parse(row))
+            except (ValueError, KeyError, TypeError):
+                continue
+            kept.append(row)
+        self.damaged = len(same) - len(kept)
         lines = [",".join(self.columns)] + [self._line(r) for r in kept]
         self.path.parent.mkdir(parents=True, exist_ok=True)
         write_text(self.path, "\n".join(lines) + "\n")
-        return kept
+        return parsed
+
+    def notes(self) -> list[str]:
+        """What :meth:`open` left out of the file, as sentences (none: [])."""
+        said = []
+        if self.dropped:
+            said.append(f"{self.dropped} row(s) of another scene, seed or option dropped")
+        if self.damaged:
+            said.append(f"{self.damaged} damaged row(s) run again")
+        return [f"{self.path.name}: {text}" for text in said]
 
     def append(self, row: Mapping[str, Any]) -> None:
         """Write one finished row at once, whole or not at all (a full disk)."""
@@ -69,6 +93,15 @@ class RowStore:
         out = io.StringIO()
         csv.writer(out, lineterminator="").writerow(cells)
         return out.getvalue()
+
+
+def flag(text: str, refused: bool = False) -> bool | None:
+    """A cell written from True or False (and None where ``refused``: a trial refused)
+    read back; ValueError for anything else (a damaged row)."""
+    values = {"True": True, "False": False, **({"None": None} if refused else {})}
+    if text not in values:
+        raise ValueError(f"not a flag: {text!r}")
+    return values[text]
 
 
 def _cell(value: Any) -> str:

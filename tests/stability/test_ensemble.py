@@ -206,6 +206,33 @@ def test_a_stopped_ensemble_resumes(tmp_path, capsys, monkeypatch):
     assert first["realisations"] == 4 and again["realisations"] == 6
 
 
+def test_a_damaged_row_is_run_again_and_another_seed_s_pictures_go(tmp_path, capsys, monkeypatch):
+    """A row of ensemble.csv whose outcome is no outcome ("maybe") was read as refused and
+    changed P with no word; it is run again, and said. An ensemble of another seed into
+    the same folder drops the rows (said) and the failing_K.png of the earlier seed that
+    its own failing realisations do not draw anew."""
+    monkeypatch.chdir(tmp_path)
+    first = run_ensemble(tmp_path, capsys, 6)
+    table = tmp_path / "out/ensemble.csv"
+    lines = table.read_text().splitlines()
+    cells = lines[2].split(",")
+    cells[3] = "maybe"  # the "failed" column
+    table.write_text("\n".join([*lines[:2], ",".join(cells), *lines[3:]]) + "\n")
+    again = run_ensemble(tmp_path, capsys, 6)
+    assert "ensemble.csv: 1 damaged row(s) run again" in again["stderr"]
+    assert "(seed 2026; 5 reused)" in again["stderr"]
+    assert (again["failures"], again["judged"]) == (first["failures"], first["judged"])
+    rows = [r.split(",") for r in table.read_text().splitlines()[1:]]
+    assert len(rows) == 6 and all(r[3] in ("True", "False") for r in rows)
+    stale = tmp_path / "out" / "failing_99.png"  # as an earlier seed's picture
+    stale.write_bytes(b"png")
+    write_scene(tmp_path / "slope.toml", slope_ensemble(6, seed=7))
+    assert cli.main(["ensemble", "slope.toml", "-o", "out", "--serial"]) == 0
+    err = capsys.readouterr().err
+    assert "ensemble.csv: 6 row(s) of another scene, seed or option dropped" in err
+    assert not stale.exists()
+
+
 # ----------------------------------------------------------------- acceptance 6
 
 

@@ -292,3 +292,30 @@ def test_brittle_joints_are_named_before_a_search():
         for name, j in brittle.joints.items()
     }
     assert brittle_note(dataclasses.replace(brittle, joints=joints)) is None
+
+
+def test_a_stored_trial_whose_outcome_is_damaged_is_run_again(tmp_path):
+    """fos.csv's "failed" column read "maybe" as False: a damaged row stood. Rows that do
+    not read back whole are left out of the file (run again) and counted."""
+    from dda.stability.store import RowStore, flag
+
+    store = RowStore(tmp_path / "fos.csv", ["factor", "failed"], "abc")
+    store.open(dict)
+    for factor, failed in ((1.0, True), (1.5, "maybe"), (2.0, False)):
+        store.append({"factor": factor, "failed": failed})
+    other = RowStore(tmp_path / "fos.csv", ["factor", "failed"], "other")  # another scene
+    other.append({"factor": 3.0, "failed": True})
+
+    def parse(row):
+        return float(row["factor"]), flag(row["failed"])
+
+    again = RowStore(tmp_path / "fos.csv", ["factor", "failed"], "abc")
+    assert again.open(parse) == [(1.0, True), (2.0, False)]
+    assert again.notes() == [
+        "fos.csv: 1 row(s) of another scene, seed or option dropped",
+        "fos.csv: 1 damaged row(s) run again",
+    ]
+    assert len((tmp_path / "fos.csv").read_text().splitlines()) == 3  # the header and two
+    with pytest.raises(ValueError):
+        flag("None")  # a refused trial only where trials may be refused
+    assert flag("None", refused=True) is None
