@@ -44,41 +44,65 @@ class WaterPressure(Effect):
         """h(x): the phreatic line's height (level beyond its ends)."""
         return np.interp(x, self.table[:, 0], self.table[:, 1])
 
-    def forces(self, blocks: BlockSet, ctx: StepContext | None = None) -> np.ndarray | None:
-        """(n, 6) generalised forces of the water pressure on every free block."""
-        return self._forces(blocks)
+    def slope(self, x: np.ndarray) -> np.ndarray:
+        """h'(x): the phreatic line's slope (0 beyond its ends)."""
+        xs, hs = self.table[:, 0], self.table[:, 1]
+        slopes = np.concatenate([[0.0], np.diff(hs) / np.diff(xs), [0.0]])
+        return slopes[np.searchsorted(xs, x)]
 
-    def stiffness(self, blocks: BlockSet, ctx: StepContext | None = None) -> np.ndarray | None:
-        """(n, 6, 6) the forces' stiffness −∂F/∂D (the Hessian of :meth:`energy`, each
-        block's own), so that a step takes the pressure at its end to first order, not
-        at its start: a block floating in water is held by γw times its waterline's width,
-        and with the pressure of the step start alone it bobbed ever higher (a 1 m ×
-        0.5 m block, Δt = 1e-3: +1.0 J in 4 s). Central differences of the forces at the
-        blocks moved by ±ε of each unknown (1e-6 of the block's size for a translation,
-        1e-6 for a rotation or strain), made symmetric, and of it the positive part: a
-        block's pressure may tip it over (a floating block above its metacentre), which
-        is left to the forces of the step start; K stays positive definite."""
+    def hessian(self, blocks: BlockSet) -> np.ndarray | None:
+        """(n, 6, 6) the Hessian of :meth:`energy`, each block's own, None where no edge
+        is wet. Each edge a→b gives ∫₀¹ g(x(t)) (b_x − a_x) dt, g = γw ⟨h − y⟩₊² / 2,
+        x(t) = (1 − t) a + t b; over u = (a, b) its Hessian is
+
+            ∫ [Wᵀ ∇²g W (b_x − a_x) + Wᵀ ∇g cᵀ + c ∇gᵀ W] dt,   W = [(1 − t) I, t I],
+
+        c = (−1, 0, 1, 0), ∇g = p (h', −1), ∇²g = γw [h'², −h'; −h', 1] below the line:
+        of degree 2 in t on each wet piece (two Gauss points). ∇g is continuous at the
+        waterline, so its moving ends add nothing; at a kink of the line h' jumps, which
+        this leaves out. The ends move with the block's unknowns as u = u₀ + [T(a); T(b)] D,
+        so the block's Hessian is Σ Jᵀ H J, J = [T(a); T(b)]."""
         edges = self._free_edges(blocks)
         if edges is None:
             return None
-        rows, a0, b0 = edges
-        n, size = blocks.count, np.sqrt(blocks.area)
+        rows, a, b = edges
+        e, x, half, depth, t = self._gauss(a, b)
+        slope = self.slope(x[..., 0])
+        weight = half[:, :, None] * self.unit_weight  # Gauss weight 1 on [-1, 1]: half a piece
+        # W(t)ᵀ C W(t) = [[(1 − t)², t(1 − t)], [t(1 − t), t²]] ⊗ C for a 2 × 2 C
+        ends = np.stack([np.stack([(1 - t) ** 2, t * (1 - t)], -1),
+                         np.stack([t * (1 - t), t**2], -1)], -2)  # fmt: skip
+        below = weight * (depth > 0.0) * e[:, 0, None, None]  # γw (b_x − a_x), below the line
+        curvature = below[..., None, None] * np.stack(
+            [np.stack([slope**2, -slope], -1), np.stack([-slope, np.ones_like(slope)], -1)], -2
+        )
+        per_edge = np.einsum("epgab,epgkl->eakbl", ends, curvature).reshape(-1, 4, 4)
+        # Wᵀ ∇g cᵀ + c ∇gᵀ W, ∇g = p (h', −1)/γw·γw, c = (−1, 0, 1, 0)
+        pull = (weight * depth)[..., None] * np.stack([slope, -np.ones_like(slope)], -1)
+        wg = np.concatenate(
+            [np.einsum("epg,epgk->ek", 1 - t, pull), np.einsum("epg,epgk->ek", t, pull)], axis=1
+        )  # (e, 4): ∫ Wᵀ ∇g dt
+        cross = wg[:, :, None] * np.array([-1.0, 0.0, 1.0, 0.0])[None, None, :]
+        per_edge += cross + np.swapaxes(cross, 1, 2)
         centroid = blocks.centroid[rows]
-        ta, tb = displacement_matrices(a0, centroid), displacement_matrices(b0, centroid)
-        step = 1e-6 * np.where(np.arange(6)[:, None] < 2, size[None, :], 1.0)  # (6, n)
-        # the edges of every block moved by +ε, then −ε, along each unknown: 12 copies
-        shift = step[:, None, rows, None] * np.array([1.0, -1.0])[None, :, None, None]
-        a = (a0 + shift * np.moveaxis(ta, 2, 0)[:, None]).reshape(-1, 2)
-        b = (b0 + shift * np.moveaxis(tb, 2, 0)[:, None]).reshape(-1, 2)
-        copies = 12
-        forces = self._edge_forces(
-            (rows + n * np.arange(copies)[:, None]).ravel(),
-            np.tile(a0, (copies, 1)), np.tile(b0, (copies, 1)), a, b,
-            np.tile(blocks.centroid, (copies, 1)), copies * n,
-        ).reshape(6, 2, n, 6)  # fmt: skip
-        hessian = -(forces[:, 0] - forces[:, 1]) / (2.0 * step[:, :, None])  # (k, n, 6)
-        hessian = np.transpose(hessian, (1, 2, 0))  # (n, 6, k): column k, the unknown moved
-        hessian = 0.5 * (hessian + np.transpose(hessian, (0, 2, 1)))
+        jacobian = np.concatenate(
+            [displacement_matrices(a, centroid), displacement_matrices(b, centroid)], axis=1
+        )  # (e, 4, 6)
+        out = np.zeros((blocks.count, 6, 6))
+        np.add.at(out, rows, np.swapaxes(jacobian, 1, 2) @ per_edge @ jacobian)
+        return out
+
+    def stiffness(self, blocks: BlockSet, ctx: StepContext | None = None) -> np.ndarray | None:
+        """(n, 6, 6) the forces' stiffness −∂F/∂D, the positive part of each block's
+        :meth:`hessian`, so that a step takes the pressure at its end to first order, not
+        at its start: a block floating in water is held by γw times its waterline's width,
+        and with the pressure of the step start alone it bobbed ever higher (a 1 m ×
+        0.5 m block, Δt = 1e-3: +1.0 J in 4 s). The negative part (a floating block's
+        pressure may tip it over, above its metacentre) is left to the forces of the step
+        start: K stays positive definite."""
+        hessian = self.hessian(blocks)
+        if hessian is None:
+            return None
         values, vectors = np.linalg.eigh(hessian)
         kept = np.einsum("nik,nk,njk->nij", vectors, np.maximum(values, 0.0), vectors)
         kept[blocks.fixed] = 0.0
@@ -97,30 +121,19 @@ class WaterPressure(Effect):
         integrand = 0.5 * self.unit_weight * depth**2 * e[:, 0, None, None]  # γw⟨h−y⟩²/2 dx/dt
         return float(np.sum(integrand * half[:, :, None]))
 
-    def _forces(self, blocks: BlockSet) -> np.ndarray:
+    def forces(self, blocks: BlockSet, ctx: StepContext | None = None) -> np.ndarray | None:
         """(n, 6) −∮ p Tᵀ n ds of every free block: minus the gradient of :meth:`energy`."""
+        f = np.zeros((blocks.count, 6))
         edges = self._free_edges(blocks)
         if edges is None:
-            return np.zeros((blocks.count, 6))
-        rows, a, b = edges
-        return self._edge_forces(rows, a, b, a, b, blocks.centroid, blocks.count)
-
-    def _edge_forces(self, rows, a0, b0, a, b, centroids, count) -> np.ndarray:
-        """(count, 6) −∫ p T(x₀)ᵀ n ds summed by ``rows`` over the edges a→b, each the
-        edge a0→b0 of its block moved (x = x₀ + T(x₀) D, T about ``centroids[rows]``):
-        minus the gradient of the pressure's potential at that D."""
-        f = np.zeros((count, 6))
-        wet = np.minimum(a[:, 1], b[:, 1]) < self.table[:, 1].max()
-        rows, a, b, a0, b0 = rows[wet], a[wet], b[wet], a0[wet], b0[wet]
-        if not len(rows):
             return f
-        e, x, half, depth, t = self._gauss(a, b)
-        x0 = a0[:, None, None, :] + t[..., None] * (b0 - a0)[:, None, None, :]
+        rows, a, b = edges
+        e, x, half, depth, _ = self._gauss(a, b)
         normal = np.column_stack([e[:, 1], -e[:, 0]])  # outward (CCW) normal x edge length
         weight = self.unit_weight * depth * half[:, :, None]  # Gauss weight 1: half a piece
         load = -weight[..., None] * normal[:, None, None, :]  # (e, p, 2, 2): force per point
         rows = np.broadcast_to(rows[:, None, None], depth.shape).ravel()
-        tm = displacement_matrices(x0.reshape(-1, 2), centroids[rows])
+        tm = displacement_matrices(x.reshape(-1, 2), blocks.centroid[rows])
         generalised = np.einsum("mkr,mk->mr", tm, load.reshape(-1, 2))
         np.add.at(f, rows, generalised)
         return f

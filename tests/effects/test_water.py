@@ -194,3 +194,26 @@ def test_a_floating_block_bobs_without_gaining_energy(dt):
     uy = result.measurements["c.uy"]
     assert 0.5 * (uy.max() - uy.min()) <= 0.05 * (1 + 1e-6)
     assert uy.mean() == pytest.approx(0.05, rel=0.01)  # about its floating depth
+
+
+@pytest.mark.parametrize(
+    "table",
+    [[[-5.0, 0.4], [5.0, 0.4]], [[-5.0, 0.1], [5.0, 0.9]], [[-5.0, 0.0], [-2.0, 0.3], [3.0, 0.5]]],
+)
+def test_the_pressure_s_hessian_is_the_second_derivative_of_its_potential(table):
+    """The step's water stiffness is the positive part of the potential's Hessian, from
+    its edges' closed form: it equals the central second differences of ∫ p dA over the
+    block moved by D (x + T(x) D) to 1e-6, for a level, a sloping and a kinked table."""
+    water, blocks = water_effect(rotated(rectangle(-1, -0.3, 1, 0.7), 25.0), table)
+    h, numeric = 1e-4, np.zeros((6, 6))
+    for i in range(6):
+        for j in range(6):
+            a, b = np.eye(6)[i] * h, np.eye(6)[j] * h
+            corners = [(a + b, 1), (a - b, -1), (-a + b, -1), (-a - b, 1)]
+            numeric[i, j] = sum(s * water.energy(moved(blocks, d[None, :])) for d, s in corners)
+    numeric /= 4 * h * h
+    exact = water.hessian(blocks)[0]
+    np.testing.assert_allclose(exact, numeric, atol=1e-6 * np.abs(numeric).max())
+    values, vectors = np.linalg.eigh(exact)
+    positive = vectors @ np.diag(np.maximum(values, 0.0)) @ vectors.T
+    np.testing.assert_allclose(water.stiffness(blocks)[0], positive, atol=1e-9 * values.max())
