@@ -84,9 +84,13 @@ def shear_force(shear_base, shear_penalty, bound, slip):
 
 
 @formula
-def tension_held(joint, intact):
-    """T l while intact, the residual T_r l after."""
-    return select(intact, joint.tensile, joint.residual_tensile)
+def tension_held(joint, intact, opened):
+    """T l while intact, the residual T_r l after, and none while the contact is open
+    (``opened``: open at the step's start, stretched beyond its tension or apart, a
+    ductile joint's too, whose bond never breaks: it holds tension again once it has
+    closed, from its spring's stretch 0, so that the force follows the gap without a
+    jump)."""
+    return select(opened, 0.0, select(intact, joint.tensile, joint.residual_tensile))
 
 
 @formula
@@ -256,12 +260,14 @@ def recorded(
     normal_multiplier, limit_band, persistent,
 ):  # fmt: skip
     """A contact's record at the step's end: (state, λn, slide direction, N, F). Open
-    where N is at its limit 0 (closed: on the elastic piece, or holding tension T > 0),
+    where the spring's trial force λn + p g is beyond its limit −T (0: apart; a
+    tension T > 0: stretched beyond what it holds, so that it holds none from the next
+    step, :func:`tension_held`),
     else sliding where |λt + ps s| ≥ (1 − ``limit_band``) b or there is no shear term,
     else locked; an open contact keeps no N or F, and no λn but, where ``persistent``
     and still pressed in (g > 0), a negative one: the target penetration it was held at
     (:func:`augmentation`)."""
-    closed = (normal_trial(normal_base, penalty, g) >= -tension) | (tension > 0.0)
+    closed = normal_trial(normal_base, penalty, g) >= -tension
     trial = shear_trial(shear_base, shear_penalty, s)
     stuck = (np.abs(trial) < (1.0 - limit_band) * bound) & (shear_penalty > 0.0)
     state = select(closed, select(stuck, LOCKED, SLIDING), OPEN)
@@ -273,13 +279,15 @@ def recorded(
 
 
 @formula
-def first_bound(joint, intact, multiplier, penalty, allowance, gap0, last_normal, found_touching):
+def first_bound(
+    joint, intact, opened, multiplier, penalty, allowance, gap0, last_normal, found_touching
+):
     """A step's first friction bound: b of the larger of N at the start geometry,
     max(λn + p g₀, −T) (λn :func:`held_multiplier`), and the last step's N (a contact
     of blocks that turn together may open by one step's second-order rotation and close
     again in the next: its last force is the better guess); ``UNBOUNDED`` (stuck) for a
     contact found touching this step, whose force is not known yet."""
-    tension = tension_held(joint, intact)
+    tension = tension_held(joint, intact, opened)
     held = held_multiplier(multiplier, tension, penalty, allowance)
     start = normal_force(held, penalty, tension, gap0)
     bound = friction_bound(joint, np.maximum(start, last_normal), intact)

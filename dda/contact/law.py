@@ -35,6 +35,7 @@ from dda.contact.contact_set import ContactSet
 from dda.contact.potential import ContactTerms
 from dda.contact.strength import JointProperties
 from dda.jit import compiled, floats
+from dda.result import OPEN
 
 UNBOUNDED = formulas.UNBOUNDED  # the bound of a contact whose normal force is not known yet
 
@@ -110,14 +111,15 @@ def contact_terms(
     """
     if compiled(law_kernels.terms_kernel):
         normal_base, tension, shear_base, shear_penalty, bound = law_kernels.terms_kernel(
-            contacts.intact, joint.kernel_strength(), floats(contacts.normal_multiplier),
+            contacts.intact, np.ascontiguousarray(contacts.state, np.int8),
+            joint.kernel_strength(), floats(contacts.normal_multiplier),
             floats(contacts.shear_multiplier), floats(contacts.penalty), float(law.shear_ratio),
             floats(bound), bool(law.friction), float(law.allowance),
         )  # fmt: skip
         return ContactTerms(
             normal_base, contacts.penalty, tension, shear_base, shear_penalty, bound
         )
-    tension = formulas.tension_held(joint, contacts.intact)
+    tension = formulas.tension_held(joint, contacts.intact, contacts.state == OPEN)
     lam_n = contacts.normal_multiplier
     if law.friction:
         shear_penalty = law.shear_ratio * contacts.penalty

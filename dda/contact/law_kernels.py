@@ -28,9 +28,12 @@ from dda.contact.formulas import (
 )
 from dda.contact.strength import joint_of
 from dda.jit import kernel
+from dda.result import OPEN
 
 
-def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, friction, allowance):
+def _terms(
+    intact, state, strength, multiplier, carried, penalty, shear_ratio, bound, friction, allowance
+):
     """:func:`dda.contact.law.contact_terms`: (λn, T, λt, ps, b) of each contact; T the
     tension held (:func:`~dda.contact.formulas.tension_held`), λn the multiplier held
     (:func:`~dda.contact.formulas.held_multiplier`),
@@ -40,7 +43,7 @@ def _terms(intact, strength, multiplier, carried, penalty, shear_ratio, bound, f
     tension, normal_base = np.empty(m), np.empty(m)
     shear_base, shear_penalty, bounds = np.empty(m), np.empty(m), np.empty(m)
     for c in range(m):
-        tension[c] = tension_held(joint_of(strength, c), intact[c])
+        tension[c] = tension_held(joint_of(strength, c), intact[c], state[c] == OPEN)
         normal_base[c] = held_multiplier(multiplier[c], tension[c], penalty[c], allowance)
         b = bound[c] if friction else 0.0
         bounds[c] = b

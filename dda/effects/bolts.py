@@ -100,18 +100,10 @@ class RockBolts(Effect):
     def linearised(self, blocks: BlockSet, ctx: StepContext | None = None):
         """(i, j, r_i, r_j, e0) of the bolts in place at the step start (module docstring);
         e0 holds the known step of fixed blocks that follow the ground (``ctx.prescribed``)."""
-        m = len(self)
-        act = np.flatnonzero(self.active)
-        rows, points = self.ends.rows, self.ends.positions
-        i, j = rows[act], rows[m + act]
-        p, q = points[act], points[m + act]
-        length = np.linalg.norm(q - p, axis=1)
-        n = (q - p) / length[:, None]
-        r_i = -project_rows(n, p, blocks.centroid[i])
-        r_j = project_rows(n, q, blocks.centroid[j])
-        e0 = length - self.rest_length[act]
+        i, j, r_i, r_j, length = self._rows(blocks, along=True)
+        e0 = length - self.rest_length[self.active]
         if ctx is not None and ctx.prescribed is not None:
-            e0 = e0 + PairSprings(i, j, r_i, r_j, np.zeros(len(act))).stretch(ctx.prescribed)
+            e0 = e0 + PairSprings(i, j, r_i, r_j, np.zeros(len(e0))).stretch(ctx.prescribed)
         return i, j, r_i, r_j, e0
 
     def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray | None:
@@ -145,16 +137,25 @@ class RockBolts(Effect):
         bolt's direction is frozen within a step and a block that swings on it gains
         energy (a pendulum on a 2 m bolt at 30°, Δt = 1e-3: 0.8 J a second). A bolt in
         compression holds nothing across (T⁺ = max(T, 0): the term stays convex)."""
+        i, j, r_i, r_j, length = self._rows(blocks, along=False)
+        return PairSprings(i, j, r_i, r_j, np.maximum(tension, 0.0) / length)
+
+    def _rows(self, blocks: BlockSet, along: bool):
+        """(i, j, r_i, r_j, L) of the bolts in place: their blocks, the rows of their ends'
+        motion along the bolt (``along``: n = (Q − P)/L) or across it (n turned 90°),
+        r_i = −nᵀ T_i(P), r_j = nᵀ T_j(Q), and their lengths L."""
         m = len(self)
         act = np.flatnonzero(self.active)
         rows, points = self.ends.rows, self.ends.positions
         i, j = rows[act], rows[m + act]
         p, q = points[act], points[m + act]
         length = np.linalg.norm(q - p, axis=1)
-        across = np.stack([p[:, 1] - q[:, 1], q[:, 0] - p[:, 0]], axis=1) / length[:, None]
-        r_i = -project_rows(across, p, blocks.centroid[i])
-        r_j = project_rows(across, q, blocks.centroid[j])
-        return PairSprings(i, j, r_i, r_j, np.maximum(tension, 0.0) / length)
+        n = (q - p) / length[:, None]
+        if not along:
+            n = np.stack([-n[:, 1], n[:, 0]], axis=1)
+        r_i = -project_rows(n, p, blocks.centroid[i])
+        r_j = project_rows(n, q, blocks.centroid[j])
+        return i, j, r_i, r_j, length
 
     def preload(self, blocks: BlockSet, d: np.ndarray) -> None:
         """L0 ← L0 − (r_i·D_i + r_j·D_j): each bolt in place pulls as it would stretched

@@ -69,8 +69,8 @@ def _first_bounds(
     for c in range(m):
         found_touching = fresh[c] and state[c] != OPEN
         bound[c] = first_bound(
-            joint_of(strength, c), intact[c], multiplier[c], penalty[c], allowance, g0[c],
-            last_normal[c], found_touching,
+            joint_of(strength, c), intact[c], state[c] == OPEN, multiplier[c], penalty[c],
+            allowance, g0[c], last_normal[c], found_touching,
         )  # fmt: skip
     return bound
 
@@ -177,8 +177,8 @@ def _band_step(geometry, contacts, law, loop, velocity_step, factor):
     while solves < budget:
         terms_penalty = penalty  # the terms' p: the law's update makes a new array
         normal_base, tension, shear_base, shear_penalty, bounds = terms_kernel(
-            intact, strength, normal_multiplier, shear_multiplier, penalty, law.shear_ratio,
-            bound, friction, allowance,
+            intact, state, strength, normal_multiplier, shear_multiplier, penalty,
+            law.shear_ratio, bound, friction, allowance,
         )  # fmt: skip
         terms = BandTerms(normal_base, penalty, tension, shear_base, shear_penalty, bounds)
         first = solves == 0

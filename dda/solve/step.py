@@ -417,8 +417,8 @@ def _first_bounds(contacts, rows, joints, law) -> np.ndarray:
         return np.zeros(len(contacts))
     found_touching = contacts.fresh & (contacts.state != OPEN)
     return first_bound(
-        joints, contacts.intact, contacts.normal_multiplier, contacts.penalty, law.allowance,
-        rows.penetration, contacts.normal_force, found_touching,
+        joints, contacts.intact, contacts.state == OPEN, contacts.normal_multiplier,
+        contacts.penalty, law.allowance, rows.penetration, contacts.normal_force, found_touching,
     )  # fmt: skip
 
 

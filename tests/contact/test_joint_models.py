@@ -162,7 +162,12 @@ def test_the_friction_bound_is_peak_while_intact_and_residual_after():
     intact = formulas.friction_bound(joint, np.array([100.0]), np.array([True]))
     broken = formulas.friction_bound(joint, np.array([100.0]), np.array([False]))
     assert (intact[0], broken[0]) == (0.5 * 100 + 10, 0.2 * 100 + 1)
-    assert formulas.tension_held(joint, np.array([False]))[0] == 0.0
+    assert formulas.tension_held(joint, np.array([False]), np.array([False]))[0] == 0.0
+    held = formulas.tension_held(
+        props(residual_tensile=np.array([3.0])), np.array([True, False, False, True]),
+        np.array([False, False, True, True]),
+    )  # fmt: skip
+    assert held.tolist() == [5.0, 3.0, 0.0, 0.0]  # intact, residual; open: none
 
 
 def test_the_barton_bandis_angle_is_held_between_the_residual_and_70_degrees():
@@ -412,3 +417,43 @@ def test_a_block_inside_its_friction_stands_on_every_joint_model(model, time_ste
     assert result.summary["status"] == "finished" and result.summary["cut_steps"] == 0
     assert largest_move(result) <= 2.0 * settled + 1e-6, (largest_move(result), settled)
     assert energy_excess(result) <= 1e-9
+
+
+def pulled_block(force: float, base_width: float, dt: float) -> dict:
+    """A 1 m × 0.5 m block (1000 kg, W = 1e4 N at g = 10) on a ductile joint holding
+    T = 4000 N/m in tension (residual = peak: its bond never breaks), pulled up by
+    ``force`` at its centroid, on a base ``base_width`` wide."""
+    joint = {"friction_angle": 30.0, "cohesion": 5000.0, "tensile_strength": 4000.0,
+             "residual_friction_angle": 30.0, "residual_cohesion": 5000.0,
+             "residual_tensile_strength": 4000.0}  # fmt: skip
+    half = base_width / 2
+    return {
+        "analysis": {"mode": "dynamic", "time_step": dt, "duration": 0.06,
+                     "gravity": [0.0, -10.0], "save_every": 10**6},
+        "contact": {"tolerance": 1e-6},
+        "materials": {"rock": {"density": 2000.0, "young": 1e9, "poisson": 0.25}},
+        "joints": {"default": joint},
+        "blocks": [
+            {"name": "base", "material": "rock", "fixed": True,
+             "vertices": [[1.5 - half, -1], [1.5 + half, -1], [1.5 + half, 0], [1.5 - half, 0]]},
+            {"name": "top", "material": "rock", "vertices": [[1, 0], [2, 0], [2, 0.5], [1, 0.5]]},
+        ],
+        "loads": [{"block": "top", "point": [1.5, 0.25], "force": [0.0, force]}],
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize(("base_width", "dt"), [(5.0, 1e-3), (60.0, 1e-3), (60.0, 1e-4)])
+def test_a_joint_pulled_open_lets_go_of_its_tension(base_width, dt):
+    """Pulled beyond W + T L = 14 kN (16.8 kN), the ductile joint opens and holds no
+    tension from then on: the block rises at (16.8 − 10) kN / 1000 kg, ½ a t² = 12.24 mm
+    at 0.06 s, on any base. Before, the open contact pulled at −T L until it left the
+    search distance, which the base's size sets: 7.2 mm on a 5 m base, 5.0 mm on 60 m.
+    At 0.9 of the strength the joint holds (the block moves by its spring's stretch)."""
+    result = dda.simulate(pulled_block(16800.0, base_width, dt))
+    rise = result.final.displacements[1, 1]
+    assert rise == pytest.approx(0.5 * 6.8 * 0.06**2, rel=1e-3)
+    h = result.history
+    excess = h["total_energy"] - result.summary["initial_energy"] - h["external_work"]
+    assert excess.max() <= 1e-9 * result.summary["initial_energy"]
+    held = dda.simulate(pulled_block(0.9 * 14000.0, base_width, dt))
+    assert abs(held.final.displacements[1, 1]) < 1e-5

@@ -31,6 +31,7 @@ def contact_set(m: int, penalty: float = 1e8) -> ContactSet:
     )
     contacts.penalty[:] = penalty
     contacts.intact[:] = True
+    contacts.state[:] = LOCKED  # touching, as bonded contacts are
     return contacts
 
 

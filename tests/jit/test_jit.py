@@ -205,7 +205,7 @@ def test_formulas_of_numbers_compile_to_branches_that_allocate_nothing():
             formulas.shear_piece(base, penalty, bound, value)
             + formulas.normal_offset(base, penalty, bound, value, formulas.NORMAL_ELASTIC)
             + formulas.shear_spring(penalty, formulas.STICK)
-            + formulas.tension_held(joint_of(STRENGTH, 0), value > 0.0)
+            + formulas.tension_held(joint_of(STRENGTH, 0), value > 0.0, value > 5.0)
             + formulas.friction_bound(joint_of(STRENGTH, 0), value, value > 0.0)
         )
 
@@ -214,7 +214,7 @@ def test_formulas_of_numbers_compile_to_branches_that_allocate_nothing():
         formulas.shear_piece(1.0, 2.0, 3.0, 4.0)
         + formulas.normal_offset(1.0, 2.0, 3.0, 4.0, formulas.NORMAL_ELASTIC)
         + formulas.shear_spring(2.0, formulas.STICK)
-        + formulas.tension_held(joint_of(STRENGTH, 0), True)
+        + formulas.tension_held(joint_of(STRENGTH, 0), True, False)
         + formulas.friction_bound(joint_of(STRENGTH, 0), 4.0, True)
     )
     machine_code = "".join(one_contact.inspect_llvm().values())
