@@ -37,6 +37,7 @@ from dda.run.run_warnings import (
     fracture_warning,
     in_situ_warning,
     penetration_warning,
+    restitution_warning,
     static_motion_warning,
 )
 from dda.run.stages import apply_due_stages, set_strengths
@@ -618,8 +619,20 @@ def _warnings(state: _Run) -> list[str]:
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
         _last_motion_warning(state, length),
         _fracture_warning(state, length),
+        _restitution_warning(m),
     ]
     return [text for text in found if text is not None]
+
+
+def _restitution_warning(model: Model) -> str | None:
+    """:func:`restitution_warning` of the model's joints with ``restitution``."""
+    cm = model.contact
+    if cm is None or not cm.joints.has_restitution:
+        return None
+    rest = [cm.joints.names[k] for k in np.flatnonzero(np.isfinite(cm.joints.restitution))]
+    young = min(material.young for material in model.scene.materials.values())
+    units = model.scene.units
+    return restitution_warning(rest, cm.initial_penalty, young, units.force, units.length)
 
 
 def _fracture_warning(state: _Run, length: str) -> str | None:

@@ -269,6 +269,22 @@ def dropped(restitution: float, time_step: float, height: float) -> dict:
     }  # fmt: skip
 
 
+def test_restitution_with_contacts_as_stiff_as_the_blocks_is_said():
+    """The dashpot is tuned to a rigid block on its contact spring: with the default
+    penalty (10 E) a block's own elasticity gives the impact back (e = 0.3 rebounded at
+    0.70, unsaid). Runs with p above E/10 say so; this test's scene (p = E/100) does
+    not."""
+    soft = dda.simulate(dda.load_scene({**dropped(0.5, 1e-4, 0.01), "analysis": {
+        "time_step": 1e-4, "steps": 2, "gravity": [0, -G]}}))  # fmt: skip
+    assert not any("restitution" in text for text in soft.summary["warnings"])
+    stiff = dropped(0.5, 1e-4, 0.01)
+    stiff["analysis"] = {"time_step": 1e-4, "steps": 2, "gravity": [0, -G]}
+    del stiff["contact"]["penalty"]  # the default, 10 E
+    text = " ".join(dda.simulate(dda.load_scene(stiff)).summary["warnings"])
+    assert "joints.default: restitution needs contact springs softer than the blocks" in text
+    assert "penalty ≤ 0.1 × Young's modulus (5e+09 N/m); with 5e+11" in text
+
+
 @pytest.mark.slow
 def test_a_block_dropped_on_a_level_base_rebounds_to_e_squared_h():
     """e = 0.5 from 0.4 m: the first apex at e² h = 0.1 m within 3 % at Δt = 0.1, 0.05 and
