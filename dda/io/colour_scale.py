@@ -1,7 +1,8 @@
 """The colour range of a picture: what values map to which colour, so that colours read true.
 
-A signed quantity whose values straddle zero gets a range symmetric about zero and a
-diverging map (white at zero); anything else its own range and a sequential map. A
+A signed quantity whose values straddle zero (beyond round-off) gets a range symmetric
+about zero and a diverging map (white at zero); anything else its own range and a
+sequential map. A
 field whose values differ by no more than round-off (:data:`NEAR_CONSTANT` of their
 largest magnitude: two blocks' syy of -7.4975557 and -7.4975551 kPa) is one value: the
 blocks are drawn in one colour and the bar states the value, instead of stretching the
@@ -79,10 +80,19 @@ def colour_scale(
         value = float(np.mean(finite))
         pad = abs(value) * ONE_VALUE_PAD if value else 1.0
         return ColourScale(value - pad, value + pad, "viridis", constant=value)
-    if signed and low < 0.0 < high:
+    if signed and _straddles_zero(low, high):
         bound = max(-low, high)
         return ColourScale(-bound, bound, "coolwarm")
     return ColourScale(low, high, "viridis")
+
+
+def _straddles_zero(low: float, high: float) -> bool:
+    """Whether values from ``low`` to ``high`` have both signs beyond round-off
+    (:data:`NEAR_CONSTANT` of the largest magnitude): a compressive field with one
+    stress-free block at +1.5e-12 Pa beside −22 MPa is one-signed, and keeps its own range
+    and a sequential map, not half of a ±22 MPa diverging one."""
+    noise = NEAR_CONSTANT * max(-low, high)
+    return low < -noise and high > noise
 
 
 def near_constant(finite: np.ndarray) -> bool:

@@ -313,6 +313,10 @@ def test_color_range():
     assert (low, high, cmap) == (1.0, 3.0, "viridis")
     (low, high), _ = color_range(np.array([2.0, 2.0]), signed=False)
     assert low < 2.0 < high
+    # a compressive field with one stress-free block at round-off above zero
+    # (cases/tunnel_deep.toml's falling crown wedge): one-signed, its own range
+    (low, high), cmap = color_range(np.array([-2.2e7, -1.0e6, 1.5e-12]), signed=True)
+    assert (low, high, cmap) == (-2.2e7, 1.5e-12, "viridis")
 
 
 # ------------------------------------------------------------------ run writer
