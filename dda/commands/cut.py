@@ -102,7 +102,9 @@ def run_cut(args: argparse.Namespace) -> int:
             return 2
         bar.update(stages["checking"], "toml")
         origin = args.scene if drawing is None else f"{args.scene} with {props}"
-        header = f"# Blocks cut from {origin} by `dda cut`: {len(cut.names)} blocks.\n"
+        blocks = scene.get("blocks", [])  # the cut ones and those the scene draws itself
+        fixed = sum(bool(block.get("fixed", False)) for block in blocks)
+        header = f"# Blocks cut from {origin} by `dda cut`: {len(blocks)} blocks.\n"
         text = header + dumps(scene)
         if png is not None:  # the picture first: a drawing that fails leaves no scene behind
             from dda.io.fonts import unicode_text
@@ -119,7 +121,7 @@ def run_cut(args: argparse.Namespace) -> int:
         log.info("wrote %s", output)
         bar.finish()
     if not args.quiet:
-        sys.stdout.write(f"{output}: {len(cut.names)} blocks, {int(cut.fixed.sum())} fixed\n")
+        sys.stdout.write(f"{output}: {len(blocks)} blocks, {fixed} fixed\n")
     return 0
 
 

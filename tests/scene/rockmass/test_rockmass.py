@@ -460,6 +460,18 @@ def test_cut_command_makes_missing_folders_and_refuses_to_overwrite_its_scene(tm
     assert out.is_file() and png.stat().st_size > 1000
 
 
+def test_cut_counts_the_blocks_the_scene_draws_itself_too(tmp_path, capsys):
+    """cases/tunnel_deep.toml draws its fixed base by hand beside the cut mass: the line
+    and the file's header count it (they said "358 blocks, 0 fixed" of 359 and 1)."""
+    case = Path(__file__).resolve().parents[3] / "cases" / "tunnel_deep.toml"
+    out = tmp_path / "deep.toml"
+    assert run_cli("cut", str(case), "-o", str(out), "--no-png") == 0
+    text = out.read_text()
+    blocks = text.count("[[blocks]]")
+    assert f"{out}: {blocks} blocks, 1 fixed" in capsys.readouterr().out
+    assert f"by `dda cut`: {blocks} blocks." in text.splitlines()[0]
+
+
 def test_cut_is_an_entry_point_of_the_dda_command():
     names = {ep.name: ep.value for ep in entry_points(group="dda.commands")}
     assert names.get("cut") == "dda.commands.cut:register"
