@@ -254,7 +254,7 @@ class Checker:
         if len(xy) > 3 and np.array_equal(xy[0], xy[-1]):
             xy = xy[:-1]
         ring = shapely.LinearRing(xy)
-        if shapely.Polygon(ring).area == 0.0:  # before is_simple: a line folds onto itself
+        if shapely.Polygon(ring).area == 0.0 and _on_one_line(xy):  # a line folds onto itself
             self.fail(key, "encloses no area (its points lie on one line)")
         if not shapely.is_simple(ring):
             self.fail(key, "self-intersecting boundary (edges cross or touch)")
@@ -270,6 +270,14 @@ class Checker:
             hint = suggest(name, names) if names else f"the scene defines no {what}"
             self.fail(key, f"unknown {what} {name!r}; {hint}")
         return name
+
+
+def _on_one_line(xy: np.ndarray) -> bool:
+    """Whether every point lies on the line through the first and the farthest from it
+    (a bow-tie whose halves cancel has no area either, but crosses itself)."""
+    far = xy[np.argmax(np.hypot(*(xy - xy[0]).T))] - xy[0]
+    cross = far[0] * (xy[:, 1] - xy[0, 1]) - far[1] * (xy[:, 0] - xy[0, 0])
+    return bool(np.all(np.abs(cross) <= 1e-12 * float(np.dot(far, far))))
 
 
 Spec = Callable[[Checker, Any, str], Any]

@@ -405,6 +405,22 @@ def test_bad_input_is_refused_by_name(change, key):
     assert err.value.source == "scene.toml"
 
 
+@pytest.mark.parametrize(
+    ("polygon", "reason"),
+    [
+        ([[0, 0], [30, 20], [30, 0], [0, 20]], "self-intersecting boundary"),  # halves cancel
+        ([[0, 0], [30, 20], [30, 0], [0, 25]], "self-intersecting boundary"),
+        ([[0, 0], [10, 0], [20, 0]], "encloses no area (its points lie on one line)"),
+    ],
+)
+def test_a_region_says_why_it_is_no_polygon(polygon, reason):
+    """A symmetric bow-tie has no area, but crosses itself: said so, as an asymmetric
+    one is (it was called a line)."""
+    with pytest.raises(SceneError) as err:
+        expand_rock_mass(base_scene(regions=[{"polygon": polygon}]), "scene.toml")
+    assert err.value.key == "regions[0].polygon" and reason in str(err.value)
+
+
 # --- the `dda cut` command ----------------------------------------------------------------
 
 
