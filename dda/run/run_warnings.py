@@ -239,6 +239,23 @@ def energy_warning(
     )
 
 
+def in_situ_slip_warning(
+    count: int, ratio: float, joint: str, where: tuple[float, float], length: str
+) -> str | None:
+    """The sentence when the in-situ field puts more shear on ``count`` contacts than
+    their joint's strength holds (``ratio``, the largest |F| / b, on ``joint`` at
+    ``where``): the mass slips along those joints from t = 0, as a scene whose joints
+    cannot carry the field's tension would open (that one is refused at load)."""
+    if count == 0:
+        return None
+    x, y = where
+    return (
+        f"the in-situ field's shear is beyond the strength of joint {joint!r} on {count} "
+        f"contact(s), up to {ratio:.3g} times it (at ({x:.6g}, {y:.6g}) {length}): the rock "
+        "mass slips along those joints from t = 0"
+    )
+
+
 def in_situ_warning(change: float, block: str) -> str | None:
     """The sentence when the equilibrium start changed a free block's in-situ stress by
     more than :data:`IN_SITU_KEPT` of the field (``change``, the largest, at ``block``)."""

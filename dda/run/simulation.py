@@ -13,8 +13,10 @@ from dda.blocks import BlockSet
 from dda.contact import reach
 from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
+from dda.contact.law import friction_bound
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
+from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
 from dda.effects.gravity import Gravity
 from dda.errors import SimulationError
@@ -35,6 +37,7 @@ from dda.run.run_warnings import (
     cut_steps_warning,
     energy_warning,
     fracture_warning,
+    in_situ_slip_warning,
     in_situ_warning,
     penetration_warning,
     restitution_warning,
@@ -85,6 +88,9 @@ class _Run:
         self.smallest_cut_dt = np.inf  # the shortest step a cut made
         self.last_moves = None  # a static run's last step: (vertex moves, owners, names)
         self.move_before = 0.0  # a static run's largest vertex move in the step before
+        # the in-situ field's contacts whose shear is beyond their joint's strength at
+        # t = 0: (count, largest ratio, joint, vertex)
+        self.in_situ_slip = (0, 0.0, "", (0.0, 0.0))
         # a static run's last step: the largest force its damping held, over the block's
         # weight, and that block's row
         self.static_held = (0.0, -1)
@@ -219,6 +225,33 @@ def _equilibrium_start(run: _Run) -> None:
     )
 
 
+def _beyond_strength(model: Model, blocks: BlockSet, contacts: ContactSet):
+    """(how many contacts carry an in-situ shear force beyond their friction bound, the
+    largest |F| / b, its joint's name, its vertex) of the contacts that carry the field
+    at t = 0 (N = λn + p g₀, F = λt, :mod:`dda.contact.preload`)."""
+    cm = model.contact
+    carrying = np.flatnonzero(contacts.state != OPEN)
+    none = (0, 0.0, "", (0.0, 0.0))
+    if not len(carrying) or not cm.law.friction:
+        return none
+    touching = contacts.subset(carrying)
+    rows = contact_rows(blocks, touching)
+    joint_rows = cm.joints.rows_for(blocks, touching)
+    joints = cm.joints.properties(joint_rows, rows.length)
+    normal = touching.normal_multiplier + touching.penalty * rows.penetration
+    bound = friction_bound(touching, joints, normal)
+    shear = np.abs(touching.shear_multiplier)
+    scale = float(np.abs(normal).max(initial=0.0))
+    beyond = shear > bound + 1e-9 * scale
+    if not np.any(beyond):
+        return none
+    ratio = np.where(beyond, shear / np.maximum(bound, 1e-300), 0.0)
+    k = int(np.argmax(ratio))
+    x, y = blocks.vertices[touching.vertex[k]]
+    name = cm.joints.names[joint_rows[k]]
+    return int(np.count_nonzero(beyond)), float(ratio[k]), name, (float(x), float(y))
+
+
 def _in_situ_change(blocks, settled: np.ndarray) -> tuple[float, str]:
     """(largest change of a free block's stress by the equilibrium start over the
     largest in-situ stress, that block's name). Above :data:`IN_SITU_KEPT` the start
@@ -245,6 +278,7 @@ def _touching_at_start(run: _Run) -> None:
     if field is not None and run.model.contact is not None:
         run.contacts = carry_stress(run.blocks, run.contacts, field)
         run.energy.initial = run.energy.measure(run.blocks, run.contacts)
+        run.in_situ_slip = _beyond_strength(run.model, run.blocks, run.contacts)
 
 
 def _search(run: _Run, previous: ContactSet) -> None:
@@ -613,6 +647,7 @@ def _warnings(state: _Run) -> list[str]:
     length = m.scene.units.length
     found = [
         in_situ_warning(*state.in_situ_change),
+        in_situ_slip_warning(*state.in_situ_slip, length),
         *state.unbalanced,
         None if m.static else _energy_warning(state),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),

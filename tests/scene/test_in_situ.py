@@ -370,3 +370,19 @@ def test_a_corner_nested_in_a_reflex_corner_carries_the_field(start):
     result = dda.simulate(dda.load_scene(scene(blocks + ring(2), start=start, **sections)))
     assert np.abs(result.final.stresses[:2] - FIELD).max() <= 1e-6 * 2.0e6
     assert np.abs(result.final.displacements[:2]).max() <= 1e-12
+
+
+def test_a_field_whose_shear_the_joints_cannot_hold_is_said():
+    """σ = (−2, −1, 0.3) MPa in a fixed ring: the bedding joints (horizontal) carry
+    τ = 0.3 MPa under σn = 1 MPa, beyond tan 10° = 0.176 of friction (1.70 times), and the
+    mass slips from t = 0: the run says which joint and by how much (it said nothing).
+    At 30° it holds, and nothing is said."""
+    sections = {"in_situ": {"stress": list(FIELD)}}
+    weak = scene(uniform("ring"), duration=0.01, **sections)
+    weak["joints"]["default"]["friction_angle"] = 10.0
+    text = " ".join(dda.simulate(dda.load_scene(weak)).summary["warnings"])
+    assert "the in-situ field's shear is beyond the strength of joint 'default'" in text
+    ratio = 0.3 / math.tan(math.radians(10.0))
+    assert f"up to {ratio:.3g} times it" in text
+    strong = scene(uniform("ring"), duration=0.01, **sections)
+    assert dda.simulate(dda.load_scene(strong)).summary["warnings"] == []
