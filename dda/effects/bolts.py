@@ -97,25 +97,29 @@ class RockBolts(Effect):
         f0, k = self.pretension[self.active], self.axial_stiffness[self.active]
         return float(np.sum(f0 * e + 0.5 * k * e * e))
 
-    def linearised(self, blocks: BlockSet, ctx: StepContext | None = None):
-        """(i, j, r_i, r_j, e0) of the bolts in place at the step start (module docstring);
-        e0 holds the known step of fixed blocks that follow the ground (``ctx.prescribed``)."""
+    def linearised(self, blocks: BlockSet):
+        """(i, j, r_i, r_j, e0) of the bolts in place at the step start (module docstring;
+        the known step of fixed blocks that follow the ground: :meth:`step_springs`)."""
         i, j, r_i, r_j, length = self._rows(blocks, along=True)
-        e0 = length - self.rest_length[self.active]
-        if ctx is not None and ctx.prescribed is not None:
-            e0 = e0 + PairSprings(i, j, r_i, r_j, np.zeros(len(e0))).stretch(ctx.prescribed)
-        return i, j, r_i, r_j, e0
+        return i, j, r_i, r_j, length - self.rest_length[self.active]
 
     def forces(self, blocks: BlockSet, ctx: StepContext) -> np.ndarray | None:
-        """F_i −= (f0 + k e0) r_iᵀ, F_j −= (f0 + k e0) r_jᵀ."""
+        """F_i −= (f0 + k e0) r_iᵀ, F_j −= (f0 + k e0) r_jᵀ; and where a fixed block moves
+        with the ground by its known step, the springs across the bolts' force at it,
+        −(T⁺/L) Δ⊥₀ (r⊥_i, r⊥_j) (:meth:`swing`: the pivot's sideways step pulls the
+        bolt's other end along)."""
         if not self.active.any():
             return None
-        i, j, r_i, r_j, e0 = self.linearised(blocks, ctx)
-        act = self.active
-        start = self.pretension[act] + self.axial_stiffness[act] * e0
+        axial, across, e0 = self.step_springs(blocks, ctx.prescribed if ctx else None)
+        start = self.pretension[self.active] + axial.stiffness * e0
+        if ctx is not None and ctx.prescribed is not None:
+            sideways = across.stiffness * across.stretch(ctx.prescribed)
+        else:
+            sideways = np.zeros(len(across))
         f = np.zeros((blocks.count, 6))
-        np.add.at(f, i, -start[:, None] * r_i)
-        np.add.at(f, j, -start[:, None] * r_j)
+        for springs, force in ((axial, start), (across, sideways)):
+            np.add.at(f, springs.block_i, -force[:, None] * springs.row_i)
+            np.add.at(f, springs.block_j, -force[:, None] * springs.row_j)
         return f
 
     def couplings(self, blocks: BlockSet, ctx: StepContext) -> PairSprings | None:
@@ -123,11 +127,19 @@ class RockBolts(Effect):
         each bolt, and T⁺/L across it (:meth:`swing`)."""
         if not self.active.any():
             return None
-        i, j, r_i, r_j, e0 = self.linearised(blocks, ctx)
-        act = self.active
-        axial = PairSprings(i, j, r_i, r_j, self.axial_stiffness[act])
-        tension = self.pretension[act] + self.axial_stiffness[act] * e0
-        return PairSprings.join([axial, self.swing(blocks, tension)])
+        axial, across, _ = self.step_springs(blocks, ctx.prescribed if ctx else None)
+        return PairSprings.join([axial, across])
+
+    def step_springs(self, blocks: BlockSet, prescribed: np.ndarray | None = None):
+        """(the springs along the bolts in place, k; those across them, T⁺/L; the stretch
+        e0 at the step start, with the known step ``prescribed`` of fixed blocks that
+        follow the ground): the bolts' terms of a step, T = f0 + k e0."""
+        i, j, r_i, r_j, e0 = self.linearised(blocks)
+        axial = PairSprings(i, j, r_i, r_j, self.axial_stiffness[self.active])
+        if prescribed is not None:
+            e0 = e0 + axial.stretch(prescribed)
+        tension = self.pretension[self.active] + axial.stiffness * e0
+        return axial, self.swing(blocks, tension), e0
 
     def swing(self, blocks: BlockSet, tension: np.ndarray) -> PairSprings:
         """The bolts' stiffness across their line, T⁺/L (the geometric stiffness of a

@@ -37,7 +37,6 @@ from dda.effects.fixed_points import FixedPoints
 from dda.effects.gravity import Gravity
 from dda.effects.inertia import mass_matrices
 from dda.effects.loads import PointLoads
-from dda.effects.pair_springs import PairSprings
 from dda.effects.water import WaterPressure
 from dda.jit import compiled_in_run, kernel
 from dda.kinematics import displacement_matrices
@@ -253,10 +252,12 @@ def ground_work(
         work += float(np.dot(contacts.normal_force, g - rows.penetration))
         work += float(np.dot(contacts.shear_force, s - rows.slip))
     if bolts is not None and bolts.active.any():
-        i, j, r_i, r_j, e0 = bolts.linearised(blocks)
-        springs = PairSprings(i, j, r_i, r_j, bolts.axial_stiffness[bolts.active])
-        tension = bolts.pretension[bolts.active] + springs.stiffness * (e0 + springs.stretch(d))
-        work += float(np.dot(tension, springs.stretch(prescribed)))
+        axial, across, e0 = bolts.step_springs(blocks, prescribed)
+        free = d - prescribed  # the step of the free blocks (prescribed's are in e0)
+        tension = bolts.pretension[bolts.active] + axial.stiffness * (e0 + axial.stretch(free))
+        work += float(np.dot(tension, axial.stretch(prescribed)))
+        sideways = across.stiffness * across.stretch(d)  # the springs across, at the end
+        work += float(np.dot(sideways, across.stretch(prescribed)))
     return work
 
 
