@@ -249,10 +249,11 @@ def in_situ_slip_warning(
     if count == 0:
         return None
     x, y = where
+    much = f"up to {ratio:.3g} times it" if np.isfinite(ratio) else "where it holds none"
     return (
         f"the in-situ field's shear is beyond the strength of joint {joint!r} on {count} "
-        f"contact(s), up to {ratio:.3g} times it (at ({x:.6g}, {y:.6g}) {length}): the rock "
-        "mass slips along those joints from t = 0"
+        f"contact(s), {much} (at ({x:.6g}, {y:.6g}) {length}): the rock mass slips along "
+        "those joints from t = 0"
     )
 
 

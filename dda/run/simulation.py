@@ -91,6 +91,7 @@ class _Run:
         # the in-situ field's contacts whose shear is beyond their joint's strength at
         # t = 0: (count, largest ratio, joint, vertex)
         self.in_situ_slip = (0, 0.0, "", (0.0, 0.0))
+        self.origin = (0.0, 0.0)  # the scene's point the run computes about (local_frame)
         # a static run's last step: the largest force its damping held, over the block's
         # weight, and that block's row
         self.static_held = (0.0, -1)
@@ -225,10 +226,12 @@ def _equilibrium_start(run: _Run) -> None:
     )
 
 
-def _beyond_strength(model: Model, blocks: BlockSet, contacts: ContactSet):
+def _beyond_strength(model: Model, blocks: BlockSet, contacts: ContactSet, origin):
     """(how many contacts carry an in-situ shear force beyond their friction bound, the
-    largest |F| / b, its joint's name, its vertex) of the contacts that carry the field
-    at t = 0 (N = λn + p g₀, F = λt, :mod:`dda.contact.preload`)."""
+    largest |F| / b (inf where a joint holds no shear: no normal force, no cohesion), its
+    joint's name, its vertex in the scene's coordinates, the run's less ``origin``) of the
+    contacts that carry the field at t = 0 (N = λn + p g₀, F = λt,
+    :mod:`dda.contact.preload`)."""
     cm = model.contact
     carrying = np.flatnonzero(contacts.state != OPEN)
     none = (0, 0.0, "", (0.0, 0.0))
@@ -245,9 +248,10 @@ def _beyond_strength(model: Model, blocks: BlockSet, contacts: ContactSet):
     beyond = shear > bound + 1e-9 * scale
     if not np.any(beyond):
         return none
-    ratio = np.where(beyond, shear / np.maximum(bound, 1e-300), 0.0)
+    with np.errstate(divide="ignore"):
+        ratio = np.where(beyond, shear / bound, 0.0)
     k = int(np.argmax(ratio))
-    x, y = blocks.vertices[touching.vertex[k]]
+    x, y = blocks.vertices[touching.vertex[k]] + np.asarray(origin)
     name = cm.joints.names[joint_rows[k]]
     return int(np.count_nonzero(beyond)), float(ratio[k]), name, (float(x), float(y))
 
@@ -278,7 +282,7 @@ def _touching_at_start(run: _Run) -> None:
     if field is not None and run.model.contact is not None:
         run.contacts = carry_stress(run.blocks, run.contacts, field)
         run.energy.initial = run.energy.measure(run.blocks, run.contacts)
-        run.in_situ_slip = _beyond_strength(run.model, run.blocks, run.contacts)
+        run.in_situ_slip = _beyond_strength(run.model, run.blocks, run.contacts, run.origin)
 
 
 def _search(run: _Run, previous: ContactSet) -> None:
@@ -454,6 +458,7 @@ def run(
     local = translated(scene, origin)
     model = build(local)
     state = _Run(model, policy)
+    state.origin = tuple(float(c) for c in origin)
     if resume is not None:
         check_scene(resume, scene)  # it compares the scene as the run holds it
         restore(state, resume)

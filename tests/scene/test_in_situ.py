@@ -386,3 +386,10 @@ def test_a_field_whose_shear_the_joints_cannot_hold_is_said():
     assert f"up to {ratio:.3g} times it" in text
     strong = scene(uniform("ring"), duration=0.01, **sections)
     assert dda.simulate(dda.load_scene(strong)).summary["warnings"] == []
+    far = scene(uniform("ring", 5e5, 4e6), duration=0.01, **sections)  # in its own place
+    far["joints"]["default"]["friction_angle"] = 10.0
+    text = " ".join(dda.simulate(dda.load_scene(far)).summary["warnings"])
+    assert "(at (500000, 4e+06) m)" in text
+    bare = scene(uniform("ring"), duration=0.01, in_situ={"stress": [-2e6, 0.0, 3e5]})
+    text = " ".join(dda.simulate(dda.load_scene(bare)).summary["warnings"])
+    assert "where it holds none" in text  # no normal force on the bedding, no cohesion
