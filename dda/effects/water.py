@@ -59,9 +59,14 @@ class WaterPressure(Effect):
 
         c = (−1, 0, 1, 0), ∇g = p (h', −1), ∇²g = γw [h'², −h'; −h', 1] below the line:
         of degree 2 in t on each wet piece (two Gauss points). ∇g is continuous at the
-        waterline, so its moving ends add nothing; at a kink of the line h' jumps, which
-        this leaves out. The ends move with the block's unknowns as u = u₀ + [T(a); T(b)] D,
-        so the block's Hessian is Σ Jᵀ H J, J = [T(a); T(b)]."""
+        waterline, so its moving ends add nothing. At a kink x_k of the line, where h'
+        jumps from h'₋ to h'₊, the integrand of the gradient jumps by p (h'₋ − h'₊) and its
+        place t_k = (x_k − a_x)/(b_x − a_x) moves with u, which adds
+
+            −p_k (h'₋ − h'₊) sign(b_x − a_x) w wᵀ,   w = (1 − t_k, 0, t_k, 0).
+
+        The ends move with the block's unknowns as u = u₀ + [T(a); T(b)] D, so the
+        block's Hessian is Σ Jᵀ H J, J = [T(a); T(b)]."""
         edges = self._free_edges(blocks)
         if edges is None:
             return None
@@ -83,7 +88,7 @@ class WaterPressure(Effect):
             [np.einsum("epg,epgk->ek", 1 - t, pull), np.einsum("epg,epgk->ek", t, pull)], axis=1
         )  # (e, 4): ∫ Wᵀ ∇g dt
         cross = wg[:, :, None] * np.array([-1.0, 0.0, 1.0, 0.0])[None, None, :]
-        per_edge += cross + np.swapaxes(cross, 1, 2)
+        per_edge += cross + np.swapaxes(cross, 1, 2) + self._kinks(a, b)
         centroid = blocks.centroid[rows]
         jacobian = np.concatenate(
             [displacement_matrices(a, centroid), displacement_matrices(b, centroid)], axis=1
@@ -91,6 +96,23 @@ class WaterPressure(Effect):
         out = np.zeros((blocks.count, 6, 6))
         np.add.at(out, rows, np.swapaxes(jacobian, 1, 2) @ per_edge @ jacobian)
         return out
+
+    def _kinks(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(e, 4, 4) the kinks' part of each edge's Hessian (:meth:`hessian`)."""
+        xs, hs = self.table[:, 0], self.table[:, 1]
+        slopes = np.concatenate([[0.0], np.diff(hs) / np.diff(xs), [0.0]])
+        jump = slopes[:-1] - slopes[1:]  # h'₋ − h'₊ at each of the line's points
+        along = b[:, 0] - a[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (xs[None, :] - a[:, 0, None]) / along[:, None]  # (e, k)
+        inside = np.isfinite(t) & (t > 0.0) & (t < 1.0) & (jump[None, :] != 0.0)
+        t = np.where(inside, t, 0.0)
+        y = a[:, 1, None] + t * (b[:, 1] - a[:, 1])[:, None]
+        pressure = self.unit_weight * np.maximum(hs[None, :] - y, 0.0) * inside
+        scale = -pressure * jump[None, :] * np.sign(along)[:, None]  # (e, k)
+        w = np.zeros(t.shape + (4,))
+        w[..., 0], w[..., 2] = 1.0 - t, t
+        return np.einsum("ek,eki,ekj->eij", scale, w, w)
 
     def stiffness(self, blocks: BlockSet, ctx: StepContext | None = None) -> np.ndarray | None:
         """(n, 6, 6) the forces' stiffness −∂F/∂D, the positive part of each block's
