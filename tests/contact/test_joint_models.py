@@ -473,3 +473,30 @@ def test_a_joint_pulled_open_lets_go_of_its_tension(base_width, dt):
     assert excess.max() <= 1e-9 * result.summary["initial_energy"]
     held = dda.simulate(pulled_block(0.9 * 14000.0, base_width, dt))
     assert abs(held.final.displacements[1, 1]) < 1e-5
+
+
+@pytest.mark.parametrize(("start", "holds"), [("equilibrium", True), ("unloaded", False)])
+def test_a_block_hung_on_a_joint_holding_one_and_a_half_times_its_weight(start, holds):
+    """A 1000 kg block (W = 1e4 N) hung under a fixed ceiling on a ductile joint holding
+    T l = 1.5 W in tension. From the equilibrium start the joint carries W and holds. Shi's
+    unloaded start drops the block onto its springs, which overshoot to about 2 W: the
+    joint is pulled open, and a joint pulled open holds no tension until it closes,
+    whatever its residual (docs/contact.md): the block falls."""
+    joint = {"friction_angle": 30.0, "cohesion": 5000.0, "tensile_strength": 15000.0,
+             "residual_friction_angle": 30.0, "residual_cohesion": 5000.0,
+             "residual_tensile_strength": 15000.0}  # fmt: skip
+    scene = {
+        "analysis": {"time_step": 2e-5, "duration": 0.02, "gravity": [0.0, -10.0],
+                     "start": start, "save_every": 10**6},
+        "contact": {"tolerance": 1e-6},
+        "materials": {"rock": {"density": 2000.0, "young": 1e9, "poisson": 0.25}},
+        "joints": {"default": joint},
+        "blocks": [
+            {"name": "ceiling", "material": "rock", "fixed": True,
+             "vertices": [[-1, 0], [3, 0], [3, 1], [-1, 1]]},
+            {"name": "hung", "material": "rock",
+             "vertices": [[1, -0.5], [2, -0.5], [2, 0], [1, 0]]},
+        ],
+    }  # fmt: skip
+    drop = -dda.simulate(scene).final.displacements[1, 1]
+    assert (drop < 1e-5) == holds, drop
