@@ -13,7 +13,8 @@ one step, a jolt to the neighbours) and bonded (a joint that had slipped healed)
 The place of a contact on a piece:
 
 * the parent's vertex P is the piece's vertex at the same point (within
-  ``SAME_POINT`` of the parent's size; where a crack ends at P, the first piece's);
+  ``SAME_POINT`` of the parent's size; where a crack ends at P, the piece whose edge at
+  P lies most nearly along the contact's edge);
 * the parent's edge P2P3 is the piece's edge along the same line, in the same direction,
   whose span holds the projection of the touching vertex V (the nearest span where
   none does), and the shear reference point P0 = P2 + r (P3 − P2) keeps its place:
@@ -69,7 +70,9 @@ def inherited_contacts(
         own = pieces[parent_of[pieces] == parent]
         size = float(np.sqrt(old.area[parent]))
         at_vertex = np.flatnonzero(handed.block_a == parent)
-        vertex[at_vertex] = _same_vertex(old, new, handed.vertex[at_vertex], own, size)
+        vertex[at_vertex] = _same_vertex(
+            old, new, handed.vertex[at_vertex], handed.edge[at_vertex], own, size
+        )
         at_edge = np.flatnonzero(handed.block_b == parent)
         edge[at_edge], reference[at_edge] = _same_edge(
             old, new, handed.vertex[at_edge], handed.edge[at_edge],
@@ -98,17 +101,30 @@ def _piece_vertices(new: BlockSet, pieces: np.ndarray) -> np.ndarray:
     return np.concatenate([np.arange(new.offsets[p], new.offsets[p + 1]) for p in pieces])
 
 
-def _same_vertex(old, new, vertex, pieces, size):
-    """The pieces' vertex at each old ``vertex``'s point (−1 where none is)."""
+def _same_vertex(old, new, vertex, edge, pieces, size):
+    """The pieces' vertex at each old ``vertex``'s point (−1 where none is); where a crack
+    ends there and two pieces share the point, the one with an edge at it most nearly
+    along the contact's ``edge`` (the other block's): the piece that carries the parent's
+    edge there, as the contact's length does."""
     if not len(vertex):
         return np.zeros(0, np.int64)
     candidates = _piece_vertices(new, pieces)
     apart = np.linalg.norm(
         old.vertices[vertex][:, None, :] - new.vertices[candidates][None, :, :], axis=2
     )
-    nearest = np.argmin(apart, axis=1)  # the first piece's where two share the point
-    found = apart[np.arange(len(vertex)), nearest] <= SAME_POINT * size
-    return np.where(found, candidates[nearest], -1)
+    near = apart <= SAME_POINT * size  # (m, k)
+    along = old.vertices[old.next_vertex[edge]] - old.vertices[edge]  # (m, 2)
+    along /= np.linalg.norm(along, axis=1)[:, None]
+    sides = [new.vertices[new.next_vertex[candidates]] - new.vertices[candidates],
+             new.vertices[new.previous_vertex[candidates]] - new.vertices[candidates]]  # fmt: skip
+    turned = np.full(near.shape, np.inf)  # |sin| of the angle to the contact's edge
+    for side in sides:
+        unit = side / np.linalg.norm(side, axis=1)[:, None]
+        sine = np.abs(along[:, None, 0] * unit[None, :, 1] - along[:, None, 1] * unit[None, :, 0])
+        turned = np.minimum(turned, sine)
+    best = np.argmin(np.where(near, turned, np.inf), axis=1)
+    found = near[np.arange(len(vertex)), best]
+    return np.where(found, candidates[best], -1)
 
 
 def _same_edge(old, new, vertex, edge, reference, pieces, size):

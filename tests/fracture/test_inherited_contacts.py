@@ -11,6 +11,7 @@ import pytest
 import dda
 from dda.contact.contact_set import ContactSet
 from dda.contact.pipeline import refresh_contacts
+from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
 from dda.fracture.fragments import parent_rows
 from dda.fracture.inherited_contacts import after_breaking
@@ -153,3 +154,29 @@ def test_a_cascade_of_breaks_with_inherited_contacts_makes_no_energy():
     raw["analysis"].update(time_step=2.5e-5, steps=160, save_every=1)
     result = run_checked(raw)
     assert len(result.fracture_events) > 20
+
+
+def test_a_contact_where_a_crack_ends_goes_to_the_piece_along_its_edge():
+    """A 2 × 2 block under a wider block, split by tension along its diagonal from (0, 0)
+    to (2, 2): both pieces have the corners (0, 0) and (2, 2). The corner (2, 2) on the top
+    block's edge goes to the piece whose edge there lies along that edge (its length 1 m,
+    as the parent's), not to the first piece, whose edges there are a side and the crack
+    (it took the contact with 1.41 m of length and 41 % more cohesion and tension)."""
+    raw = stacked()
+    raw["blocks"][1]["vertices"] = rect(0, 0, 2, 2)
+    raw["blocks"][2]["vertices"] = rect(-0.5, 2, 2.5, 3)
+    model = build(dda.load_scene(raw))
+    blocks = model.blocks.copy()
+    contacts = marked(refresh_contacts(blocks, ContactSet.empty(), model.contact))
+    s = 3.0 * T0
+    blocks.stress[blocks.names.index("a")] = [s / 2, s / 2, -s / 2]  # σ3 along (1, −1)
+    new, events = model.fracture.after_step(blocks, CTX)
+    assert [(e.mode, len(e.children)) for e in events] == [("tension", 2)]
+    after = after_breaking(contacts, blocks, new, parent_rows(blocks, new))
+    rows = contact_rows(new, after)
+    top = new.names.index("top")
+    for c in np.flatnonzero(after.block_b == top):
+        piece = after.block_a[c]
+        ring = new.vertices[new.offsets[piece] : new.offsets[piece + 1]]
+        assert np.any(np.all(np.isclose(ring, [0.0, 2.0]), axis=1))  # the top edge's piece
+        assert rows.length[c] == pytest.approx(1.0)
