@@ -82,7 +82,8 @@ def run_verify(args: argparse.Namespace) -> int:
     from verify.report import format_console
     from verify.suite import OutputError, run_suite
 
-    largest = args.refinement_max or (4 if args.quick else 16)
+    default = 4 if args.quick else 16
+    largest = default if args.refinement_max is None else args.refinement_max
     if largest < 1 or largest & (largest - 1):
         print(f"dda verify: --refinement-max: {largest} is not a power of 2", file=sys.stderr)
         return EXIT_INPUT

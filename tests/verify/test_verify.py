@@ -693,6 +693,7 @@ def test_cli_writes_report_and_fails_on_unknown_case(tmp_path, capsys):
     assert "| self_weight | stress |" in (tmp_path / "report.md").read_text()
     assert main(["no_such_case", "-o", str(tmp_path), "--no-images"]) == 2
     assert main(["self_weight", "-o", str(tmp_path), "--refinement-max", "6"]) == 2
+    assert main(["self_weight", "-o", str(tmp_path), "--refinement-max", "0"]) == 2  # not 16
 
 
 def test_cli_returns_nonzero_when_a_tolerance_fails(tmp_path):
