@@ -82,6 +82,9 @@ def run_verify(args: argparse.Namespace) -> int:
     from verify.report import format_console
     from verify.suite import OutputError, run_suite
 
+    if args.cases_dir is not None and not Path(args.cases_dir).is_dir():
+        print(f"dda verify: --cases-dir {args.cases_dir}: no such folder", file=sys.stderr)
+        return EXIT_INPUT
     default = 4 if args.quick else 16
     largest = default if args.refinement_max is None else args.refinement_max
     if largest < 1 or largest & (largest - 1):

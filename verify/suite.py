@@ -53,6 +53,11 @@ def check_output(outdir: Path) -> None:
         return
     if not folder.is_dir():
         raise OutputError(f"-o {outdir}: cannot write there ({folder} is a file, not a folder)")
+    for name, folder_wanted in (("images", True), ("report.md", False), ("report.json", False)):
+        path = outdir / name  # what the suite writes there: a folder and two files
+        if path.exists() and path.is_dir() != folder_wanted:
+            what = "a file, not a folder" if folder_wanted else "a folder, not a file"
+            raise OutputError(f"-o {outdir}: cannot write there ({path} is {what})")
     try:
         with tempfile.TemporaryFile(dir=folder):
             pass

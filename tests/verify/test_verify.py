@@ -694,6 +694,19 @@ def test_cli_writes_report_and_fails_on_unknown_case(tmp_path, capsys):
     assert main(["no_such_case", "-o", str(tmp_path), "--no-images"]) == 2
     assert main(["self_weight", "-o", str(tmp_path), "--refinement-max", "6"]) == 2
     assert main(["self_weight", "-o", str(tmp_path), "--refinement-max", "0"]) == 2  # not 16
+    assert main(["self_weight", "--cases-dir", str(tmp_path / "none")]) == 2  # was 1
+
+
+@pytest.mark.parametrize(("name", "make"), [("images", "file"), ("report.md", "folder")])
+def test_a_report_place_taken_by_the_wrong_kind_is_refused_before_any_case(tmp_path, name, make):
+    """``-o D`` where D/images is a file or D/report.md a folder: exit 2 at once, nothing
+    run or written (it ran the cases, then failed with exit 1 and half a report)."""
+    from verify.cli import main
+
+    blocked = tmp_path / name
+    blocked.write_text("") if make == "file" else blocked.mkdir()
+    assert main(["self_weight", "-o", str(tmp_path), "--no-images"]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
 
 
 def test_cli_returns_nonzero_when_a_tolerance_fails(tmp_path):
