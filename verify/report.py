@@ -75,7 +75,15 @@ def case_section(result: CaseResult, image: str | None) -> list[str]:
     lines += [
         "",
         *_markdown_table(
-            ["quantity", "item", "component", "DDA", "FEM", "predicted offset", "signed error"],
+            [
+                "quantity",
+                "item",
+                "component",
+                "DDA",
+                "reference",
+                "predicted offset",
+                "signed error",
+            ],
             [
                 [
                     r.quantity,
