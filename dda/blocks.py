@@ -117,14 +117,16 @@ class BlockSet:
     def _kept(self, name: str, make) -> np.ndarray:
         return self.kept(name, lambda: make(self.offsets), self.offsets)
 
-    def kept(self, name: str, make, *sources: np.ndarray) -> np.ndarray:
+    def kept(self, name: str, make, *sources: np.ndarray):
         """``make()``, computed once and kept (read-only, shared) while ``sources`` are
         the same arrays: the fields it is derived from, which a BlockSet replaces and
-        never edits."""
+        never edits. An array made is made read-only; anything else is the caller's to
+        leave as it is."""
         kept = self.__dict__.get(name)
         if kept is None or any(a is not b for a, b in zip(kept[0], sources, strict=True)):
             kept = (sources, make())
-            kept[1].flags.writeable = False  # shared by every caller
+            if isinstance(kept[1], np.ndarray):
+                kept[1].flags.writeable = False  # shared by every caller
             self.__dict__[name] = kept
         return kept[1]
 

@@ -173,9 +173,7 @@ class RockBolts(Effect):
         """L0 ← L0 − (r_i·D_i + r_j·D_j): each bolt in place pulls as it would stretched
         by the step ``d`` (linear in d, as in the step's equations)."""
         if self.active.any():
-            i, j, r_i, r_j, _ = self.linearised(blocks)
-            springs = PairSprings(i, j, r_i, r_j, self.axial_stiffness[self.active])
-            self.rest_length[self.active] -= springs.stretch(d)
+            self.rest_length[self.active] -= self.step_springs(blocks)[0].stretch(d)
 
     def after_step(self, blocks: BlockSet, d: np.ndarray, ctx: StepContext) -> None:
         """Move the end points with their blocks; break the bolts beyond their capacity."""

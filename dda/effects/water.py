@@ -25,7 +25,6 @@ import numpy as np
 
 from dda.blocks import BlockSet
 from dda.effects.base import Effect, StepContext
-from dda.geometry import next_vertex_index
 from dda.kinematics import displacement_matrices
 
 _GAUSS = np.array([-1.0, 1.0]) / np.sqrt(3.0)  # two-point Gauss abscissae on [-1, 1]
@@ -46,9 +45,12 @@ class WaterPressure(Effect):
 
     def slope(self, x: np.ndarray) -> np.ndarray:
         """h'(x): the phreatic line's slope (0 beyond its ends)."""
+        return self._slopes()[np.searchsorted(self.table[:, 0], x)]
+
+    def _slopes(self) -> np.ndarray:
+        """The line's slope before its first point, on each stretch, and after its last."""
         xs, hs = self.table[:, 0], self.table[:, 1]
-        slopes = np.concatenate([[0.0], np.diff(hs) / np.diff(xs), [0.0]])
-        return slopes[np.searchsorted(xs, x)]
+        return np.concatenate([[0.0], np.diff(hs) / np.diff(xs), [0.0]])
 
     def hessian(self, blocks: BlockSet) -> np.ndarray | None:
         """(n, 6, 6) the Hessian of :meth:`energy`, each block's own, None where no edge
@@ -67,11 +69,10 @@ class WaterPressure(Effect):
 
         The ends move with the block's unknowns as u = u₀ + [T(a); T(b)] D, so the
         block's Hessian is Σ Jᵀ H J, J = [T(a); T(b)]."""
-        edges = self._free_edges(blocks)
-        if edges is None:
+        wet = self._wet(blocks)
+        if wet is None:
             return None
-        rows, a, b = edges
-        e, x, half, depth, t = self._gauss(a, b)
+        rows, a, b, (e, x, half, depth, t) = wet
         slope = self.slope(x[..., 0])
         weight = half[:, :, None] * self.unit_weight  # Gauss weight 1 on [-1, 1]: half a piece
         # W(t)ᵀ C W(t) = [[(1 − t)², t(1 − t)], [t(1 − t), t²]] ⊗ C for a 2 × 2 C
@@ -100,7 +101,7 @@ class WaterPressure(Effect):
     def _kinks(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(e, 4, 4) the kinks' part of each edge's Hessian (:meth:`hessian`)."""
         xs, hs = self.table[:, 0], self.table[:, 1]
-        slopes = np.concatenate([[0.0], np.diff(hs) / np.diff(xs), [0.0]])
+        slopes = self._slopes()
         jump = slopes[:-1] - slopes[1:]  # h'₋ − h'₊ at each of the line's points
         along = b[:, 0] - a[:, 0]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -125,10 +126,8 @@ class WaterPressure(Effect):
         hessian = self.hessian(blocks)
         if hessian is None:
             return None
-        values, vectors = np.linalg.eigh(hessian)
-        kept = np.einsum("nik,nk,njk->nij", vectors, np.maximum(values, 0.0), vectors)
-        kept[blocks.fixed] = 0.0
-        return kept
+        values, vectors = np.linalg.eigh(hessian)  # fixed blocks: 0 (they have no edges)
+        return np.einsum("nik,nk,njk->nij", vectors, np.maximum(values, 0.0), vectors)
 
     def energy(self, blocks: BlockSet) -> float:
         """Σ ∫_block p dA over the free blocks: the potential of the pressure, whose
@@ -136,21 +135,20 @@ class WaterPressure(Effect):
         blocks (p is a fixed field; −∮ p n·u ds = −d∫ p dA). By the divergence theorem
         with Q = −γw ⟨h − y⟩₊² / 2 (∂Q/∂y = p): ∫ p dA = −∮ Q dx, on each wet piece of an
         edge a polynomial of degree 2 in its parameter (exact with two Gauss points)."""
-        edges = self._free_edges(blocks)
-        if edges is None:
+        wet = self._wet(blocks)
+        if wet is None:
             return 0.0
-        e, _, half, depth, _ = self._gauss(*edges[1:])
+        e, _, half, depth, _ = wet[3]
         integrand = 0.5 * self.unit_weight * depth**2 * e[:, 0, None, None]  # γw⟨h−y⟩²/2 dx/dt
         return float(np.sum(integrand * half[:, :, None]))
 
     def forces(self, blocks: BlockSet, ctx: StepContext | None = None) -> np.ndarray | None:
         """(n, 6) −∮ p Tᵀ n ds of every free block: minus the gradient of :meth:`energy`."""
         f = np.zeros((blocks.count, 6))
-        edges = self._free_edges(blocks)
-        if edges is None:
+        wet = self._wet(blocks)
+        if wet is None:
             return f
-        rows, a, b = edges
-        e, x, half, depth, _ = self._gauss(a, b)
+        rows, _, _, (e, x, half, depth, _) = wet
         normal = np.column_stack([e[:, 1], -e[:, 0]])  # outward (CCW) normal x edge length
         weight = self.unit_weight * depth * half[:, :, None]  # Gauss weight 1: half a piece
         load = -weight[..., None] * normal[:, None, None, :]  # (e, p, 2, 2): force per point
@@ -160,17 +158,26 @@ class WaterPressure(Effect):
         np.add.at(f, rows, generalised)
         return f
 
+    def _wet(self, blocks: BlockSet):
+        """(owner row, start a, end b, :meth:`_gauss` of a→b) of the free blocks' edges
+        that reach below the table's highest point, None if none do; made once for the
+        blocks' geometry (a step's forces and stiffness share it)."""
+        return blocks.kept(
+            "_water_edges", lambda: self._free_edges(blocks), blocks.vertices, blocks.fixed,
+            self.table,
+        )  # fmt: skip
+
     def _free_edges(self, blocks: BlockSet):
-        """(owner row, start a, end b) of the free blocks' edges that reach below the
-        table's highest point; None if none do."""
+        """:meth:`_wet`, made."""
         owner = blocks.vertex_owner
         start = np.flatnonzero(~blocks.fixed[owner])
         a = blocks.vertices[start]
-        b = blocks.vertices[next_vertex_index(blocks.offsets)[start]]
+        b = blocks.vertices[blocks.next_vertex[start]]
         wet = np.minimum(a[:, 1], b[:, 1]) < self.table[:, 1].max()
         if not wet.any():
             return None
-        return owner[start][wet], a[wet], b[wet]
+        a, b = a[wet], b[wet]
+        return owner[start][wet], a, b, self._gauss(a, b)
 
     def _gauss(self, a: np.ndarray, b: np.ndarray):
         """(edge vectors e = b − a, Gauss points x (e, p, 2, 2), half-lengths of the wet

@@ -15,7 +15,8 @@ Per step the engine records (``Result.history``)::
               + Σ f0 e + ½ k e²                (rock bolts: pretension f0, stretch e)
     work      W = Σ_steps Σ_loads F(t)·T(x) D  (point loads, boundary stresses)
               + Σ_steps Σ (N ∇g_j + F ∇s_j)·D_j (the ground moving fixed blocks by D_j:
-                                                contacts, and T r_j·D_j of bolts)
+                                                contacts, and T r_j·D_j of bolts with
+                                                (T/L) Δ⊥ r⊥_j·D_j across them)
 
 Fixed blocks never move and are left out. Shi's time integration (Newmark
 β = ½, γ = 1) dissipates, friction dissipates, so for a sound run

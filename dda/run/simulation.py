@@ -13,12 +13,12 @@ from dda.blocks import BlockSet
 from dda.contact import reach
 from dda.contact.broad import KeptPairs
 from dda.contact.contact_set import ContactSet
+from dda.contact.formulas import normal_trial
 from dda.contact.law import friction_bound
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
 from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
-from dda.effects.gravity import Gravity
 from dda.errors import SimulationError
 from dda.fracture.fragments import parent_rows
 from dda.fracture.inherited_contacts import after_breaking
@@ -241,7 +241,7 @@ def _beyond_strength(model: Model, blocks: BlockSet, contacts: ContactSet, origi
     rows = contact_rows(blocks, touching)
     joint_rows = cm.joints.rows_for(blocks, touching)
     joints = cm.joints.properties(joint_rows, rows.length)
-    normal = touching.normal_multiplier + touching.penalty * rows.penetration
+    normal = normal_trial(touching.normal_multiplier, touching.penalty, rows.penetration)
     bound = friction_bound(touching, joints, normal)
     shear = np.abs(touching.shear_multiplier)
     scale = float(np.abs(normal).max(initial=0.0))
@@ -341,7 +341,7 @@ def _advance(run: _Run) -> None:
     if m.static:
         run.move_before = _largest_move(run.last_moves)
         run.last_moves = (solution.moves, run.blocks.vertex_owner, run.blocks.names)
-        run.static_held = _held_by_damping(m, run.blocks, solution.d, dt)
+        run.static_held = _held_by_damping(m, run.blocks, solution.d, dt, run.energy.gravity)
     if solution.pushed is not None and np.any(solution.pushed):
         run.pushed_steps += 1
     with run.timer("update"):
@@ -719,17 +719,17 @@ def _last_motion_warning(state: _Run, length: str) -> str | None:
     )
 
 
-def _held_by_damping(model: Model, blocks: BlockSet, d: np.ndarray, dt: float) -> tuple[float, int]:
+def _held_by_damping(model: Model, blocks: BlockSet, d: np.ndarray, dt: float, gravity):
     """(the largest force a static step's damping held, (2/Δt²) |(M D)ᵢ| over the
     translations, over that block's weight mᵢ|g|; the block's row), (0, −1) without
-    gravity. At rest it is 0; a block without support has its whole weight held."""
-    gravity = next((e for e in model.effects if isinstance(e, Gravity)), None)
+    ``gravity`` (g, or None). At rest it is 0; a block without support has its whole
+    weight held."""
     free = np.flatnonzero(~blocks.fixed)
     if gravity is None or not len(free):
         return 0.0, -1
     masses = model.inertia.masses(blocks)[free]
     held = (2.0 / dt**2) * np.einsum("nij,nj->ni", masses[:, :2, :], d[free])
-    weight = masses[:, 0, 0] * float(np.hypot(*gravity.gravity))
+    weight = masses[:, 0, 0] * float(np.hypot(*gravity))
     share = np.hypot(held[:, 0], held[:, 1]) / weight
     k = int(np.argmax(share))
     return float(share[k]), int(free[k])
