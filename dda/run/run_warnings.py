@@ -231,11 +231,26 @@ def energy_warning(
     name, speed, slenderness = fastest
     thin = f", a sliver {slenderness:.2g} times as long as thick" if slenderness > 20 else ""
     length, time = units
+    fastest_is = f"The fastest block at the end is {name!r} ({speed:.3g} {length}/{time}{thin})"
+    if not _any_contact_loaded(history):
+        return said + (
+            f"{fastest_is}. No contact carried a force in the run: the energy came from "
+            "the time integration of the other effects (bolts, fixed points, water, the "
+            "blocks' turning); a smaller analysis.time_step gives less of it"
+        )
     return said + (
-        f"The fastest block at the end is {name!r} ({speed:.3g} {length}/{time}{thin}): a "
+        f"{fastest_is}: a "
         "time step too long for the contacts of a small or thin block lets it rattle; a "
         "smaller analysis.time_step gives less of it (or merge slivers: dda cut's "
         "min_block_area)"
+    )
+
+
+def _any_contact_loaded(history: Mapping[str, Sequence[float]]) -> bool:
+    """Whether a contact held energy or penetrated at any step of ``history``."""
+    return any(
+        len(history.get(key, ())) and float(np.max(history[key])) > 0.0
+        for key in ("contact_energy", "max_penetration")
     )
 
 

@@ -154,6 +154,18 @@ def test_the_energy_warning_gives_the_evidence_for_its_cause():
     assert "'b1' (0.2 ft/s):" in pushed and "as long as thick" not in pushed
 
 
+def test_the_energy_warning_blames_no_contact_where_none_carried_a_force():
+    """A run whose contacts never held energy (a block swinging on a bolt alone): the
+    advice of a smaller time step without the contacts of a thin block as the cause."""
+    alone = _history([100.0, 50.0, 101.5], [0.0, 0.0, 0.0])
+    text = energy_warning(alone, 100.0, 0, ("b1", 2.0, 4.0))
+    assert "No contact carried a force" in text and "smaller analysis.time_step" in text
+    assert "for the contacts of a small or thin block" not in text
+    touched = energy_warning(_history([100.0, 50.0, 101.5], [0.0, 1.0, 0.0]), 100.0, 0,
+                             ("b1", 2.0, 4.0))  # fmt: skip
+    assert "for the contacts of a small or thin block" in touched
+
+
 def test_the_contact_springs_share_is_left_out_of_the_energy_warning():
     """The history counts a contact's Σ N²/(2p), more than an augmented-Lagrangian
     contact holds: the paper's two blocks settle with 1.12 ft·lb there against 0.27 of
