@@ -3,8 +3,8 @@
 A signed quantity whose values straddle zero (beyond round-off) gets a range symmetric
 about zero and a diverging map (white at zero); anything else its own range and a
 sequential map. A
-field whose values differ by no more than round-off (:data:`NEAR_CONSTANT` of their
-largest magnitude: two blocks' syy of -7.4975557 and -7.4975551 kPa) is one value: the
+field whose values differ by less than a colour can show (:data:`NEAR_CONSTANT` of their
+largest magnitude: two blocks' syy of -7.4975503 and -7.4975613 kPa) is one value: the
 blocks are drawn in one colour and the bar states the value, instead of stretching the
 map over the noise (full purple against full yellow). A range given by the caller
 (``--range``, a movie's shared range) is kept as given, and values beyond it are drawn
@@ -18,8 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 # values whose spread is at most this fraction of their largest magnitude are one value:
-# a static solve converges to about 1e-8 of the stresses, well below the 1e-3 a colour shows
-NEAR_CONSTANT = 1e-6
+# a map's 256 colours resolve 4e-3 of its range, and a picture is read to about 1e-3 of a
+# value; the wet slope's two blocks differ by 1.5e-6 of their syy (a solve's tolerance),
+# a block's rotation of +2.3e-5 rad beside -0.61 is no sign change worth a diverging map
+NEAR_CONSTANT = 1e-4
 ONE_VALUE_PAD = 1e-3  # half-width of a one-value bar, as a fraction of the value (or 1)
 
 
@@ -34,7 +36,7 @@ class ColourScale:
     cmap
         The matplotlib colour map's name.
     constant
-        The value of every block when they differ by round-off only (drawn in one
+        The value of every block when they differ by less than ``NEAR_CONSTANT`` (drawn in one
         colour, the map's middle), else None.
     extend
         Values beyond a given range: ``"neither"``, ``"min"``, ``"max"`` or ``"both"``
@@ -89,14 +91,16 @@ def colour_scale(
 def _straddles_zero(low: float, high: float) -> bool:
     """Whether values from ``low`` to ``high`` have both signs beyond round-off
     (:data:`NEAR_CONSTANT` of the largest magnitude): a compressive field with one
-    stress-free block at +1.5e-12 Pa beside −22 MPa is one-signed, and keeps its own range
+    stress-free block at +1.5e-12 Pa beside −22 MPa, or rotations of −0.61 rad to
+    +2.3e-5 rad, is one-signed, and keeps its own range
     and a sequential map, not half of a ±22 MPa diverging one."""
     noise = NEAR_CONSTANT * max(-low, high)
     return low < -noise and high > noise
 
 
 def near_constant(finite: np.ndarray) -> bool:
-    """Whether the values differ by round-off only (:data:`NEAR_CONSTANT`); all zero is."""
+    """Whether the values differ by less than :data:`NEAR_CONSTANT` of the largest; all
+    zero is."""
     largest = float(np.abs(finite).max())
     return float(np.ptp(finite)) <= NEAR_CONSTANT * largest
 

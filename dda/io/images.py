@@ -332,7 +332,7 @@ def _colour_bar(
     if scale.constant is not None:
         ticks, labels = [scale.constant], [f"{scale.constant / divisor:.7g}"]
         if blocks > 1:
-            text += ", one value: the blocks differ by round-off only"
+            text += ", one value: the blocks differ by less than 1e-4 of it"
     else:
         ticks = [t for t in MaxNLocator(6).tick_values(*clim) if clim[0] <= t <= clim[1]]
         labels = distinct_labels([t / divisor for t in ticks])

@@ -317,6 +317,12 @@ def test_color_range():
     # (cases/tunnel_deep.toml's falling crown wedge): one-signed, its own range
     (low, high), cmap = color_range(np.array([-2.2e7, -1.0e6, 1.5e-12]), signed=True)
     assert (low, high, cmap) == (-2.2e7, 1.5e-12, "viridis")
+    # a rotation a hair above zero beside -0.61 rad: no diverging map of +-0.61
+    (low, high), cmap = color_range(np.array([-0.61, -0.2, 2.3e-5]), signed=True)
+    assert (low, high, cmap) == (-0.61, 2.3e-5, "viridis")
+    # ... but 1e-3 of it either side is a sign change
+    (low, high), cmap = color_range(np.array([-0.61, 6.1e-4]), signed=True)
+    assert (low, high, cmap) == (-0.61, 0.61, "coolwarm")
 
 
 # ------------------------------------------------------------------ run writer

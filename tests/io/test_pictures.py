@@ -113,15 +113,15 @@ def _block_colours(figure) -> np.ndarray:
 
 
 def test_a_field_of_one_value_to_round_off_is_one_colour_with_the_value_stated(tmp_path, drawn):
-    """The wet slope's two blocks, syy -7.4975557 and -7.4975551 kPa: one colour, the value
-    on the bar, not full purple against full yellow."""
-    render_frame(_two_free_blocks((-7497.5557, -7497.5551)), tmp_path / "f.png", scalars="syy")
+    """The wet slope's two blocks, syy -7.4975503 and -7.4975613 kPa (1.5e-6 of the value
+    apart): one colour, the value on the bar, not full purple against full yellow."""
+    render_frame(_two_free_blocks((-7497.5503, -7497.5613)), tmp_path / "f.png", scalars="syy")
     figure = drawn[-1]
     colours = _block_colours(figure)
     assert len(colours) == 2 and np.array_equal(colours[0], colours[1])
     label, ticks = colour_bar(figure)
-    assert label == "stress yy (kPa), one value: the blocks differ by round-off only"
-    assert ticks == ["-7.497555"]
+    assert label == "stress yy (kPa), one value: the blocks differ by less than 1e-4 of it"
+    assert ticks == ["-7.497556"]
     import matplotlib.image  # the picture itself: one colour at both blocks' middles
 
     image = matplotlib.image.imread(tmp_path / "f.png")[..., :3]
