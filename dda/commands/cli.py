@@ -732,7 +732,7 @@ def render_command(args: argparse.Namespace) -> int:
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
         window_size=tuple(args.size), scene_title=run.get("title") or "",
-        units=run.get("units"), clim=clim, water_table=run.get("water_table"),
+        units=found.units(run), clim=clim, water_table=run.get("water_table"),
     )  # fmt: skip
     logger.info("wrote %s", output)
     print(output)

@@ -80,7 +80,7 @@ def movie_command(args: argparse.Namespace) -> int:
             count = write_movie(
                 frames, output, look, scalars=args.scalars, fps=args.fps,
                 size=tuple(args.size), show_contacts=not args.no_contacts,
-                scene_title=run.get("title") or "", units=run.get("units"),
+                scene_title=run.get("title") or "", units=found[0].units(run),
                 on_frame=lambda k: bar.update(k, frame=k), water_table=run.get("water_table"),
             )  # fmt: skip
     except FfmpegError as exc:  # not the input's fault: exit 1, in one line

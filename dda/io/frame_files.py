@@ -3,12 +3,20 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from dda.io.pvd import read_pvd, step_of_file
+
+log = logging.getLogger(__name__)
+
+# the labels of a frame whose run's units are not known (no summary.json beside it: the
+# VTU files hold numbers only): each quantity labelled by its dimension, "stress yy
+# (force/length²)", rather than as SI it may not be in
+UNKNOWN_UNITS = {"length": "length", "force": "force", "time": "time"}
 
 
 @dataclass(frozen=True)
@@ -38,6 +46,20 @@ class FrameFiles:
         except (OSError, ValueError):
             return {}
         return summary if isinstance(summary, dict) else {}
+
+    def units(self, summary: dict) -> dict[str, str]:
+        """The run's ``[units]`` from its ``summary``; where it has none (the frame read
+        without its run folder), :data:`UNKNOWN_UNITS`, with a warning."""
+        units = summary.get("units")
+        if isinstance(units, dict):
+            return units
+        log.warning(
+            "%s: no summary.json in %s, so the units are unknown: the picture labels each "
+            "quantity by its dimension (force/length², not Pa)",
+            self.blocks.name,
+            self.run_folder,
+        )
+        return UNKNOWN_UNITS
 
 
 def find_frame(source: str | os.PathLike[str], step: int | None = None) -> FrameFiles:

@@ -17,6 +17,7 @@ import pytest
 
 import dda
 from dda.commands import cli
+from dda.io.fields import unit_name
 from dda.result import Frame, Result
 from dda.run.progress import ProgressBar
 
@@ -344,6 +345,28 @@ def test_render_a_written_run(tmp_path, capsys):
         f"dda render: -o {bare}: a picture is written as .png; give a file name ending in .png\n"
     )
     assert not bare.exists()
+
+
+def test_a_frame_read_without_its_run_is_labelled_by_dimension(tmp_path, monkeypatch, caplog):
+    """A VTU holds numbers only: copied out of its run folder (no summary.json), its
+    picture says force/length², not Pa that an ft/lb run's numbers are not in."""
+    import shutil
+
+    import dda.io.images
+    from dda.io import RunWriter
+
+    writer = RunWriter(tmp_path / "run", image=False)
+    writer.add_frame(square_frame(0))
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    shutil.copy(tmp_path / "run" / "frames" / "blocks_000000.vtu", alone)
+    given = {}
+    monkeypatch.setattr(dda.io.images, "render_frame", lambda *a, **k: given.update(k))
+    with caplog.at_level(logging.WARNING):
+        assert cli.main(["render", str(alone / "blocks_000000.vtu")]) == 0
+    assert given["units"] == {"length": "length", "force": "force", "time": "time"}
+    assert unit_name("stress", given["units"]) == "force/length²"
+    assert "no summary.json" in caplog.text and "units are unknown" in caplog.text
 
 
 # ------------------------------------------------------------------ plugins
