@@ -22,7 +22,8 @@ shape where a closed one is needed (open shapes that close a ring end to end, an
 polyline, are that ring), a layer the table names that the drawing does not
 have, a drawing whose units (``$INSUNITS``) are not the scene's length unit (unless
 ``scale`` says how to read them; ``metre``, ``feet`` and the like are read as ``m``,
-``ft``), an entity of another kind on a mapped layer, a material or joint that the scene
+``ft``), an entity of another kind on a mapped layer, a block reference that holds one on
+a mapped layer, an entity that is no shape, a material or joint that the scene
 does not define, an ``excavation_time`` with nothing to excavate. Layer names are
 matched in any case, as CAD matches them. A joint line of no length (a point that CAD
 left) is left out, with a warning.
@@ -63,6 +64,17 @@ INSUNITS = {1: ("in", 0.0254), 2: ("ft", 0.3048), 3: ("mi", 1609.344), 4: ("mm",
             5: ("cm", 1e-2), 6: ("m", 1.0), 7: ("km", 1e3), 10: ("yd", 0.9144),
             14: ("dm", 0.1)}  # fmt: skip
 METRES = {name: metres for name, metres in INSUNITS.values()}
+# the other codes of the DXF reference: a scene's length unit is none of them, so a
+# drawing in one is refused with the scale that reads it in metres
+OTHER_INSUNITS = {
+    8: ("microinches", 2.54e-8), 9: ("mils", 2.54e-5), 11: ("angstroms", 1e-10),
+    12: ("nanometres", 1e-9), 13: ("microns", 1e-6), 15: ("decametres", 10.0),
+    16: ("hectometres", 100.0), 17: ("gigametres", 1e9),
+    18: ("astronomical units", 1.495978707e11), 19: ("light years", 9.4607304725808e15),
+    20: ("parsecs", 3.0856775814914e16), 21: ("US survey feet", 1200.0 / 3937.0),
+    22: ("US survey inches", 100.0 / 3937.0), 23: ("US survey yards", 3600.0 / 3937.0),
+    24: ("US survey miles", 6336000.0 / 3937.0),
+}  # fmt: skip
 # other spellings of the scene's [units] length (compared in lower case)
 LENGTH_NAMES = {
     "metre": "m", "metres": "m", "meter": "m", "meters": "m",
@@ -216,8 +228,18 @@ def _scale(chk: Checker, table: Mapping, document: Any, raw: Mapping, path: Path
     units = raw.get("units", {})
     given = units.get("length", "m") if isinstance(units, Mapping) else "m"
     length = _length_name(given)
-    if code == 0 or code not in INSUNITS:
+    if code == 0:
         return 1.0
+    if code not in INSUNITS:
+        name, metres = OTHER_INSUNITS.get(code, (None, None))
+        unit = f"in {name}" if name else "in no unit the DXF reference defines"
+        hint = f" ([drawing] scale = {metres:.10g} reads it in m)" if name else ""
+        raise SceneError(
+            str(path),
+            "$INSUNITS",
+            f"the drawing is {unit} ($INSUNITS = {code}): give [drawing] scale, the scene's "
+            f"length unit in one drawing unit{hint}, or set $INSUNITS to the scene's unit",
+        )
     name, metres = INSUNITS[code]
     if length is None:
         raise SceneError(
@@ -270,14 +292,50 @@ def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
     drawn = []
     for entity in entities:
         layer = wanted.get(entity.dxf.layer.upper())
-        if layer is None:
-            continue
         what = f"{entity.dxftype()} (handle {entity.dxf.handle})"
+        if layer is None:
+            _no_mapped_content(entity, what, wanted, path)
+            continue
         if entity.dxftype() not in SHAPES:
             reason = f"{what} is not a line, polyline, arc, circle, ellipse or spline"
-            raise SceneError(str(path), f"layer {layer}", f"{reason} (explode block references)")
-        drawn.append((layer, what, dxf_path.make_path(entity)))
+            hint = " (explode block references)" if entity.dxftype() == "INSERT" else ""
+            raise SceneError(str(path), f"layer {layer}", f"{reason}{hint}")
+        try:
+            outline = dxf_path.make_path(entity)
+        except (TypeError, ValueError) as exc:  # a polyface mesh, a spline without points
+            detail = " ".join(str(exc).split())
+            raise SceneError(str(path), f"layer {layer}", f"{what} cannot be read as a "
+                             f"shape ({detail})") from None  # fmt: skip
+        drawn.append((layer, what, outline, entity))
     return drawn
+
+
+def _no_mapped_content(entity: Any, what: str, wanted: dict[str, str], path: Path) -> None:
+    """Refuse a block reference on an unmapped layer (``0``, say) that holds entities on
+    a mapped one: CAD shows them on that layer, and left out they would be rock or joints
+    missing without a word."""
+    if entity.dxftype() != "INSERT":
+        return
+    for inner in _inserted(entity):
+        layer = wanted.get(inner.dxf.layer.upper())
+        if layer is not None:
+            raise SceneError(
+                str(path),
+                f"layer {layer}",
+                f"{what} on layer {entity.dxf.layer!r} holds a {inner.dxftype()} on layer "
+                f"{layer!r}: explode block references (the reader takes model-space "
+                "entities only)",
+            )
+
+
+def _inserted(insert: Any, depth: int = 0):
+    """The entities of a block reference and of the references nested in it."""
+    if depth > 16:  # a reference to itself, which CAD does not allow
+        return
+    for inner in insert.block() or ():
+        yield inner
+        if inner.dxftype() == "INSERT":
+            yield from _inserted(inner, depth + 1)
 
 
 def _mapped(layers: dict[str, Any]) -> dict[str, str]:
@@ -295,7 +353,7 @@ def _size(drawn: list[tuple], path: Path, blocks_layer: str) -> float:
     """The diagonal of the blocks layer's extent, in drawing units (the length scale of
     tolerances)."""
     corners = []
-    for layer, _, geometry in drawn:
+    for layer, _, geometry, _ in drawn:
         box = geometry.bbox()
         if layer == blocks_layer and box.has_data:
             corners += [(box.extmin.x, box.extmin.y), (box.extmax.x, box.extmax.y)]
@@ -306,17 +364,52 @@ def _size(drawn: list[tuple], path: Path, blocks_layer: str) -> float:
 
 
 def _flattened(
-    layer: str, what: str, geometry: Any, scale: float, tolerance: float, size: float
+    layer: str,
+    what: str,
+    geometry: Any,
+    entity: Any,
+    scale: float,
+    tolerance: float,
+    size: float,
 ) -> Shape:
-    """An entity's points in the scene's unit (curves as chords within ``tolerance``),
-    without repeated points; closed when its ends meet."""
-    points = np.array([(v.x, v.y) for v in geometry.flattening(tolerance / scale)]) * scale
+    """An entity's points in the scene's unit (curves as chords within ``tolerance``:
+    :func:`_curve_points`), without repeated points; closed when its ends meet."""
+    points = _curve_points(geometry, entity, tolerance / scale, size / scale) * scale
     points = points.reshape(-1, 2)
     keep = np.ones(len(points), bool)
     keep[1:] = np.any(np.abs(np.diff(points, axis=0)) > CLOSED * size, axis=1)
     points = points[keep]
     closed = len(points) > 3 and bool(np.all(np.abs(points[0] - points[-1]) <= CLOSED * size))
     return Shape(layer, what, points[:-1] if closed else points, closed)
+
+
+def _curve_points(geometry: Any, entity: Any, tolerance: float, size: float) -> np.ndarray:
+    """(k, 2) points of an entity within ``tolerance`` of the curve it draws (drawing
+    units; ``size``: the drawing's extent). A spline is flattened from its own B-spline,
+    every point on the curve. Arcs (circles, ellipses, bulges) go through ezdxf's cubic
+    Béziers, which leave a quarter circle by up to 2.7e-4 R, and (θ / 90°)⁶ times that an
+    arc of θ: each arc is split into at least :func:`_arc_pieces` Béziers, so that they
+    stay within a tenth of the tolerance for any radius up to the drawing's size, and
+    chords within nine tenths of it are drawn on them (ezdxf splits a polyline's bulge
+    into a third as many pieces as it is asked for, an ellipse into as many: asked for
+    three times :func:`_arc_pieces`, each gets at least that many)."""
+    from ezdxf import path as dxf_path
+
+    if entity.dxftype() == "SPLINE":
+        curve = entity.construction_tool().flattening(tolerance, segments=1)
+    else:
+        box = geometry.bbox()
+        extent = float(np.hypot(*(box.extmax - box.extmin).vec2)) if box.has_data else 0.0
+        pieces = _arc_pieces(tolerance, max(size, extent))
+        outline = dxf_path.make_path(entity, segments=3 * pieces)
+        curve = outline.flattening(0.9 * tolerance, segments=1)
+    return np.array([(v.x, v.y) for v in curve], dtype=float).reshape(-1, 2)
+
+
+def _arc_pieces(tolerance: float, radius: float) -> int:
+    """Béziers a full circle of ``radius`` needs to stay within ``tolerance`` / 10 of it:
+    the error of one of angle θ is about 2.7e-4 R (θ / (π/2))⁶, so n ≥ 4 (2.7e-3 R / tol)^(1/6)."""
+    return max(4, int(np.ceil(4.0 * (2.7e-3 * radius / tolerance) ** (1.0 / 6.0))))
 
 
 def _rock_mass(
@@ -360,6 +453,10 @@ def _closed(shapes: list[Shape], layer: str, path: Path) -> list[Shape]:
     ones close end to end (an exploded polyline: LINEs and ARCs, :func:`_rings`); an open
     shape that closes no ring is refused."""
     found = [s for s in shapes if s.layer == layer]
+    for shape in found:
+        if len(shape.points) < (3 if shape.closed else 2):
+            raise SceneError(str(path), f"layer {layer}", f"{shape.what} has no area (a point, "
+                             "or a circle of radius 0): remove it")  # fmt: skip
     rings, left = _rings([s for s in found if not s.closed], layer)
     for shape in left:
         (x0, y0), (x1, y1) = shape.points[0], shape.points[-1]

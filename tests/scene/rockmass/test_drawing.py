@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tomllib
 from pathlib import Path
 
@@ -384,4 +385,133 @@ def test_an_exploded_outline_is_read_as_the_shape_it_closes(tmp_path):
     scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\n', fix='sides = ["bottom"]'))
     areas = sorted(shapely.Polygon(b.vertices).area for b in scene.blocks)
     assert len(areas) == 2 and areas[0] == pytest.approx(50.0)
-    assert sum(areas) == pytest.approx(100.0 + math.pi * 25.0 / 2.0, rel=1e-3)  # chords
+    # chords inscribed in the arc within the tolerance t (1e-3 of the 18 m extent): the
+    # area they cut off is at most 2/3 t of the arc's length, and none is added
+    true, tolerance = 100.0 + math.pi * 25.0 / 2.0, 1e-3 * math.hypot(10.0, 15.0)
+    assert true - 2.0 / 3.0 * tolerance * math.pi * 5.0 <= sum(areas) <= true
+
+
+def _circle_drawing(path: Path, curve: str, radius: float = 10.0) -> None:
+    """A disc of ``radius`` on BLOCKS drawn as a CIRCLE, a polyline of two bulges, or a
+    rational SPLINE (a NURBS circle), and a joint across its diameter on JOINTS."""
+    import ezdxf
+    from ezdxf.math import rational_bspline_from_arc
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    blocks = {"layer": "BLOCKS"}
+    if curve == "circle":
+        space.add_circle((0.0, 0.0), radius, dxfattribs=blocks)
+    elif curve == "bulges":
+        ring = [(-radius, 0.0, 1.0), (radius, 0.0, 1.0)]  # two half circles
+        space.add_lwpolyline(ring, format="xyb", close=True, dxfattribs=blocks)
+    else:
+        nurbs = rational_bspline_from_arc((0.0, 0.0), radius, 0.0, 360.0)
+        space.add_spline(dxfattribs=blocks).apply_construction_tool(nurbs)
+    space.add_line((-radius, 0.0), (radius, 0.0), dxfattribs={"layer": "JOINTS"})
+    document.saveas(path)
+
+
+LOWER_HALF = "inside = [[-11, -11], [11, -11], [11, 0.001], [-11, 0.001]]"
+
+
+@pytest.mark.parametrize("curve", ["circle", "bulges", "spline"])
+@pytest.mark.parametrize("tolerance", [1e-2, 1e-3, 1e-4])
+def test_curves_are_drawn_within_the_arc_tolerance(tmp_path, curve, tolerance):
+    """Every vertex within a tenth of ``arc_tolerance`` of the circle of R = 10 m, every
+    chord within the tolerance: the points were ezdxf's cubic Béziers', up to
+    2.7e-3 m off the circle whatever the tolerance (a rational spline 4.1e-3 m, 256 points
+    at any tolerance), and a joint snapped to the circle at 1e-3 m cut nothing. The disc is
+    cut in two by its diameter at every tolerance."""
+    _circle_drawing(tmp_path / "cad.dxf", curve)
+    scene = dda.load_scene(
+        _cad_scene(tmp_path, f"arc_tolerance = {tolerance}\n", fix=LOWER_HALF)
+    )
+    assert len(scene.blocks) == 2
+    vertices = np.concatenate([np.asarray(b.vertices) for b in scene.blocks])
+    radius = np.hypot(*vertices.T)
+    rim = radius > 5.0  # all but the diameter's middle
+    assert np.all(np.abs(radius[rim] - 10.0) <= 0.1 * tolerance)
+    for block in scene.blocks:  # the chords on the rim: within t of the circle
+        points = np.asarray(block.vertices)
+        ends = np.roll(points, -1, axis=0)
+        chord = np.hypot(*(ends - points).T) < 5.0  # not the diameter
+        middles = 0.5 * (points + ends)[chord]
+        assert np.all(10.0 - np.hypot(*middles.T) <= tolerance)
+    area = sum(shapely.Polygon(b.vertices).area for b in scene.blocks)
+    assert math.pi * 100.0 - 2.0 / 3.0 * tolerance * 2.0 * math.pi * 10.0 <= area
+    assert area <= math.pi * 100.0 + 1e-9
+
+
+@pytest.mark.parametrize(
+    ("code", "words"),
+    [(21, "in US survey feet ($INSUNITS = 21): give [drawing] scale, the scene's length unit "
+          "in one drawing unit ([drawing] scale = 0.3048006096 reads it in m)"),
+     (13, "in microns ($INSUNITS = 13)"),
+     (99, "in no unit the DXF reference defines ($INSUNITS = 99)")],
+)  # fmt: skip
+def test_a_drawing_in_units_the_reader_does_not_convert_is_refused(tmp_path, code, words):
+    """$INSUNITS codes outside the reader's table were read as unitless (a drawing in US
+    survey feet as metres) without a word."""
+    drawings.drawing_with(tmp_path / "cad.dxf", "BLOCKS", SQUARE, closed=True, units=code)
+    with pytest.raises(dda.SceneError, match=re.escape(words)):
+        dda.load_scene(_cad_scene(tmp_path, ""))
+
+
+def _inserted_joint(path: Path) -> None:
+    """A square on BLOCKS and, in a block reference on layer 0 (nested once), a joint on
+    JOINTS across it."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    document.modelspace().add_lwpolyline(SQUARE, close=True, dxfattribs={"layer": "BLOCKS"})
+    inner = document.blocks.new("INNER")
+    inner.add_line((-1.0, 5.0), (11.0, 5.0), dxfattribs={"layer": "JOINTS"})
+    outer = document.blocks.new("OUTER")
+    outer.add_blockref("INNER", (0.0, 0.0), dxfattribs={"layer": "0"})
+    document.modelspace().add_blockref("OUTER", (0.0, 0.0), dxfattribs={"layer": "0"})
+    document.saveas(path)
+
+
+def _bad_entity(path: Path, kind: str) -> None:
+    """A square on BLOCKS beside an entity that is no shape: a circle of radius 0 on
+    BLOCKS, a spline without points or a polyface mesh on JOINTS."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    space.add_lwpolyline(SQUARE, close=True, dxfattribs={"layer": "BLOCKS"})
+    if kind == "point circle":
+        space.add_circle((5.0, 5.0), 0.0, dxfattribs={"layer": "BLOCKS"})
+    elif kind == "empty spline":
+        space.add_spline(dxfattribs={"layer": "JOINTS"})
+    else:
+        mesh = space.add_polyface(dxfattribs={"layer": "JOINTS"})
+        mesh.append_face([(0, 0, 0), (1, 0, 0), (1, 1, 0)])
+    document.saveas(path)
+
+
+@pytest.mark.parametrize(
+    ("make", "words"),
+    [(_inserted_joint, "layer JOINTS: INSERT (handle 3"),
+     (lambda p: _bad_entity(p, "point circle"), "layer BLOCKS: CIRCLE (handle 30) has no area"),
+     (lambda p: _bad_entity(p, "empty spline"),
+      "layer JOINTS: SPLINE (handle 30) cannot be read as a shape"),
+     (lambda p: _bad_entity(p, "polyface"),
+      "layer JOINTS: POLYLINE (handle 30) cannot be read as a shape")],
+    ids=["joint in a block reference", "circle of radius 0", "empty spline", "polyface"],
+)  # fmt: skip
+def test_entities_the_reader_cannot_take_are_refused_by_handle(
+    tmp_path, monkeypatch, capsys, make, words
+):
+    """A joint inside a block reference on layer 0 was left out without a word (the rock
+    uncut); a circle of radius 0, a spline without points and a polyface mesh stopped the
+    reader with exit 1 and a Python error that named no entity."""
+    monkeypatch.chdir(tmp_path)
+    make(tmp_path / "bad.dxf")
+    scene = _scene_for(tmp_path, tmp_path / "bad.dxf")
+    before = sorted(os.listdir(tmp_path))
+    assert cli.main(["cut", str(scene), "-o", "out.toml"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert sorted(os.listdir(tmp_path)) == before
