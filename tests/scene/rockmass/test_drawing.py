@@ -424,9 +424,7 @@ def test_curves_are_drawn_within_the_arc_tolerance(tmp_path, curve, tolerance):
     at any tolerance), and a joint snapped to the circle at 1e-3 m cut nothing. The disc is
     cut in two by its diameter at every tolerance."""
     _circle_drawing(tmp_path / "cad.dxf", curve)
-    scene = dda.load_scene(
-        _cad_scene(tmp_path, f"arc_tolerance = {tolerance}\n", fix=LOWER_HALF)
-    )
+    scene = dda.load_scene(_cad_scene(tmp_path, f"arc_tolerance = {tolerance}\n", fix=LOWER_HALF))
     assert len(scene.blocks) == 2
     vertices = np.concatenate([np.asarray(b.vertices) for b in scene.blocks])
     radius = np.hypot(*vertices.T)
