@@ -95,7 +95,53 @@ def criterion_of(scene: Scene) -> Criterion:
         velocity = fos.acceleration * g * duration
     start = run_length(scene) if scene.stages else 0.0
     ground = () if scene.seismic is None else tuple(scene.seismic.blocks)
-    return Criterion(duration, fos.window, velocity, fos.blocks, start, ground)
+    criterion = Criterion(duration, fos.window, velocity, fos.blocks, start, ground)
+    _check_judged(scene, criterion)
+    return criterion
+
+
+def _check_judged(scene: Scene, criterion: Criterion) -> None:
+    """Refuse a criterion that cannot judge: a window shorter than a time step (one
+    frame in it: every block's speed 0, every trial standing), a window that starts while the
+    seismic record still shakes the ground (a block sliding to and fro is judged by its
+    net motion over it: one period of a sine, nothing), or a record that plays before the
+    strengths are reduced (a staged scene's: its trials would miss it)."""
+    time, dt = scene.units.time, scene.analysis.time_step
+    judged = criterion.window * criterion.duration
+    if judged < dt * (1.0 - 1e-9):
+        raise SceneError(
+            scene.source,
+            "fos.window",
+            f"the judged window, {criterion.window:g} of the trial's {criterion.duration:g} "
+            f"{time} = {judged:.6g} {time}, is shorter than a time step ({dt:g} {time}): "
+            "no speed can be measured over it; give a longer fos.duration (--duration) or "
+            "fos.window (--window)",
+        )
+    if scene.seismic is None or not scene.seismic.record:
+        return
+    shaking = [row[0] for row in scene.seismic.record if row[1] != 0.0 or row[2] != 0.0]
+    if not shaking:
+        return
+    first, last = min(shaking), scene.seismic.record[-1][0]
+    if first < criterion.start:
+        raise SceneError(
+            scene.source,
+            "seismic",
+            f"the record shakes the ground from {first:g} {time}, before the strengths are "
+            f"reduced at {criterion.start:g} {time} (the end of the staged run): the trials "
+            f"would not see that part of it; start the record at {criterion.start:g} {time} "
+            "or later",
+        )
+    if criterion.judged_from < last * (1.0 - 1e-12):
+        needed = (last - criterion.start) / (1.0 - criterion.window)
+        raise SceneError(
+            scene.source,
+            "fos.duration",
+            f"the judged window starts at {criterion.judged_from:g} {time}, before the "
+            f"seismic record ends at {last:g} {time}: a block sliding to and fro while the "
+            "ground shakes would be judged by its net motion; give fos.duration "
+            f"(--duration) of at least {needed:.6g} {time}",
+        )
 
 
 def watched_blocks(criterion: Criterion, scene: Scene) -> tuple[str, ...]:

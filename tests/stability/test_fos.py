@@ -319,3 +319,66 @@ def test_a_stored_trial_whose_outcome_is_damaged_is_run_again(tmp_path):
     with pytest.raises(ValueError):
         flag("None")  # a refused trial only where trials may be refused
     assert flag("None", refused=True) is None
+
+
+# ----------------------------------------------------------------- criteria that cannot judge
+
+
+def _criterion_error(tmp_path: Path, scene: dict, capsys) -> str:
+    """The one line ``dda fos`` refuses ``scene`` with (exit 2, nothing written)."""
+    (tmp_path / "s.toml").write_bytes(tomli_w.dumps(scene).encode())
+    assert cli.main(["fos", str(tmp_path / "s.toml"), "-o", str(tmp_path / "out"), "--serial"]) == 2
+    assert not (tmp_path / "out").exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    return err[0]
+
+
+def test_a_judged_window_shorter_than_a_time_step_is_refused(tmp_path, capsys):
+    """A 0.2 s trial's window of 0.04 s holds one frame at Δt = 0.05 s: every block's speed
+    was 0 and every trial stood ("FoS > 4" for a block of FoS 1.21), exit 0."""
+    scene = block_on_plane(30.0, 35.0)
+    scene["fos"] = {"duration": 0.2}
+    said = _criterion_error(tmp_path, scene, capsys)
+    assert "fos.window: the judged window, 0.2 of the trial's 0.2 s = 0.04 s, is shorter " \
+           "than a time step (0.05 s)" in said  # fmt: skip
+    scene["fos"] = {"duration": 0.25}  # 0.05 s: two frames
+    (tmp_path / "s.toml").write_bytes(tomli_w.dumps(scene).encode())
+    from dda.stability.criterion import criterion_of
+
+    assert criterion_of(dda.load_scene(tmp_path / "s.toml")).window == 0.2
+
+
+def _shaken(scene: dict, record: list) -> dict:
+    scene["seismic"] = {"acceleration": record, "blocks": ["slope"]}
+    return scene
+
+
+def test_a_window_inside_the_seismic_record_is_refused(tmp_path, capsys):
+    """A block sliding ±1 cm a cycle on a ground shaken by a sine whose period the window
+    spans moved by 2e-7 m net over it and stood: a trial judged while the ground shakes
+    is refused, with the duration that judges it after the record."""
+    record = [[0.0, 0.0], [0.25, 2.0], [0.5, -2.0], [0.75, 0.0]]
+    said = _criterion_error(tmp_path, _shaken(block_on_plane(30.0, 35.0), record), capsys)
+    assert "fos.duration: the judged window starts at 0.4 s, before the seismic record ends " \
+           "at 0.75 s" in said and "of at least 0.9375 s" in said  # fmt: skip
+    scene = _shaken(block_on_plane(30.0, 35.0), record)
+    scene["fos"] = {"duration": 0.9375}
+    (tmp_path / "s.toml").write_bytes(tomli_w.dumps(scene).encode())
+    from dda.stability.criterion import criterion_of
+
+    assert criterion_of(dda.load_scene(tmp_path / "s.toml")).judged_from == pytest.approx(0.75)
+
+
+def test_a_record_that_plays_before_the_reduction_is_refused(tmp_path, capsys):
+    """With stages, the strengths are reduced at the end of the staged run: a record that
+    shook the ground before was played at full strength and its FoS was the static one
+    (1.924 for the shipped seismic slope's 1.137), without a word."""
+    scene = _shaken(block_on_plane(30.0, 35.0), [[0.0, 0.0], [0.1, 2.0], [0.2, 0.0]])
+    spare = [[50.0, 50.0], [51.0, 50.0], [51.0, 51.0], [50.0, 51.0]]
+    scene["blocks"].append({"name": "spare", "material": "rock", "vertices": spare})
+    scene["stages"] = [{"time": 0.25, "remove": ["spare"]}]
+    scene["fos"] = {"duration": 1.0}
+    said = _criterion_error(tmp_path, scene, capsys)
+    assert "seismic: the record shakes the ground from 0.1 s, before the strengths are " \
+           "reduced at 0.5 s (the end of the staged run)" in said  # fmt: skip
