@@ -69,6 +69,7 @@ class Model:
     active_effects: list[str] = field(default_factory=list)
     bolts: RockBolts | None = None  # also in ``effects``
     ground: GroundMotion | None = None  # also in ``effects``
+    water: WaterPressure | None = None  # also in ``effects``
     stages: StagePlan | None = None
 
 
@@ -186,6 +187,7 @@ def build(scene: Scene) -> Model:
         active_effects=active,
         bolts=engineering["bolts"],
         ground=engineering["seismic"],
+        water=engineering["water"],
         stages=stage_plan(scene),
     )
 
@@ -218,6 +220,8 @@ def engineering_effects(scene: Scene, blocks: BlockSet, exact: bool) -> dict[str
         record = np.array(seismic.record)
         ids = np.array([row[name] for name in seismic.blocks], np.int64)
         out["seismic"] = GroundMotion(record[:, 0], seismic.scale * record[:, 1:], ids)
+        if out["water"] is not None:  # the groundwater moves with the ground
+            out["water"].ground = out["seismic"]
     return out
 
 

@@ -17,6 +17,13 @@ The pressure is a fixed field, so its loads derive from a potential, Σ ∫_bloc
 (:meth:`WaterPressure.energy`, counted with gravity's in :mod:`dda.run.energy`); a
 step takes them at its start with their stiffness, the potential's Hessian
 (:meth:`WaterPressure.stiffness`).
+
+In a scene with ``[seismic]`` the phreatic line moves with the ground (the groundwater is
+in the rock that the ground carries): at time t it is the table translated by the
+ground's displacement u(t) (:meth:`WaterPressure.follow`, before each step). The field
+then changes in time: the potential it gains at the blocks' place over a step,
+V(x₀, t₁) − V(x₀, t₀), is work done on them from outside (:mod:`dda.run.energy`). The
+pressure stays hydrostatic under g: the ground's acceleration does not change γw.
 """
 
 from __future__ import annotations
@@ -37,7 +44,24 @@ class WaterPressure(Effect):
 
     def __init__(self, table: np.ndarray, unit_weight: float) -> None:
         self.table = np.asarray(table, float).reshape(-1, 2)
+        self.drawn = self.table  # the table as the scene gives it, at t = 0
         self.unit_weight = float(unit_weight)
+        self.ground = None  # the [seismic] ground motion that carries the table, if any
+
+    def follow(self, time: float) -> None:
+        """Put the table where the ground has carried it at ``time``: the drawn table
+        translated by the ground's displacement (nothing without ``ground``)."""
+        if self.ground is None:
+            return
+        shifted = self.drawn + self.ground.ground(time)[0]
+        if not np.array_equal(shifted, self.table):
+            self.table = shifted  # a new array: the wet edges kept for the last are not
+
+    def energy_at(self, blocks: BlockSet, time: float) -> float:
+        """:meth:`energy` with the table where the ground carried it at ``time`` (the
+        table is left there)."""
+        self.follow(time)
+        return self.energy(blocks)
 
     def head(self, x: np.ndarray) -> np.ndarray:
         """h(x): the phreatic line's height (level beyond its ends)."""

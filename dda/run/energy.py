@@ -326,13 +326,19 @@ class EnergyAccount:
         time: float,
         contacts: ContactSet | None = None,
         prescribed: np.ndarray | None = None,
+        dt: float | None = None,
     ) -> float:
         """Add the external work over the accepted step ``d`` (before the blocks move):
         the loads' and, when fixed blocks moved by ``prescribed`` (part of ``d``), the
         ground's through ``contacts`` (their forces at the step's end). The water's
-        pressure is a potential (``potential``), not work."""
+        pressure is a potential (``potential``), not work, but where the ground carries
+        its table (``[seismic]``) the potential it gains at the blocks' place over the
+        step, V(x₀, t₁) − V(x₀, t₀), is (``dt``: the step's length)."""
         w = sum(load_work(loads, blocks, d, time) for loads in self.loads)
         if prescribed is not None:
             w += ground_work(blocks, contacts, self.bolts, d, prescribed)
+        if self.water is not None and self.water.ground is not None and dt is not None:
+            before = self.water.energy_at(blocks, time - dt)
+            w += self.water.energy_at(blocks, time) - before
         self.work += w
         return w

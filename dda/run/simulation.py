@@ -172,6 +172,8 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
     ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
     if m.ground is not None:  # fixed blocks that follow the ground: their step is known
         ctx.prescribed = m.ground.prescribed(run.blocks, ctx)
+        if m.water is not None:  # ... and its water table: where it is at the step's end
+            m.water.follow(ctx.time)
     solution = solve_step(m, run.blocks, start.copy(), ctx, run.timer, run.linear)
     if ctx.prescribed is not None:
         solution.d = solution.d + ctx.prescribed
@@ -347,7 +349,9 @@ def _advance(run: _Run) -> None:
     with run.timer("update"):
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
         ground = None if m.ground is None else m.ground.prescribed(run.blocks, ctx)
-        run.energy.add_step_work(run.blocks, solution.d, ctx.time, solution.contacts, ground)
+        run.energy.add_step_work(
+            run.blocks, solution.d, ctx.time, solution.contacts, ground, ctx.dt
+        )
         for effect in m.effects:
             effect.after_step(run.blocks, solution.d, ctx)
         if run.probes is not None:
