@@ -76,17 +76,29 @@ def reducible(scene: Scene, intact: bool = False) -> bool:
 
 
 def brittle_note(scene: Scene) -> str | None:
-    """A note naming the joints whose cohesion is lost when they slip (``cohesion`` above
-    ``residual_cohesion``, the default 0): strength reduction breaks such bonds contact by
-    contact, the least loaded first, and the factor it finds can fall below limit
-    equilibrium's (a block on a 35° plane, c = 3 kPa: 0.965 against 1.061); a ductile
-    joint (``residual_cohesion = cohesion``) meets it. None when no joint is brittle."""
-    brittle = [j.name for j in scene.joints.values() if j.cohesion > j.residual_cohesion]
-    if not brittle:
+    """A note naming the Coulomb joints that lose strength when they slip: cohesion above
+    ``residual_cohesion`` (the default 0), or a residual friction angle below the peak.
+    Strength reduction then weakens them contact by contact, the least loaded first, and
+    the factor it finds can fall below limit equilibrium's (a block on a 35° plane,
+    c = 3 kPa: 0.965 against 1.061; φ = 40°, φ_r = 30° on a 30° plane: 1.360 against
+    1.453, its uphill corner at φ_r already at F = 1); a ductile joint (residual equal to
+    peak) meets it. None when no joint loses strength."""
+    lost = {}
+    for joint in scene.joints.values():
+        if joint.barton_bandis:
+            continue
+        what = []
+        if joint.cohesion > joint.residual_cohesion:
+            what.append("cohesion")
+        if joint.residual_angle < joint.friction_angle:
+            what.append("friction")
+        if what:
+            lost[joint.name] = " and ".join(what)
+    if not lost:
         return None
-    names = ", ".join(repr(name) for name in brittle)
+    names = ", ".join(f"{name!r} ({what})" for name, what in lost.items())
     return (
-        f"note: joint(s) {names} lose their cohesion when they slip (residual_cohesion "
-        "below cohesion): their bonds break one contact at a time, and F can fall below "
-        "limit equilibrium's; set residual_cohesion = cohesion for a ductile joint"
+        f"note: joint(s) {names} lose strength when they slip (residual below peak): "
+        "they weaken one contact at a time, and F can fall below limit equilibrium's; set "
+        "the residual equal to the peak for a ductile joint"
     )

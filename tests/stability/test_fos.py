@@ -286,12 +286,20 @@ def test_brittle_joints_are_named_before_a_search():
     can give F below limit equilibrium's; `dda fos` names it, a ductile one it does not."""
     brittle = dda.load_scene(ROOT / "cases" / "jointed_slope_fos.toml")
     note = brittle_note(brittle)
-    assert note is not None and "'bedding'" in note
+    assert note is not None and "'bedding' (cohesion)" in note
     joints = {
         name: dataclasses.replace(j, residual_cohesion=j.cohesion)
         for name, j in brittle.joints.items()
     }
     assert brittle_note(dataclasses.replace(brittle, joints=joints)) is None
+    # a residual friction angle below the peak loses strength too (F 1.360 against 1.453
+    # for φ = 40°, φ_r = 30° on a 30° plane, without a word)
+    softening = {
+        name: dataclasses.replace(j, residual_cohesion=j.cohesion, residual_friction_angle=10.0)
+        for name, j in brittle.joints.items()
+    }
+    note = brittle_note(dataclasses.replace(brittle, joints=softening))
+    assert note is not None and "(friction)" in note
 
 
 def test_a_stored_trial_whose_outcome_is_damaged_is_run_again(tmp_path):
