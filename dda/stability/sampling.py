@@ -70,6 +70,15 @@ def set_value(raw: dict, key: str, value: float) -> None:
     raw.setdefault(table, {}).setdefault(name, {})[field] = value
 
 
+def get_value(raw: dict, key: str) -> float:
+    """The value at the dotted ``key`` of a raw scene (as :func:`set_value` put it)."""
+    match = _SET_KEY.match(key)
+    if match:
+        return raw["joint_sets"][int(match.group(1))][match.group(2)]
+    table, name, field = key.split(".")
+    return raw[table][name][field]
+
+
 # a residual strength and the peak it may not exceed (dda.scene.joints)
 _PEAKS = {
     "residual_friction_angle": "friction_angle",
@@ -93,12 +102,14 @@ def _residuals_within_peaks(raw: dict) -> None:
 
 
 def realise(raw: Mapping[str, Any], ensemble: EnsembleSettings, index: int) -> tuple[dict, dict]:
-    """(the raw scene of realisation ``index``, its drawn values)."""
+    """(the raw scene of realisation ``index``, its values as the scene uses them: the
+    drawn ones, a residual drawn above its peak taken equal to it)."""
     out = copy.deepcopy(dict(raw))
     values = drawn_values(ensemble, index)
     for key, value in values.items():
         set_value(out, key, value)
     _residuals_within_peaks(out)
+    values = {key: get_value(out, key) for key in values}
     sets = out.get("joint_sets")
     if isinstance(sets, list) and sets:
         sequence = np.random.SeedSequence(ensemble.seed, spawn_key=(index, 1))

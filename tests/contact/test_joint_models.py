@@ -361,7 +361,10 @@ def test_a_block_dropped_on_a_slope_inside_its_friction_drifts_and_stops():
 
 def test_an_ensemble_draws_the_new_joint_keys_and_keeps_residuals_within_peaks():
     """Every new key can be drawn; a residual drawn above its peak is taken as the peak
-    (a joint loses strength as it slips), so the realisation stays a scene."""
+    (a joint loses strength as it slips), so the realisation stays a scene, and the values
+    it reports (ensemble.csv's columns) are those it used (they were the drawn ones: a
+    residual cohesion of 1.9e4 listed where the run used 1e4)."""
+    from dda.stability.sampling import drawn_values
     from dda.stability.sampling import realise
 
     joint = {"friction_angle": 30.0, "cohesion": 1e4, "residual_cohesion": 5e3,
@@ -376,11 +379,16 @@ def test_an_ensemble_draws_the_new_joint_keys_and_keeps_residuals_within_peaks()
          "low": 0.2, "high": 0.8},
     ]}  # fmt: skip
     scene = dda.load_scene(raw)
+    clipped = 0
     for index in range(20):
         realised, values = realise(raw, scene.ensemble, index)
         joint = dda.load_scene(realised).joints["default"]
-        assert joint.residual_cohesion == min(values["joints.default.residual_cohesion"], 1e4)
+        drawn = drawn_values(scene.ensemble, index)["joints.default.residual_cohesion"]
+        assert joint.residual_cohesion == min(drawn, 1e4)
+        assert values["joints.default.residual_cohesion"] == joint.residual_cohesion
+        clipped += drawn > 1e4
         assert 0.2 <= joint.restitution <= 0.8
+    assert clipped > 0
     barton = slab_and_block(30.0, 1.0, 0.5, dict(BB))
     barton["ensemble"] = {"vary": [
         {"key": "joints.default.jrc", "distribution": "normal", "mean": 5.0, "std": 2.0},
