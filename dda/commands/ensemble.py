@@ -165,9 +165,11 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
     values = [r["fos"] for r in judged] if with_fos else [r[first] for r in judged]
     label = "factor of safety" if with_fos else _label(first, scene.units)
     failed = [bool(r["failed"]) for r in judged]
+    outside = sum(not math.isfinite(v) for v in values) if with_fos else 0
     title = (
         f"{scene.title}\nP(failure) = {p:.3f}, 95 % Wilson interval [{low:.3f}, {high:.3f}], "
         f"n = {len(judged)}"
+        + (f" ({outside} with FoS outside the search's bounds, not drawn)" if outside else "")
     )
     written = ["ensemble.csv"]
     if judged:
@@ -188,9 +190,11 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
         "interval_95": [low, high],
         "interval": "Wilson score",
     }
-    if with_fos:
+    if with_fos:  # the mean of the FoS found: one outside the bounds is not a number
         finite = [v for v in values if math.isfinite(v)]
         summary["fos_mean"] = sum(finite) / len(finite) if finite else None
+        summary["fos_found"] = len(finite)
+        summary["fos_outside_bounds"] = outside
     write_text(outdir / "ensemble.json", json.dumps(summary, indent=2) + "\n")
     written.append("ensemble.json")
     print(f"wrote {outdir}/" + ", ".join(written), file=sys.stderr)
@@ -198,6 +202,7 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
         f"P(failure) = {p:.4g} ({failures} of {len(judged)} realisations fail), "
         f"95 % Wilson interval [{low:.4g}, {high:.4g}]"
         + (f"; {refused} refused" if refused else "")
+        + (f"; {outside} with FoS outside the search's bounds" if outside else "")
     )
 
 

@@ -364,8 +364,7 @@ def test_an_ensemble_draws_the_new_joint_keys_and_keeps_residuals_within_peaks()
     (a joint loses strength as it slips), so the realisation stays a scene, and the values
     it reports (ensemble.csv's columns) are those it used (they were the drawn ones: a
     residual cohesion of 1.9e4 listed where the run used 1e4)."""
-    from dda.stability.sampling import drawn_values
-    from dda.stability.sampling import realise
+    from dda.stability.sampling import drawn_values, realise
 
     joint = {"friction_angle": 30.0, "cohesion": 1e4, "residual_cohesion": 5e3,
              "restitution": 0.5}  # fmt: skip

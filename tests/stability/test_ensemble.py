@@ -340,3 +340,25 @@ def test_an_ensemble_whose_every_realisation_is_refused_gives_no_answer(
     assert "Traceback" not in err
     summary = json.loads((tmp_path / "out" / "ensemble.json").read_text())  # strict JSON
     assert summary["p_failure"] is None and summary["refused"] == 2
+
+
+def test_a_fos_outside_the_bounds_is_counted_not_dropped(tmp_path, capsys, monkeypatch):
+    """--fos with --upper 1.1: a realisation whose FoS is above the search's bounds has no
+    number; the mean is of those found, and the summary, the answer and the picture's
+    title say how many are left out (the title said n = 8 over 7 drawn)."""
+    monkeypatch.chdir(tmp_path)
+    write_scene(tmp_path / "slope.toml", slope_ensemble(4))
+    argv = ["ensemble", "slope.toml", "-o", "out", "--serial", "--fos", "--upper", "1.1"]
+    assert cli.main(argv) == 0
+    said = capsys.readouterr().out
+    rows = (tmp_path / "out/ensemble.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    fos = [float(dict(zip(header, r.split(","), strict=True))["fos"]) for r in rows[1:]]
+    outside = sum(math.isnan(f) for f in fos)
+    assert 0 < outside < len(fos)  # φ drawn about 33° on a 30° plane: FoS 0.9 to 1.3
+    summary = json.loads((tmp_path / "out/ensemble.json").read_text())
+    assert summary["fos_outside_bounds"] == outside
+    assert summary["fos_found"] == len(fos) - outside
+    found = [f for f in fos if not math.isnan(f)]
+    assert summary["fos_mean"] == pytest.approx(sum(found) / len(found))
+    assert f"{outside} with FoS outside the search's bounds" in said
