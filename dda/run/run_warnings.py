@@ -272,14 +272,31 @@ def in_situ_slip_warning(
     )
 
 
-def in_situ_warning(change: float, block: str) -> str | None:
+def in_situ_warning(change: float, block: str, cause: str = "") -> str | None:
     """The sentence when the equilibrium start changed a free block's in-situ stress by
-    more than :data:`IN_SITU_KEPT` of the field (``change``, the largest, at ``block``)."""
+    more than :data:`IN_SITU_KEPT` of the field (``change``, the largest, at ``block``),
+    with its likely ``cause``: ``"slipped"`` (joints that carry less shear than the
+    field puts on them, said apart), ``"bounded"`` (the model has boundary stresses: joints
+    weaker than the field, in tension too, or boundary stresses that do not hold it), else
+    no boundary stresses."""
     if change <= IN_SITU_KEPT:
         return None
-    return (
+    said = (
         f"the equilibrium start changed the in-situ stress of block {block!r} by "
-        f"{100.0 * change:.0f} % of the field (the largest): the field is not in "
-        "equilibrium with the model's boundary (give its free outer blocks "
-        "[[boundary_stresses]], or fix their neighbours)"
+        f"{100.0 * change:.0f} % of the field (the largest): "
+    )
+    if cause == "slipped":
+        return said + (
+            "joints slip under the field's shear at t = 0 (the in-situ slip warning "
+            "says where), and the blocks move until they hold"
+        )
+    if cause == "bounded":
+        return said + (
+            "joints give way under it (in shear or tension: a strength below the field's), "
+            "or the boundary stresses and the fixed blocks do not hold it as given (check "
+            "their boxes and values against the in-situ stress)"
+        )
+    return said + (
+        "the field is not in equilibrium with the model's boundary (give its free outer "
+        "blocks [[boundary_stresses]], or fix their neighbours)"
     )

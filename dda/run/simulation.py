@@ -109,7 +109,7 @@ class _Run:
         self.start_method = None  # how its limit solve settled (dda.run.equilibrium_start)
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.start_compile_seconds = 0.0  # ... and its share of compile_seconds()
-        self.in_situ_change = (0.0, "")  # what the start changed of the in-situ field
+        self.in_situ_change = (0.0, "", "")  # what the start changed of the in-situ field
         self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
         self.unbalanced_force = (0.0, 0.0)  # ... and the net force the last one said
         self.pushed_steps = 0  # steps whose push-out removed an overlap
@@ -212,7 +212,7 @@ def _equilibrium_start(run: _Run) -> None:
         return
     run.contacts = settled.contacts
     if m.scene.in_situ is not None:
-        run.in_situ_change = _in_situ_change(run.blocks, settled.stress)
+        run.in_situ_change = _in_situ_change(run, settled.stress)
     run.blocks.stress = settled.stress
     run.energy.initial = run.energy.measure(run.blocks, run.contacts)
     run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
@@ -258,23 +258,27 @@ def _beyond_strength(model: Model, blocks: BlockSet, contacts: ContactSet, origi
     return int(np.count_nonzero(beyond)), float(ratio[k]), name, (float(x), float(y))
 
 
-def _in_situ_change(blocks, settled: np.ndarray) -> tuple[float, str]:
+def _in_situ_change(run: _Run, settled: np.ndarray) -> tuple[float, str, str]:
     """(largest change of a free block's stress by the equilibrium start over the
-    largest in-situ stress, that block's name). Above :data:`IN_SITU_KEPT` the start
-    relaxed the field: it is not in equilibrium with the model's boundary (a free outer
-    block without boundary stresses or a fixed neighbour to carry it); said, not silent."""
+    largest in-situ stress, that block's name, its likely cause: :func:`in_situ_warning`).
+    Above :data:`IN_SITU_KEPT` the start relaxed the field: joints slipped under its
+    shear, or it is not in equilibrium with the model's boundary (a free outer block
+    without boundary stresses or a fixed neighbour to carry it); said, not silent."""
+    blocks = run.blocks
     given = blocks.stress
     scale = float(np.abs(given).max())
     free = np.flatnonzero(~blocks.fixed)
     if scale == 0.0 or len(free) == 0:
-        return 0.0, ""
+        return 0.0, "", ""
     change = np.abs(settled[free] - given[free]).max(axis=1) / scale
     k = int(np.argmax(change))
     largest, name = float(change[k]), blocks.names[free[k]]
-    said = in_situ_warning(largest, name)
+    bounded = bool(run.model.scene.boundary_stresses)
+    cause = "slipped" if run.in_situ_slip[0] else "bounded" if bounded else ""
+    said = in_situ_warning(largest, name, cause)
     if said is not None:  # at once, as well as in the summary: a long run may be stopped
         log.warning(said)
-    return largest, name
+    return largest, name, cause
 
 
 def _touching_at_start(run: _Run) -> None:

@@ -247,3 +247,18 @@ def test_a_static_bolt_short_of_its_force_is_said(dt, said):
         assert tension == pytest.approx(2386.23, rel=1e-4)
     else:
         assert tension == pytest.approx(2447.30, rel=1e-5)
+
+
+def test_the_relaxed_in_situ_field_is_said_with_its_likely_cause():
+    """Boundary stresses given, a field relaxed: the advice to give boundary stresses was
+    wrong (a strength-reduction trial whose joints opened in tension got it); joints that
+    slip under the field's shear are named as the cause."""
+    from dda.run.run_warnings import in_situ_warning
+
+    assert in_situ_warning(0.5, "b1") is not None
+    assert "give its free outer blocks [[boundary_stresses]]" in in_situ_warning(0.5, "b1")
+    bounded = in_situ_warning(0.5, "b1", "bounded")
+    assert "[[boundary_stresses]]" not in bounded and "joints give way under it" in bounded
+    slipped = in_situ_warning(0.5, "b1", "slipped")
+    assert "joints slip under the field's shear" in slipped
+    assert in_situ_warning(1e-9, "b1", "slipped") is None
