@@ -386,11 +386,12 @@ def load_with_progress(scene, quiet: bool = False, source: str | None = None):
 
 def scene_source(case: Path):
     """The scene file ``case``, or the shipped case of that name (``dda.cases``) when no
-    such file exists: ``dda run sliding_block`` works from any folder. Neither: a
+    such file exists: ``dda run sliding_block`` works from any folder, and from one that
+    holds a folder of that name (its own output, ``-o sliding_block``). Neither: a
     SceneError that names both."""
     import dda.cases
 
-    if case.exists() or case.suffix:
+    if case.is_file() or case.suffix or (case.exists() and str(case) not in dda.cases.names()):
         return case
     if str(case) in dda.cases.names():
         return dda.cases.folder().joinpath(f"{case}.toml")

@@ -107,6 +107,10 @@ def test_run_takes_a_shipped_case_by_name_from_any_folder(tmp_path, monkeypatch,
     assert cli.main(["run", "sliding_block", "--quiet"]) == 0
     summary = json.loads((tmp_path / "out" / "run_sliding_block" / "summary.json").read_text())
     assert summary["status"] == "finished"
+    # a folder of the case's name (its own output, -o sliding_block) does not hide the
+    # case: it was read as the scene ("is a directory, not a scene file", exit 2)
+    assert cli.main(["run", "sliding_block", "-o", "sliding_block", "--quiet"]) == 0
+    assert cli.main(["run", "sliding_block", "-o", "sliding_block", "--quiet", "--overwrite"]) == 0
 
 
 @pytest.mark.parametrize(
