@@ -54,11 +54,19 @@ def read_points(path: Path) -> dict[str, np.ndarray]:
         rows = list(csv.reader(stream))
     if not rows or rows[0][:2] != ["step", "time"]:
         raise ValueError(f"{path}: not a history_points.csv (no step,time header)")
-    header, body = rows[0], [r for r in rows[1:] if len(r) == len(rows[0])]
-    try:
-        table = np.array(body, dtype=float).reshape(-1, len(header))
-    except ValueError as exc:
-        raise ValueError(f"{path}: a row that is not numbers ({exc})") from None
+    header = rows[0]
+    body = [(line, r) for line, r in enumerate(rows[1:], start=2) if len(r) == len(header)]
+    for line, row in body:
+        try:
+            [float(x) for x in row]
+        except ValueError as exc:
+            raise ValueError(f"{path}: line {line} is not numbers ({exc})") from None
+    table = np.array([r for _, r in body], dtype=float).reshape(-1, len(header))
+    if not group_columns(header):
+        raise ValueError(f"{path}: no measurement columns to draw (name.component: ux, syy, "
+                         "normal_force, ...)")  # fmt: skip
+    if not len(table):
+        raise ValueError(f"{path}: no rows: the run wrote no measurement yet")
     return {name: table[:, k] for k, name in enumerate(header)}
 
 

@@ -102,6 +102,16 @@ def test_plot_without_measurements_is_refused_in_one_line(tmp_path, capsys):
     (tmp_path / "history_points.csv").write_text("a,b\n1,2\n")
     assert cli.main(["plot", str(tmp_path)]) == 2
     assert "not a history_points.csv" in capsys.readouterr().err
+    # nothing to draw: exit 0 with an empty plots/ folder before
+    for text, words in [("step,time,foo\n0,0,1\n", "no measurement columns to draw"),
+                        ("step,time,c.zz\n0,0,1\n", "no measurement columns to draw"),
+                        ("step,time,c.ux\n", "no rows"),
+                        ("step,time,c.ux\n0,0,1\n1,0.1,x\n", "line 3 is not numbers")]:  # fmt: skip
+        (tmp_path / "history_points.csv").write_text(text)
+        assert cli.main(["plot", str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and words in err, err
+        assert not (tmp_path / "plots").exists()
 
 
 def test_a_static_analysis_measures_no_velocity():
