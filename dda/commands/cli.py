@@ -296,6 +296,19 @@ def positive_int(text: str) -> int:
     return value
 
 
+# the largest side of a picture, in pixels (16384: VTK's and most GPUs' texture limit; a
+# 100000-pixel side was a MemoryError of 40 GB)
+MAX_PICTURE_SIDE = 16384
+
+
+def picture_side(text: str) -> int:
+    """argparse type: a picture's side in pixels, 1 to :data:`MAX_PICTURE_SIDE`."""
+    value = positive_int(text)
+    if value > MAX_PICTURE_SIDE:
+        raise argparse.ArgumentTypeError(f"at most {MAX_PICTURE_SIDE} pixels, got {value}")
+    return value
+
+
 def output_path(text: str) -> Path:
     """argparse type: a file or folder name, not empty (``-o ""`` would mean the current
     folder, where a run's files would mix with everything else)."""
@@ -683,7 +696,7 @@ def _add_render(subparsers: Any) -> None:
     p.add_argument("--step", type=int, help="step of the frame (OUTDIR only; default last)")
     p.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")
     p.add_argument(
-        "--size", type=positive_int, nargs=2, default=(1200, 900), metavar=("W", "H"),
+        "--size", type=picture_side, nargs=2, default=(1200, 900), metavar=("W", "H"),
         help="picture size in pixels (default: 1200 900)",
     )  # fmt: skip
     p.set_defaults(func=render_command)
@@ -718,6 +731,11 @@ def render_command(args: argparse.Namespace) -> int:
 
     try:
         clim = checked_range(args)
+        if args.step is not None and Path(args.source).is_file():
+            raise ValueError(
+                f"--step {args.step}: a VTU file is one frame (its own step); give the "
+                "output directory to choose a step"
+            )
         found = find_frame(args.source, args.step)
         output = args.output or found.default_png(args.scalars)
         _check_png(output)

@@ -10,7 +10,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from dda.commands.cli import add_range_option, checked_range, output_path, positive_int
+from dda.commands.cli import (
+    add_range_option,
+    checked_range,
+    output_path,
+    picture_side,
+    positive_int,
+)
 from dda.io.fields import SCALARS
 
 EXIT_OK, EXIT_FAILURE, EXIT_INPUT = 0, 1, 2
@@ -45,7 +51,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
         help="draw every N-th written frame (default: all)",
     )  # fmt: skip
     parser.add_argument(
-        "--size", type=positive_int, nargs=2, default=(960, 720), metavar=("W", "H"),
+        "--size", type=picture_side, nargs=2, default=(960, 720), metavar=("W", "H"),
         help="picture size in pixels, even numbers (default: 960 720)",
     )  # fmt: skip
     parser.add_argument("--no-contacts", action="store_true", help="do not draw contact forces")

@@ -331,6 +331,11 @@ def test_render_a_written_run(tmp_path, capsys):
     capsys.readouterr()
     assert cli.main(["render", str(tmp_path / "run"), "--step", "7"]) == 2
     assert "no written frame (step 7); written steps: 0, 4" in capsys.readouterr().err
+    assert cli.main(["render", str(vtu), "--step", "4"]) == 2  # was drawn at step 0, unsaid
+    assert "--step 4: a VTU file is one frame" in capsys.readouterr().err
+    huge = ["render", str(tmp_path / "run"), "--size", "100000", "100000"]
+    assert cli.main(huge) == 2  # was a MemoryError of 40 GB, exit 1
+    assert "at most 16384 pixels" in capsys.readouterr().err
     deeper = tmp_path / "new" / "dir" / "pic.png"  # a missing folder is made
     small = ["--size", "300", "200"]
     assert cli.main(["render", str(tmp_path / "run"), "-o", str(deeper), *small]) == 0
