@@ -39,7 +39,8 @@ def fos_plot(
     for failed, marker, label in ((False, "o", "stands"), (True, "x", "fails")):
         pick = [r for r in shown if bool(r["failed"]) == failed]
         speeds = [min(float(r["speed"]), 1e300) for r in pick]
-        ax.scatter([float(r["factor"]) for r in pick], speeds, marker=marker, label=label)
+        shown_label = label if pick else "_nolegend_"  # no legend entry without a point
+        ax.scatter([float(r["factor"]) for r in pick], speeds, marker=marker, label=shown_label)
     if low:
         label = f"speed below {floor:.1g} {speed_unit} (at rest: 0)"
         factors = [float(r["factor"]) for r in low]

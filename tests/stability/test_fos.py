@@ -279,6 +279,12 @@ def test_the_plot_draws_trials_at_rest_on_a_marked_line_near_the_limit(tmp_path,
     stands, fails, at_rest = drawn
     assert stands[:3] == ([1.5], [2e-4], "o") and fails[:3] == ([2.0, 3.0], [0.5, math.nan], "x")
     assert at_rest[:3] == ([1.0], [BELOW_LIMIT * 1e-3], "v") and "below 1e-09 m/s" in at_rest[3]
+    # every standing trial at rest: no "stands" entry in the legend without a circle
+    drawn.clear()
+    resting = [dict(rows[0]), dict(rows[2])]
+    known = {float(r["factor"]): bool(r["failed"]) for r in resting}
+    fos_plot(resting, outcome(known), 1e-3, tmp_path / "fos.png", "slope", "m/s")
+    assert drawn[0][:2] == ([], []) and drawn[0][3].startswith("_")
 
 
 def test_brittle_joints_are_named_before_a_search():
