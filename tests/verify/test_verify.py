@@ -644,6 +644,38 @@ def test_summary_and_refinement_charts(quick_results, refinement, tmp_path):
     assert non_background_fraction(read_image(chart)) > 0.05
 
 
+def test_the_refinement_chart_labels_an_error_axis_within_a_decade(tmp_path, monkeypatch):
+    """Errors from 0.33 to 0.36 (k = 1, 2): the y axis has labelled ticks (minor ticks were
+    off on both axes, and such a panel had no y label at all)."""
+    from types import SimpleNamespace
+
+    import matplotlib.pyplot as plt
+
+    from verify.pictures import plots
+
+    kept = []
+    monkeypatch.setattr(plots, "save", lambda fig, path, dpi: kept.append(fig) or path)
+    points = [
+        SimpleNamespace(body="b", series=s, k=k, displacement=0.3 * (1 + 0.1 * k), stress=0.2 / k)
+        for s in ("P2", "P1 FEM")
+        for k in (1, 2)
+    ]
+    plots.refinement_chart(points, tmp_path / "r.png")
+    (figure,) = kept
+    figure.canvas.draw()
+    for ax in figure.axes:
+        low, high = ax.get_ylim()
+        shown = [
+            label.get_text()
+            for ticks, labels in ((ax.yaxis.get_majorticklocs(), ax.yaxis.get_majorticklabels()),
+                                  (ax.yaxis.get_minorticklocs(), ax.yaxis.get_minorticklabels()))
+            for tick, label in zip(ticks, labels, strict=False)
+            if low <= tick <= high and label.get_text()
+        ]  # fmt: skip
+        assert len(shown) >= 2, shown
+    plt.close(figure)
+
+
 def test_the_summary_reads_at_full_size(tmp_path, monkeypatch):
     """32 cases and 20 checked quantities: a row per case and a labelled column per
     quantity, grouped, at most 2000 px wide, every ratio written in its cell, a failing

@@ -18,6 +18,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import NullLocator  # noqa: E402
 
 from verify.harness.cases import CaseResult  # noqa: E402
 
@@ -257,7 +258,8 @@ def refinement_chart(points, path: Path) -> Path:
                     f"order {order}", (ks[-1], 0.5 * (ks[-1] / ks[0]) ** -order), fontsize=8
                 )
             ax.set_xticks(ks, [f"{k:g}" for k in ks])
-            ax.minorticks_off()
+            ax.xaxis.set_minor_locator(NullLocator())  # the y axis keeps its minor labels:
+            # errors within a decade had no tick label but one 10^x
             ax.set_xlabel("k (blocks per metre each way)")
             ax.set_ylabel(f"relative L² {quantity} error")
             ax.set_title(f"{body}: {quantity} against the continuum", fontsize=10)
