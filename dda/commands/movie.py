@@ -82,7 +82,7 @@ def movie_command(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     run = found[0].summary()
     try:
-        with ProgressBar(total=len(frames), label=f"movie {output.name}") as bar:
+        with ProgressBar(total=len(frames), label=f"writing {output.name}") as bar:
             count = write_movie(
                 frames, output, look, scalars=args.scalars, fps=args.fps,
                 size=tuple(args.size), show_contacts=not args.no_contacts,
@@ -92,7 +92,8 @@ def movie_command(args: argparse.Namespace) -> int:
     except FfmpegError as exc:  # not the input's fault: exit 1, in one line
         print(f"dda movie: {exc}", file=sys.stderr)
         return EXIT_FAILURE
-    print(f"{output} ({count} frames, {args.size[0]} x {args.size[1]}, {args.fps:g} fps)")
+    frames_said = f"{count} frame" + ("" if count == 1 else "s")
+    print(f"{output} ({frames_said}, {args.size[0]} x {args.size[1]}, {args.fps:g} fps)")
     return EXIT_OK
 
 
