@@ -135,11 +135,31 @@ def _cut(
     report.done("traces")
     faces, region = _faces(mass, domain, traces, source, report)
     cut = _name_and_tag(mass, domain, traces, faces, region, source, report)
+    _say_idle_lines(mass, cut, source)
     report.done("selecting")
     out = _explicit_scene(raw, cut, source, report)
     report.done("tables")
     log.info("%s: cut %d blocks (%d fixed)", source, len(cut.names), int(cut.fixed.sum()))
     return cut, out
+
+
+def _say_idle_lines(mass: RockMass, cut: CutRockMass, source: str) -> None:
+    """Warn of each joint line along which no block edge lies: it ends inside the rock
+    (a joint cuts the rock it crosses from side to side; one stopping a millimetre short
+    of another joint cuts nothing), lies outside it, or cut only blocks that were merged
+    away. Without a word it was a joint the user drew and the model does not have."""
+    used = set(np.unique(cut.blocks.edge_source).tolist())
+    first = len(mass.joint_sets)
+    for k, line in enumerate(mass.joint_lines):
+        if first + k in used:
+            continue
+        (x0, y0), (x1, y1) = line.points[0], line.points[-1]
+        log.warning(
+            "%s: %s (%r, from (%.6g, %.6g) to (%.6g, %.6g)) cuts nothing: it ends inside the "
+            "rock (a joint cuts the rock it crosses from side to side: draw it on to the "
+            "outline or to another joint), lies outside it, or cut blocks that were merged",
+            source, line.key, line.name, x0, y0, x1, y1,
+        )  # fmt: skip
 
 
 def _faces(

@@ -7,6 +7,7 @@ drawings are refused in one line, exit 2, nothing written."""
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import re
@@ -344,7 +345,7 @@ def test_an_excavation_time_with_nothing_to_excavate_is_refused(tmp_path):
     assert "no closed shape on layer 'EXCAVATION' to excavate" in str(caught.value)
 
 
-def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path):
+def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path, caplog):
     """The top of a slab drawn as an arc sagging 3 m (a bulge), a joint from the base to a
     point on the true arc (CAD's 'nearest' snap): the rock's chords leave the arc by up
     to the arc tolerance, on this concave side inside the rock, where the joint ended and
@@ -363,8 +364,13 @@ def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path):
     space.add_line((4.0, 0.0), (4.0, y), dxfattribs={"layer": "JOINTS"})
     space.add_line((60.0, 0.0), (60.0, 39.5), dxfattribs={"layer": "JOINTS"})  # stops short
     document.saveas(tmp_path / "cad.dxf")
-    scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\n', fix='sides = ["right"]'))
+    with caplog.at_level(logging.WARNING):
+        scene = dda.load_scene(_cad_scene(tmp_path, 'joint = "bedding"\n', fix='sides = ["right"]'))
     assert len(scene.blocks) == 2
+    # the short one is said (it cut nothing without a word), the one that cuts is not
+    (said,) = [r.getMessage() for r in caplog.records if "cuts nothing" in r.getMessage()]
+    assert "joint_lines[1] ('JOINTS', from (60, -0.161" in said  # drawn on to the base
+    assert "to (60, 39.5)) cuts nothing: it ends inside the rock" in said
 
 
 def test_an_exploded_outline_is_read_as_the_shape_it_closes(tmp_path):
