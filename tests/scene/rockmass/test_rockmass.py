@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import tomllib
 from importlib.metadata import entry_points
@@ -304,6 +305,28 @@ def test_slivers_merge_into_the_neighbour_with_the_longest_edge():
         )
     assert err.value.key == "cutting.min_block_area"
     assert "smaller than 0.01" in err.value.reason
+
+
+def test_a_small_block_of_another_region_is_kept_and_said(caplog):
+    """A 1 cm seam of clay (a region of 0.1 m2) under min_block_area 0.5 joined the rock
+    beside it, its material gone without a word; it is kept, with a warning, and the
+    rock's own slivers still merge within the rock."""
+    raw = base_scene(cutting={"min_block_area": 0.5})
+    raw["materials"]["clay"] = {"density": 2000.0, "young": 1e8, "poisson": 0.3}
+    raw["regions"] = [
+        {"polygon": [[0, 0], [10, 0], [10, 3], [0, 3]], "material": "rock"},
+        {"polygon": [[0, 3], [10, 3], [10, 3.01], [0, 3.01]], "material": "clay"},
+        {"polygon": [[0, 3.01], [10, 3.01], [10, 6], [0, 6]], "material": "rock"},
+    ]
+    raw["joint_sets"] = [{"dip": 0.0, "spacing": 100.0, "offset": 1e-3}]  # a rock sliver
+    with caplog.at_level(logging.WARNING):
+        out = expand_rock_mass(raw, "<t>")
+    materials = sorted(b["material"] for b in out["blocks"])
+    assert materials == ["clay", "rock", "rock"]
+    clay = [b for b in out["blocks"] if b["material"] == "clay"]
+    assert shapely.Polygon(clay[0]["vertices"]).area == pytest.approx(0.1, rel=1e-9)
+    assert "a block of area 0.1 near" in caplog.text and "is kept as it is" in caplog.text
+    assert shapely.area(polygons(out)).sum() == pytest.approx(60.0, rel=1e-12)
 
 
 def test_a_block_around_a_hole_is_split_or_refused():
