@@ -5,7 +5,8 @@ The drawing becomes the rock-mass keys it stands for (docs/rock_masses.md, "Draw
 which the block cutting then handles as if typed:
 
 - closed shapes on the ``blocks`` layer (default ``BLOCKS``) are ``[[regions]]`` of the
-  drawing's material: a shape no joint crosses is one block;
+  drawing's material: a shape no joint crosses is one block; one inside another is an
+  opening in it (open at t = 0), one inside an opening rock again;
 - closed shapes on the ``fixed`` layer (``FIXED``) are regions too, whose blocks are fixed
   (a ``[[fix]]`` rule ``inside`` each shape);
 - lines and polylines, open or closed, on the ``joints`` layer (``JOINTS``) are
@@ -429,8 +430,12 @@ def _rock_mass(
     material = _material(chk, table, raw)
     dug = shapely.union_all([_polygon(s, path) for s in holes]) if holes else None
     regions, origins = list(_list(raw, "regions")), {}
-    for shape in rock + fixed:
-        for region in _regions(shape, dug, material, path):
+    openings = _openings(rock, path)
+    for k, shape in enumerate(rock + fixed):
+        inner = openings.get(k)
+        if inner is False:
+            continue  # an opening: no rock of its own
+        for region in _regions(shape, dug, material, path, inner):
             origins[len(regions)] = f"layer {shape.layer}: {shape.what}"
             regions.append(region)
     out["regions"] = regions
@@ -501,10 +506,33 @@ def _polygon(shape: Shape, path: Path) -> shapely.Polygon:
     return polygon
 
 
-def _regions(shape: Shape, dug: Any, material: str, path: Path) -> list[dict]:
-    """The ``[[regions]]`` of one closed shape: the rock outside the excavations, and (a
-    region of its own, to be removed) the rock inside them."""
+def _openings(rock: list[Shape], path: Path) -> dict[int, Any]:
+    """The nesting of the blocks layer's closed shapes, as CAD's hatch islands: a shape
+    inside an odd number of others is an opening in the one just around it (open at
+    t = 0), one inside an even number is rock (an island in an opening). Returns, by
+    shape index: False for an opening, the union of its openings for a shape that has
+    some (absent: none)."""
+    polygons = [_polygon(s, path) for s in rock]
+    if len(polygons) < 2:
+        return {}
+    tree = shapely.STRtree(polygons)
+    outer, inner = tree.query(polygons, predicate="contains_properly")  # outer ⊃ inner
+    depth = np.bincount(inner, minlength=len(polygons))
+    out: dict[int, Any] = {int(k): False for k in np.flatnonzero(depth % 2 == 1)}
+    for k in np.flatnonzero(depth % 2 == 1):
+        parents = outer[inner == k]
+        parent = int(parents[np.argmax(depth[parents])])  # the one just around it
+        held = out.get(parent)
+        out[parent] = polygons[k] if held is None else shapely.union(held, polygons[k])
+    return out
+
+
+def _regions(shape: Shape, dug: Any, material: str, path: Path, openings: Any = None) -> list[dict]:
+    """The ``[[regions]]`` of one closed shape, less its ``openings``: the rock outside the
+    excavations, and (a region of its own, to be removed) the rock inside them."""
     polygon = _polygon(shape, path)
+    if openings is not None:
+        polygon = polygon.difference(openings)
     pieces = [polygon] if dug is None else [polygon.difference(dug), polygon.intersection(dug)]
     regions = []
     for piece in pieces:

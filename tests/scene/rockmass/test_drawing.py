@@ -519,3 +519,29 @@ def test_entities_the_reader_cannot_take_are_refused_by_handle(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0], err
     assert sorted(os.listdir(tmp_path)) == before
+
+
+def test_a_shape_inside_another_on_the_blocks_layer_is_an_opening(tmp_path):
+    """A 20 × 10 rectangle with a circle of R = 2 inside it on BLOCKS (a tunnel open at
+    t = 0, as CAD's hatch islands draw it), and a 1 × 1 square inside the circle (an
+    island: rock again). The circle was refused as overlapping the rectangle, and a
+    drawing had no way to give an opening open at t = 0."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    blocks = {"layer": "BLOCKS"}
+    outer = [(0.0, 0.0), (20.0, 0.0), (20.0, 10.0), (0.0, 10.0)]
+    space.add_lwpolyline(outer, close=True, dxfattribs=blocks)
+    space.add_circle((10.0, 5.0), 2.0, dxfattribs=blocks)
+    island = [(9.5, 4.5), (10.5, 4.5), (10.5, 5.5), (9.5, 5.5)]
+    space.add_lwpolyline(island, close=True, dxfattribs=blocks)
+    document.saveas(tmp_path / "cad.dxf")
+    scene = dda.load_scene(_cad_scene(tmp_path, "arc_tolerance = 1e-4\n", fix='sides = ["bottom"]'))
+    polygons = [shapely.Polygon(b.vertices) for b in scene.blocks]
+    rock = shapely.union_all(polygons)
+    circle = shapely.Point(10.0, 5.0).buffer(2.0, 256)
+    assert rock.area == pytest.approx(200.0 - circle.area + 1.0, abs=0.01)
+    assert not rock.contains(shapely.Point(10.0, 6.5))  # inside the opening
+    assert rock.contains(shapely.Point(10.0, 5.0))  # the island
+    assert rock.contains(shapely.Point(2.0, 2.0))
