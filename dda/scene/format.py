@@ -504,7 +504,8 @@ def _ring(chk: Checker, value: object, key: str) -> tuple[Point, ...]:
         chk.fail(
             key,
             f"{len(vertices)} vertices, at most {MAX_BLOCK_VERTICES} per block "
-            "(contacts number a block's vertices in 10 bits)",
+            "(contacts number a block's vertices in 10 bits): split the block with a joint, "
+            "or draw its curves with fewer chords (a larger [drawing] arc_tolerance)",
         )
     return vertices
 

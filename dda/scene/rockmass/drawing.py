@@ -217,7 +217,24 @@ def _layers(chk: Checker, table: Mapping) -> dict[str, Any]:
         else:
             layers[role] = chk.text(value, f"drawing.{role}")
     layers["given"] = {role for role in LAYERS if role in table}
+    _one_role_a_layer(chk, layers)
     return layers
+
+
+def _one_role_a_layer(chk: Checker, layers: dict[str, Any]) -> None:
+    """Refuse a layer named for two roles (rock and fixed, say): its shapes would be both,
+    and overlap themselves."""
+    seen: dict[str, str] = {}
+    for role in LAYERS:
+        value = layers[role]
+        names = list(value) if isinstance(value, Mapping) else [value]
+        for name in names:
+            other = seen.get(name.upper())
+            if other is not None:
+                key, also = (role, other) if role in layers["given"] else (other, role)
+                reason = f"layer {name!r} is also drawing.{also}'s: each role needs its own"
+                chk.fail(f"drawing.{key}", reason)
+            seen[name.upper()] = role
 
 
 def _scale(chk: Checker, table: Mapping, document: Any, raw: Mapping, path: Path) -> float:
@@ -297,6 +314,9 @@ def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
         if layer is None:
             _no_mapped_content(entity, what, wanted, path)
             continue
+        if entity.dxftype() == "POINT":  # a point CAD left behind, as a LINE of no length
+            log.warning("layer %s: %s is a point: left out", layer, what)
+            continue
         if entity.dxftype() not in SHAPES:
             reason = f"{what} is not a line, polyline, arc, circle, ellipse or spline"
             hint = " (explode block references)" if entity.dxftype() == "INSERT" else ""
@@ -307,6 +327,10 @@ def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
             detail = " ".join(str(exc).split())
             raise SceneError(str(path), f"layer {layer}", f"{what} cannot be read as a "
                              f"shape ({detail})") from None  # fmt: skip
+        corners = [(v.x, v.y) for v in outline.control_vertices()]
+        if not np.all(np.isfinite(np.array(corners, dtype=float))):
+            raise SceneError(str(path), f"layer {layer}", f"{what} has a coordinate that is "
+                             "not a finite number")  # fmt: skip
         drawn.append((layer, what, outline, entity))
     return drawn
 

@@ -545,3 +545,46 @@ def test_a_shape_inside_another_on_the_blocks_layer_is_an_opening(tmp_path):
     assert not rock.contains(shapely.Point(10.0, 6.5))  # inside the opening
     assert rock.contains(shapely.Point(10.0, 5.0))  # the island
     assert rock.contains(shapely.Point(2.0, 2.0))
+
+
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [('blocks = "ROCK"\nfixed = "ROCK"\n',
+      "drawing.fixed: layer 'ROCK' is also drawing.blocks's: each role needs its own"),
+     ('blocks = "ROCK"\nexcavation = "rock"\n',
+      "drawing.excavation: layer 'rock' is also drawing.blocks's"),
+     ('blocks = "ROCK"\njoints = {rock = "bedding"}\n',
+      "drawing.joints: layer 'rock' is also drawing.blocks's")],
+)  # fmt: skip
+def test_a_layer_named_for_two_roles_is_refused_at_its_key(tmp_path, extra, words):
+    """Rock and fixed on one layer: each shape overlapped itself ("LWPOLYLINE (handle 2F)
+    overlaps ... LWPOLYLINE (handle 2F)")."""
+    drawings.drawing_with(tmp_path / "cad.dxf", "ROCK", SQUARE, closed=True)
+    with pytest.raises(dda.SceneError, match=re.escape(words)):
+        dda.load_scene(_cad_scene(tmp_path, extra))
+
+
+def test_points_are_left_out_and_coordinates_that_are_no_numbers_refused(tmp_path, caplog):
+    """A POINT on a mapped layer is a point CAD left behind (it was refused as no line);
+    a LINE to NaN or infinity is refused by its handle (NaN was a line of no length, left
+    out; infinity named joint_lines[0] after shapely's RuntimeWarnings)."""
+    import ezdxf
+
+    for end, refused in (((1.0, 1.0), False), ((math.nan, 5.0), True), ((math.inf, 5.0), True)):
+        document = ezdxf.new("R2010")
+        space = document.modelspace()
+        space.add_lwpolyline(SQUARE, close=True, dxfattribs={"layer": "BLOCKS"})
+        if refused:
+            space.add_line((0.0, 5.0), end, dxfattribs={"layer": "JOINTS"})
+        else:
+            space.add_point(end, dxfattribs={"layer": "JOINTS"})
+        document.saveas(tmp_path / "cad.dxf")
+        scene = _cad_scene(tmp_path, "", fix='sides = ["bottom"]')
+        if refused:
+            words = "layer JOINTS: LINE (handle 30) has a coordinate that is not a finite number"
+            with pytest.raises(dda.SceneError, match=re.escape(words)):
+                dda.load_scene(scene)
+            continue
+        with caplog.at_level(logging.WARNING), pytest.raises(dda.SceneError, match="every block"):
+            dda.load_scene(scene)  # read: one block, all fixed
+        assert "layer JOINTS: POINT (handle 30) is a point: left out" in caplog.text
