@@ -69,5 +69,13 @@ def _check_overlaps(polygons: list[shapely.Polygon], keys: list[str], source: st
     scale = np.minimum(shapely.area(geoms[left]), shapely.area(geoms[right]))
     bad = np.flatnonzero(shared > OVERLAP_TOLERANCE * scale)
     if len(bad):
-        i, j = left[bad[0]], right[bad[0]]
-        raise SceneError(source, f"{keys[j]}.polygon", f"overlaps {keys[i]} (regions must not)")
+        k = bad[np.argmax(shared[bad])]  # the largest overlap
+        i, j = left[k], right[k]
+        common = shapely.intersection(geoms[i], geoms[j])
+        x, y = shapely.get_coordinates(shapely.point_on_surface(common))[0]
+        raise SceneError(
+            source,
+            f"{keys[j]}.polygon",
+            f"overlaps {keys[i]} by {shared[k]:.3g} of area near ({x:.6g}, {y:.6g}) (regions "
+            "must not)",
+        )

@@ -192,7 +192,8 @@ def _overlapping(path: Path) -> None:
          "scene.toml: drawing.file: {dxf}: layer BLOCKS: holds no shape"),
         (_overlapping, {},
          "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 34): overlaps "
-         "layer BLOCKS: LWPOLYLINE (handle 30) (regions must not)"),
+         "layer BLOCKS: LWPOLYLINE (handle 30) by 25 of area near (7.5, 7.5) (regions must "
+         "not)"),
         (lambda p: None, {}, "scene.toml: drawing.file: no such file "),
     ],
     ids=["open polyline", "no blocks layer", "a named layer missing", "units", "not DXF",
