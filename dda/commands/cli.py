@@ -747,6 +747,11 @@ def render_command(args: argparse.Namespace) -> int:
     from dda.io.images import render_frame
 
     Path(output).parent.mkdir(parents=True, exist_ok=True)
+    if found.contacts is None and not args.no_contacts:
+        logger.warning(
+            "%s: no contacts file beside it (%s): drawn without contact forces",
+            found.blocks.name, found.blocks.name.replace("blocks_", "contacts_", 1),
+        )  # fmt: skip
     run = found.summary()  # the run's title and units, when its summary.json is there
     render_frame(
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,

@@ -373,6 +373,8 @@ def test_a_frame_read_without_its_run_is_labelled_by_dimension(tmp_path, monkeyp
     monkeypatch.setattr(dda.io.images, "render_frame", lambda *a, **k: given.update(k))
     with caplog.at_level(logging.WARNING):
         assert cli.main(["render", str(alone / "blocks_000000.vtu")]) == 0
+    # nor its contacts file: drawn without contact forces, and said
+    assert "no contacts file beside it (contacts_000000.vtu)" in caplog.text
     assert given["units"] == {"length": "length", "force": "force", "time": "time"}
     assert unit_name("stress", given["units"]) == "force/length²"
     assert "no summary.json" in caplog.text and "units are unknown" in caplog.text
