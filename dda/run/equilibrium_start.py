@@ -118,7 +118,10 @@ BOND_ROUNDS = 10
 # equilibrium (an in-situ field its contacts carry) stands at once (cases/tunnel_deep.toml:
 # 3, 0.04 s; its interior-point start 31, 0.25 s)
 FEW_NEWTON_ITERATIONS = 4
-# how the limit solve settled (``Settled.method``, the run's summary["start_method"])
+# how the limit solve settled (``Settled.method``, the run's summary["start_method"]):
+# Newton pseudo-steps alone (within FEW_NEWTON_ITERATIONS, or in full where no contact
+# touches: an interior point has nothing to solve), the interior point, or the
+# continuation after an interior-point solve that did not settle
 FEW_NEWTON = "newton"
 INTERIOR_POINT = "interior point"
 CONTINUATION = "continuation"
@@ -170,7 +173,12 @@ def settle(
     limit = _Limit.of(model, blocks)
     stiffness = _young(model)[blocks.material] / limit.masses[:, 0, 0]  # E_i / m_i
     found, newton, method = None, 0, FEW_NEWTON
-    if INTERIOR_REGULARISERS and FEW_NEWTON_ITERATIONS and _may_stand(start):
+    if not len(start):  # no contact: nothing for an interior point, Newton pseudo-steps
+        found, newton = _by_continuation(limit, blocks, start, stiffness, timer)
+        if found is None:
+            log.warning("the equilibrium start did not settle: the run starts unloaded")
+            return None
+    if found is None and INTERIOR_REGULARISERS and FEW_NEWTON_ITERATIONS and _may_stand(start):
         quick = _Limit.of(model, blocks, budget=FEW_NEWTON_ITERATIONS)
         found, newton = _by_continuation(quick, blocks, start, stiffness, timer, at_most=True)
     if found is None and INTERIOR_REGULARISERS:
