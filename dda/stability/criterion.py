@@ -117,12 +117,10 @@ def _check_judged(scene: Scene, criterion: Criterion) -> None:
             "no speed can be measured over it; give a longer fos.duration (--duration) or "
             "fos.window (--window)",
         )
-    if scene.seismic is None or not scene.seismic.record:
+    shaking = _shaking(scene)
+    if shaking is None:
         return
-    shaking = [row[0] for row in scene.seismic.record if row[1] != 0.0 or row[2] != 0.0]
-    if not shaking:
-        return
-    first, last = min(shaking), scene.seismic.record[-1][0]
+    first, last = shaking
     if first < criterion.start:
         raise SceneError(
             scene.source,
@@ -133,6 +131,14 @@ def _check_judged(scene: Scene, criterion: Criterion) -> None:
             "or later",
         )
     if criterion.judged_from < last * (1.0 - 1e-12):
+        if criterion.window >= 1.0:
+            raise SceneError(
+                scene.source,
+                "fos.window",
+                f"is 1: the judged window is the whole trial, and the seismic record shakes "
+                f"the ground in it (to {last:g} {time}); give fos.window (--window) below 1 "
+                "and a duration that judges after the record",
+            )
         needed = (last - criterion.start) / (1.0 - criterion.window)
         raise SceneError(
             scene.source,
@@ -142,6 +148,20 @@ def _check_judged(scene: Scene, criterion: Criterion) -> None:
             "ground shakes would be judged by its net motion; give fos.duration "
             f"(--duration) of at least {needed:.6g} {time}",
         )
+
+
+def _shaking(scene: Scene) -> tuple[float, float] | None:
+    """(first, last) time the ``[seismic]`` record's acceleration is not zero (None
+    without one that is): linear between its rows, so a row of nonzero acceleration
+    shakes the ground from the row before it to the row after it, and zero outside."""
+    if scene.seismic is None:
+        return None
+    record = scene.seismic.record
+    moving = [k for k, row in enumerate(record) if row[1] != 0.0 or row[2] != 0.0]
+    if not moving:
+        return None
+    first, last = moving[0], moving[-1]
+    return record[max(first - 1, 0)][0], record[min(last + 1, len(record) - 1)][0]
 
 
 def watched_blocks(criterion: Criterion, scene: Scene) -> tuple[str, ...]:

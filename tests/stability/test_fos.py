@@ -394,5 +394,30 @@ def test_a_record_that_plays_before_the_reduction_is_refused(tmp_path, capsys):
     scene["stages"] = [{"time": 0.25, "remove": ["spare"]}]
     scene["fos"] = {"duration": 1.0}
     said = _criterion_error(tmp_path, scene, capsys)
-    assert "seismic: the record shakes the ground from 0.1 s, before the strengths are " \
+    assert "seismic: the record shakes the ground from 0 s, before the strengths are " \
            "reduced at 0.5 s (the end of the staged run)" in said  # fmt: skip
+
+
+def test_the_record_shakes_from_the_row_before_its_first_acceleration(tmp_path, capsys):
+    """Linear between rows: [[0, 0], [0.4, 0], [0.6, 2], ...] accelerates the ground from
+    0.4 s, before a reduction at 0.5 s (it was accepted: the check began at 0.6 s); and to
+    the row after its last: trailing zero rows (to 5 s) do not ask for a 6 s trial."""
+    scene = _shaken(block_on_plane(30.0, 35.0), [[0.0, 0.0], [0.4, 0.0], [0.6, 2.0], [0.8, 0.0]])
+    spare = [[50.0, 50.0], [51.0, 50.0], [51.0, 51.0], [50.0, 51.0]]
+    scene["blocks"].append({"name": "spare", "material": "rock", "vertices": spare})
+    scene["stages"] = [{"time": 0.25, "remove": ["spare"]}]
+    scene["fos"] = {"duration": 2.0}
+    said = _criterion_error(tmp_path, scene, capsys)
+    assert "the record shakes the ground from 0.4 s, before the strengths are reduced" in said
+    padded = [[0.0, 0.0], [0.25, 2.0], [0.5, -2.0], [0.75, 0.0], [5.0, 0.0]]
+    said = _criterion_error(tmp_path, _shaken(block_on_plane(30.0, 35.0), padded), capsys)
+    assert "before the seismic record ends at 0.75 s" in said
+
+
+def test_a_whole_trial_window_inside_the_record_is_refused(tmp_path, capsys):
+    """fos.window = 1 with a record: the window is the whole trial, which no duration moves
+    after the record (the refusal divided by 1 − window: ZeroDivisionError, exit 1)."""
+    scene = _shaken(block_on_plane(30.0, 35.0), [[0.0, 0.0], [0.25, 2.0], [0.5, 0.0]])
+    scene["fos"] = {"window": 1.0, "duration": 2.0}
+    said = _criterion_error(tmp_path, scene, capsys)
+    assert "fos.window: is 1: the judged window is the whole trial" in said
