@@ -540,6 +540,12 @@ def _openings(rock: list[Shape], path: Path) -> dict[int, Any]:
     if len(polygons) < 2:
         return {}
     tree = shapely.STRtree(polygons)
+    one, other = tree.query(polygons, predicate="overlaps")  # crossing: no nesting
+    if len(one):
+        a, b = rock[int(other[0])], rock[int(one[0])]
+        raise SceneError(str(path), f"layer {a.layer}", f"{a.what} crosses {b.what}: closed "
+                         "shapes on the blocks layer do not cross (one inside another is an "
+                         "opening in it)")  # fmt: skip
     outer, inner = tree.query(polygons, predicate="contains_properly")  # outer ⊃ inner
     depth = np.bincount(inner, minlength=len(polygons))
     out: dict[int, Any] = {int(k): False for k in np.flatnonzero(depth % 2 == 1)}

@@ -589,3 +589,20 @@ def test_points_are_left_out_and_coordinates_that_are_no_numbers_refused(tmp_pat
         with caplog.at_level(logging.WARNING), pytest.raises(dda.SceneError, match="every block"):
             dda.load_scene(scene)  # read: one block, all fixed
         assert "layer JOINTS: POINT (handle 30) is a point: left out" in caplog.text
+
+
+def test_crossing_shapes_on_the_blocks_layer_are_refused_by_handle(tmp_path):
+    """Two openings that cross inside the rock, a square inside both: its parent was an
+    opening (TypeError, exit 1), and without it the two were joined in silence."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    blocks = {"layer": "BLOCKS"}
+    for x0, y0, x1, y1 in ((0, 0, 20, 20), (5, 5, 10, 10), (8, 5, 13, 10), (8.5, 6, 9.5, 7)):
+        corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+        space.add_lwpolyline(corners, close=True, dxfattribs=blocks)
+    document.saveas(tmp_path / "cad.dxf")
+    words = "LWPOLYLINE (handle 31) crosses LWPOLYLINE (handle 30): closed shapes on the"
+    with pytest.raises(dda.SceneError, match=re.escape(words)):
+        dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
