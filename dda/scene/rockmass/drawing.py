@@ -542,10 +542,16 @@ def _openings(rock: list[Shape], path: Path) -> dict[int, Any]:
     tree = shapely.STRtree(polygons)
     one, other = tree.query(polygons, predicate="overlaps")  # crossing: no nesting
     if len(one):
-        a, b = rock[int(other[0])], rock[int(one[0])]
-        raise SceneError(str(path), f"layer {a.layer}", f"{a.what} crosses {b.what}: closed "
-                         "shapes on the blocks layer do not cross (one inside another is an "
-                         "opening in it)")  # fmt: skip
+        i, j = int(other[0]), int(one[0])
+        common = shapely.intersection(polygons[i], polygons[j])
+        x, y = shapely.get_coordinates(shapely.point_on_surface(common))[0]
+        raise SceneError(
+            str(path),
+            f"layer {rock[i].layer}",
+            f"{rock[i].what} crosses {rock[j].what} by {common.area:.3g} of area near "
+            f"({x:.6g}, {y:.6g}): closed shapes on the blocks layer do not cross (one inside "
+            "another is an opening in it)",
+        )
     outer, inner = tree.query(polygons, predicate="contains_properly")  # outer ⊃ inner
     depth = np.bincount(inner, minlength=len(polygons))
     out: dict[int, Any] = {int(k): False for k in np.flatnonzero(depth % 2 == 1)}

@@ -191,9 +191,9 @@ def _overlapping(path: Path) -> None:
         (lambda p: drawings.drawing_with(p, "BLOCKS", [], closed=False), {},
          "scene.toml: drawing.file: {dxf}: layer BLOCKS: holds no shape"),
         (_overlapping, {},
-         "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 34): overlaps "
-         "layer BLOCKS: LWPOLYLINE (handle 30) by 25 of area near (7.5, 7.5) (regions must "
-         "not)"),
+         "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 34) crosses "
+         "LWPOLYLINE (handle 30) by 25 of area near (7.5, 7.5): closed shapes on the blocks "
+         "layer do not cross"),
         (lambda p: None, {}, "scene.toml: drawing.file: no such file "),
     ],
     ids=["open polyline", "no blocks layer", "a named layer missing", "units", "not DXF",
@@ -603,6 +603,6 @@ def test_crossing_shapes_on_the_blocks_layer_are_refused_by_handle(tmp_path):
         corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
         space.add_lwpolyline(corners, close=True, dxfattribs=blocks)
     document.saveas(tmp_path / "cad.dxf")
-    words = "LWPOLYLINE (handle 31) crosses LWPOLYLINE (handle 30): closed shapes on the"
+    words = "LWPOLYLINE (handle 31) crosses LWPOLYLINE (handle 30) by 10 of area near (9, 7.5)"
     with pytest.raises(dda.SceneError, match=re.escape(words)):
         dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
