@@ -757,6 +757,7 @@ def render_command(args: argparse.Namespace) -> int:
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
         window_size=tuple(args.size), scene_title=run.get("title") or "",
         units=found.units(run), clim=clim, water_table=run.get("water_table"),
+        water_follows=run.get("water_follows") or (),
     )  # fmt: skip
     logger.info("wrote %s", output)
     print(output)

@@ -88,6 +88,7 @@ def movie_command(args: argparse.Namespace) -> int:
                 size=tuple(args.size), show_contacts=not args.no_contacts,
                 scene_title=run.get("title") or "", units=found[0].units(run),
                 on_frame=lambda k: bar.update(k, frame=k), water_table=run.get("water_table"),
+                water_follows=run.get("water_follows") or (),
             )  # fmt: skip
     except FfmpegError as exc:  # not the input's fault: exit 1, in one line
         print(f"dda movie: {exc}", file=sys.stderr)

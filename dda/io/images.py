@@ -56,6 +56,7 @@ def render_frame(
     scene_title: str = "",
     units: Mapping[str, str] | None = None,
     water_table: Sequence[Sequence[float]] | None = None,
+    water_follows: Sequence[str] = (),
 ) -> Path:
     """Render one frame to a PNG file.
 
@@ -82,6 +83,9 @@ def render_frame(
         The scene's ``[units]`` (``length``, ``force``, ``time``); SI where absent.
     water_table
         The scene's phreatic line (``[water] table``, its points), drawn dashed blue.
+    water_follows
+        The blocks that carry the line ([seismic] blocks): it is drawn moved by their
+        displacement in the frame, as the run moves it with the ground.
 
     Returns
     -------
@@ -91,7 +95,7 @@ def render_frame(
     return render_side_by_side(
         [frame], [title], path, scalars=scalars, show_contacts=show_contacts,
         window_size=window_size, clim=clim, scene_title=scene_title, units=units,
-        water_table=water_table,
+        water_table=water_table, water_follows=water_follows,
     )  # fmt: skip
 
 
@@ -106,6 +110,7 @@ def render_side_by_side(
     scene_title: str = "",
     units: Mapping[str, str] | None = None,
     water_table: Sequence[Sequence[float]] | None = None,
+    water_follows: Sequence[str] = (),
 ) -> Path:
     """Render frames next to each other, with one shared colour range and view.
 
@@ -125,7 +130,7 @@ def render_side_by_side(
         Picture size; default 700 x 600 pixels per frame.
     clim
         Colour range; default: the range over all frames.
-    scene_title, units, water_table
+    scene_title, units, water_table, water_follows
         As in :func:`render_frame`.
 
     Returns
@@ -135,7 +140,7 @@ def render_side_by_side(
     """
     figure = compose(
         frames, titles, scalars, show_contacts, window_size, clim, scene_title, units,
-        water_table=water_table,
+        water_table=water_table, water_follows=water_follows,
     )  # fmt: skip
     path = Path(path)
     with unicode_text(), atomic_path(path) as tmp:
@@ -156,6 +161,7 @@ def compose(
     view: np.ndarray | None = None,
     force_max: float | None = None,
     water_table: Sequence[Sequence[float]] | None = None,
+    water_follows: Sequence[str] = (),
 ) -> Any:
     """The matplotlib ``Figure`` of :func:`render_side_by_side` (arguments as there;
     ``clim`` may also be a whole :class:`~dda.io.colour_scale.ColourScale`);
@@ -188,7 +194,7 @@ def compose(
             ax.set_ylabel(f"y ({length})")
         _share_view(axes, frames if view is None else None, view)
         if water_table is not None:
-            _draw_water_table(axes, water_table)
+            _draw_water_table(axes, water_table, frames, water_follows)
         coloured = sum(int(np.isfinite(v).sum()) for v in values)
         _colour_bar(
             figure, mappable, axes, scale, info.label, unit_name(info.dimension, units), coloured
@@ -342,11 +348,17 @@ def _colour_bar(
     bar.set_label(text)
 
 
-def _draw_water_table(axes, table: Sequence[Sequence[float]]) -> None:
+def _draw_water_table(
+    axes, table: Sequence[Sequence[float]], frames: Sequence[Frame], follows: Sequence[str]
+) -> None:
     """The phreatic line on each of ``axes``, within the view they show; level beyond
-    its ends, as the water loads take it (docs/engineering.md, Water)."""
-    points = np.asarray(table, dtype=float).reshape(-1, 2)
-    for ax in axes:
+    its ends, as the water loads take it (docs/engineering.md, Water); moved in each
+    frame by the mean displacement of the blocks that carry it (``follows``: the
+    [seismic] ground's, which moves the water with it)."""
+    drawn = np.asarray(table, dtype=float).reshape(-1, 2)
+    for ax, frame in zip(axes, frames, strict=True):
+        carried = np.isin(np.asarray(frame.names), list(follows))
+        points = drawn + (frame.displacements[carried].mean(axis=0) if carried.any() else 0.0)
         low, high = ax.get_xlim()
         low, high = low - (high - low), high + (high - low)  # past the view as laid out
         left = [[min(low, points[0, 0]), points[0, 1]]]

@@ -140,10 +140,12 @@ def write_movie(
     units: Mapping[str, str] | None = None,
     on_frame: Callable[[int], None] | None = None,
     water_table: Sequence[Sequence[float]] | None = None,
+    water_follows: Sequence[str] = (),
 ) -> int:
     """Draw ``frames`` into the movie ``path`` (.mp4 or .gif, written atomically), each
     with ``look``; returns the number of frames. ``on_frame(k)`` is called after the
-    k-th (from 1). ``water_table``: the scene's phreatic line (drawn on every frame)."""
+    k-th (from 1). ``water_table``: the scene's phreatic line (drawn on every frame, moved
+    with the blocks ``water_follows``: :func:`dda.io.images.render_frame`)."""
     suffix = movie_format(path)
     if size[0] % 2 or size[1] % 2:
         raise MovieError(f"movie size {size[0]} x {size[1]}: width and height must be even")
@@ -152,7 +154,7 @@ def write_movie(
         for k, frame in enumerate(frames, start=1):
             figure = compose(
                 [frame], [None], scalars, show_contacts, size, look.scale, scene_title, units,
-                look.view, look.force_max, water_table,
+                look.view, look.force_max, water_table, water_follows,
             )  # fmt: skip
             yield picture_pixels(figure)
             if on_frame is not None:

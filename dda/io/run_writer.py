@@ -254,6 +254,8 @@ class RunWriter:
             water = getattr(self.scene, "water", None)
             if water is not None:  # for the pictures drawn from the run (dda render, movie)
                 summary.setdefault("water_table", [list(point) for point in water.table])
+                seismic = getattr(self.scene, "seismic", None)  # the ground carries it
+                summary.setdefault("water_follows", list(seismic.blocks) if seismic else [])
         if final is not None:
             summary.setdefault("steps", int(final.step))
             summary.setdefault("time", float(final.time))
@@ -273,6 +275,7 @@ class RunWriter:
         options = {
             "scalars": self.scalars, "scene_title": summary.get("title") or "",
             "units": summary.get("units"), "water_table": summary.get("water_table"),
+            "water_follows": summary.get("water_follows") or (),
         }  # fmt: skip
         if self.picture is not None and self.picture.draw(frame, path, **options):
             return "final.png"

@@ -199,3 +199,26 @@ def test_a_run_with_water_keeps_its_table_for_the_pictures_drawn_later(tmp_path)
     assert cli.main(["run", "wet_slope", "-o", str(tmp_path / "ws"), "-q", "--no-picture"]) == 0
     summary = json.loads((tmp_path / "ws" / "summary.json").read_text())
     assert summary["water_table"][0] == [-17.470508075689, -9.740192378865]
+
+
+def test_the_water_table_is_drawn_where_the_ground_has_carried_it():
+    """With [seismic] the run moves the phreatic line with the ground: a picture of a
+    frame whose ground block moved (0.19, 0.05) draws it moved so (it drew it at t = 0);
+    without followers, where the scene gives it."""
+    import matplotlib.pyplot as plt
+
+    from dda.io.images import WATER_COLOUR, compose
+
+    frame = make_frame((4, 4))
+    frame = dataclasses.replace(frame, displacements=np.array([[0.19, 0.05], [0.3, -0.2]]))
+    table = [[0.0, 0.5], [2.0, 0.7]]
+
+    def line(follows):
+        figure = compose([frame], [None], "syy", water_table=table, water_follows=follows)
+        (drawn,) = [ln for ln in figure.axes[0].get_lines() if ln.get_color() == WATER_COLOUR]
+        xy = np.column_stack(drawn.get_data())
+        plt.close(figure)
+        return xy[1:-1]  # the table's own points (the ends run on level)
+
+    assert np.allclose(line(["block0"]), np.array(table) + [0.19, 0.05])
+    assert np.allclose(line(()), table)
