@@ -64,8 +64,9 @@ log = logging.getLogger(__name__)
 # 5: the blocks' mass areas, the material damping, the equilibrium start's preloads;
 # 6: the solver's state by the names of ReusingSolver.learned; 7: a block pattern's
 # inverse numbering, dda.solve.assembly.BlockPattern; 9: a static run's largest vertex
-# move of the step before the last)
-FORMAT = 9
+# move of the step before the last; 10: the water's drawn table and the ground that
+# carries it)
+FORMAT = 10
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
 NOT_SAVED = ("model", "linear")  # run attributes rebuilt from the scene, or saved apart
