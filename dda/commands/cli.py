@@ -726,7 +726,7 @@ def checked_range(args: argparse.Namespace) -> tuple[float, float] | None:
 
 def render_command(args: argparse.Namespace) -> int:
     """``dda render``: read a frame back from VTU and draw it."""
-    from dda.io.frame_files import find_frame, read_found_frame
+    from dda.io.frame_files import find_frame, frame_file, read_found_frame
     from dda.io.output_paths import OutputError, check_output_file
 
     try:
@@ -750,7 +750,7 @@ def render_command(args: argparse.Namespace) -> int:
     if found.contacts is None and not args.no_contacts:
         logger.warning(
             "%s: no contacts file beside it (%s): drawn without contact forces",
-            found.blocks.name, found.blocks.name.replace("blocks_", "contacts_", 1),
+            found.blocks.name, frame_file(found.blocks, "contacts_").name,
         )  # fmt: skip
     run = found.summary()  # the run's title and units, when its summary.json is there
     render_frame(

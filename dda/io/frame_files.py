@@ -53,11 +53,13 @@ class FrameFiles:
         units = summary.get("units")
         if isinstance(units, dict):
             return units
+        why = "holds no units" if summary else "is not there"
         log.warning(
-            "%s: no summary.json in %s, so the units are unknown: the picture labels each "
-            "quantity by its dimension (force/length², not Pa)",
+            "%s: the summary.json of %s %s, so the units are unknown: the picture labels "
+            "each quantity by its dimension (force/length², not Pa)",
             self.blocks.name,
             self.run_folder,
+            why,
         )
         return UNKNOWN_UNITS
 
@@ -180,7 +182,13 @@ def _describe(blocks: Path, times: dict[Path, float]) -> FrameFiles:
     )
 
 
+def frame_file(blocks: Path, kind: str) -> Path:
+    """The ``kind`` file (``contacts_``, ``bolts_``) of the blocks file's frame, as the
+    run writes it beside ``blocks``."""
+    return blocks.with_name(blocks.name.replace("blocks_", kind, 1))
+
+
 def _beside(blocks: Path, kind: str) -> Path | None:
     """The ``kind`` file of the blocks file's frame (``contacts_``, ``bolts_``), if any."""
-    path = blocks.with_name(blocks.name.replace("blocks_", kind, 1))
+    path = frame_file(blocks, kind)
     return path if path.is_file() and path != blocks else None

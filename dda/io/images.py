@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from dda.io.atomic import atomic_path
-from dda.io.colour_scale import ColourScale, colour_scale
+from dda.io.colour_scale import NEAR_CONSTANT, ColourScale, colour_scale
 from dda.io.fields import SCALARS, engineering_scale, scalar_field, unit_name
 from dda.io.fonts import unicode_text
 from dda.result import Frame
@@ -338,7 +338,8 @@ def _colour_bar(
     if scale.constant is not None:
         ticks, labels = [scale.constant], [f"{scale.constant / divisor:.7g}"]
         if blocks > 1:
-            text += ", one value: the blocks differ by less than 1e-4 of it"
+            share = format(NEAR_CONSTANT, ".0e").replace("e-0", "e-")  # 1e-4
+            text += f", one value: the blocks differ by less than {share} of it"
     else:
         ticks = [t for t in MaxNLocator(6).tick_values(*clim) if clim[0] <= t <= clim[1]]
         labels = distinct_labels([t / divisor for t in ticks])

@@ -17,6 +17,9 @@ Per step the engine records (``Result.history``)::
               + Σ_steps Σ (N ∇g_j + F ∇s_j)·D_j (the ground moving fixed blocks by D_j:
                                                 contacts, and T r_j·D_j of bolts with
                                                 (T/L) Δ⊥ r⊥_j·D_j across them)
+              + Σ_steps V_w(x₀, t₁) − V_w(x₀, t₀) (the ground carrying the water table:
+                                                the potential the water's field gains
+                                                at the blocks' place over a step)
 
 Fixed blocks never move and are left out. Shi's time integration (Newmark
 β = ½, γ = 1) dissipates, friction dissipates, so for a sound run
@@ -326,19 +329,21 @@ class EnergyAccount:
         time: float,
         contacts: ContactSet | None = None,
         prescribed: np.ndarray | None = None,
-        dt: float | None = None,
+        start: float | None = None,
     ) -> float:
         """Add the external work over the accepted step ``d`` (before the blocks move):
         the loads' and, when fixed blocks moved by ``prescribed`` (part of ``d``), the
         ground's through ``contacts`` (their forces at the step's end). The water's
         pressure is a potential (``potential``), not work, but where the ground carries
         its table (``[seismic]``) the potential it gains at the blocks' place over the
-        step, V(x₀, t₁) − V(x₀, t₀), is (``dt``: the step's length)."""
+        step, V(x₀, t₁) − V(x₀, t₀), is (``start``: t₀, the step's start; required then)."""
         w = sum(load_work(loads, blocks, d, time) for loads in self.loads)
         if prescribed is not None:
             w += ground_work(blocks, contacts, self.bolts, d, prescribed)
-        if self.water is not None and self.water.ground is not None and dt is not None:
-            before = self.water.energy_at(blocks, time - dt)
+        if self.water is not None and self.water.ground is not None:
+            if start is None:
+                raise ValueError("the water's work over a step needs the step's start time")
+            before = self.water.energy_at(blocks, start)
             w += self.water.energy_at(blocks, time) - before
         self.work += w
         return w

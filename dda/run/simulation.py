@@ -354,7 +354,7 @@ def _advance(run: _Run) -> None:
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
         ground = None if m.ground is None else m.ground.prescribed(run.blocks, ctx)
         run.energy.add_step_work(
-            run.blocks, solution.d, ctx.time, solution.contacts, ground, ctx.dt
+            run.blocks, solution.d, ctx.time, solution.contacts, ground, run.time
         )
         for effect in m.effects:
             effect.after_step(run.blocks, solution.d, ctx)

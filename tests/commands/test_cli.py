@@ -377,7 +377,7 @@ def test_a_frame_read_without_its_run_is_labelled_by_dimension(tmp_path, monkeyp
     assert "no contacts file beside it (contacts_000000.vtu)" in caplog.text
     assert given["units"] == {"length": "length", "force": "force", "time": "time"}
     assert unit_name("stress", given["units"]) == "force/length²"
-    assert "no summary.json" in caplog.text and "units are unknown" in caplog.text
+    assert "is not there" in caplog.text and "units are unknown" in caplog.text
 
 
 # ------------------------------------------------------------------ plugins
