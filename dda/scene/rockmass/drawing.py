@@ -307,12 +307,12 @@ def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
             raise SceneError(str(path), key, f"no layer {layer!r} in the drawing {path} (its "
                              f"layers: {listed})")  # fmt: skip
     wanted = {layer.upper(): layer for layer in mapped.values()}  # CAD: names in any case
-    drawn = []
+    drawn, looked = [], {}  # looked: block definitions looked into (_mapped_inside)
     for entity in entities:
         layer = wanted.get(entity.dxf.layer.upper())
         what = f"{entity.dxftype()} (handle {entity.dxf.handle})"
         if layer is None:
-            _no_mapped_content(entity, what, wanted, path)
+            _no_mapped_content(entity, what, wanted, path, looked)
             continue
         if entity.dxftype() == "POINT":  # a point CAD left behind, as a LINE of no length
             log.warning("layer %s: %s is a point: left out", layer, what)
@@ -335,32 +335,41 @@ def _entities(document: Any, path: Path, layers: dict[str, Any]) -> list[tuple]:
     return drawn
 
 
-def _no_mapped_content(entity: Any, what: str, wanted: dict[str, str], path: Path) -> None:
+def _no_mapped_content(
+    entity: Any, what: str, wanted: dict[str, str], path: Path, seen: dict
+) -> None:
     """Refuse a block reference on an unmapped layer (``0``, say) that holds entities on
     a mapped one: CAD shows them on that layer, and left out they would be rock or joints
     missing without a word."""
     if entity.dxftype() != "INSERT":
         return
-    for inner in _inserted(entity):
+    inner = _mapped_inside(entity.block(), wanted, seen)
+    if inner is not None:
+        kind, layer = inner
+        raise SceneError(
+            str(path),
+            f"layer {layer}",
+            f"{what} on layer {entity.dxf.layer!r} holds a {kind} on layer {layer!r}: "
+            "explode block references (the reader takes model-space entities only)",
+        )
+
+
+def _mapped_inside(block: Any, wanted: dict[str, str], seen: dict) -> tuple[str, str] | None:
+    """(kind, layer) of an entity on a mapped layer in ``block`` or the blocks it
+    references, None if none; each block definition looked into once (``seen``, by name:
+    references that fan out do not multiply the work, one to itself ends)."""
+    if block is None or block.name in seen:
+        return seen.get(getattr(block, "name", None))
+    seen[block.name] = None
+    for inner in block:
         layer = wanted.get(inner.dxf.layer.upper())
-        if layer is not None:
-            raise SceneError(
-                str(path),
-                f"layer {layer}",
-                f"{what} on layer {entity.dxf.layer!r} holds a {inner.dxftype()} on layer "
-                f"{layer!r}: explode block references (the reader takes model-space "
-                "entities only)",
-            )
-
-
-def _inserted(insert: Any, depth: int = 0):
-    """The entities of a block reference and of the references nested in it."""
-    if depth > 16:  # a reference to itself, which CAD does not allow
-        return
-    for inner in insert.block() or ():
-        yield inner
-        if inner.dxftype() == "INSERT":
-            yield from _inserted(inner, depth + 1)
+        found = (inner.dxftype(), layer) if layer is not None else None
+        if found is None and inner.dxftype() == "INSERT":
+            found = _mapped_inside(inner.block(), wanted, seen)
+        if found is not None:
+            seen[block.name] = found
+            return found
+    return None
 
 
 def _mapped(layers: dict[str, Any]) -> dict[str, str]:

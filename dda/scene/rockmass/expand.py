@@ -41,6 +41,8 @@ from dda.scene.rockmass.traces import Traces, build_traces
 
 log = logging.getLogger(__name__)
 
+IDLE_LINES_SAID = 5  # joint lines that cut nothing said one by one; the rest counted
+
 #: keys that make the scene loader call :func:`expand_rock_mass`
 TRIGGER_KEYS = ("regions", "joint_sets", "joint_lines", "excavations", "drawing")
 #: every key consumed (and removed) by :func:`expand_rock_mass`
@@ -150,9 +152,8 @@ def _say_idle_lines(mass: RockMass, cut: CutRockMass, source: str) -> None:
     away. Without a word it was a joint the user drew and the model does not have."""
     used = set(np.unique(cut.blocks.edge_source).tolist())
     first = len(mass.joint_sets)
-    for k, line in enumerate(mass.joint_lines):
-        if first + k in used:
-            continue
+    idle = [line for k, line in enumerate(mass.joint_lines) if first + k not in used]
+    for line in idle[:IDLE_LINES_SAID]:
         (x0, y0), (x1, y1) = line.points[0], line.points[-1]
         log.warning(
             "%s: %s (%r, from (%.6g, %.6g) to (%.6g, %.6g)) cuts nothing: it ends inside the "
@@ -160,6 +161,8 @@ def _say_idle_lines(mass: RockMass, cut: CutRockMass, source: str) -> None:
             "outline or to another joint), lies outside it, or cut blocks that were merged",
             source, line.key, line.name, x0, y0, x1, y1,
         )  # fmt: skip
+    if len(idle) > IDLE_LINES_SAID:
+        log.warning("%s: %d more joint lines cut nothing", source, len(idle) - IDLE_LINES_SAID)
 
 
 def _faces(
