@@ -340,9 +340,9 @@ def _advance(run: _Run) -> None:
             )
         log.debug("step %d: %s, Δt %.3g -> %.3g", run.step + 1, reason, dt, dt * factor)
         dt *= factor
-        run.cut_steps += 1
         cut += 1
-    if cut:
+    if cut:  # a step cut (once or more): the warning counts steps, not attempts
+        run.cut_steps += 1
         run.smallest_cut_dt = min(run.smallest_cut_dt, dt)
     if m.static:
         run.move_before = _largest_move(run.last_moves)
@@ -675,7 +675,7 @@ def _warnings(state: _Run) -> list[str]:
 def _restitution_warning(model: Model) -> str | None:
     """:func:`restitution_warning` of the model's joints with ``restitution``."""
     cm = model.contact
-    if cm is None or not cm.joints.has_restitution:
+    if cm is None or not cm.joints.has_restitution or model.static:  # no dashpot in static
         return None
     rest = [cm.joints.names[k] for k in np.flatnonzero(np.isfinite(cm.joints.restitution))]
     young = min(material.young for material in model.scene.materials.values())

@@ -101,6 +101,15 @@ def test_a_time_step_cut_at_most_steps_is_said():
     assert len(summary["warnings"]) == 1 and "the time step was cut at" in summary["warnings"][0]
 
 
+def test_the_cut_steps_are_steps_not_attempts():
+    """The rock between platens at 1.02 C0 (8 static steps, some cut twice): "cut at 10 of
+    8 steps" counted the attempts."""
+    from tests.fracture.test_run import platen_scene
+
+    summary = dda.simulate(platen_scene(1.02, 8), keep_frames=False).summary
+    assert 0 < summary["cut_steps"] <= summary["steps"]
+
+
 @pytest.mark.parametrize(
     ("summed", "shown"), [(3.149999999999977, 3.15), (6.2799999999999105, 6.28), (0.0, 0.0)]
 )
