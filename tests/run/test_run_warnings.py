@@ -271,3 +271,41 @@ def test_the_relaxed_in_situ_field_is_said_with_its_likely_cause():
     slipped = in_situ_warning(0.5, "b1", "slipped")
     assert "joints slip under the field's shear" in slipped
     assert in_situ_warning(1e-9, "b1", "slipped") is None
+
+
+def test_a_static_slide_is_not_given_a_way_still_to_go():
+    """A block sliding beyond its friction moves alike each static step: the way "still to
+    go" was round-off's ("about 3.73e+06 m more"); it is said to move, without a number,
+    and sliding is named among the causes."""
+    moved = 8e-5
+    text = static_motion_warning(moved, moved * (1 + 2e-11), 0.02, "a", "m")
+    assert text is not None and "more at that rate" not in text
+    assert "sliding beyond its joints' friction" in text
+    creep = 1e-8  # a creep that falls is still given its way to go
+    assert "about 0.0005 m more" in static_motion_warning(creep, creep / (1 - 2e-5), 0.02, "a", "m")
+
+
+def test_a_static_model_loaded_without_gravity_is_said_not_at_rest():
+    """A block pressed on a base by a point load of 1e4 N, no gravity, static: 5 steps at
+    Δt = 1e-3 left 19 % of the load held by the damping (N carried 81 %) and said nothing
+    (the check measured the held force against the weight, and there was none)."""
+    scene = {
+        "analysis": {"mode": "static", "time_step": 1e-3, "steps": 5},
+        "materials": {"rock": {"density": 2700.0, "young": 1e9, "poisson": 0.25}},
+        "joints": {"default": {"friction_angle": 30.0}},
+        "blocks": [
+            {"name": "base", "material": "rock", "fixed": True,
+             "vertices": [[-1, -1], [2, -1], [2, 0], [-1, 0]]},
+            {"name": "b", "material": "rock", "vertices": [[0, 0], [1, 0], [1, 1], [0, 1]]},
+        ],
+        "loads": [{"block": "b", "point": [0.5, 1.0], "force": [0.0, -1e4]}],
+    }  # fmt: skip
+    result = dda.simulate(scene, keep_frames=False)
+    carried = result.final.contacts.normal_force.sum()
+    assert carried < 0.9e4  # not at rest
+    (said,) = [w for w in result.summary["warnings"] if "still moving" in w]
+    assert "damping held" in said and "of the largest load on a block" in said
+    scene["analysis"]["steps"] = 400  # at rest: nothing said
+    rested = dda.simulate(scene, keep_frames=False)
+    assert rested.final.contacts.normal_force.sum() == pytest.approx(1e4, rel=1e-3)
+    assert not any("still moving" in w for w in rested.summary["warnings"])
