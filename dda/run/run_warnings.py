@@ -284,7 +284,9 @@ def in_situ_slip_warning(
     )
 
 
-def in_situ_warning(change: float, block: str, cause: str = "") -> str | None:
+def in_situ_warning(
+    change: float, block: str, cause: str = "", by: str = "the equilibrium start"
+) -> str | None:
     """The sentence when the equilibrium start changed a free block's in-situ stress by
     more than :data:`IN_SITU_KEPT` of the field (``change``, the largest, at ``block``),
     with its likely ``cause``: ``"slipped"`` (joints that carry less shear than the
@@ -294,7 +296,7 @@ def in_situ_warning(change: float, block: str, cause: str = "") -> str | None:
     if change <= IN_SITU_KEPT:
         return None
     said = (
-        f"the equilibrium start changed the in-situ stress of block {block!r} by "
+        f"{by} changed the in-situ stress of block {block!r} by "
         f"{100.0 * change:.0f} % of the field (the largest): "
     )
     if cause == "slipped":

@@ -393,3 +393,22 @@ def test_a_field_whose_shear_the_joints_cannot_hold_is_said():
     bare = scene(uniform("ring"), duration=0.01, in_situ={"stress": [-2e6, 0.0, 3e5]})
     text = " ".join(dda.simulate(dda.load_scene(bare)).summary["warnings"])
     assert "where it holds none" in text  # no normal force on the bedding, no cohesion
+
+
+def test_a_static_run_says_it_relaxed_a_field_its_boundary_does_not_hold():
+    """Static, nothing to hold the field (no ring, no boundary stress): the steps relax it
+    (the check was the equilibrium start's, which a static run has not: nothing was said);
+    held by the ring it is kept and nothing is said."""
+    field = {"stress": [-2.0e6, -1.0e6, 0.3e6]}
+    free = scene(uniform("nothing"), duration=0.02, in_situ=field)
+    free["analysis"]["mode"] = "static"
+    relaxed = dda.simulate(free)
+    assert relaxed.summary["start_in_situ_change"] > 0.5
+    assert any(
+        "the static steps changed the in-situ stress" in w for w in relaxed.summary["warnings"]
+    )
+    ring = scene(uniform("ring"), duration=0.02, in_situ=field)
+    ring["analysis"]["mode"] = "static"
+    held = dda.simulate(ring)
+    assert held.summary["start_in_situ_change"] < 1e-6
+    assert not any("changed the in-situ stress" in w for w in held.summary["warnings"])
