@@ -119,9 +119,10 @@ def note_unbalanced(run, when: str) -> None:
     step, at once and among the summary's warnings (``run.unbalanced``); a net force said
     already (``run.unbalanced_force``) is not said again."""
     ctx = StepContext(dt=run.dt, time=run.time + run.dt, step=run.step + 1, static=run.model.static)
-    found = unbalanced_warning(
-        run.model, run.blocks, ctx, when, run.remaining(), run.unbalanced_force
-    )
+    left = run.remaining()
+    if not np.isfinite(left):  # a run of ``steps``: as long as its steps are not cut
+        left = (run.model.steps - run.step) * run.model.max_time_step
+    found = unbalanced_warning(run.model, run.blocks, ctx, when, left, run.unbalanced_force)
     if found is not None:
         sentence, run.unbalanced_force = found
         log.warning(sentence)

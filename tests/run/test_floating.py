@@ -107,3 +107,9 @@ def test_a_static_run_that_nothing_holds_drifts_half_a_dt_t():
     assert f"({expected:.3g} m by the run's end)" in said
     fall = result.frames[0].centroids[:, 1].mean() - result.final.centroids[:, 1].mean()
     assert fall == pytest.approx(expected, rel=1e-3)
+    # a run given by its steps is told its drift too (it was left out: no duration)
+    del raw["analysis"]["duration"]
+    raw["analysis"]["steps"] = 50
+    by_steps = dda.simulate(dda.load_scene(raw))
+    (said,) = [text for text in by_steps.summary["warnings"] if "nothing fixed holds" in text]
+    assert f"({expected:.3g} m by the run's end)" in said
