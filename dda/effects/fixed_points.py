@@ -27,9 +27,10 @@ class FixedPoints(Effect):
     adds its tension's (:mod:`dda.effects.bolts`): a stiff spring ringing at a coarse Δt
     flips the sign of its a·F₀, whose negative part then makes energy (+1.8e4 J at 1e-2),
     and the sum keeps a block swaying on two springs, whose terms cancel, unbiased (the
-    positive part point by point took 5 times the released block's FEM differences). Without them a block swinging on a fixed point gained
-    energy at every swing (+89 J of 1.06e4 J moved in 1 s at Δt = 1e-3, +8.5 J at 1e-4);
-    with them it loses 88 J and 8.5 J, and its angle converges as before. A static step
+    positive part point by point took 5 times the released block's FEM differences).
+    Without them a block swinging on a fixed point gained energy at every swing (+89 J of
+    1.06e4 J moved in 1 s at Δt = 1e-3, +8.5 J at 1e-4); with them it loses 88 J and
+    8.5 J, and its angle converges as before. A static step
     takes neither: its steps are no energy balance, and the stiffness slowed the way to
     rest (a block hung 0.6 rad off, `cases/verify/swing.toml`, was not at rest in its 300
     steps: strains 7.6e-2 off the FEM's, 3.1e-3 without).
