@@ -71,11 +71,12 @@ def _check_overlaps(polygons: list[shapely.Polygon], keys: list[str], source: st
     if len(bad):
         k = bad[np.argmax(shared[bad])]  # the largest overlap
         i, j = left[k], right[k]
-        common = shapely.intersection(geoms[i], geoms[j])
-        x, y = shapely.get_coordinates(shapely.point_on_surface(common))[0]
-        raise SceneError(
-            source,
-            f"{keys[j]}.polygon",
-            f"overlaps {keys[i]} by {shared[k]:.3g} of area near ({x:.6g}, {y:.6g}) (regions "
-            "must not)",
-        )
+        said = f"overlaps {keys[i]} by {overlap_said(geoms[i], geoms[j])} (regions must not)"
+        raise SceneError(source, f"{keys[j]}.polygon", said)
+
+
+def overlap_said(a: shapely.Geometry, b: shapely.Geometry) -> str:
+    """``"25 of area near (7.5, 7.5)"``: how much two shapes overlap, and where."""
+    common = shapely.intersection(a, b)
+    x, y = shapely.get_coordinates(shapely.point_on_surface(common))[0]
+    return f"{common.area:.3g} of area near ({x:.6g}, {y:.6g})"

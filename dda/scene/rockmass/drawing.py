@@ -46,6 +46,7 @@ import shapely
 
 from dda.errors import SceneError, message
 from dda.scene.checks import POSITIVE, Checker, suggest
+from dda.scene.rockmass.domain import overlap_said
 
 log = logging.getLogger(__name__)
 
@@ -463,12 +464,11 @@ def _rock_mass(
     material = _material(chk, table, raw)
     dug = shapely.union_all([_polygon(s, path) for s in holes]) if holes else None
     regions, origins = list(_list(raw, "regions")), {}
-    openings = _openings(rock, path)
+    openings, open_in = _openings(rock, path)
     for k, shape in enumerate(rock + fixed):
-        inner = openings.get(k)
-        if inner is False:
+        if k in openings:
             continue  # an opening: no rock of its own
-        for region in _regions(shape, dug, material, path, inner):
+        for region in _regions(shape, dug, material, path, open_in.get(k)):
             origins[len(regions)] = f"layer {shape.layer}: {shape.what}"
             regions.append(region)
     out["regions"] = regions
@@ -539,37 +539,34 @@ def _polygon(shape: Shape, path: Path) -> shapely.Polygon:
     return polygon
 
 
-def _openings(rock: list[Shape], path: Path) -> dict[int, Any]:
+def _openings(rock: list[Shape], path: Path) -> tuple[set[int], dict[int, Any]]:
     """The nesting of the blocks layer's closed shapes, as CAD's hatch islands: a shape
     inside an odd number of others is an opening in the one just around it (open at
-    t = 0), one inside an even number is rock (an island in an opening). Returns, by
-    shape index: False for an opening, the union of its openings for a shape that has
-    some (absent: none)."""
+    t = 0), one inside an even number is rock (an island in an opening). Returns (the
+    openings' indices, the union of its openings by the index of a shape that has some)."""
     polygons = [_polygon(s, path) for s in rock]
     if len(polygons) < 2:
-        return {}
+        return set(), {}
     tree = shapely.STRtree(polygons)
     one, other = tree.query(polygons, predicate="overlaps")  # crossing: no nesting
     if len(one):
         i, j = int(other[0]), int(one[0])
-        common = shapely.intersection(polygons[i], polygons[j])
-        x, y = shapely.get_coordinates(shapely.point_on_surface(common))[0]
         raise SceneError(
             str(path),
             f"layer {rock[i].layer}",
-            f"{rock[i].what} crosses {rock[j].what} by {common.area:.3g} of area near "
-            f"({x:.6g}, {y:.6g}): closed shapes on the blocks layer do not cross (one inside "
-            "another is an opening in it)",
+            f"{rock[i].what} crosses {rock[j].what} by {overlap_said(polygons[i], polygons[j])}"
+            ": closed shapes on the blocks layer do not cross (one inside another is an "
+            "opening in it)",
         )
     outer, inner = tree.query(polygons, predicate="contains_properly")  # outer ⊃ inner
     depth = np.bincount(inner, minlength=len(polygons))
-    out: dict[int, Any] = {int(k): False for k in np.flatnonzero(depth % 2 == 1)}
-    for k in np.flatnonzero(depth % 2 == 1):
+    openings = {int(k) for k in np.flatnonzero(depth % 2 == 1)}
+    holes: dict[int, Any] = {}
+    for k in openings:
         parents = outer[inner == k]
         parent = int(parents[np.argmax(depth[parents])])  # the one just around it
-        held = out.get(parent)
-        out[parent] = polygons[k] if held is None else shapely.union(held, polygons[k])
-    return out
+        holes[parent] = shapely.union(holes.get(parent, shapely.Polygon()), polygons[k])
+    return openings, holes
 
 
 def _regions(shape: Shape, dug: Any, material: str, path: Path, openings: Any = None) -> list[dict]:
