@@ -343,7 +343,8 @@ class EnergyAccount:
         if self.water is not None and self.water.ground is not None:
             if start is None:
                 raise ValueError("the water's work over a step needs the step's start time")
-            before = self.water.energy_at(blocks, start)
-            w += self.water.energy_at(blocks, time) - before
+            after = self.water.energy_at(blocks, time)  # the step's wet edges, kept
+            w += after - self.water.energy_at(blocks, start)
+            self.water.follow(time)  # back where the step's end has it
         self.work += w
         return w

@@ -19,7 +19,6 @@ from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
 from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
-from dda.effects.inertia import Inertia
 from dda.errors import SimulationError
 from dda.fracture.fragments import parent_rows
 from dda.fracture.inherited_contacts import after_breaking
@@ -367,8 +366,7 @@ def _advance(run: _Run) -> None:
     if m.static:
         run.move_before = _largest_move(run.last_moves)
         run.last_moves = (solution.moves, run.blocks.vertex_owner, run.blocks.names)
-        ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=True)
-        run.static_held = _held_by_damping(m, run.blocks, solution.d, ctx, run.energy.gravity)
+        run.static_held = _held_by_damping(m, run.blocks, solution, dt, run.energy.gravity)
     if solution.pushed is not None and np.any(solution.pushed):
         run.pushed_steps += 1
     with run.timer("update"):
@@ -754,26 +752,23 @@ def _last_motion_warning(state: _Run, length: str) -> str | None:
 
 
 def _held_by_damping(
-    model: Model, blocks: BlockSet, d: np.ndarray, ctx: StepContext, gravity
+    model: Model, blocks: BlockSet, solution: StepSolution, dt: float, gravity
 ) -> tuple[float, int]:
     """(the largest force a static step's damping held, (2/Δt²) |(M D)ᵢ| over the
     translations, over that block's weight mᵢ|g|; the block's row). Without ``gravity``
-    (g, or None) over the largest load on a free block instead (the effects' forces on
-    its translations: point loads, boundary stresses, water; a model loaded so, not by
-    its weight, held its loads by damping unsaid); (0, −1) with neither. At rest it is 0;
-    a block without support has its whole weight (or load) held."""
+    (g, or None) over the largest load on a free block instead (the step's F₀ on its
+    translations: point loads, boundary stresses, water; a model loaded so, not by its
+    weight, held its loads by damping unsaid); (0, −1) with neither. At rest it is 0; a
+    block without support has its whole weight (or load) held."""
     free = np.flatnonzero(~blocks.fixed)
     if not len(free):
         return 0.0, -1
     masses = model.inertia.masses(blocks)[free]
-    held = (2.0 / ctx.dt**2) * np.einsum("nij,nj->ni", masses[:, :2, :], d[free])
+    held = (2.0 / dt**2) * np.einsum("nij,nj->ni", masses[:, :2, :], solution.d[free])
     if gravity is not None:
         scale = masses[:, 0, 0] * float(np.hypot(*gravity))
     else:
-        loads = np.zeros((blocks.count, 6))
-        for effect in model.effects:
-            if not isinstance(effect, Inertia) and (f := effect.forces(blocks, ctx)) is not None:
-                loads += f
+        loads = solution.loads
         largest = float(np.hypot(loads[free, 0], loads[free, 1]).max())
         if largest == 0.0:
             return 0.0, -1

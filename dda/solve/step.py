@@ -75,6 +75,7 @@ class StepSolution:
     # Newton iterations: assembled systems solved (the rest of ``iterations`` are chord
     # steps, back-substitutions with a kept factorisation)
     newton_iterations: int = 0
+    loads: np.ndarray | None = None  # (n, 6) F₀: the effects' forces of the step
 
 
 @dataclass
@@ -588,7 +589,7 @@ def solve_step(
         d = _solve(cache, pattern, k, base_f, blocks, timer)
         made = cache.solver.factorisations - factorisations_before
         finite = bool(np.all(np.isfinite(d)))
-        return StepSolution(d, contacts, 1, made, finite, 0.0, newton_iterations=1)
+        return StepSolution(d, contacts, 1, made, finite, 0.0, newton_iterations=1, loads=base_f)
 
     law = cm.law.for_step(ctx.static)
     with timer("contact_law"):
@@ -652,7 +653,7 @@ def solve_step(
             pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
     return StepSolution(
         d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,
-        newton_iterations=solves,
+        newton_iterations=solves, loads=base_f,
     )  # fmt: skip
 
 
