@@ -22,6 +22,7 @@ from dda.errors import SceneError
 log = logging.getLogger(__name__)
 
 MAX_ROUNDS = 20
+KEPT_SAID = 5  # small blocks kept as they are, said one by one; the rest counted
 
 
 def merge_small(
@@ -45,8 +46,7 @@ def merge_small(
             _refuse(faces, area, small, min_area, source)
         target = _best_neighbours(faces, region, small, min_area, source, turn)
         alone = target < 0
-        for k in small[alone]:
-            _say_kept(faces[k], region[k], min_area, source)
+        _say_kept(faces[small[alone]], region[small[alone]], min_area, source)
         kept[small[alone]] = True
         small, target = small[~alone], target[~alone]
         faces, region, kept = _union_groups(faces, region, small, target, kept)
@@ -54,14 +54,19 @@ def merge_small(
     raise SceneError(source, "cutting.min_block_area", "blocks still too small after merging")
 
 
-def _say_kept(face, region: int, min_area: float, source: str) -> None:
-    x, y = shapely.get_coordinates(shapely.point_on_surface(face))[0]
-    log.warning(
-        "%s: a block of area %.3g near (%.4g, %.4g), smaller than cutting.min_block_area "
-        "%g, is kept as it is: no neighbour of its own region (regions[%d]: its material, "
-        "or a drawn fixed shape) to join",
-        source, face.area, x, y, min_area, region,
-    )  # fmt: skip
+def _say_kept(faces: np.ndarray, region: np.ndarray, min_area: float, source: str) -> None:
+    """Warn of the small blocks kept as they are, :data:`KEPT_SAID` by name and place, the
+    rest counted."""
+    for face, home in zip(faces[:KEPT_SAID], region[:KEPT_SAID], strict=False):
+        x, y = shapely.get_coordinates(shapely.point_on_surface(face))[0]
+        log.warning(
+            "%s: a block of area %.3g near (%.4g, %.4g), smaller than cutting.min_block_area "
+            "%g, is kept as it is: no neighbour of its own region (regions[%d]: its "
+            "material, or a drawn fixed shape) to join",
+            source, face.area, x, y, min_area, home,
+        )  # fmt: skip
+    if len(faces) > KEPT_SAID:
+        log.warning("%s: %d more small blocks kept as they are", source, len(faces) - KEPT_SAID)
 
 
 def _refuse(
