@@ -230,22 +230,29 @@ def test_the_pressure_s_hessian_is_the_second_derivative_of_its_potential(table)
     np.testing.assert_allclose(water.stiffness(blocks)[0], positive, atol=1e-9 * values.max())
 
 
-def test_the_water_table_moves_with_the_ground():
+@pytest.mark.parametrize(
+    ("dt", "error"),
+    [(1e-2, 2e-6), (1e-3, 2e-7), pytest.param(1e-4, 2e-8, marks=pytest.mark.slow)],
+)
+def test_the_water_table_moves_with_the_ground(dt, error):
     """The wet slider at 10° on a ground that a pulse (1 m/s² at its peak) sets moving at
     0.1 m/s: the groundwater is carried with the rock, so 2 s later, the ground 0.19 m
-    along, the joint still carries W cos θ − U and the energy stays within E0 + W. With
-    the table fixed in space the slope moved 0.19 m under it and U changed by 12 %."""
+    along, the joint still carries W cos θ − U (relative error measured 1.2e-6, 9.1e-8,
+    6.4e-9 at Δt = 1e-2, 1e-3, 1e-4; with the table fixed in space U changed by 12 %), the
+    slider stays on the ground within its elastic give (1.2e-7 m at each Δt), and the
+    energy stays within E0 + W."""
     theta = 10.0
     scene = wet_slope(theta, duration=2.0)
+    scene["analysis"].update(time_step=dt, save_every=max(1, round(0.01 / dt)))
     scene["seismic"] = {"acceleration": [[0.0, 0.0], [0.1, 1.0], [0.2, 0.0]], "blocks": ["slope"]}
     result = dda.simulate(scene)
     ground = result.final.centroids[0] - result.frames[0].centroids[0]
     assert ground[0] == pytest.approx(0.1 * 1.9, rel=1e-6)  # after the pulse: 0.1 m/s
     t = np.radians(theta)
-    contacts = result.final.contacts
-    assert contacts.normal_force.sum() == pytest.approx(
-        WEIGHT * np.cos(t) - uplift(theta), rel=1e-3
-    )
+    carried = result.final.contacts.normal_force.sum()
+    assert carried == pytest.approx(WEIGHT * np.cos(t) - uplift(theta), rel=error)
+    slip = max(np.abs(f.displacements[1] - f.displacements[0]).max() for f in result.frames)
+    assert slip <= 2e-7  # stuck: the joint's and the blocks' elastic give only
     # the energy against E0 + W: none made, and the account complete (the ground carrying
     # the table does -98.6 J on the slider through the water, which the account books as
     # work; left out, E0 + W exceeded the energy by that)
@@ -253,4 +260,4 @@ def test_the_water_table_moves_with_the_ground():
     gap = h["total_energy"] - result.summary["initial_energy"] - h["external_work"]
     kinetic = h["kinetic_energy"].max()  # 6.75 J: the slider at the ground's 0.1 m/s
     assert gap.max() <= 1e-6 * kinetic
-    assert gap.min() >= -0.01 * kinetic  # measured -0.029 J
+    assert gap.min() >= -0.01 * kinetic  # measured -0.029, -0.0029, -0.00029 J
