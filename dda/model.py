@@ -153,8 +153,11 @@ def build(scene: Scene) -> Model:
     engineering = engineering_effects(scene, blocks, exact)
     effects += [e for e in engineering.values() if e is not None]
 
-    contact = _contact_model(scene, blocks, joints, joint_rows, float(young.max()), allowed)
-    fracture = _fracture_effect(scene, blocks) if any(m.breakable for m in materials) else None
+    breakable = any(m.breakable for m in materials)
+    contact = _contact_model(
+        scene, blocks, joints, joint_rows, float(young.max()), allowed, breakable
+    )
+    fracture = _fracture_effect(scene, blocks) if breakable else None
     active = [e.name for e in effects]
     if contact is not None:
         active.append("contact_augmented" if contact.law.augmented else "contact_penalty")
@@ -241,8 +244,12 @@ def _fixed_points(scene: Scene, blocks: BlockSet, stiffness: float, exact: bool)
     return FixedPoints(MaterialPoints(np.array(rows), np.array(pts)), stiffness, exact)
 
 
-def _contact_model(scene, blocks, joints, joint_rows, young_max, allowed) -> ContactModel | None:
-    if blocks.count < 2 or blocks.fixed.all():
+def _contact_model(
+    scene, blocks, joints, joint_rows, young_max, allowed, breakable
+) -> ContactModel | None:
+    """The contact model, or None where no two blocks can ever touch: a single block that
+    cannot break (a breakable one's pieces touch each other), or only fixed blocks."""
+    if (blocks.count < 2 and not breakable) or blocks.fixed.all():
         return None
     c = scene.contact
     table = JointTable(

@@ -247,6 +247,29 @@ def test_a_loaded_block_that_breaks_in_shear_gives_its_load_to_one_of_its_pieces
         assert_valid_blocks(f)
 
 
+def test_the_pieces_of_a_single_block_touch_each_other():
+    """A scene of one breakable block (a specimen on a pin, pressed on top) has contacts:
+    its pieces push on each other instead of passing through (without them the loaded top
+    cone sank 0.028 m² into each side wedge in 60 steps, with no word)."""
+    scene = {
+        "analysis": {"mode": "dynamic", "time_step": 1e-4, "steps": 60, "save_every": 1},
+        "materials": {"rock": {**ROCK, "young": 1e10, "density": 2600.0, "cohesion": 1e6,
+                               "friction_angle": 30.0, "tensile_strength": 0.5e6}},
+        "fracture": {"min_area": 0.3},
+        "blocks": [{"name": "specimen", "material": "rock", "vertices": rect(0, 0, 1, 2),
+                    "fixed_points": [[0.5, 0.0]]}],
+        "loads": [{"block": "specimen", "point": [0.5, 2.0], "force": [0.0, -8e6],
+                   "history": [[0.0, 0.0], [0.002, 1.0]]}],
+    }  # fmt: skip
+    result = dda.simulate(scene)
+    assert [(e.parent, e.mode) for e in result.fracture_events][:1] == [("specimen", "shear")]
+    assert any(name.startswith("contact") for name in result.summary["active_effects"])
+    pieces = [shapely.Polygon(ring) for ring in result.final.vertices]
+    assert len(pieces) >= 2
+    overlap = max(a.intersection(b).area for i, a in enumerate(pieces) for b in pieces[i + 1 :])
+    assert overlap < 1e-4  # m², against the pieces' 0.43 m²: the contacts' give only
+
+
 def bar_scene(ratio: float) -> dict:
     """A free 4 x 1 bar pulled at both ends by ratio x T0 (static)."""
     force = ratio * T0 * 1.0
