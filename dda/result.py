@@ -102,7 +102,7 @@ class Result:
 
     ``frames``: every kept frame, or with ``simulate(..., keep_frames=False)``
     the first and the latest only; a run resumed from a checkpoint starts with
-    the checkpoint's state. ``history``: one value per step (13 columns).
+    the checkpoint's state. ``history``: one value per step (12 columns).
     ``bolt_events``: the rock bolts that broke. ``measurements``: the
     ``[[measure]]`` quantities, one value per step from step 0 (columns
     ``step``, ``time`` and ``name.component``; empty without ``[[measure]]``).

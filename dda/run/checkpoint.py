@@ -66,7 +66,7 @@ log = logging.getLogger(__name__)
 # inverse numbering, dda.solve.assembly.BlockPattern; 9: a static run's largest vertex
 # move of the step before the last; 10: the water's drawn table and the ground that
 # carries it)
-FORMAT = 10
+FORMAT = 11
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
 NOT_SAVED = ("model", "linear")  # run attributes rebuilt from the scene, or saved apart

@@ -172,26 +172,31 @@ def still_to_go(moved: float, before: float, allowed: float) -> float:
 def energy_excess(
     history: Mapping[str, Sequence[float]], initial: float, contacts: bool = True
 ) -> tuple[float, float, float]:
-    """(the largest excess of the stored energy over E₀ + W at a step, the energy that
+    """(the largest excess of the stored energy over E₀ + W − X at a step, the energy that
     moved: the largest kinetic, |ΔV|, elastic, contact energy or |W| of the run, and
-    |E₀| + max |W|) of a run's ``history`` (its energy columns) and its E₀. Without
-    ``contacts`` the stored energy leaves out the contact springs' (what the blocks
-    hold and do: it cannot exceed E₀ + W either, the contacts being no source)."""
+    |E₀| + max |W|) of a run's ``history`` (its energy columns) and its E₀; X the energy of
+    the blocks the stages removed so far (``excavated_energy``; it leaves the account, and
+    the fall of V it makes at a stage is no motion). Without ``contacts`` the stored
+    energy leaves out the contact springs' (what the blocks hold and do: it cannot exceed
+    E₀ + W either, the contacts being no source)."""
     total = np.asarray(history["total_energy"], float)
     if not len(total):
         return 0.0, 0.0, 0.0
     if not contacts:
         total = total - np.asarray(history["contact_energy"], float)
     work = np.asarray(history["external_work"], float)
+    excavated = np.asarray(history.get("excavated_energy", np.zeros(len(total))), float)
     potential = np.asarray(history["potential_energy"], float)
+    fall = np.diff(potential, prepend=potential[0])
+    fall[np.diff(excavated, prepend=excavated[0]) != 0.0] = 0.0  # a stage removed blocks
     moved = max(
         float(np.max(history["kinetic_energy"])),
-        float(np.abs(potential - potential[0]).max()),
+        float(np.abs(np.cumsum(fall)).max()),
         float(np.max(history["elastic_energy"])),
         float(np.max(history["contact_energy"])),
         float(np.abs(work).max()),
     )
-    excess = float(np.max(total - initial - work))
+    excess = float(np.max(total + excavated - initial - work))
     return excess, moved, abs(initial) + float(np.abs(work).max())
 
 

@@ -61,8 +61,11 @@ MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time ste
 BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
 # summary["start"] of a run whose equilibrium start did not settle
 UNSETTLED_START = "unloaded (the equilibrium start did not settle)"
-# energy columns of Result.history (dda.run.energy): stored terms, their total, work of the loads
-HISTORY_ENERGY = (*(f"{t}_energy" for t in TERMS), "total_energy", "external_work")
+# energy columns of Result.history (dda.run.energy): stored terms, their total, work of the
+# loads, and the energy of the blocks the stages removed so far (E ≤ E₀ + W − that)
+HISTORY_ENERGY = (
+    *(f"{t}_energy" for t in TERMS), "total_energy", "external_work", "excavated_energy"
+)  # fmt: skip
 
 
 class _Run:
@@ -424,6 +427,7 @@ def _record(run: _Run, dt: float, solution: StepSolution) -> None:
     for name, value in terms.items():
         h[f"{name}_energy"].append(value)
     h["external_work"].append(run.energy.work)
+    h["excavated_energy"].append(run.excavated_energy)
 
 
 def _fracture(run: _Run, ctx: StepContext) -> None:

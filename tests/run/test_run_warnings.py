@@ -150,6 +150,20 @@ def test_energy_the_blocks_gain_from_nowhere_is_said():
     assert energy_warning(loaded, 100.0) is None
 
 
+def test_energy_made_after_a_stage_removed_blocks_is_said():
+    """A stage removes blocks holding 1,000 (X): the total falls by that, and energy the
+    blocks gain after it is judged against E0 + W − X, not hidden below E0 (2 above
+    E0 + W − X is 2 % of the 102 that moved; the removed blocks' fall of V is no motion)."""
+    history = _history([100.0, 50.0, 102.0], [0.0, 50.0, 0.0])
+    history["potential_energy"] = np.array([1000.0, 1000.0, 0.0])
+    history["total_energy"] = history["total_energy"] + history["potential_energy"]
+    history["excavated_energy"] = np.array([0.0, 0.0, 1000.0])
+    excess, moved, _ = energy_excess(history, 1100.0)
+    assert (excess, moved) == (pytest.approx(2.0), pytest.approx(102.0))
+    text = energy_warning(history, 1100.0)
+    assert text is not None and "rose 2 above" in text and "2 %" in text
+
+
 def test_the_energy_warning_gives_the_evidence_for_its_cause():
     """The steps the push-out acted at, when it did; the fastest block at the end, a
     sliver called one; the advice of a smaller time step."""
