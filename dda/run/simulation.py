@@ -116,6 +116,7 @@ class _Run:
         self.in_situ_given = None  # a static run's field at t = 0, while it is measured
         self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
         self.unbalanced_force = (0.0, 0.0)  # ... and the net force the last one said
+        self.misplaced_bolts: list[str] = []  # stage bolts with an end off their block
         self.pushed_steps = 0  # steps whose push-out removed an overlap
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
@@ -688,6 +689,7 @@ def _warnings(state: _Run) -> list[str]:
         in_situ_warning(*state.in_situ_change),
         in_situ_slip_warning(*state.in_situ_slip, length),
         *state.unbalanced,
+        *state.misplaced_bolts,
         None if m.static else _energy_warning(state),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),

@@ -11,11 +11,13 @@ force: they are matched by their keys, which do not depend on rows). The
 energy of what was removed leaves the account (``summary["excavated_energy"]``).
 Then the stage's bolts are installed where their points are given, in the
 blocks the scene found for them (or, after a fracture, the fragment nearest
-to the point). A stage's ``strength_factor`` F divides the scene's joint strengths
-from then on (tan φ / F, c / F, T / F; :class:`dda.contact.joints.JointTable`), and
-with ``intact`` the breakable materials' Mohr–Coulomb strengths the same way; a later
-stage's F replaces it. A contact whose shear force exceeds its reduced bound is
-brought back to it by the contact law at the next step: it slips.
+to the point); an end that lies outside its block then (the block moved or
+broke since the scene was drawn) is said, among the run's warnings. A stage's
+``strength_factor`` F divides the scene's joint strengths from then on
+(tan φ / F, c / F, T / F; :class:`dda.contact.joints.JointTable`), and with
+``intact`` the breakable materials' Mohr–Coulomb strengths the same way; a
+later stage's F replaces it. A contact whose shear force exceeds its reduced
+bound is brought back to it by the contact law at the next step: it slips.
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ from dda.scene.stage_plan import StagePlan
 log = logging.getLogger(__name__)
 
 TIME_TOLERANCE = 1e-9  # of the largest time step: a step ending this close reaches the stage
+# a bolt end this fraction of its length or more outside the block it is anchored in is said
+OUTSIDE = 1e-4
 
 
 def apply_due_stages(run) -> None:
@@ -107,6 +111,38 @@ def _install(run, plan: StagePlan, bolts: np.ndarray) -> None:
     )
     run.model.bolts.install(bolts, rows, points[:, 0], points[:, 1])
     log.info("installed %d bolt(s)", len(bolts))
+    unit = run.model.scene.units.length
+    said = _ends_outside(
+        run.blocks, run.model.bolts.names, bolts, rows, points, run.shown_time, unit
+    )
+    if said is not None:
+        log.warning(said)
+        run.misplaced_bolts.append(said)
+
+
+def _ends_outside(
+    blocks: BlockSet, names, bolts, rows, points, time: float, unit: str
+) -> str | None:
+    """The sentence when a bolt a stage installs has an end outside the block it is
+    anchored in by more than ``OUTSIDE`` of its length (a crack's gap, or ground that
+    has moved it since it was drawn): the anchor then sits off the rock, as given."""
+    found = []
+    for q, bolt in enumerate(bolts):
+        length = float(np.linalg.norm(points[q, 1] - points[q, 0]))
+        for e, end in enumerate(("start", "end")):
+            host = shapely.Polygon(blocks.polygon(int(rows[q, e])))
+            gap = float(host.distance(shapely.Point(points[q, e])))
+            if gap > OUTSIDE * length:
+                name = blocks.names[int(rows[q, e])]
+                found.append(f"'{names[bolt]}' {end} {gap:.3g} {unit} outside '{name}'")
+    if not found:
+        return None
+    return (
+        f"at t = {time:.6g} a stage installed bolt ends outside the blocks they are anchored "
+        f"in ({'; '.join(found[:5])}{'; ...' if len(found) > 5 else ''}): the blocks have "
+        "moved or broken since the scene was drawn, and the bolt pulls on the nearest one "
+        "from off the rock; give the ends where the rock is at the stage's time"
+    )
 
 
 def _holder(blocks: BlockSet, origin: int, point: np.ndarray) -> int:

@@ -89,6 +89,34 @@ def test_a_stage_installs_its_bolts_at_their_pretension():
     assert m["floor.N"][-1] == pytest.approx(2 * ROCK["density"] * G + m["tie.force"][-1], rel=1e-4)
 
 
+def test_a_stage_bolt_whose_end_lies_off_its_block_is_said():
+    """A free block falls beside its wall (dynamic, nothing holds it) and a stage at
+    0.2 s bolts it to a ledge below where it was drawn: the start of that bolt, drawn
+    0.05 m below the block's top, lies ½ g t² − 0.05 = 0.146 m above it by then, and the
+    run says so; the bolt into the
+    block standing on the floor is not said."""
+    stages = [
+        {
+            "time": 0.2,
+            "bolts": [
+                {"name": "lost", "start": [3.5, 1.85], "end": [3.5, -0.5], "stiffness": 1e6},
+                {"name": "held", "start": [0.5, 0.5], "end": [0.5, -0.5], "stiffness": 1e6},
+            ],
+        }
+    ]
+    scene = stack("dynamic", steps=25, stages=stages)  # fmt: skip
+    scene["blocks"].append({"name": "faller", "material": "rock",
+                            "vertices": rectangle(3, 0.9, 4, 1.9)})  # fmt: skip
+    scene["blocks"][0]["vertices"] = rectangle(-2, -1, 2, 0)  # the floor ends before it
+    scene["blocks"].append({"name": "ledge", "material": "rock", "fixed": True,
+                            "vertices": rectangle(3, -1, 4, -0.6)})  # fmt: skip
+    scene["stages"][0]["bolts"][0]["end"] = [3.5, -0.8]
+    said = [w for w in dda.simulate(scene).summary["warnings"] if "bolt ends outside" in w]
+    assert len(said) == 1 and "'lost' start" in said[0] and "'held'" not in said[0]
+    gap = float(said[0].split("'lost' start ")[1].split(" m")[0])
+    assert gap == pytest.approx(0.5 * G * 0.2**2 - 0.05, rel=0.02)
+
+
 def test_energy_stays_within_its_budget_through_the_stages():
     result = dda.simulate(stack("dynamic", 60, [{"time": 0.2, "remove": ["b2"]}]))
     h = result.history
