@@ -212,9 +212,10 @@ def augmentation(
     force at the solution carried to g = t; off the elastic piece λn' = 0 (where
     ``persistent``: min(λn, 0), so that a contact held at t > 0 stays there), else λn is
     kept. One found this step already deeper than the tolerance (``fresh``,
-    ``found_penetration``) keeps its λn: the push-out takes its overlap
-    (:mod:`dda.contact.push_out`). A stuck contact (|λt + ps s| < b, ps > 0) that slid
-    more than the tolerance carries λt' = λt + ps s, else ``carried_shear``."""
+    ``found_penetration``: in a static step; a dynamic one solves it from touch,
+    :mod:`dda.contact.push_out`) keeps its λn: its spring pushes the overlap out. A stuck
+    contact (|λt + ps s| < b, ps > 0) that slid more than the tolerance carries
+    λt' = λt + ps s, else ``carried_shear``."""
     trial_n = normal_trial(normal_base, penalty, g)
     elastic = trial_n >= -tension
     found_deep = fresh & (found_penetration > tolerance)

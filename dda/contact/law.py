@@ -323,10 +323,11 @@ def _augment(contacts, terms, g, s, previous_g, law) -> tuple[int, float]:
         if has_previous:
             contacts.penalty = penalty
         return int(count), float(violation)
-    # a contact found this step already deeper than the tolerance (fresh fracture
-    # fragments) is pushed out by its penalty spring (dda.contact.push_out), not
-    # augmented: removing all of its overlap within one step can take more than any
-    # multiplier gives once Δt is cut (a 4.6 cm overlap among fragments: cut to 1e-13 s)
+    # a contact found this step already deeper than the tolerance is not augmented: in a
+    # static step its penalty spring pushes it out (removing all of its overlap within one
+    # step can take more than any multiplier gives once Δt is cut: a 4.6 cm overlap among
+    # fragments, cut to 1e-13 s); a dynamic step solves it from touch and moves the
+    # overlap out by position (dda.contact.push_out)
     target = formulas.rest_target(contacts.penetration, tolerance, law.persistent)
     elastic, far, stuck, slid, normal, shear = formulas.augmentation(
         *terms.kernel_arrays(), g, s, contacts.fresh, contacts.penetration,

@@ -30,7 +30,7 @@ from dda.contact.formulas import first_bound, remembered_pieces
 from dda.contact.law import BoundIteration, ContactLaw, JointProperties
 from dda.contact.narrow import separated_blocks
 from dda.contact.potential import ContactTerms
-from dda.contact.push_out import push_out_displacement, pushed_overlap
+from dda.contact.push_out import found_overlap, push_out_displacement
 from dda.contact.rows import ContactRows, contact_rows, gaps_after
 from dda.effects.base import StepContext
 from dda.effects.pair_springs import PairSprings
@@ -393,6 +393,19 @@ def _band_system(cache, blocks, contacts, rows, base_k, base_f, law, couplings, 
         )  # fmt: skip
 
 
+def _start_at_touch(contacts: ContactSet, rows: ContactRows, touch: float) -> np.ndarray | None:
+    """The overlap of the contacts found this step already overlapping
+    (:func:`dda.contact.push_out.found_overlap`), taken out of their start penetration:
+    the step solves them from touch, and the caller removes the overlap by position
+    (:func:`dda.contact.push_out.push_out_displacement`); None where there is none."""
+    overlap = found_overlap(contacts, rows, touch)
+    if not overlap.any():
+        return None
+    rows.penetration = rows.penetration - overlap
+    contacts.penetration = contacts.penetration - overlap
+    return overlap
+
+
 def _rows_at(blocks: BlockSet, contacts: ContactSet, ctx: StepContext) -> ContactRows:
     """The contacts' rows, their gaps at ``ctx.prescribed`` where it is given (fixed
     blocks moved by the ground, or the equilibrium start's accumulated D: the known part
@@ -594,6 +607,7 @@ def solve_step(
     law = cm.law.for_step(ctx.static)
     with timer("contact_law"):
         rows = _rows_at(blocks, contacts, ctx)
+        overlap = None if ctx.static else _start_at_touch(contacts, rows, cm.touch_tolerance)
         joint_rows = cm.joints.rows_for(blocks, contacts)
         joints = cm.joints.properties(joint_rows, rows.length)
         if cm.joints.has_restitution and not ctx.static:  # dashpots beside the springs
@@ -646,11 +660,9 @@ def solve_step(
     max_pen = float(contacts.penetration[closed].max()) if closed.any() else 0.0
     made = cache.solver.factorisations - factorisations_before + system.factorisations
     pushed = None
-    if converged and not ctx.static:
-        overlap = pushed_overlap(contacts, rows, contacts.penetration, law.tolerance)
-        if overlap.any():
-            masses = model.inertia.masses(blocks)
-            pushed = push_out_displacement(masses, blocks.fixed, contacts, rows, overlap)
+    if converged and overlap is not None:
+        pushed = push_out_displacement(base_k, blocks.fixed, contacts, rows, overlap)
+        d = d + pushed
     return StepSolution(
         d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,
         newton_iterations=solves, loads=base_f,

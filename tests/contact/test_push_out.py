@@ -1,13 +1,20 @@
-"""Overlap found at a new contact: removed by the least-inertia displacement, not by velocity."""
+"""Overlap found at a new contact: removed by the displacement of least step energy, not by
+velocity."""
 
 from __future__ import annotations
 
+import tomllib
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 
-from dda.contact.push_out import push_out_displacement, pushed_overlap
+import dda
+from dda.contact.push_out import found_overlap, push_out_displacement
 from dda.result import LOCKED, OPEN
+from dda.run.run_warnings import energy_excess
+
+CASES = Path(__file__).resolve().parents[2] / "cases"
 
 
 def contacts_and_rows(seed: int = 0):
@@ -32,18 +39,21 @@ def spd_masses(seed: int, n: int = 3) -> np.ndarray:
     return np.einsum("nij,nkj->nik", a, a) + 6.0 * np.eye(6)
 
 
-def test_only_fresh_closed_contacts_found_deeper_than_the_tolerance_count():
+def test_only_fresh_closed_contacts_found_overlapping_count():
+    """Every overlap a contact is found with (not only what is deeper than the contact
+    tolerance: the spring of any overlap would turn ½ p g₀² into motion)."""
     contacts, rows = contacts_and_rows()
-    final = np.array([1e-5, 1e-5, 1e-5])
-    overlap = pushed_overlap(contacts, rows, final, tolerance=1e-4)
-    np.testing.assert_allclose(overlap, [2e-3 - 1e-4, 5e-4 - 1e-4, 0.0])  # the open one: none
+    overlap = found_overlap(contacts, rows, touch=1e-9)
+    np.testing.assert_allclose(overlap, [2e-3, 5e-4, 0.0])  # the open one: none
     contacts.fresh[0] = False  # a contact with history keeps its own
-    assert pushed_overlap(contacts, rows, final, 1e-4)[0] == 0.0
+    assert found_overlap(contacts, rows, 1e-9)[0] == 0.0
+    rows.penetration[1] = 1e-10  # within the touch tolerance: touching, not overlapping
+    assert found_overlap(contacts, rows, 1e-9)[1] == 0.0
 
 
-def test_push_out_removes_the_overlap_with_the_least_kinetic_energy():
-    """G D = -e at the chosen contacts, D = 0 on fixed blocks, and D = M⁻¹Gᵀλ
-    (so no other D with G D = -e has less ½ Dᵀ M D)."""
+def test_push_out_removes_the_overlap_with_the_least_step_energy():
+    """G D = -e at the chosen contacts, D = 0 on fixed blocks, and D = K₀⁻¹Gᵀλ
+    (so no other D with G D = -e has less ½ Dᵀ K₀ D; K₀ any block-diagonal SPD)."""
     contacts, rows = contacts_and_rows(1)
     masses, fixed = spd_masses(2), np.array([True, False, False])
     overlap = np.array([1.9e-3, 4e-4, 0.0])
@@ -76,3 +86,19 @@ def test_no_overlap_no_push():
     contacts, rows = contacts_and_rows()
     push = push_out_displacement(spd_masses(0), np.zeros(3, bool), contacts, rows, np.zeros(3))
     assert push.shape == (3, 6) and not push.any()
+
+
+def test_an_overlap_within_the_contact_tolerance_is_removed_without_energy():
+    """cases/verify/overlap.toml (a block drawn 2e-5 m into its base, no loads) with a
+    contact tolerance of 1e-4 m, five times the overlap: the contact is found overlapping,
+    within the tolerance, and the overlap goes by position as it does beyond it. Its
+    spring pushed the block out before, with 0.31 J of kinetic energy from nowhere (the
+    scale ½ m (d/Δt)² is 0.54 J); now the blocks hold at most the elastic energy of the
+    strain the push leaves (1.6e-4 J, as beyond the tolerance)."""
+    raw = tomllib.loads((CASES / "verify" / "overlap.toml").read_text())
+    raw["contact"]["tolerance"] = 1e-4
+    result = dda.simulate(dda.load_scene(raw), keep_frames=False)
+    scale = 0.5 * 2700.0 * (2e-5 / 1e-3) ** 2
+    excess, _, _ = energy_excess(result.history, result.summary["initial_energy"], False)
+    assert excess <= 1e-3 * scale
+    assert result.history["kinetic_energy"].max() <= 1e-4 * scale

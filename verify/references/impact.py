@@ -42,19 +42,18 @@ References of kind ``motion`` (:mod:`verify.references.motion`), computed from t
     One free block at rest, no gravity, no loads, drawn overlapping a fixed
     block by d (its deepest vertex inside it), deeper than the contact
     tolerance, in a dynamic run that starts unloaded: the first step finds the
-    contact already that deep, and the engine removes the overlap by moving the
-    block (dda.contact.push_out), not by giving it a velocity. When the step's
-    inertia 2M/Δt² is far stiffer than the block (its strain modes ω_s Δt ≪ 1)
-    and far softer than the penalty, the first step's D is the displacement of
-    least kinetic energy that moves the deepest vertex out by d along the normal
-    n of the nearest boundary, D = M⁻¹ gᵀ d / (g M⁻¹ gᵀ) with g = nᵀ T(vertex)
-    and M = ρ ∫ Tᵀ T dA (Shi's first-order displacement T about the centroid):
-    rows ``motion`` at t = 0 and at the end of the first step only (the strain
-    the push leaves then springs back against the base). Nothing acts on the
-    block: its energy stays at E0 + W = 0, up to the elastic energy of that
-    strain (∝ (ω_s Δt)²). The push counted in the velocity, 2 D / Δt, would give
-    it 2 d² / (Δt² g M⁻¹ gᵀ), of the order of ½ m (d / Δt)²: the scale of the
-    rows ``energy``.
+    contact already that deep, solves it from touch, and removes the overlap by
+    moving the block (dda.contact.push_out), not by giving it a velocity: the
+    first step's D is the displacement of least step energy ½ Dᵀ K₀ D that moves
+    the deepest vertex out by d along the normal n of the nearest boundary,
+    D = K₀⁻¹ gᵀ d / (g K₀⁻¹ gᵀ) with g = nᵀ T(vertex), K₀ = 2 M / Δt² + A E (on
+    the strains) and M = ρ ∫ Tᵀ T dA (Shi's first-order displacement T about the
+    centroid): rows ``motion`` at t = 0 and at the end of the first step only (the
+    strain the push leaves then springs back against the base). Nothing acts on
+    the block: its energy stays at E0 + W = 0, up to the elastic energy of that
+    strain. The push counted in the velocity, 2 D / Δt, would give it about
+    2 d² / (Δt² g M⁻¹ gᵀ), of the order of ½ m (d / Δt)²: the scale of the rows
+    ``energy``.
 """
 
 from __future__ import annotations
@@ -264,13 +263,16 @@ def mass_matrix(vertices: np.ndarray, density: float) -> np.ndarray:
 
 
 def least_push(scene: Scene, block: int, overlap: Overlap) -> np.ndarray:
-    """D (6,) of least kinetic energy that moves the deepest vertex out by d along the
-    normal: D = M⁻¹ gᵀ d / (g M⁻¹ gᵀ), g = nᵀ T(vertex)."""
+    """D (6,) of least step energy ½ Dᵀ K₀ D that moves the deepest vertex out by d along
+    the normal: D = K₀⁻¹ gᵀ d / (g K₀⁻¹ gᵀ), g = nᵀ T(vertex), K₀ = 2 M / Δt² plus the
+    block's elastic stiffness A E on its strains (Shi's step of Newmark β = ½)."""
     vertices = np.asarray(scene.blocks[block].vertices, dtype=float)
     density = scene.materials[scene.blocks[block].material].density
-    mass = mass_matrix(vertices, density)
+    stiffness = 2.0 * mass_matrix(vertices, density) / scene.analysis.time_step**2
+    area = float(shapely.Polygon(vertices).area)
+    stiffness[3:, 3:] += area * elasticity(scene, block)
     g = overlap.normal @ displacement_matrix(overlap.vertex, polygon_centroid(vertices))
-    weighted = np.linalg.solve(mass, g)
+    weighted = np.linalg.solve(stiffness, g)
     push = weighted * overlap.depth / float(g @ weighted)
     # the solve's round-off (a symmetric block's turn and shear) is no motion to scale by
     return np.where(np.abs(push) > 1e-12 * np.abs(push).max(), push, 0.0)
