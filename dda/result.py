@@ -66,6 +66,10 @@ class Frame:
     # (b,) the tension of each of those bolts (force, tension positive); None without
     # [[bolts]] (or read from bolts files written without it)
     bolt_tensions: np.ndarray | None = None
+    # (b,) the index of each of those bolts among the scene's (``summary["bolt_names"]``:
+    # the scene's bolts, then its stages'), the same bolt at every frame; None without
+    # [[bolts]] (or read from bolts files written without it)
+    bolt_ids: np.ndarray | None = None
     # (n,) the out-of-plane stress szz = ν (sxx + syy) of a plane-strain scene; None in
     # plane stress (szz = 0)
     out_of_plane: np.ndarray | None = None

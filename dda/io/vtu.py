@@ -154,8 +154,10 @@ def write_contacts_vtu(frame: Frame, path: str | os.PathLike[str]) -> Path:
 
 def bolts_mesh(frame: Frame) -> meshio.Mesh:
     """The rock bolts of ``frame`` (its ``bolts``, not None) as a meshio mesh: one
-    ``line`` cell a bolt, from its start to its end point, cell arrays ``bolt`` (its row)
-    and ``tension`` (its tension, the scene's force unit; NaN where the frame has none)."""
+    ``line`` cell a bolt, from its start to its end point, cell arrays ``bolt`` (its index
+    among the scene's bolts, ``Frame.bolt_ids``: the same bolt in every file of a run; its
+    row where the frame has no ids) and ``tension`` (its tension, the scene's force unit;
+    NaN where the frame has none)."""
     ends = np.asarray(frame.bolts, dtype=float).reshape(-1, 2, 2)
     count = len(ends)
     if count == 0:  # see the module docstring
@@ -166,7 +168,8 @@ def bolts_mesh(frame: Frame) -> meshio.Mesh:
     tension = np.full(count, np.nan)
     if frame.bolt_tensions is not None:
         tension = np.asarray(frame.bolt_tensions, dtype=float)
-    cell_data = {"bolt": [np.arange(count, dtype=np.int64)], "tension": [tension]}
+    ids = np.arange(count) if frame.bolt_ids is None else np.asarray(frame.bolt_ids)
+    cell_data = {"bolt": [ids.astype(np.int64)], "tension": [tension]}
     return meshio.Mesh(as_3d(ends.reshape(-1, 2)), [("line", lines)], cell_data=cell_data)
 
 
@@ -231,21 +234,24 @@ def read_frame(
 
 def _read_bolts(path: str | os.PathLike[str] | None) -> dict:
     """The frame's ``bolts``, (b, 2, 2) bolt ends from a file of :func:`write_bolts_vtu`
-    ((0, 2, 2): no bolt in place; None without a file), and ``bolt_tensions`` (None from
-    a file written without them)."""
+    ((0, 2, 2): no bolt in place; None without a file), ``bolt_tensions`` (None from
+    a file written without them) and ``bolt_ids`` (the cell array ``bolt``)."""
     if not path or not Path(path).is_file():
-        return {"bolts": None, "bolt_tensions": None}
+        return {"bolts": None, "bolt_tensions": None, "bolt_ids": None}
     mesh = _read_vtu(path)
     kept = [k for k, block in enumerate(mesh.cells) if block.type == "line"]
     if not kept:
         tensions = np.zeros(0) if "tension" in mesh.cell_data else None
-        return {"bolts": np.zeros((0, 2, 2)), "bolt_tensions": tensions}
+        none = np.zeros(0, np.int64)
+        return {"bolts": np.zeros((0, 2, 2)), "bolt_tensions": tensions, "bolt_ids": none}
     lines = np.concatenate([mesh.cells[k].data for k in kept])
-    order = np.argsort(np.concatenate([mesh.cell_data["bolt"][k] for k in kept]), kind="stable")
+    ids = np.concatenate([mesh.cell_data["bolt"][k] for k in kept]).astype(np.int64)
+    order = np.argsort(ids, kind="stable")
     tensions = None
     if "tension" in mesh.cell_data:
         tensions = np.concatenate([mesh.cell_data["tension"][k] for k in kept])[order]
-    return {"bolts": mesh.points[lines[order], :2].copy(), "bolt_tensions": tensions}
+    bolts = mesh.points[lines[order], :2].copy()
+    return {"bolts": bolts, "bolt_tensions": tensions, "bolt_ids": ids[order]}
 
 
 def _read_contacts(path: str | os.PathLike[str], ids: np.ndarray) -> Contacts:

@@ -39,10 +39,11 @@ def make_frame(
     bolts: np.ndarray | None = None,
     poisson: np.ndarray | None = None,
     bolt_tensions: np.ndarray | None = None,
+    bolt_ids: np.ndarray | None = None,
 ) -> Frame:
     """Copy the current state into an immutable Frame (``measured``: the
     ``[[measure]]`` rows since the previous frame; ``bolts``: the bolts' end points,
-    ``bolt_tensions`` their tensions;
+    ``bolt_tensions`` their tensions, ``bolt_ids`` their indices among the scene's bolts;
     ``poisson``: each block's Poisson's ratio in a plane-strain scene, whose frames carry
     szz = ν (sxx + syy), None in plane stress)."""
     out_of_plane = None
@@ -65,6 +66,7 @@ def make_frame(
         measured=measured,
         bolts=bolts,
         bolt_tensions=bolt_tensions,
+        bolt_ids=bolt_ids,
         out_of_plane=out_of_plane,
     )
 

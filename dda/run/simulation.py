@@ -560,9 +560,10 @@ def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> F
     placed = state.model.bolts
     bolts = None if placed is None else placed.segments()
     tensions = None if placed is None else placed.tension()[placed.active]
+    ids = None if placed is None else np.flatnonzero(placed.active)
     frame = make_frame(
         state.blocks, state.contacts, state.shown_time, state.step, measured, bolts,
-        _plane_strain_poisson(state.model.scene, state.blocks), tensions,
+        _plane_strain_poisson(state.model.scene, state.blocks), tensions, ids,
     )  # fmt: skip
     return shifted(frame, origin)
 
@@ -796,6 +797,7 @@ def _engineering_summary(state: _Run) -> dict:
     m, out = state.model, {}
     if m.bolts is not None:
         out["bolts"] = len(m.bolts)
+        out["bolt_names"] = list(m.bolts.names)  # the bolt ids of the frames and files
         out["bolt_events"] = list(m.bolts.events)
     if m.stages is not None:
         out["stages_done"] = state.stages_done

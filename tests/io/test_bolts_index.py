@@ -114,3 +114,27 @@ def test_the_bolts_files_carry_each_bolt_s_tension(tmp_path):
     again = read_frame(blocks, bolts_path=path)
     np.testing.assert_array_equal(again.bolt_tensions, final.bolt_tensions)
     np.testing.assert_array_equal(again.bolts, final.bolts)
+
+
+def test_a_bolt_keeps_its_id_in_every_file_when_another_breaks(tmp_path):
+    """cases/bolted_block.toml with a second, weak bolt drawn first: it breaks at once
+    (2447 N on a 100 N bolt), and the strong bolt is ``bolt`` 1 (summary["bolt_names"])
+    in every frame's file, before and after (it became 0 once it was alone: colouring by
+    ``bolt`` in ParaView mixed two bolts)."""
+    import tomllib
+
+    import dda.cases
+    from dda.io.vtu import read_frame, write_blocks_vtu, write_bolts_vtu
+
+    raw = tomllib.loads(dda.cases.folder().joinpath("bolted_block.toml").read_text())
+    weak = dict(raw["bolts"][0], name="weak", capacity=100.0)
+    raw["bolts"] = [weak, raw["bolts"][0]]
+    raw["analysis"]["save_every"] = 1
+    result = dda.simulate(dda.load_scene(raw))
+    assert result.summary["bolt_names"] == ["weak", "anchor"]
+    first, final = result.frames[0], result.final
+    assert first.bolt_ids.tolist() == [0, 1] and final.bolt_ids.tolist() == [1]
+    path = write_bolts_vtu(final, tmp_path / "bolts.vtu")
+    assert meshio.read(path).cell_data["bolt"][0].tolist() == [1]
+    again = read_frame(write_blocks_vtu(final, tmp_path / "blocks.vtu"), bolts_path=path)
+    assert again.bolt_ids.tolist() == [1]
