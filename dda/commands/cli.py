@@ -664,7 +664,11 @@ def _start_sentence(summary: dict[str, Any]) -> str:
             text += " Its interior-point solve did not settle: it went on by continuation."
         return text
     if start is not None and start.startswith("unloaded ("):
-        return " The equilibrium start did not settle: the run started unloaded."
+        newton, seconds = summary.get("start_newton_iterations"), summary.get("start_seconds")
+        spent = ""  # a summary.json written before the start's cost was kept says none
+        if newton and seconds is not None:
+            spent = f" after {counted(newton, 'Newton iteration')} and {seconds:.3g} s"
+        return f" The equilibrium start did not settle{spent}: the run started unloaded."
     return ""
 
 

@@ -53,7 +53,7 @@ follows ½ g (sin θ − cos θ tan φ) t² from t = 0 (to 3e-8 relative at 1 s)
 A pseudo-step of the continuation that does not settle within ``BUDGET_FACTOR`` ×
 ``[contact] max_iterations`` Newton iterations is tried again at a larger regulariser,
 halfway back (geometrically) to the last one that settled. If that fails ``RETRIES``
-times in a row,
+times in a row, or the continuation has spent ``CONTINUATION_BUDGETS`` such budgets,
 the run starts unloaded: a warning, and both
 ``summary["start"]`` and the closing line of ``dda run`` say so (no shipped case and
 no ``dda bench`` wall from 10 × 10 to 60 × 60 comes to that).
@@ -62,6 +62,7 @@ no ``dda bench`` wall from 10 × 10 to 60 × 60 comes to that).
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -97,6 +98,11 @@ LAST_REGULARISER = RELATIVE_REGULARISER * (1.0 + 1e-9)
 # Newton iterations each pseudo-step may take, as a multiple of the scene's
 # [contact] max_iterations (a pseudo-step moves the blocks much further than a step)
 BUDGET_FACTOR = 5
+# the continuation's Newton iterations in all, as a multiple of a pseudo-step's budget:
+# beyond them it gives up (a 5,000-block slope whose interior point had stalled spent
+# 5,463 Newton iterations, 14 minutes, in pseudo-steps tried again before it did; the
+# continuation alone settles the 60 × 60 wall of dda bench in 462)
+CONTINUATION_BUDGETS = 2
 # a pseudo-step that does not settle within its budget is tried again at a larger
 # regulariser (``_backed_off``), up to this many times in a row
 RETRIES = 3
@@ -146,6 +152,14 @@ class Proximal(Effect):
 
 
 @dataclass(frozen=True)
+class Unsettled:
+    """What a start that did not settle spent (the run then starts unloaded)."""
+
+    newton_iterations: int
+    method: str  # the last solve tried: INTERIOR_POINT or CONTINUATION (or FEW_NEWTON)
+
+
+@dataclass(frozen=True)
 class Settled:
     """What the equilibrium start gives the run."""
 
@@ -156,10 +170,16 @@ class Settled:
 
 
 def settle(
-    model: Model, blocks: BlockSet, contacts: ContactSet, timer: StageTimer
-) -> Settled | None:
-    """The loaded start of ``blocks`` and ``contacts`` (found at t = 0), or None when
-    the limit solve does not settle (the run then starts unloaded). The effects'
+    model: Model,
+    blocks: BlockSet,
+    contacts: ContactSet,
+    timer: StageTimer,
+    report: Callable[[int], None] | None = None,
+) -> Settled | Unsettled:
+    """The loaded start of ``blocks`` and ``contacts`` (found at t = 0), or what was spent
+    (:class:`Unsettled`) when the limit solve does not settle (the run then starts
+    unloaded). ``report``: told the Newton iterations spent so far after each solve (a
+    long start's progress). The effects'
     springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``).
 
     The limit solve (module docstring): the continuation within
@@ -170,16 +190,16 @@ def settle(
     reports count the interior-point solves' factorisations too."""
     touching = np.flatnonzero(contacts.state != OPEN)
     start = contacts.subset(touching)
-    limit = _Limit.of(model, blocks)
+    limit = _Limit.of(model, blocks, report=report)
     stiffness = _young(model)[blocks.material] / limit.masses[:, 0, 0]  # E_i / m_i
     found, newton, method = None, 0, FEW_NEWTON
     if not len(start):  # no contact: nothing for an interior point, Newton pseudo-steps
         found, newton = _by_continuation(limit, blocks, start, stiffness, timer)
         if found is None:
             log.warning("the equilibrium start did not settle: the run starts unloaded")
-            return None
+            return Unsettled(newton, method)
     if found is None and INTERIOR_REGULARISERS and FEW_NEWTON_ITERATIONS and _may_stand(start):
-        quick = _Limit.of(model, blocks, budget=FEW_NEWTON_ITERATIONS)
+        quick = _Limit.of(model, blocks, budget=FEW_NEWTON_ITERATIONS, report=report)
         found, newton = _by_continuation(quick, blocks, start, stiffness, timer, at_most=True)
     if found is None and INTERIOR_REGULARISERS:
         method = INTERIOR_POINT
@@ -195,7 +215,7 @@ def settle(
         newton, method = newton + more, CONTINUATION
         if found is None:
             log.warning("the equilibrium start did not settle: the run starts unloaded")
-            return None
+            return Unsettled(newton, method)
     d, current = found
     for effect in model.effects:
         effect.preload(blocks, d)
@@ -232,6 +252,7 @@ def _by_interior_point(limit, blocks, start, stiffness, timer):
                 blocks, contacts, fraction * stiffness, d, last
             )
         newton += iterations
+        limit.count(iterations)
         if recorded is None:
             return None, newton
         d = d + np.where(~blocks.fixed[:, None], step, 0.0)
@@ -256,9 +277,10 @@ def _by_continuation(limit, blocks, start, stiffness, timer, reached=None, at_mo
         scale = fraction * stiffness
         solution = limit.solve(blocks, _restarted(start, current), scale, d, timer)
         newton += solution.newton_iterations
+        limit.count(solution.newton_iterations)
         if not solution.converged or not np.all(np.isfinite(solution.d)):
             failed += 1
-            if failed > RETRIES or at_most:
+            if failed > RETRIES or at_most or newton >= CONTINUATION_BUDGETS * limit.budget:
                 return None, newton
             fraction = _backed_off(fraction, settled)
             continue
@@ -267,7 +289,7 @@ def _by_continuation(limit, blocks, start, stiffness, timer, reached=None, at_mo
         d, current = d + step, solution.contacts
         if limit.stands(scale, step) or fraction <= LAST_REGULARISER:
             return (d, current), newton
-        if at_most and newton >= limit.budget:
+        if newton >= (1 if at_most else CONTINUATION_BUDGETS) * limit.budget:
             return None, newton
         settled, fraction = fraction, max(fraction * REGULARISER_STEP, RELATIVE_REGULARISER)
 
@@ -285,11 +307,20 @@ class _Limit:
     loads: float  # ‖F₀‖ over the free blocks: the effects' forces at the start
     budget: int  # Newton iterations of each solve
     matrix: NewtonMatrix | None = None  # the interior-point solves' (one contact set)
+    report: Callable[[int], None] | None = None  # told the iterations spent so far
+    spent: int = 0
 
     @classmethod
-    def of(cls, model: Model, blocks: BlockSet, budget: int | None = None) -> _Limit:
+    def of(
+        cls,
+        model: Model,
+        blocks: BlockSet,
+        budget: int | None = None,
+        report: Callable[[int], None] | None = None,
+    ) -> _Limit:
         """The limit solves of ``model``, each with ``budget`` Newton iterations (None:
-        ``BUDGET_FACTOR`` times the scene's ``max_iterations``)."""
+        ``BUDGET_FACTOR`` times the scene's ``max_iterations``), ``report`` told the
+        iterations spent so far after each."""
         contact = model.contact
         if contact is not None:
             contact = replace(contact, law=replace(contact.law, augmented=False))
@@ -307,7 +338,13 @@ class _Limit:
                 forces += f
         loads = float(np.linalg.norm(forces[~blocks.fixed]))
         masses = model.inertia.masses(blocks)
-        return cls(static, kept, linear, masses, loads, budget)
+        return cls(static, kept, linear, masses, loads, budget, report=report)
+
+    def count(self, iterations: int) -> None:
+        """Add ``iterations`` to those spent, and report the sum."""
+        self.spent += iterations
+        if self.report is not None:
+            self.report(self.spent)
 
     def solve(self, blocks, contacts, scale, d, timer):
         """The step ΔD from the accumulated ``d`` held by the regulariser ``scale`` r_i."""

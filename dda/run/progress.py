@@ -92,12 +92,17 @@ class ProgressBar:
         value
             Current progress, in the units of ``total``.
         **info
-            Shown as ``name=value`` (floats with 4 significant digits).
+            Shown as ``name=value`` (floats with 4 significant digits); a value of None
+            removes the field.
         """
         if self._closed:
             return
         self.value = float(value)
-        self.info.update(info)
+        for name, shown in info.items():
+            if shown is None:
+                self.info.pop(name, None)
+            else:
+                self.info[name] = shown
         if self._tty:
             now = time.perf_counter()
             if now - self._last_draw >= TTY_INTERVAL or self.fraction >= 1.0:

@@ -319,3 +319,15 @@ def in_situ_warning(
         "the field is not in equilibrium with the model's boundary (give its free outer "
         "blocks [[boundary_stresses]], or fix their neighbours)"
     )
+
+
+def unsettled_start_warning(newton_iterations: int, seconds: float) -> str:
+    """The sentence of a run whose equilibrium start did not settle
+    (:mod:`dda.run.equilibrium_start`): it started unloaded, as Shi's start does."""
+    return (
+        f"the equilibrium start did not settle ({newton_iterations} Newton iterations, "
+        f"{seconds:.3g} s): the run started unloaded, its blocks dropping onto unloaded "
+        "contact springs and ringing about their static state; blocks that should stand "
+        "may creep or slip where friction is nearly used up (analysis.start = "
+        '"unloaded" starts so at once)'
+    )

@@ -28,7 +28,7 @@ from dda.result import OPEN, FractureEvent, Frame, Result
 from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
 from dda.run.energy import TERMS, EnergyAccount
 from dda.run.environment import environment
-from dda.run.equilibrium_start import settle
+from dda.run.equilibrium_start import Unsettled, settle
 from dda.run.floating import note_unbalanced
 from dda.run.frames import make_frame, shifted
 from dda.run.measure import Probes
@@ -42,6 +42,7 @@ from dda.run.run_warnings import (
     penetration_warning,
     restitution_warning,
     static_motion_warning,
+    unsettled_start_warning,
 )
 from dda.run.stages import apply_due_stages, set_strengths
 from dda.scene import Scene
@@ -199,17 +200,26 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
     return solution, 1.0, ""
 
 
-def _equilibrium_start(run: _Run) -> None:
+def _equilibrium_start(run: _Run, report=None) -> None:
     """Load the contacts that touch at t = 0, the blocks and the effects' springs
-    (dda.run.equilibrium_start); a start that does not settle leaves the run unloaded."""
+    (dda.run.equilibrium_start); a start that does not settle leaves the run unloaded.
+    ``report``: the run's progress reporter, shown the start's Newton iterations."""
     m = run.model
     started, compiled = wallclock.perf_counter(), compile_seconds()
     _touching_at_start(run)
+
+    def spent(newton: int) -> None:
+        if report is not None:
+            report(0.0, {"equilibrium_start": f"{newton} Newton iterations"})
+
     with run.timer("start"):  # its own stages apart: the steps' stay the steps'
-        settled = settle(m, run.blocks, run.contacts, StageTimer())
+        settled = settle(m, run.blocks, run.contacts, StageTimer(), spent)
+    if report is not None:
+        report(0.0, {"equilibrium_start": None})
     run.start_seconds = wallclock.perf_counter() - started
     run.start_compile_seconds = compile_seconds() - compiled
-    if settled is None:  # the run starts as an unloaded start would
+    run.start_newton_iterations, run.start_method = settled.newton_iterations, settled.method
+    if isinstance(settled, Unsettled):  # the run starts as an unloaded start would
         if m.scene.in_situ is None:
             run.contacts = ContactSet.empty()  # step 1 finds them afresh
         # else the contacts found at t = 0 carry the in-situ field (_touching_at_start)
@@ -222,8 +232,6 @@ def _equilibrium_start(run: _Run) -> None:
     run.energy.initial = run.energy.measure(run.blocks, run.contacts)
     run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
     run.start = "equilibrium"
-    run.start_newton_iterations = settled.newton_iterations
-    run.start_method = settled.method
     log.info(
         "equilibrium start (%s): %d contact(s) loaded, %d Newton iteration(s), %.2f s",
         settled.method,
@@ -492,6 +500,7 @@ def run(
     model = build(local)
     state = _Run(model, policy)
     state.origin = tuple(float(c) for c in origin)
+    report = _progress_reporter(progress, model, state)
     if resume is not None:
         check_scene(resume, scene)  # it compares the scene as the run holds it
         restore(state, resume)
@@ -500,7 +509,7 @@ def run(
         start -= resume.wall_seconds
     elif not model.static and scene.analysis.start == "equilibrium":
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
-            _equilibrium_start(state)
+            _equilibrium_start(state, report)
     elif scene.in_situ is not None:  # an unloaded or static start: the contacts carry it
         _touching_at_start(state)
         if model.static:
@@ -515,7 +524,6 @@ def run(
     if checkpoints is not None and checkpoints.at_start and resume is None:
         with state.timer("checkpoint"):
             checkpoints.write(state, wallclock.perf_counter() - start)
-    report = _progress_reporter(progress, model)
     status = "finished"
     try:
         # PARDISO's threads get the cores; numba's kernels only where they pay (dda.jit)
@@ -620,15 +628,18 @@ def _fraction(state: _Run) -> float:
     return min(state.time / m.duration, 1.0)
 
 
-def _progress_reporter(progress, model: Model):
+def _progress_reporter(progress, model: Model, state: _Run):
     if callable(progress):
         return progress
     if not progress:
         return None
     from dda.run.progress import ProgressBar
 
-    # the ETA leaves out the kernels' compiling (once per installation, at the first steps)
-    bar = ProgressBar(1.0, label=model.scene.title or "dda", aside=compile_seconds)
+    def aside() -> float:  # the kernels' compiling (once per installation) and the start
+        return compile_seconds() + state.start_seconds - state.start_compile_seconds
+
+    # the ETA leaves out what will not come again: the compiling and the start
+    bar = ProgressBar(1.0, label=model.scene.title or "dda", aside=aside)
 
     class _Bar:
         def __call__(self, fraction: float, info: dict) -> None:
@@ -691,6 +702,9 @@ def _warnings(state: _Run) -> list[str]:
         in_situ_slip_warning(*state.in_situ_slip, length),
         *state.unbalanced,
         *state.misplaced_bolts,
+        unsettled_start_warning(state.start_newton_iterations, state.start_seconds)
+        if state.start == UNSETTLED_START
+        else None,
         None if m.static else _energy_warning(state),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),

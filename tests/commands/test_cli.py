@@ -308,6 +308,12 @@ def test_the_run_paragraph_tells_how_the_run_started():
     assert "interior-point solve did not settle: it went on by continuation" in text
     fallen_back = cli.summary_paragraph({**base, "start": UNSETTLED_START}, Path("out"))
     assert "The equilibrium start did not settle: the run started unloaded." in fallen_back
+    spent = {**base, "start": UNSETTLED_START, "start_newton_iterations": 5463,
+             "start_seconds": 824.2}  # fmt: skip
+    assert (
+        "The equilibrium start did not settle after 5463 Newton iterations and 824 s: the "
+        "run started unloaded." in cli.summary_paragraph(spent, Path("out"))
+    )
     assert "start" not in cli.summary_paragraph({**base, "start": "unloaded"}, Path("out"))
 
 

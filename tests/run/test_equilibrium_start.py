@@ -100,6 +100,14 @@ def test_a_start_that_never_settles_starts_unloaded_and_says_so(monkeypatch):
     from dda.run.simulation import UNSETTLED_START
 
     _failing(monkeypatch, set(range(equilibrium_start.RETRIES + 1)))
-    result = dda.simulate(incline_scene(0.5, 1e-3, 1e-3))
+    seen = []
+    result = dda.simulate(incline_scene(0.5, 1e-3, 1e-3), progress=lambda f, i: seen.append(i))
     assert result.summary["status"] == "finished"
     assert result.summary["start"] == UNSETTLED_START
+    # what it spent, among the warnings (not only in the log), and shown as it goes
+    spent = result.summary["start_newton_iterations"]
+    assert spent > 0 and result.summary["start_method"] is not None
+    said = [w for w in result.summary["warnings"] if "equilibrium start did not settle" in w]
+    assert len(said) == 1 and f"({spent} Newton iterations" in said[0]
+    shown = [i["equilibrium_start"] for i in seen if "equilibrium_start" in i]
+    assert shown[-2] == f"{spent} Newton iterations" and shown[-1] is None

@@ -388,8 +388,9 @@ def test_a_start_that_does_not_settle_keeps_the_field_as_the_unloaded_start_does
     at t = 0 still carry the in-situ field, as those of ``start = "unloaded"`` do: the
     held assembly keeps σ to 1e-6 (it relaxed by 7 % into unloaded contact springs)."""
     import dda.run.simulation as simulation
+    from dda.run.equilibrium_start import INTERIOR_POINT, Unsettled
 
-    monkeypatch.setattr(simulation, "settle", lambda *args: None)
+    monkeypatch.setattr(simulation, "settle", lambda *args: Unsettled(0, INTERIOR_POINT))
     sections = {"in_situ": {"stress": list(FIELD)}}
     result = dda.simulate(dda.load_scene(scene(uniform("ring"), **sections)))
     assert result.summary["start"] == simulation.UNSETTLED_START
