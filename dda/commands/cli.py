@@ -347,18 +347,22 @@ def run_command(args: argparse.Namespace) -> int:
     except OutputError as exc:
         print(f"dda run: -o {exc}", file=sys.stderr)
         return EXIT_INPUT
-    try:
-        scene = _run_scene(args)
-    except dda.SceneError as exc:
-        print(f"dda run: {exc}", file=sys.stderr)
-        return EXIT_INPUT
     mode = "resume" if args.resume else "overwrite" if args.overwrite else "new"
-    try:
+    try:  # an occupied folder is refused before the scene is read or cut
         folder = RunFolder(outdir, mode)
     except OutputError as exc:
         print(f"dda run: -o {exc}", file=sys.stderr)
         return EXIT_INPUT
     with folder:
+        try:
+            scene = _run_scene(args)
+        except dda.SceneError as exc:
+            folder.abandon()
+            print(f"dda run: {exc}", file=sys.stderr)
+            return EXIT_INPUT
+        except BaseException:
+            folder.abandon()
+            raise
         try:
             return _run_in(folder, scene, args)
         except CheckpointError as exc:

@@ -250,7 +250,10 @@ def test_a_finished_run_is_kept_unless_overwritten(tmp_path, monkeypatch, capsys
     assert first["status"] == "finished" and not Path("out/checkpoint.npz").exists()
     lock = json.loads(Path("out/run.lock").read_text())
     assert lock["run_id"] == first["run_id"] and lock["pid"] == os.getpid()
-    assert cli.main(["run", str(scene), "-o", "out", "-q"]) == 2
+    read = cli._run_scene
+    monkeypatch.setattr(cli, "_run_scene", lambda args: pytest.fail("the scene was read"))
+    assert cli.main(["run", str(scene), "-o", "out", "-q"]) == 2  # refused before the cut
+    monkeypatch.setattr(cli, "_run_scene", read)
     err = capsys.readouterr().err.strip()
     assert (
         err == f"dda run: -o out: holds run {first['run_id']} (finished); --overwrite replaces it"
