@@ -40,7 +40,11 @@ FIXED_COLOUR = "#a9a9a9"
 CONTACT_COLOUR = "magenta"
 BOLT_COLOUR = "darkorange"
 WATER_COLOUR = "tab:blue"
-_CONTACT_LENGTH = 0.06  # longest contact segment, as a fraction of the model size
+_CONTACT_LENGTH = 0.06  # longest contact segment, as a fraction of the model size ...
+_CONTACT_BLOCKS = 2.0  # ... and at most this many times the blocks' median size
+# lines are drawn at full width up to this many blocks, thinner as √(this / blocks) above
+# (10,000 blocks at 0.8 pt outlines and 2 pt contact marks drew a black smear)
+_FULL_WIDTH_BLOCKS = 400
 _DPI = 100
 ROUND_OFF_STRESS = 1e-6  # stresses all below this (scene units) are drawn as zero
 
@@ -282,19 +286,23 @@ def _draw_frame(
     from matplotlib.collections import LineCollection, PolyCollection
 
     polygons = [np.asarray(v, dtype=float) for v in frame.vertices]
+    thin = line_scale(len(polygons))
     coloured = PolyCollection(
         [p for p, v in zip(polygons, values, strict=True) if np.isfinite(v)],
         array=values[np.isfinite(values)], cmap=_colour_map(scale), clim=scale.clim,
-        edgecolors="black", linewidths=0.8,
+        edgecolors="black", linewidths=0.8 * thin,
     )  # fmt: skip
     ax.add_collection(coloured)
     fixed = [p for p, v in zip(polygons, values, strict=True) if not np.isfinite(v)]
     if fixed:
-        grey = PolyCollection(fixed, facecolors=FIXED_COLOUR, edgecolors="black", linewidths=0.8)
+        grey = PolyCollection(
+            fixed, facecolors=FIXED_COLOUR, edgecolors="black", linewidths=0.8 * thin
+        )
         ax.add_collection(grey)
-    segments = contact_segments(frame, _CONTACT_LENGTH * _model_size(frame), force_max)
+    segments = contact_segments(frame, longest_contact_mark(frame), force_max)
     if show_contacts and segments is not None:
-        ax.add_collection(LineCollection(segments, colors=CONTACT_COLOUR, linewidths=2.0))
+        widths = 2.0 * thin
+        ax.add_collection(LineCollection(segments, colors=CONTACT_COLOUR, linewidths=widths))
     if frame.bolts is not None and len(frame.bolts):
         ax.add_collection(LineCollection(frame.bolts, colors=BOLT_COLOUR, linewidths=2.5))
         ends = frame.bolts.reshape(-1, 2)
@@ -392,6 +400,21 @@ def _legend(
         handles.append(Line2D([], [], color=WATER_COLOUR, lw=1.5, ls="--", label="phreatic line"))
     if handles:
         figure.legend(handles=handles, loc="outside lower center", ncols=3, fontsize=9)
+
+
+def line_scale(blocks: int) -> float:
+    """The width of the outlines and contact marks, as a fraction of their width in a
+    model of up to ``_FULL_WIDTH_BLOCKS`` blocks: √(_FULL_WIDTH_BLOCKS / blocks) above."""
+    return float(min(1.0, np.sqrt(_FULL_WIDTH_BLOCKS / max(blocks, 1))))
+
+
+def longest_contact_mark(frame: Frame) -> float:
+    """The length of the largest force's mark: ``_CONTACT_LENGTH`` of the model's size, at
+    most ``_CONTACT_BLOCKS`` times the blocks' median size (√ of the median area), so
+    that the marks of a model of thousands of blocks stay among their blocks."""
+    areas = np.asarray(frame.areas, dtype=float)
+    block = float(np.sqrt(np.median(areas))) if len(areas) else np.inf
+    return min(_CONTACT_LENGTH * _model_size(frame), _CONTACT_BLOCKS * block)
 
 
 def _model_size(frame: Frame) -> float:

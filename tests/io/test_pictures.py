@@ -222,3 +222,20 @@ def test_the_water_table_is_drawn_where_the_ground_has_carried_it():
 
     assert np.allclose(line(["block0"]), np.array(table) + [0.19, 0.05])
     assert np.allclose(line(()), table)
+
+
+def test_lines_thin_and_contact_marks_stay_among_the_blocks_of_a_large_model():
+    """Up to 400 blocks the outlines and contact marks keep their widths; 10,000 blocks
+    draw them at a fifth (a smear of black outlines and magenta marks before). The
+    largest force's mark is 6 % of the model's size, at most two median blocks across:
+    a 100 × 100 grid of 1 m blocks draws it 2 m long, not 6 m."""
+    from dda.io.images import line_scale, longest_contact_mark
+
+    assert line_scale(1) == line_scale(400) == 1.0
+    assert line_scale(10_000) == pytest.approx(0.2)
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    grid = [square + [i, j] for i in range(100) for j in range(100)]
+    frame = dataclasses.replace(make_frame(), vertices=grid, areas=np.ones(len(grid)))
+    assert longest_contact_mark(frame) == pytest.approx(2.0)
+    few = dataclasses.replace(frame, vertices=grid[:2], areas=np.ones(2))
+    assert longest_contact_mark(few) == pytest.approx(0.06 * 2.0)
