@@ -504,17 +504,29 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
         except OSError as exc:  # a full disk, a file system gone read-only, ...
             return _write_failed(exc, writer, scene, folder, args)
     if summary["status"] == "interrupted":
-        print(
-            f"dda run: stopped at step {summary.get('steps')} ({stop.name}); continue with: "
-            f"{_resume_command(args, folder)}",
-            file=sys.stderr,
-        )
+        print(_stopped_sentence(summary, stop.name, args, folder), file=sys.stderr)
         return stop.exit_code
     if not args.quiet:
         print(summary_paragraph(summary, folder.outdir))
     for text in summary.get("warnings") or ():  # quiet or not: the user should know
         print(f"dda run: warning: {text}", file=sys.stderr)
     return EXIT_OK
+
+
+def _stopped_sentence(summary: dict, signal_name: str, args: argparse.Namespace, folder) -> str:
+    """What a run stopped by a signal says: the step and the command that continues it, or,
+    stopped in its equilibrium start, that there is nothing to continue."""
+    from dda.run.simulation import INTERRUPTED_START
+
+    if summary.get("start") == INTERRUPTED_START:
+        return (
+            f"dda run: stopped during the equilibrium start, before step 1 ({signal_name}), "
+            f"no checkpoint; run again with: dda run {args.case} -o {folder.outdir} --overwrite"
+        )
+    return (
+        f"dda run: stopped at step {summary.get('steps')} ({signal_name}); continue with: "
+        f"{_resume_command(args, folder)}"
+    )
 
 
 def _stopped_at_once(writer, scene, folder, args: argparse.Namespace, stop, result) -> int:

@@ -151,6 +151,10 @@ class Proximal(Effect):
         return self.offset
 
 
+class StartInterrupted(Exception):
+    """The run was asked to stop (a signal) while its equilibrium start ran."""
+
+
 @dataclass(frozen=True)
 class Unsettled:
     """What a start that did not settle spent (the run then starts unloaded)."""

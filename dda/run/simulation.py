@@ -28,7 +28,7 @@ from dda.result import OPEN, FractureEvent, Frame, Result
 from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
 from dda.run.energy import TERMS, EnergyAccount
 from dda.run.environment import environment
-from dda.run.equilibrium_start import Unsettled, settle
+from dda.run.equilibrium_start import StartInterrupted, Unsettled, settle
 from dda.run.floating import note_unbalanced
 from dda.run.frames import make_frame, shifted
 from dda.run.measure import Probes
@@ -62,6 +62,8 @@ MIN_STEP_FRACTION = 1e-9  # smallest step, as a fraction of the maximum time ste
 BEYOND_REACH = "beyond the search reach"  # a step to redo after a full search, not to cut
 # summary["start"] of a run whose equilibrium start did not settle
 UNSETTLED_START = "unloaded (the equilibrium start did not settle)"
+# ... and of one stopped by a signal while its equilibrium start ran (no step taken)
+INTERRUPTED_START = "interrupted (the equilibrium start was stopped before it ended)"
 # energy columns of Result.history (dda.run.energy): stored terms, their total, work of the
 # loads, and the energy of the blocks the stages removed so far (E ≤ E₀ + W − that)
 HISTORY_ENERGY = (
@@ -200,10 +202,12 @@ def _attempt(run: _Run, start: ContactSet, dt: float) -> tuple[StepSolution | No
     return solution, 1.0, ""
 
 
-def _equilibrium_start(run: _Run, report=None) -> None:
+def _equilibrium_start(run: _Run, report=None, stop=None) -> None:
     """Load the contacts that touch at t = 0, the blocks and the effects' springs
     (dda.run.equilibrium_start); a start that does not settle leaves the run unloaded.
-    ``report``: the run's progress reporter, shown the start's Newton iterations."""
+    ``report``: the run's progress reporter, shown the start's Newton iterations;
+    ``stop``: asked after each of the start's solves, True raises
+    :class:`StartInterrupted`."""
     m = run.model
     started, compiled = wallclock.perf_counter(), compile_seconds()
     _touching_at_start(run)
@@ -211,6 +215,10 @@ def _equilibrium_start(run: _Run, report=None) -> None:
     def spent(newton: int) -> None:
         if report is not None:
             report(0.0, {"equilibrium_start": f"{newton} Newton iterations"})
+        if stop is not None and stop():
+            run.start_seconds = wallclock.perf_counter() - started
+            run.start_newton_iterations, run.start = newton, INTERRUPTED_START
+            raise StartInterrupted
 
     with run.timer("start"):  # its own stages apart: the steps' stay the steps'
         settled = settle(m, run.blocks, run.contacts, StageTimer(), spent)
@@ -509,7 +517,10 @@ def run(
         start -= resume.wall_seconds
     elif not model.static and scene.analysis.start == "equilibrium":
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
-            _equilibrium_start(state, report)
+            try:
+                _equilibrium_start(state, report, stop)
+            except StartInterrupted:  # no step taken: no checkpoint, nothing to resume
+                log.info("stopped during the equilibrium start")
     elif scene.in_situ is not None:  # an unloaded or static start: the contacts carry it
         _touching_at_start(state)
         if model.static:
@@ -521,14 +532,15 @@ def run(
         frames = [_frame(state, first, origin)]  # in a small run, as the steps compute them
     if on_frame and resume is None:
         on_frame(frames[0])
-    if checkpoints is not None and checkpoints.at_start and resume is None:
+    stopped = state.start == INTERRUPTED_START
+    if checkpoints is not None and checkpoints.at_start and resume is None and not stopped:
         with state.timer("checkpoint"):
             checkpoints.write(state, wallclock.perf_counter() - start)
-    status = "finished"
+    status = "interrupted" if stopped else "finished"
     try:
         # PARDISO's threads get the cores; numba's kernels only where they pay (dda.jit)
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
-            while not state.finished():
+            while not stopped and not state.finished():
                 if stop is not None and stop():
                     status = "interrupted"
                     break
@@ -547,7 +559,7 @@ def run(
                         checkpoints.write(state, wallclock.perf_counter() - start)
                 if report:
                     report(_fraction(state), {"step": state.step, "time": state.shown_time})
-            if status == "interrupted" and checkpoints is not None:
+            if status == "interrupted" and checkpoints is not None and not stopped:
                 checkpoints.write(state, wallclock.perf_counter() - start)
     except SimulationError as exc:
         status = "failed"

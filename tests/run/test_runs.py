@@ -302,6 +302,32 @@ def test_sigterm_stops_after_the_step_and_resume_finishes_the_same_run(
     assert not Path("out/checkpoint.npz").exists()
 
 
+def test_sigterm_during_the_equilibrium_start_stops_it(tmp_path, monkeypatch, capsys):
+    """SIGTERM while the equilibrium start runs stops it after the solve under way (it
+    went on for minutes on a large model): status "interrupted" before step 1, no
+    checkpoint (a resumed run would skip the start), and the command to run again."""
+    from dda.run import equilibrium_start
+    from dda.run.simulation import INTERRUPTED_START
+
+    monkeypatch.chdir(tmp_path)
+    scene = slope_file(tmp_path, 20)
+    solve = equilibrium_start._Limit.count
+
+    def count_and_signal(limit, iterations):
+        os.kill(os.getpid(), signal.SIGTERM)
+        solve(limit, iterations)
+
+    monkeypatch.setattr(equilibrium_start._Limit, "count", count_and_signal)
+    assert cli.main(["run", str(scene), "-o", "out", "-q"]) == 143
+    err = capsys.readouterr().err
+    assert "stopped during the equilibrium start, before step 1 (SIGTERM)" in err
+    assert "--overwrite" in err and "--resume" not in err
+    summary = json.loads(Path("out/summary.json").read_text())
+    assert summary["status"] == "interrupted" and summary["steps"] == 0
+    assert summary["start"] == INTERRUPTED_START and summary["start_newton_iterations"] > 0
+    assert not Path("out/checkpoint.npz").exists()
+
+
 def test_sigkill_leaves_a_readable_prefix_and_the_run_resumes(tmp_path, monkeypatch, superlu):
     """Killed (SIGKILL: nothing runs) mid-run: summary.json (status "running"), history.csv
     (whole frames) and the PVD indexes are readable, a new run is refused, --resume
