@@ -45,6 +45,7 @@ from dda.run.run_warnings import (
     unsettled_start_warning,
 )
 from dda.run.stages import apply_due_stages, set_strengths
+from dda.run.stop import StopOnSignal
 from dda.scene import Scene
 from dda.scene.limits import check_run_size
 from dda.scene.local_frame import local_origin, translated
@@ -488,7 +489,10 @@ def run(
     keep_frames : False: the Result keeps only the first and the latest frame
         (``on_frame`` still sees every one), so memory does not grow with the run
     stop : asked before every step; True ends the run there with status
-        "interrupted" (after a last checkpoint when ``checkpoints`` is given)
+        "interrupted" (after a last checkpoint when ``checkpoints`` is given). A
+        :class:`dda.run.stop.StopOnSignal` (``dda run``'s) is asked after each of the
+        equilibrium start's solves too: a signal there ends the run before step 1,
+        without a checkpoint
     checkpoints : where and when to write checkpoints (:mod:`dda.run.checkpoint`)
     resume : a checkpoint of this scene to continue from; the Result's first
         frame is then the checkpoint's state, which ``on_frame`` does not see
@@ -517,8 +521,8 @@ def run(
         start -= resume.wall_seconds
     elif not model.static and scene.analysis.start == "equilibrium":
         with single_threaded_blas(), run_work(len(scene.blocks), _expected_steps(model)):
-            try:
-                _equilibrium_start(state, report, stop)
+            try:  # a signal stops the start too; a callable of the caller's is asked per step
+                _equilibrium_start(state, report, stop if isinstance(stop, StopOnSignal) else None)
             except StartInterrupted:  # no step taken: no checkpoint, nothing to resume
                 log.info("stopped during the equilibrium start")
     elif scene.in_situ is not None:  # an unloaded or static start: the contacts carry it
