@@ -98,36 +98,20 @@ def _repeats(text: str) -> int:
 
 def tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study; return the exit code (0 ok, 2 bad input, 3 the reference run failed)."""
-    from dda.tradeoff.cases import fine_setting, get_case
-    from dda.tradeoff.grid import Setting, expand, parse_grid
     from dda.tradeoff.report import markdown_table, pareto_plot, plan_line, write_csv
-    from dda.tradeoff.runner import Cluster, SweepInterrupted, Task, add_errors, make_tasks, sweep
+    from dda.tradeoff.runner import Cluster, SweepInterrupted, add_errors, sweep
 
     args.outdir = args.outdir or default_outdir("tradeoff", args.case)
-    try:
-        check_output_dir(args.outdir)
-        case = get_case(args.case)
-        grid = parse_grid(args.grid, case.grid)
-    except OutputError as exc:
-        print(f"dda tradeoff: -o {exc}", file=sys.stderr)
+    prepared = _prepare(args)
+    if isinstance(prepared, str):
+        print(f"dda tradeoff: {prepared}", file=sys.stderr)
         return 2
-    except ValueError as exc:
-        print(f"dda tradeoff: {exc}", file=sys.stderr)
-        return 2
-    if not (args.serial or _has_dask()):
-        print(dask_missing("tradeoff"), file=sys.stderr)
-        return 2
-    settings: list[Setting] = expand(grid)
-    tasks = make_tasks(case, settings, args.threads, args.repeats)
-    reference = None
-    if case.reference is None:
-        fine = fine_setting(grid)
-        reference = Task(case.name, case.scene(fine), case.measure, fine, args.threads, 1)
+    case, grid, tasks, reference = prepared
     cluster = Cluster(
         args.scheduler, args.scheduler_file, args.workers, getattr(args, "verbose", 0) > 0
     )
     print(
-        f"{case.name}: {plan_line(len(settings), args.repeats)}"
+        f"{case.name}: {plan_line(len(tasks), args.repeats)}"
         + (", and 1 fine reference run" if reference else ""),
         file=sys.stderr,
     )
@@ -149,6 +133,36 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     print(markdown_table(rows, case.quantity))
     print(f"wrote {outdir}/{case.name}.csv, .md and pareto_{case.name}.png", file=sys.stderr)
     return 0
+
+
+def _prepare(args: argparse.Namespace):
+    """(case, grid, tasks, the fine reference task or None), every setting's scene checked
+    as its run will check it; or the one-line reason the study is refused (nothing run or
+    written then)."""
+    from dda.tradeoff.cases import fine_setting, get_case
+    from dda.tradeoff.checks import check_settings
+    from dda.tradeoff.grid import expand, parse_grid
+    from dda.tradeoff.runner import Task, make_tasks
+
+    try:
+        check_output_dir(args.outdir)
+    except OutputError as exc:
+        return f"-o {exc}"
+    try:
+        case = get_case(args.case)
+        grid = parse_grid(args.grid, case.grid)
+        settings = expand(grid)
+        fine = fine_setting(grid) if case.reference is None else None
+        check_settings(case, settings, fine)
+    except ValueError as exc:  # a SceneError of a scene file, a GridError
+        return str(exc)
+    if not (args.serial or _has_dask()):
+        return dask_missing("tradeoff").removeprefix("dda tradeoff: ")
+    tasks = make_tasks(case, settings, args.threads, args.repeats)
+    reference = None
+    if fine is not None:
+        reference = Task(case.name, case.scene(fine), case.measure, fine, args.threads, 1)
+    return case, grid, tasks, reference
 
 
 def _grid_line(grid: dict[str, list], text: str) -> str:

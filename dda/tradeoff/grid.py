@@ -17,6 +17,7 @@ grid (:data:`DEFAULT_GRIDS`).
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import asdict, dataclass
 
 ALIASES = {
@@ -80,12 +81,13 @@ def spec(grid: dict[str, list]) -> str:
     """``grid`` in the specification syntax: ``"method=al,penalty; penalty=1,10; ..."``."""
     short = {name: alias for alias, name in ALIASES.items() if len(alias) < len(name)}
     words = {
-        key: [short.get(v, v) if key == "method" else _number(v) for v in grid[key]] for key in KEYS
+        key: [short.get(v, v) if key == "method" else value_text(v) for v in grid[key]]
+        for key in KEYS
     }
     return "; ".join(f"{key}={','.join(words[key])}" for key in KEYS)
 
 
-def _number(value: float | str) -> str:
+def value_text(value: float | str) -> str:
     """``1e-4`` and ``5e-4`` as written so; ``0.01`` and ``10`` too; words as they are."""
     if isinstance(value, str):
         return value
@@ -107,7 +109,8 @@ def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, 
     Raises
     ------
     ValueError
-        For an unknown key, method or a value that is not a positive number.
+        For an unknown key, method or a value that is not a finite positive number
+        (whether the scene takes it is :func:`dda.tradeoff.checks.check_settings`'s).
     """
     values = {k: list(v) for k, v in (defaults or {}).items()}
     for part in filter(None, (p.strip() for p in text.split(";"))):
@@ -134,12 +137,13 @@ def _method(word: str) -> str:
 
 
 def _positive(word: str, key: str) -> float:
+    """``word`` as a finite number above zero (inf and nan are refused: no run takes them)."""
     try:
         value = float(word)
     except ValueError:
         raise ValueError(f"grid key {key!r}: {word!r} is not a number") from None
-    if not value > 0:
-        raise ValueError(f"grid key {key!r}: {word!r} must be positive")
+    if not 0 < value < math.inf:
+        raise ValueError(f"grid key {key!r}: {word!r} must be a finite positive number")
     return value
 
 
