@@ -18,13 +18,21 @@ def count(text: str) -> int:
     return int(text)
 
 
-def add_cluster_options(parser: Any, workers: int = 2) -> None:
-    """Add the mutually exclusive options of where the tasks run."""
+DEFAULT_WORKERS = 2  # of the local cluster, when --workers is not given
+
+
+def add_cluster_options(parser: Any, workers: int = DEFAULT_WORKERS) -> None:
+    """Add the mutually exclusive options of where the tasks run.
+
+    ``--workers`` has no default of its own (None; :func:`local_workers` gives
+    ``workers`` then): argparse takes an option whose value *is* its default for one not
+    given, so ``--serial --workers 2`` would pass its exclusion check.
+    """
+    parser.set_defaults(default_workers=workers)
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--workers",
         type=count,
-        default=workers,
         metavar="N",
         help=f"workers of the local cluster (default {workers}; one thread each)",
     )
@@ -47,7 +55,7 @@ def cluster_of(args: argparse.Namespace, command: str | None = None):
     if args.serial:
         return None
     cluster = Cluster(
-        args.scheduler, args.scheduler_file, args.workers, getattr(args, "verbose", 0) > 0
+        args.scheduler, args.scheduler_file, local_workers(args), getattr(args, "verbose", 0) > 0
     )
     if command is None or has_dask():
         return cluster
@@ -55,6 +63,13 @@ def cluster_of(args: argparse.Namespace, command: str | None = None):
         return dask_missing(command)
     log.warning("dask is not installed: the tasks run in this process")
     return None
+
+
+def local_workers(args: argparse.Namespace) -> int:
+    """The local cluster's workers: ``--workers``, else the command's default."""
+    if args.workers is not None:
+        return args.workers
+    return getattr(args, "default_workers", DEFAULT_WORKERS)
 
 
 def dask_missing(command: str) -> str:

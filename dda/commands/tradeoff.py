@@ -11,7 +11,12 @@ from pathlib import Path
 from typing import Any
 
 from dda.commands.cli import default_outdir, output_path
-from dda.commands.cluster_options import add_cluster_options, count, dask_missing
+from dda.commands.cluster_options import (
+    add_cluster_options,
+    count,
+    dask_missing,
+    local_workers,
+)
 from dda.io.atomic import write_text
 from dda.io.output_paths import OutputError, check_output_dir
 
@@ -108,7 +113,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
         return 2
     case, grid, tasks, reference = prepared
     cluster = Cluster(
-        args.scheduler, args.scheduler_file, args.workers, getattr(args, "verbose", 0) > 0
+        args.scheduler, args.scheduler_file, local_workers(args), getattr(args, "verbose", 0) > 0
     )
     print(
         f"{case.name}: {plan_line(len(tasks), args.repeats)}"
