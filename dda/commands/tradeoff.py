@@ -1,5 +1,5 @@
-"""``dda tradeoff CASE [--grid SPEC] [-o DIR] [--workers N | --scheduler ADDRESS |
---scheduler-file FILE | --serial] [--threads N] [--repeats N]``."""
+"""``dda tradeoff CASE [--grid SPEC] [-o DIR] [--overwrite] [--workers N | --scheduler
+ADDRESS | --scheduler-file FILE | --serial] [--threads N] [--repeats N]``."""
 
 from __future__ import annotations
 
@@ -27,7 +27,9 @@ DESCRIPTION = (
     "Run CASE (sliding_block, pushed_block, stack, wall or a scene file) for every "
     "setting of the grid, measure the error against the closed form (or a fine run) and "
     "the median wall time of repeated runs; write DIR/CASE.csv, DIR/CASE.md and "
-    "DIR/pareto_CASE.png. The client reads the case and sends scenes: workers need no files."
+    "DIR/pareto_CASE.png. The client reads the case and sends scenes: workers need no files. "
+    "DIR holds one study of CASE: a second one (of a study finished or interrupted) is "
+    "refused unless --overwrite, which replaces it."
 )
 GRID_HELP = (
     "KEY=V1,V2;... with the keys method (al, penalty), penalty (x E), tolerance "
@@ -53,6 +55,12 @@ def register(subparsers: Any) -> None:
         "-o", "--outdir", type=output_path,
         help="directory for CASE.csv, CASE.md and pareto_CASE.png (default: out/tradeoff_CASE)",
     )  # fmt: skip
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace a study of CASE in DIR (else a folder holding one, whole or "
+        "interrupted, is refused)",
+    )
     add_cluster_options(p)
     p.add_argument(
         "--threads", type=count, default=1, metavar="N", help="solver threads per run (default 1)"
@@ -103,6 +111,7 @@ def _repeats(text: str) -> int:
 
 def tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study; return the exit code (0 ok, 2 bad input, 3 the reference run failed)."""
+    from dda.tradeoff.outputs import remove_earlier_study
     from dda.tradeoff.report import markdown_table, pareto_plot, plan_line, write_csv
     from dda.tradeoff.runner import Cluster, SweepInterrupted, add_errors, sweep
 
@@ -130,6 +139,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
         return 3
     add_errors(rows, case, case.reference if reference is None else fine_row["value"])
     outdir = args.outdir
+    remove_earlier_study(outdir, case.name)  # an interrupted one's too (--overwrite)
     write_csv(rows, outdir / f"{case.name}.csv")
     write_text(outdir / f"{case.name}.md", markdown_table(rows, case.quantity))
     against = "a closed form" if reference is None else "a converged fine run"
@@ -144,13 +154,15 @@ def _prepare(args: argparse.Namespace):
     """(case, grid, tasks, the fine reference task or None), every setting's scene checked
     as its run will check it; or the one-line reason the study is refused (nothing run or
     written then)."""
-    from dda.tradeoff.cases import fine_setting, get_case
+    from dda.tradeoff.cases import case_name, fine_setting, get_case
     from dda.tradeoff.checks import check_settings
     from dda.tradeoff.grid import expand, parse_grid
+    from dda.tradeoff.outputs import check_study_folder
     from dda.tradeoff.runner import Task, make_tasks
 
     try:
         check_output_dir(args.outdir)
+        check_study_folder(args.outdir, case_name(args.case), args.overwrite)
     except OutputError as exc:
         return f"-o {exc}"
     try:
@@ -182,6 +194,7 @@ def _grid_line(grid: dict[str, list], text: str) -> str:
 def _write_interrupted(stopped, case, reference, outdir: Path) -> int:
     """Ctrl-C: keep the settings that finished (CSV and table, errors where the closed
     form gives them; a case measured against a fine run has none then); exit 130."""
+    from dda.tradeoff.outputs import remove_earlier_study
     from dda.tradeoff.report import markdown_table, write_csv
     from dda.tradeoff.runner import add_errors
 
@@ -190,6 +203,7 @@ def _write_interrupted(stopped, case, reference, outdir: Path) -> int:
     if not rows:
         return 130
     add_errors(rows, case, case.reference if reference is None else None)
+    remove_earlier_study(outdir, case.name)  # (--overwrite) not left beside this one
     name = f"{case.name}_partial"
     write_csv(rows, outdir / f"{name}.csv")
     write_text(outdir / f"{name}.md", markdown_table(rows, case.quantity))

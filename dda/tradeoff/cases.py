@@ -197,6 +197,12 @@ BUILT_IN = {
 }
 
 
+def case_name(name: str) -> str:
+    """The name a case's files take: a built-in case's own, a scene file's stem (what
+    :func:`get_case` names it, without reading the file)."""
+    return name if name in BUILT_IN else Path(name).stem
+
+
 def get_case(name: str) -> Case:
     """A built-in case by name, or a scene file by path."""
     if name in BUILT_IN:
