@@ -30,6 +30,12 @@ COLUMNS = (
 )
 
 
+# columns written to the last bit (repr: 17 significant digits), so that a setting's error
+# can be recomputed from them: the sliding block's are ~1e-9 of the value, below the 8
+# digits the other lists are written with
+EXACT_COLUMNS = ("value", "reference")
+
+
 def write_csv(rows: list[dict], path: Path) -> Path:
     """Every run, one line each, sorted by method then time."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -37,15 +43,17 @@ def write_csv(rows: list[dict], path: Path) -> Path:
         writer = csv.DictWriter(stream, COLUMNS, extrasaction="ignore")
         writer.writeheader()
         for row in sorted(rows, key=lambda r: (r["method"], r["seconds"])):
-            writer.writerow({k: _cell(row.get(k)) for k in COLUMNS})
+            writer.writerow({k: _cell(row.get(k), k in EXACT_COLUMNS) for k in COLUMNS})
     return path
 
 
-def _cell(value):
+def _cell(value, exact: bool = False):
+    """A CSV cell: a list's numbers separated by blanks; floats to 6 significant digits
+    (lists to 8), or to the last bit (``repr``) when ``exact``."""
     if isinstance(value, list):
-        return " ".join(f"{v:.8g}" for v in value)
+        return " ".join(repr(float(v)) if exact else f"{v:.8g}" for v in value)
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return repr(value) if exact else f"{value:.6g}"
     return value
 
 
