@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import csv
 import math
+import textwrap
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from dda.io.wording import counted
 from dda.tradeoff.pareto import fronts_by_method
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 COLUMNS = (
     "case",
@@ -97,44 +102,78 @@ def plan_line(settings: int, repeats: int) -> str:
     return f"{counted(settings, 'setting')} × {counted(repeats, 'repeat')} = {runs}"
 
 
+TITLE_WIDTH = 90  # characters of a line of the picture's title (wrapped beyond)
+
+
 def pareto_plot(rows: list[dict], path: Path, title: str = "") -> Path:
-    """Error against wall seconds, every run as a dot and each method's front as a line."""
+    """Write :func:`pareto_figure` of ``rows`` to the PNG file ``path`` (off screen, Agg)."""
+    import matplotlib.pyplot as plt
+
+    fig = pareto_figure(rows, title)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def pareto_figure(rows: list[dict], title: str = "") -> Figure:
+    """Error against wall seconds, every run as a dot and each method's front as a line.
+
+    Laid out by matplotlib's constrained layout so that the title (wrapped, over the
+    whole picture) and the legend (under the plot, off the dots) fit the picture. An
+    error of exactly 0 has no place on a log axis: such runs are drawn on a dashed floor
+    a decade below the smallest error above 0 (:func:`zero_floor`), which the legend
+    names. Drawn off screen (matplotlib's Agg backend); the caller closes the figure
+    (``matplotlib.pyplot.close``).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8.4, 4.4), dpi=120)
+    drawn = [r for r in rows if not math.isnan(r["error"])]
+    floor = zero_floor([r["error"] for r in drawn])
+    fig, ax = plt.subplots(figsize=(8.4, 4.6), dpi=120, layout="constrained")
     for k, (method, front) in enumerate(fronts_by_method(rows).items()):
         colour = f"C{k}"
-        runs = [r for r in rows if r["method"] == method and not math.isnan(r["error"])]
+        runs = [r for r in drawn if r["method"] == method]
         ax.scatter(
             [r["seconds"] for r in runs],
-            [max(r["error"], 1e-16) for r in runs],
+            [max(r["error"], floor) for r in runs],
             s=12,
             color=colour,
             alpha=0.35,
         )
         ax.plot(
             [r["seconds"] for r in front],
-            [max(r["error"], 1e-16) for r in front],
+            [max(r["error"], floor) for r in front],
             "o-",
             color=colour,
             label=f"{method} (front)",
         )
+    if any(r["error"] == 0 for r in drawn):
+        ax.axhline(floor, color="0.5", linestyle="--", linewidth=0.8,
+                   label=f"error exactly 0, drawn at {floor:.0e}")  # fmt: skip
     ax.set_xscale("log")
     _plain_log_ticks(ax.xaxis, [r["seconds"] for r in rows if r["seconds"] > 0])
     ax.set_yscale("log")
     ax.set_xlabel("wall time of a run, median of its repeats (s)")
     ax.set_ylabel("relative error")
-    ax.set_title(title, fontsize=10)
+    fig.suptitle(textwrap.fill(title, TITLE_WIDTH), fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)  # off the dots
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=9)
+    return fig
+
+
+def zero_floor(errors: list[float]) -> float:
+    """Where an error of exactly 0 is drawn on the log axis: the power of ten a decade
+    below the smallest error above 0 (1e-16, a double's relative precision, when there
+    is none), so that it stays apart from every measured error."""
+    positive = [e for e in errors if e > 0 and math.isfinite(e)]
+    if not positive:
+        return 1e-16
+    return 10.0 ** (math.floor(math.log10(min(positive))) - 1)
 
 
 def _plain_log_ticks(axis, values: list[float]) -> None:
