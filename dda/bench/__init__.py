@@ -6,7 +6,8 @@ density 2.6, E = 1e6, ν = 0.25, 30° friction, penalty 5e7, Δt = 1e-3 s, dynam
 100 steps, every spring unloaded at t = 0 (as the C DDA code's).
 
 * ``dda bench`` (:mod:`dda.commands.bench`): sizes 5 10 20 30 50 100, each in its
-  own process (:mod:`dda.bench.run`), a Markdown table;
+  own process (:mod:`dda.bench.run`), a Markdown table; every size's wall checked
+  first, its scene and its estimated memory (:mod:`dda.bench.limits`);
 * ``python -m dda.bench.stages 5 10 30``: one stage of a step, several
   implementations;
 * ``python -m dda.bench.contact_methods``: penalty against augmented Lagrangian on

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import sys
 from typing import Any
 
 from dda.bench.scenes import METHODS, STARTS
@@ -56,7 +57,25 @@ def register(subparsers: Any) -> None:
         "on a shared machine the minimum is the figure least disturbed by other work "
         "(default: 1)",
     )
+    parser.add_argument(
+        "--max-memory",
+        type=positive_float,
+        metavar="GB",
+        help="refuse a size whose wall is estimated to need more memory than GB gigabytes "
+        "(27 KiB a block; default: the memory available on this machine)",
+    )
     parser.set_defaults(func=run_command)
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number above 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -65,6 +84,10 @@ def run_command(args: argparse.Namespace) -> int:
     from dda.bench.run import measure_in_subprocess
 
     methods = METHODS if args.method == "both" else (args.method,)
+    refusal = _refusal(args, methods)
+    if refusal:
+        print(f"dda bench: {refusal}", file=sys.stderr)
+        return 2
     results = []
     for size in args.sizes:
         for method in methods:
@@ -88,3 +111,23 @@ def run_command(args: argparse.Namespace) -> int:
         + (f" --repeat {args.repeat} (fastest of {args.repeat} runs)" if args.repeat > 1 else "")
     )
     return 0 if all(m.status == "finished" for m in results) else 3
+
+
+def _refusal(args: argparse.Namespace, methods: tuple[str, ...]) -> str | None:
+    """Why the walls asked for cannot run (one line naming the option), or None: each
+    size's memory against --max-memory (default: the memory available now) and its
+    scene through the checks of its run, before any warm-up."""
+    from dda.bench.limits import BenchError, available_memory_bytes, check_walls
+
+    if args.max_memory is not None:
+        bound, said = args.max_memory * 1e9, f"--max-memory {args.max_memory:g} GB"
+    else:
+        bound = available_memory_bytes()
+        gigabytes = f"{bound / 1e9:.3g} GB" if bound else ""
+        said = f"the {gigabytes} of memory available on this machine (--max-memory)"
+    try:
+        for method in methods:
+            check_walls(args.sizes, method, args.steps, args.start, bound, said)
+    except BenchError as exc:
+        return str(exc)
+    return None
