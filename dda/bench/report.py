@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import platform
 import subprocess
@@ -77,27 +78,28 @@ def table(measurements: Iterable[Measurement]) -> str:
     head = "| " + " | ".join(names) + " |"
     lines = [head, "|" + "---|" * len(names)]
     for m in measurements:
-        per_step = {s: 1000.0 * m.stage_seconds.get(s, 0.0) / max(m.steps, 1) for s in STAGES}
-        started = m.start == "equilibrium"
-        lines.append(
-            f"| {m.columns}x{m.rows} | {m.blocks} | {m.method} | {m.start} | "
-            + (
-                f"{m.start_seconds:.3f} | {m.start_newton_iterations} | {m.start_in_steps:.1f} | "
-                if started
-                else "– | – | – | "
-            )  # fmt: skip
-            + f"{m.ms_per_step:.2f} | "
-            f"{m.ms_per_later_step:.2f} | "
-            f"{m.block_steps_per_second:,.0f} | {m.iterations_per_step:.2f} | "
-            f"{m.newton_iterations_per_step:.2f} | {m.factorisations} |"
-            + "".join(f" {per_step[s]:.2f} |" for s in STAGES)
-            + f" {m.peak_memory_mib:.0f} | {m.status[:40]} |"
-        )
+        start = ["–", "–", "–"]  # Shi's unloaded start: no start to report
+        if m.start == "equilibrium":
+            in_steps = _figure(m.start_in_steps, ".1f")
+            start = [f"{m.start_seconds:.3f}", str(m.start_newton_iterations), in_steps]
+        cells = [
+            f"{m.columns}x{m.rows}", str(m.blocks), m.method, m.start, *start,
+            _figure(m.ms_per_step), _figure(m.ms_per_later_step),
+            _figure(m.block_steps_per_second, ",.0f"), _figure(m.iterations_per_step),
+            _figure(m.newton_iterations_per_step), str(m.factorisations),
+            *(_figure(m.stage_ms_per_step(s)) for s in STAGES),
+            _figure(m.peak_memory_mib, ".0f"), m.status[:40],
+        ]  # fmt: skip
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _figure(value: float, spec: str = ".2f") -> str:
+    """``value`` formatted by ``spec``, or "–" when it is not a number (nan: a run that
+    did no step has no time a step)."""
+    return "–" if math.isnan(value) else format(value, spec)
 
 
 def growth_exponent(small: Measurement, large: Measurement) -> float:
     """Exponent a of cost ∝ N^a between two sizes (N = blocks)."""
-    import math
-
     return math.log(large.ms_per_step / small.ms_per_step) / math.log(large.blocks / small.blocks)

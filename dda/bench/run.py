@@ -58,7 +58,8 @@ class Measurement:
 
     @property
     def ms_per_step(self) -> float:
-        return 1000.0 * self.seconds / max(self.steps, 1)
+        """ms a step of the whole run; nan for a run that did no step (it failed)."""
+        return 1000.0 * self.seconds / self.steps if self.steps > 0 else float("nan")
 
     @property
     def ms_per_later_step(self) -> float:
@@ -74,15 +75,21 @@ class Measurement:
 
     @property
     def block_steps_per_second(self) -> float:
-        return self.blocks * self.steps / self.seconds if self.seconds > 0 else float("nan")
+        done = self.steps > 0 and self.seconds > 0
+        return self.blocks * self.steps / self.seconds if done else float("nan")
 
     @property
     def iterations_per_step(self) -> float:
-        return self.iterations / max(self.steps, 1)
+        return self.iterations / self.steps if self.steps > 0 else float("nan")
 
     @property
     def newton_iterations_per_step(self) -> float:
-        return self.newton_iterations / max(self.steps, 1)
+        return self.newton_iterations / self.steps if self.steps > 0 else float("nan")
+
+    def stage_ms_per_step(self, stage: str) -> float:
+        """ms a step in ``stage``; nan for a run that did no step."""
+        seconds = self.stage_seconds.get(stage, 0.0)
+        return 1000.0 * seconds / self.steps if self.steps > 0 else float("nan")
 
 
 def measure(
@@ -139,7 +146,7 @@ def _measure(
         partial = getattr(exc, "result", None)
         summary = partial.summary if partial is not None else {}
     seconds = time.perf_counter() - began
-    done = int(summary.get("steps", 0)) or steps
+    done = int(summary.get("steps", 0))  # none when it failed without a summary
     return Measurement(
         columns=columns,
         rows=rows,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 import numpy as np
 import pytest
@@ -120,6 +121,26 @@ def test_warm_up_loads_the_compiled_kernels():
     assert all((size**2 + 1) * steps >= MIN_WORK for size, steps in WARM_UPS)
     assert 6 * min(size**2 for size, _ in WARM_UPS) <= DEFAULT.dense_system_rows
     assert 6 * max(size**2 for size, _ in WARM_UPS) > DEFAULT.dense_system_rows
+
+
+def test_a_run_that_fails_without_a_summary_is_reported_failed_not_timed(monkeypatch):
+    """A measured run that stops before any step gives no steps to divide by: its status
+    says it failed and the table gives no time a step (it used to divide the run's time
+    by the steps asked for)."""
+    import dda.bench.run as run
+
+    def simulate(scene, **kwargs):
+        raise dda.SimulationError("step 0: no step could be solved")
+
+    monkeypatch.setattr(dda, "simulate", simulate)
+    m = run.measure(2, "penalty", steps=50, warm_up=False)
+    assert m.status == "failed: step 0: no step could be solved" and m.steps == 0
+    assert math.isnan(m.ms_per_step) and math.isnan(m.block_steps_per_second)
+    row = table([m]).splitlines()[-1]
+    assert "| failed: step 0" in row and "nan" not in row
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    names = [cell.strip() for cell in table([m]).splitlines()[0].strip("|").split("|")]
+    assert cells[names.index("ms/step")] == "–"
 
 
 def test_repeat_keeps_the_fastest_run(monkeypatch, capsys):
