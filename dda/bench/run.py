@@ -2,8 +2,9 @@
 
 Each size runs in its own Python process (``python -m dda.bench.run``) so
 that its peak resident memory (``getrusage`` maxrss) is its own. Inside that
-process a tiny wall runs first, so that one-off costs (imports, compiled
-kernels loading) are not counted as time per step.
+process small walls run first (:data:`WARM_UPS`: one on each form of a step's
+systems, band, dense and sparse), so that one-off costs (imports, compiled kernels
+loading, MKL) are not counted as time per step.
 """
 
 from __future__ import annotations
@@ -11,24 +12,34 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import resource
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 
 import dda
+from dda.bench.limits import wall_blocks
 from dda.bench.scenes import wall_scene
 from dda.jit import numba_enabled, run_work
 from dda.solve.linsolve import new_pardiso_handle, pardiso_available
-from dda.solve.policy import current_policy
+from dda.solve.policy import SYSTEMS_VARIABLE, current_policy
 
 log = logging.getLogger(__name__)
 
-# walls that reach dda.jit.MIN_WORK block-steps: a 10 x 10 wall (101 blocks, sparse
-# systems) and a 4 x 4 wall (17 blocks, dense systems, dda.solve.dense_system): the
-# kernels load (from numba's cache) in the warm-up, not in the measured run
-WARM_UPS = ((10, 100), (4, 600))
+# the warm-up walls (size, steps, DDA_SYSTEMS), each run as the measured run is (inside
+# the run_work of a long run: the model's build uses the kernels too), one for each form
+# of a step's systems (dda.solve.step): a 10 x 10 wall (101 blocks) on band systems
+# (dda.solve.band_system, the compiled step loop), a 4 x 4 wall (17 blocks) on dense
+# ones (dda.solve.dense_system), and the 10 x 10 wall again on the sparse block pattern
+# (DDA_SYSTEMS=sparse), the systems of the walls from 30 x 30 up (the assembly's
+# _scatter and _find_slots, the line step, the law's kernels): every kernel a measured
+# run uses loads (from numba's cache) here, none inside the measured run
+WARM_UPS = ((10, 100, ""), (4, 600, ""), (10, 100, "sparse"))
+WARM_UP_WITHOUT_KERNELS = ((2, 3, ""),)  # DDA_NO_NUMBA: the imports alone
 # the measured run is timed as a step of a run this long: it uses the compiled kernels
 # as such a run does (dda.jit.run_work), whatever the steps timed
 LONG_RUN_STEPS = 10_000
@@ -123,11 +134,7 @@ def _measure(
     columns: int, rows: int, method: str, steps: int, warm_up: bool, start: str
 ) -> Measurement:
     if warm_up:
-        for size, warm_steps in WARM_UPS if numba_enabled() else ((2, 3),):
-            warm = wall_scene(size, method=method, steps=warm_steps, start=start)
-            dda.simulate(dda.load_scene(warm))
-        if pardiso_available():  # finding the MKL library is a one-off cost too
-            new_pardiso_handle(current_policy().solver_threads())
+        warm_up_runs(method, start)
     scene = dda.load_scene(wall_scene(columns, rows, method=method, steps=steps, start=start))
     began = time.perf_counter()
     first_step = [float("nan")]
@@ -165,6 +172,38 @@ def _measure(
         start_seconds=float(summary.get("start_seconds", 0.0)),
         start_newton_iterations=int(summary.get("start_newton_iterations", 0)),
     )
+
+
+def warm_up_runs(method: str, start: str) -> None:
+    """Run the :data:`WARM_UPS` walls with ``method`` and ``start``, each as a measured run
+    is (inside the ``run_work`` of a run of :data:`LONG_RUN_STEPS`) and on its systems,
+    and load the PARDISO library when it is used: the one-off costs of the measured run
+    (imports, kernels loading from numba's cache, MKL) are paid here."""
+    walls = WARM_UPS if numba_enabled() else WARM_UP_WITHOUT_KERNELS
+    for size, steps, systems in walls:
+        scene = dda.load_scene(wall_scene(size, method=method, steps=steps, start=start))
+        with systems_variable(systems), run_work(wall_blocks(size), LONG_RUN_STEPS):
+            dda.simulate(scene)
+    if pardiso_available():  # finding the MKL library is a one-off cost too
+        new_pardiso_handle(current_policy().solver_threads())
+
+
+@contextmanager
+def systems_variable(systems: str) -> Iterator[None]:
+    """Within the block, ``DDA_SYSTEMS`` is ``systems`` when given (a run reads it as it
+    starts, :meth:`dda.solve.policy.StepPolicy.from_environment`); else left as it is."""
+    if not systems:
+        yield
+        return
+    before = os.environ.get(SYSTEMS_VARIABLE)
+    os.environ[SYSTEMS_VARIABLE] = systems
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[SYSTEMS_VARIABLE]
+        else:
+            os.environ[SYSTEMS_VARIABLE] = before
 
 
 def peak_memory_mib() -> float:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 
 import numpy as np
 import pytest
@@ -13,7 +14,6 @@ from dda.bench.report import growth_exponent, table
 from dda.bench.run import WARM_UPS, Measurement, measure
 from dda.bench.scenes import wall_scene
 from dda.commands import bench as cli
-from dda.jit import MIN_WORK
 
 
 def test_wall_scene_loads_with_shared_edges():
@@ -112,15 +112,43 @@ def test_machine_line_names_the_solver_threads_and_mkl_reproducibility(monkeypat
     assert machine_line().endswith(said)
 
 
-def test_warm_up_loads_the_compiled_kernels():
-    """The benchmark's warm-up does enough work (blocks x steps) for the kernels to load,
-    on a wall with sparse systems and one with dense ones (dda.solve.dense_system), so
-    that a size's ms/step does not carry their one-off loading."""
+def test_warm_up_walls_take_each_form_of_systems():
+    """The warm-up walls are a band wall, a dense one (dda.solve.dense_system) and one on
+    the sparse block pattern, the systems of the walls from 30 x 30 up."""
     from dda.solve.policy import DEFAULT
 
-    assert all((size**2 + 1) * steps >= MIN_WORK for size, steps in WARM_UPS)
-    assert 6 * min(size**2 for size, _ in WARM_UPS) <= DEFAULT.dense_system_rows
-    assert 6 * max(size**2 for size, _ in WARM_UPS) > DEFAULT.dense_system_rows
+    sizes = {systems or "by size": [] for _, _, systems in WARM_UPS}
+    for size, _, systems in WARM_UPS:
+        sizes[systems or "by size"].append(size)
+    assert 6 * min(sizes["by size"]) ** 2 <= DEFAULT.dense_system_rows  # dense
+    assert 6 * max(sizes["by size"]) ** 2 > DEFAULT.dense_system_rows  # band
+    assert sizes["sparse"]
+
+
+def test_each_warm_up_runs_as_the_measured_run_on_its_systems(monkeypatch):
+    """Each warm-up wall runs inside the run_work of a long run, as the measured run does
+    (the model's build loads its kernels then), with DDA_SYSTEMS=sparse for the sparse
+    one and as it was for the others: the warm-ups used to leave the sparse path's
+    kernels (_scatter, _find_slots, the line step, the law's) and the build's to load
+    inside the measured run of walls from 30 x 30 up."""
+    import dda.bench.run as run
+    from dda.blocks import moments_kernel
+    from dda.jit import compiled_in_run, numba_enabled
+
+    if not numba_enabled():
+        pytest.skip("the kernels are off (DDA_NO_NUMBA)")
+    runs = []
+
+    def simulate(scene, **kwargs):
+        systems = os.environ.get("DDA_SYSTEMS", "")
+        runs.append((len(scene.blocks), systems, compiled_in_run(moments_kernel)))
+
+    monkeypatch.delenv("DDA_SYSTEMS", raising=False)
+    monkeypatch.setattr(dda, "simulate", simulate)
+    monkeypatch.setattr(run, "pardiso_available", lambda: False)
+    run.warm_up_runs("penalty", "unloaded")
+    assert runs == [(size * size + 1, systems, True) for size, _, systems in WARM_UPS]
+    assert "DDA_SYSTEMS" not in os.environ  # given back as it was
 
 
 def test_a_run_that_fails_without_a_summary_is_reported_failed_not_timed(monkeypatch):
@@ -163,3 +191,40 @@ def test_repeat_keeps_the_fastest_run(monkeypatch, capsys):
     out = capsys.readouterr().out
     assert "| 1.00 |" in out  # 0.1 s over 100 steps
     assert "--repeat 3 (fastest of 3 runs)" in out
+
+
+MEASURED_30 = """
+import dda
+from dda.bench.run import LONG_RUN_STEPS, warm_up_runs
+from dda.bench.scenes import wall_scene
+from dda.jit import run_work
+
+warm_up_runs("penalty", "equilibrium")
+scene = dda.load_scene(wall_scene(30, steps=3, start="equilibrium"))
+print("measured run: start", flush=True)
+with run_work(901, LONG_RUN_STEPS):
+    dda.simulate(scene)
+print("measured run: end", flush=True)
+"""
+
+
+@pytest.mark.slow
+def test_no_kernel_loads_inside_the_measured_30_by_30_run():
+    """numba's own account (NUMBA_DEBUG_CACHE=1): after the warm-ups, the measured run of
+    a 30 x 30 wall (sparse systems) loads and compiles no kernel (it loaded nine)."""
+    import subprocess
+    import sys
+
+    from dda.jit import numba_enabled
+
+    if not numba_enabled():
+        pytest.skip("the kernels are off (DDA_NO_NUMBA)")
+    environment = {**os.environ, "NUMBA_DEBUG_CACHE": "1"}
+    environment.pop("DDA_SYSTEMS", None)
+    out = subprocess.run(
+        [sys.executable, "-c", MEASURED_30], env=environment, capture_output=True, text=True,
+        check=True,
+    ).stdout  # fmt: skip
+    measured = out.split("measured run: start")[1].split("measured run: end")[0]
+    assert "measured run: end" in out
+    assert "data loaded" not in measured and "data saved" not in measured, measured
