@@ -14,8 +14,12 @@ from dda.commands.cluster_options import DEFAULT_WORKERS, add_cluster_options, l
 
 @pytest.mark.parametrize("command", ["tradeoff", "fos", "ensemble"])
 @pytest.mark.parametrize("workers", ["1", str(DEFAULT_WORKERS), "3"])
-def test_serial_and_workers_are_refused_together_whatever_the_count(capsys, command, workers):
+def test_serial_and_workers_are_refused_together_whatever_the_count(
+    tmp_path, monkeypatch, capsys, command, workers
+):
+    monkeypatch.chdir(tmp_path)  # were it accepted, its outputs would go to out/ here
     assert main([command, "sliding_block", "--serial", "--workers", workers]) == 2
+    assert not (tmp_path / "out").exists()
     err = capsys.readouterr().err
     assert "--workers: not allowed with argument --serial" in err and err.count("\n") == 1
 
