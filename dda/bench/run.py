@@ -140,7 +140,7 @@ def _measure(
     first_step = [float("nan")]
 
     def note_first_step(_fraction: float, info: dict) -> None:
-        if info["step"] == 1:
+        if info.get("step") == 1:  # (the equilibrium start reports without a step)
             first_step[0] = time.perf_counter() - began
 
     status = "finished"
