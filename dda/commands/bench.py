@@ -8,7 +8,7 @@ import sys
 from typing import Any
 
 from dda.bench.scenes import METHODS, STARTS
-from dda.commands.cli import positive_int
+from dda.commands.cli import positive_float, positive_int
 
 log = logging.getLogger(__name__)
 
@@ -65,17 +65,6 @@ def register(subparsers: Any) -> None:
         "(27 KiB a block; default: the memory available on this machine)",
     )
     parser.set_defaults(func=run_command)
-
-
-def positive_float(text: str) -> float:
-    """argparse type: a finite number above 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not 0.0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
-    return value
 
 
 def run_command(args: argparse.Namespace) -> int:

@@ -15,6 +15,7 @@ from dda.commands.cli import (
     checked_range,
     output_path,
     picture_side,
+    positive_float,
     positive_int,
 )
 from dda.io.fields import SCALARS
@@ -44,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser.add_argument("--scalars", choices=sorted(SCALARS), default="syy", help="block colour")
     add_range_option(parser)
     parser.add_argument(
-        "--fps", type=_positive_float, default=10.0, help="frames a second (default 10)"
+        "--fps", type=positive_float, default=10.0, help="frames a second (default 10)"
     )
     parser.add_argument(
         "--every", type=positive_int, default=1, metavar="N",
@@ -96,14 +97,3 @@ def movie_command(args: argparse.Namespace) -> int:
     frames_said = f"{count} frame" + ("" if count == 1 else "s")
     print(f"{output} ({frames_said}, {args.size[0]} x {args.size[1]}, {args.fps:g} fps)")
     return EXIT_OK
-
-
-def _positive_float(text: str) -> float:
-    """argparse type: a finite number above 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not 0.0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
