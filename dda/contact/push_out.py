@@ -32,11 +32,15 @@ from dda.contact.rows import ContactRows
 from dda.result import OPEN
 
 
-def found_overlap(contacts: ContactSet, rows: ContactRows, touch: float) -> np.ndarray:
-    """(m,) the start penetration of each contact found this step (``fresh``) touching
-    and deeper than ``touch`` (the contacts' touch tolerance); 0 elsewhere."""
-    found = contacts.fresh & (contacts.state != OPEN) & (rows.penetration > touch)
-    return np.where(found, rows.penetration, 0.0)
+def found_overlap(contacts: ContactSet, touch: float) -> np.ndarray:
+    """(m,) the penetration each contact found this step (``fresh``) touching was found
+    with (``contacts.penetration``, at detection: not the ground's prescribed motion of
+    the step), where deeper than ``touch`` (the contacts' touch tolerance) and carrying
+    no force yet (a contact preloaded by an in-situ field keeps its overlap); 0
+    elsewhere."""
+    found = contacts.fresh & (contacts.state != OPEN) & (contacts.penetration > touch)
+    found &= contacts.normal_multiplier == 0.0
+    return np.where(found, contacts.penetration, 0.0)
 
 
 def push_out_displacement(

@@ -127,7 +127,7 @@ def crossed_intervals(
     along = end - start
     length2 = float(along @ along)
     if length2 == 0.0:
-        return [(0.0, 1.0)]
+        return [(0, 0.0, 1.0)]
     tolerance = EDGE_TOLERANCE * np.sqrt(length2)
     cuts = [0.0, 1.0]
     for ring in pieces:

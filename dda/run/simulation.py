@@ -114,6 +114,7 @@ class _Run:
         self.compiled_before = compile_seconds()  # the run's share goes in its summary
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
         self.start_method = None  # how its limit solve settled (dda.run.equilibrium_start)
+        self.start_in_this_process = False  # the start ran here (not in a resumed run's first)
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.start_compile_seconds = 0.0  # ... and its share of compile_seconds()
         self.in_situ_change = (0.0, "", "")  # what the start changed of the in-situ field
@@ -213,9 +214,12 @@ def _equilibrium_start(run: _Run, report=None, stop=None) -> None:
     started, compiled = wallclock.perf_counter(), compile_seconds()
     _touching_at_start(run)
 
+    run.start_in_this_process = True  # (a resumed run's start_seconds are the first's)
+
     def spent(newton: int) -> None:
         if report is not None:
-            report(0.0, {"equilibrium_start": f"{newton} Newton iterations"})
+            info = {"step": 0, "time": 0.0, "equilibrium_start": f"{newton} Newton iterations"}
+            report(0.0, info)
         if stop is not None and stop():
             run.start_seconds = wallclock.perf_counter() - started
             run.start_newton_iterations, run.start = newton, INTERRUPTED_START
@@ -224,7 +228,7 @@ def _equilibrium_start(run: _Run, report=None, stop=None) -> None:
     with run.timer("start"):  # its own stages apart: the steps' stay the steps'
         settled = settle(m, run.blocks, run.contacts, StageTimer(), spent)
     if report is not None:
-        report(0.0, {"equilibrium_start": None})
+        report(0.0, {"step": 0, "time": 0.0, "equilibrium_start": None})
     run.start_seconds = wallclock.perf_counter() - started
     run.start_compile_seconds = compile_seconds() - compiled
     run.start_newton_iterations, run.start_method = settled.newton_iterations, settled.method
@@ -652,7 +656,8 @@ def _progress_reporter(progress, model: Model, state: _Run):
     from dda.run.progress import ProgressBar
 
     def aside() -> float:  # the kernels' compiling (once per installation) and the start
-        return compile_seconds() + state.start_seconds - state.start_compile_seconds
+        started = state.start_seconds - state.start_compile_seconds  # 0 until it runs
+        return compile_seconds() + (started if state.start_in_this_process else 0.0)
 
     # the ETA leaves out what will not come again: the compiling and the start
     bar = ProgressBar(1.0, label=model.scene.title or "dda", aside=aside)

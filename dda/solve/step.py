@@ -398,7 +398,7 @@ def _start_at_touch(contacts: ContactSet, rows: ContactRows, touch: float) -> np
     (:func:`dda.contact.push_out.found_overlap`), taken out of their start penetration:
     the step solves them from touch, and the caller removes the overlap by position
     (:func:`dda.contact.push_out.push_out_displacement`); None where there is none."""
-    overlap = found_overlap(contacts, rows, touch)
+    overlap = found_overlap(contacts, touch)
     if not overlap.any():
         return None
     rows.penetration = rows.penetration - overlap

@@ -43,12 +43,17 @@ def test_only_fresh_closed_contacts_found_overlapping_count():
     """Every overlap a contact is found with (not only what is deeper than the contact
     tolerance: the spring of any overlap would turn ½ p g₀² into motion)."""
     contacts, rows = contacts_and_rows()
-    overlap = found_overlap(contacts, rows, touch=1e-9)
+    contacts.penetration = rows.penetration.copy()  # as found (rows: after the ground's move)
+    contacts.normal_multiplier = np.zeros(3)
+    rows.penetration = rows.penetration + 1e-3
+    overlap = found_overlap(contacts, touch=1e-9)
     np.testing.assert_allclose(overlap, [2e-3, 5e-4, 0.0])  # the open one: none
     contacts.fresh[0] = False  # a contact with history keeps its own
-    assert found_overlap(contacts, rows, 1e-9)[0] == 0.0
-    rows.penetration[1] = 1e-10  # within the touch tolerance: touching, not overlapping
-    assert found_overlap(contacts, rows, 1e-9)[1] == 0.0
+    assert found_overlap(contacts, 1e-9)[0] == 0.0
+    contacts.normal_multiplier[1] = 3.0  # one preloaded by an in-situ field keeps its own
+    assert found_overlap(contacts, 1e-9)[1] == 0.0
+    contacts.normal_multiplier[1], contacts.penetration[1] = 0.0, 1e-10  # within touch
+    assert found_overlap(contacts, 1e-9)[1] == 0.0
 
 
 def test_push_out_removes_the_overlap_with_the_least_step_energy():
