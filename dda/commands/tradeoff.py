@@ -142,7 +142,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     remove_earlier_study(outdir, case.name)  # an interrupted one's too (--overwrite)
     write_csv(rows, outdir / f"{case.name}.csv")
     write_text(outdir / f"{case.name}.md", markdown_table(rows, case.quantity))
-    against = "a closed form" if reference is None else "a converged fine run"
+    against = "a closed form" if reference is None else "a fine run (not itself converged)"
     title = f"{case.name}: {case.quantity}, against {against}"
     pareto_plot(rows, outdir / f"pareto_{case.name}.png", title=title)
     print(markdown_table(rows, case.quantity))
