@@ -69,8 +69,7 @@ log = logging.getLogger(__name__)
 FORMAT = 11
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
-# run attributes rebuilt from the scene, or saved apart, or of this process only
-NOT_SAVED = ("model", "linear", "start_in_this_process")
+NOT_SAVED = ("model", "linear")  # run attributes rebuilt from the scene, or saved apart
 CACHE_NOT_SAVED = ("solver", "policy")  # the linear cache's: saved apart, or the environment's
 RUN_CONTROL = ("save_every", "checkpoint_every", "max_steps")  # not part of the fingerprint
 NAMED_TUPLES = {"FractureEvent": FractureEvent, "BoltEvent": BoltEvent}  # result types in lists

@@ -114,7 +114,6 @@ class _Run:
         self.compiled_before = compile_seconds()  # the run's share goes in its summary
         self.start_newton_iterations = 0  # Newton iterations of the equilibrium start
         self.start_method = None  # how its limit solve settled (dda.run.equilibrium_start)
-        self.start_in_this_process = False  # the start ran here (not in a resumed run's first)
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.start_compile_seconds = 0.0  # ... and its share of compile_seconds()
         self.in_situ_change = (0.0, "", "")  # what the start changed of the in-situ field
@@ -213,8 +212,6 @@ def _equilibrium_start(run: _Run, report=None, stop=None) -> None:
     m = run.model
     started, compiled = wallclock.perf_counter(), compile_seconds()
     _touching_at_start(run)
-
-    run.start_in_this_process = True  # (a resumed run's start_seconds are the first's)
 
     def spent(newton: int) -> None:
         if report is not None:
@@ -516,7 +513,7 @@ def run(
     model = build(local)
     state = _Run(model, policy)
     state.origin = tuple(float(c) for c in origin)
-    report = _progress_reporter(progress, model, state)
+    report = _progress_reporter(progress, model, state, resume is not None)
     if resume is not None:
         check_scene(resume, scene)  # it compares the scene as the run holds it
         restore(state, resume)
@@ -648,7 +645,7 @@ def _fraction(state: _Run) -> float:
     return min(state.time / m.duration, 1.0)
 
 
-def _progress_reporter(progress, model: Model, state: _Run):
+def _progress_reporter(progress, model: Model, state: _Run, resumed: bool):
     if callable(progress):
         return progress
     if not progress:
@@ -657,7 +654,7 @@ def _progress_reporter(progress, model: Model, state: _Run):
 
     def aside() -> float:  # the kernels' compiling (once per installation) and the start
         started = state.start_seconds - state.start_compile_seconds  # 0 until it runs
-        return compile_seconds() + (started if state.start_in_this_process else 0.0)
+        return compile_seconds() + (0.0 if resumed else started)  # (resumed: the first run's)
 
     # the ETA leaves out what will not come again: the compiling and the start
     bar = ProgressBar(1.0, label=model.scene.title or "dda", aside=aside)
