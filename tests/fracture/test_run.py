@@ -271,17 +271,25 @@ def test_the_pieces_of_a_single_block_touch_each_other():
     assert overlap < 1e-4  # m², against the pieces' 0.43 m²: the contacts' give only
 
 
-def test_rock_crushed_between_platens_makes_no_energy():
+@pytest.mark.parametrize(
+    "dt, far",
+    [(1e-4, True), (1e-4, False),
+     pytest.param(3e-5, False, marks=pytest.mark.slow),
+     pytest.param(1e-5, False, marks=pytest.mark.slow)],
+)  # fmt: skip
+def test_rock_crushed_between_platens_makes_no_energy(dt, far):
     """A rock column pressed by a free platen breaks in shear, and its pieces' corners
     slip between pieces that part at the crack junction into other pieces, found there
     already overlapping (a top cone's apex 0.46 mm into the bottom cone): those overlaps
     go by position, not by their springs. The blocks' energy stays within E0 + W at
-    every step (it rose 2.4 kJ, 24 % of what moved, at one step before; a far block
-    falling freely sets the model's size, and with it the contact tolerance, 0.75 mm)."""
+    every step, at Δt = 1e-4, 3e-5 and 1e-5 s (before: up to 2.4 kJ, 24 % of what moved,
+    at one step with a far block falling freely, which sets the model's size and with it
+    the contact tolerance, 0.75 mm; 119, 16 and 223 J without it). (With the far block at
+    Δt = 1e-5 s a push into a third piece still leaves 665 J: docs/contact.md.)"""
     platen = {"density": 2600.0, "young": 1e10, "poisson": 0.25}
     rock = {**platen, "cohesion": 1e6, "friction_angle": 30.0, "tensile_strength": 0.5e6}
     scene = {
-        "analysis": {"mode": "dynamic", "time_step": 1e-4, "duration": 0.004,
+        "analysis": {"mode": "dynamic", "time_step": dt, "duration": 0.004,
                      "gravity": [0.0, -9.81]},
         "materials": {"rock": rock, "platen": platen},
         "joints": {"default": {"friction_angle": 0.0}},
@@ -291,11 +299,13 @@ def test_rock_crushed_between_platens_makes_no_energy():
              "vertices": rect(-1.5, -1.0, 1.5, 0.0)},
             {"name": "rock", "material": "rock", "vertices": rect(-0.5, 0.0, 0.5, 2.0)},
             {"name": "top", "material": "platen", "vertices": rect(-1.0, 2.0, 1.0, 2.5)},
-            {"name": "far", "material": "platen", "vertices": rect(5.0, 0.0, 6.0, 1.0)},
         ],
         "loads": [{"block": "top", "point": [0.0, 2.5], "force": [0.0, -4e6],
                    "history": [[0.0, 0.0], [0.002, 1.0]]}],
     }  # fmt: skip
+    if far:
+        scene["blocks"].append({"name": "far", "material": "platen",
+                                "vertices": rect(5.0, 0.0, 6.0, 1.0)})  # fmt: skip
     result = dda.simulate(scene, keep_frames=False)
     assert len(result.fracture_events) >= 4
     excess, moved, _ = energy_excess(result.history, result.summary["initial_energy"], False)
