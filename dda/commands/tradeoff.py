@@ -24,8 +24,8 @@ log = logging.getLogger(__name__)
 
 WIDTH = 79  # the description's and the epilog's lines (argparse wraps the options' help)
 DESCRIPTION = (
-    "Run CASE (sliding_block, pushed_block, stack, wall or a scene file) for every "
-    "setting of the grid, measure the error against the closed form (or a fine run) and "
+    "Run CASE (sliding_block, pushed_block, pendulum, stack, wall or a scene file) for "
+    "every setting of the grid, measure the error against the closed form (or a fine run) and "
     "the median wall time of repeated runs; write DIR/CASE.csv, DIR/CASE.md and "
     "DIR/pareto_CASE.png. The client reads the case and sends scenes: workers need no files. "
     "DIR holds one study of CASE: a second one (of a study finished or interrupted) is "

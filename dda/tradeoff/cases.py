@@ -6,6 +6,9 @@
   H = 4000 lb so that it slides, run with the engine's defaults: the equilibrium
   start and material damping, not the paper's unloaded start without damping):
   acceleration 2x/t² over 0.5 s, closed form a = (H − tan φ (V + W)) / m.
+* ``pendulum`` (a 2 x 0.2 m bar let go level on a pin at the middle of one end,
+  no contact): its angle after 1 s, closed form of the compound pendulum (Jacobi's
+  sn): the case where Δt, not the contact, sets the error.
 * ``stack`` (cases/stack.toml, 0.2 s): mean σyy of the bottom block, closed
   form −ρ g (4 + ½) h.
 * ``wall`` (the benchmark's 10 x 10 wall of dda.bench.scenes, 0.1 s): the
@@ -25,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import scipy.special
 
 import dda
 import dda.cases
@@ -135,6 +139,47 @@ def pushed_block() -> Case:
     )
 
 
+BAR_LENGTH, BAR_HEIGHT = 2.0, 0.2  # m; pinned at (0, h/2), the middle of its left end
+
+
+def swing_angle(r: dda.Result) -> np.ndarray:
+    """The rotation (rad) of the block called ``bar``."""
+    return np.array([r.final.rotations[_row(r, "bar")]])
+
+
+def pendulum_angle(t: float, g: float = 9.81) -> float:
+    """The angle φ (rad, from level, negative downward) at time t of the bar let go
+    level from rest: ψ = φ + π/2 from the downward vertical obeys ψ'' = −ω₀² sin ψ,
+    ω₀² = g d / k² (d = L/2 from pin to centroid, k² = (L² + h²)/12 + d²), so
+    sin(ψ/2) = κ sn(K(κ²) − ω₀ t | κ²), κ = sin(ψ₀/2), ψ₀ = π/2."""
+    d = BAR_LENGTH / 2
+    omega_0 = np.sqrt(g * d / ((BAR_LENGTH**2 + BAR_HEIGHT**2) / 12 + d**2))
+    kappa = np.sin(np.pi / 4)
+    m = kappa**2
+    sn = scipy.special.ellipj(scipy.special.ellipk(m) - omega_0 * t, m)[0]
+    return float(2.0 * np.arcsin(kappa * sn) - np.pi / 2)
+
+
+def pendulum() -> Case:
+    rock = {"density": 2700.0, "young": 5e9, "poisson": 0.25, "damping": 0.0}
+    bar = [[0.0, 0.0], [BAR_LENGTH, 0.0], [BAR_LENGTH, BAR_HEIGHT], [0.0, BAR_HEIGHT]]
+    raw = {
+        "title": "A bar swinging on a pin (compound pendulum)",
+        "analysis": {"duration": 1.0, "gravity": [0.0, -9.81], "save_every": 10**6},
+        "materials": {"rock": rock},
+        "blocks": [{"name": "bar", "material": "rock", "vertices": bar,
+                    "fixed_points": [[0.0, BAR_HEIGHT / 2]]}],
+    }  # fmt: skip
+    return Case(
+        "pendulum",
+        raw,
+        swing_angle,
+        np.array([pendulum_angle(1.0)]),
+        "angle after 1 s (rad)",
+        default_grid("pendulum"),
+    )
+
+
 def bottom_stress(r: dda.Result) -> np.ndarray:
     """σyy of the block called ``block1``."""
     return np.array([r.final.stresses[_row(r, "block1"), 1]])
@@ -199,6 +244,7 @@ def wall() -> Case:
 BUILT_IN = {
     "sliding_block": sliding_block,
     "pushed_block": pushed_block,
+    "pendulum": pendulum,
     "stack": stack,
     "wall": wall,
 }

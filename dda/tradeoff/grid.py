@@ -44,6 +44,14 @@ def _sweep(penalty: list, time_step: list, ratio: list, tolerance: list | None =
 DEFAULT_GRIDS = {
     "sliding_block": _sweep([0.1, 1.0, 10.0], [0.02, 0.01, 0.005], [0.01, 0.002]),
     "pushed_block": _sweep([1e-4, 1e-2, 1.0, 10.0], [0.02, 0.01, 0.005], [0.01]),
+    # no contact: one method, penalty and tolerance (they change nothing)
+    "pendulum": {
+        "method": ["penalty"],
+        "penalty": [10.0],
+        "tolerance": [1e-6],
+        "time_step": [1e-2, 3e-3, 1e-3, 3e-4, 1e-4],
+        "ratio": [0.5, 0.01],
+    },
     "stack": _sweep([0.1, 1.0, 10.0], [0.004, 0.002, 0.001], [0.01, 0.002]),
     "wall": _sweep([50.0], [1e-3, 5e-4], [0.01], tolerance=[1e-3, 1e-4, 1e-5]),
     SCENE_FILE: _sweep([1.0, 10.0], [], [0.01]),
