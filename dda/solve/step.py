@@ -661,7 +661,8 @@ def solve_step(
     made = cache.solver.factorisations - factorisations_before + system.factorisations
     pushed = None
     if converged and overlap is not None:
-        pushed = push_out_displacement(base_k, blocks.fixed, contacts, rows, overlap)
+        after = gaps_after(rows, contacts.block_a, contacts.block_b, d)[0]
+        pushed = push_out_displacement(base_k, blocks.fixed, contacts, rows, overlap, after)
         d = d + pushed
     return StepSolution(
         d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,

@@ -8,6 +8,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 import dda
 from dda.contact.push_out import found_overlap, push_out_displacement
@@ -62,7 +63,8 @@ def test_push_out_removes_the_overlap_with_the_least_step_energy():
     contacts, rows = contacts_and_rows(1)
     masses, fixed = spd_masses(2), np.array([True, False, False])
     overlap = np.array([1.9e-3, 4e-4, 0.0])
-    push = push_out_displacement(masses, fixed, contacts, rows, overlap)
+    far = np.full(3, -1.0)  # the other contact 1 m open: the push does not reach it
+    push = push_out_displacement(masses, fixed, contacts, rows, overlap, far)
     assert np.all(push[0] == 0.0)
     moved = np.einsum("cr,cr->c", rows.normal_i[:2], push[contacts.block_a[:2]])
     moved += np.einsum(
@@ -87,9 +89,85 @@ def test_push_out_removes_the_overlap_with_the_least_step_energy():
     np.testing.assert_allclose(push[1:].ravel(), expected, rtol=1e-9, atol=1e-15)
 
 
+def in_a_row(gap_ab: float, fixed_b: bool = False):
+    """Blocks B, A, C side by side along x (stiffness 2, 1 and 3 on every D component):
+    C found overlapping A (contact 0, C's vertex in A's edge) and A's vertex on B's edge
+    (contact 1) open by ``gap_ab`` at the step's end. Penetrations change with the
+    translations u: contact 0 by u_A − u_C, contact 1 by u_B − u_A."""
+    x = np.eye(6)[0]
+    contacts = SimpleNamespace(block_a=np.array([2, 0]), block_b=np.array([0, 1]))
+    rows = SimpleNamespace(normal_i=np.array([-x, -x]), normal_j=np.array([x, x]))
+    stiffness = np.array([1.0, 2.0, 3.0])[:, None, None] * np.eye(6)  # A, B, C
+    fixed = np.array([False, fixed_b, False])
+    return stiffness, fixed, contacts, rows, np.array([1.0, -gap_ab])
+
+
+@pytest.mark.parametrize(
+    "gap_ab, fixed_b, expected",
+    [(None, False, (-0.75, 0.0, 0.25)),  # B out of reach: A and C part as the old push
+     (0.0, False, (-0.5, -0.5, 0.5)),  # A on B: A and B go together, 1/(1 + 2) against 1/3
+     (0.25, False, (-7 / 12, -1 / 3, 5 / 12)),  # A closes the gap, then pushes B
+     (0.0, True, (0.0, 0.0, 1.0))],  # A on a fixed B: C goes alone
+)  # fmt: skip
+def test_the_push_drives_no_block_into_another(gap_ab, fixed_b, expected):
+    """C found 1 (any unit) into A, A touching or near B: the push may not drive A into
+    B. The least ½ Σ k u² with u_A − u_C = −1 and u_B − u_A ≤ gap, by hand: unbounded,
+    u_A = −(1/1)/(1/1 + 1/3) = −0.75 (into B by 0.75); touching (gap 0), A and B move as
+    one of stiffness 3: u_A = u_B = −0.5, u_C = 0.5; with a gap of 0.25, u_C = u_A + 1,
+    u_B = u_A + 0.25 and ∂/∂u_A (u_A² + 2 u_B² + 3 u_C²)/2 = 6 u_A + 3.5 = 0:
+    u_A = −7/12; B fixed: u_A = 0, u_C = 1."""
+    stiffness, fixed, contacts, rows, after = in_a_row(0.0 if gap_ab is None else gap_ab, fixed_b)
+    if gap_ab is None:
+        after[1] = -10.0
+    push = push_out_displacement(stiffness, fixed, contacts, rows, np.array([1.0, 0.0]), after)
+    np.testing.assert_allclose(push[:, 0], expected, atol=1e-12)
+    assert not push[:, 1:].any()
+
+
+def test_the_push_is_the_least_step_energy_within_the_other_contacts():
+    """Random rows among five blocks (one fixed), two contacts found overlapping and ten
+    others at the step's end, some closed (penetration ≥ 0), some open: the push is the
+    minimum of ½ Dᵀ K₀ D with G_c D = −e and G_o D ≤ max(−g, 0), checked by its KKT
+    conditions (sufficient for a convex problem): feasible, K₀ D = Gᵀ ν on the free
+    blocks with ν ≤ 0 (pushing apart) at the other contacts and 0 where they are not at
+    their bound."""
+    rng = np.random.default_rng(7)
+    n, m = 5, 12
+    fixed = np.array([True, False, False, False, False])
+    a = rng.integers(1, n, m)
+    b = (a + rng.integers(1, n, m)) % n
+    contacts = SimpleNamespace(block_a=a, block_b=b)
+    rows = SimpleNamespace(normal_i=rng.normal(size=(m, 6)), normal_j=rng.normal(size=(m, 6)))
+    stiffness = spd_masses(3, n)
+    overlap = np.zeros(m)
+    overlap[:2] = [1e-3, 4e-4]
+    after = np.where(rng.random(m) < 0.5, rng.uniform(0.0, 1e-4, m), -rng.uniform(0, 1e-3, m))
+    push = push_out_displacement(stiffness, fixed, contacts, rows, overlap, after)
+    assert not push[fixed].any()
+    g = np.zeros((m, 6 * n))
+    for c in range(m):
+        g[c, 6 * a[c] : 6 * a[c] + 6] += rows.normal_i[c]
+        g[c, 6 * b[c] : 6 * b[c] + 6] += rows.normal_j[c]
+    g[:, :6] = 0.0  # block 0 fixed
+    motion = g @ push.ravel()
+    np.testing.assert_allclose(motion[:2], -overlap[:2], rtol=1e-9)
+    bound = np.maximum(-after[2:], 0.0)
+    assert np.all(motion[2:] <= bound + 1e-9 * overlap.max())
+    at_bound = np.concatenate([[True, True], motion[2:] >= bound - 1e-9 * overlap.max()])
+    assert at_bound[2:].any()  # the other contacts matter here
+    k0 = np.zeros((6 * n, 6 * n))
+    for i in range(1, n):
+        k0[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = stiffness[i]
+    force = k0 @ push.ravel()
+    nu = np.linalg.lstsq(g[at_bound].T, force, rcond=None)[0]
+    np.testing.assert_allclose(g[at_bound].T @ nu, force, atol=1e-9 * np.abs(force).max())
+    assert np.all(nu[2:] <= 1e-9 * np.abs(nu).max())
+
+
 def test_no_overlap_no_push():
     contacts, rows = contacts_and_rows()
-    push = push_out_displacement(spd_masses(0), np.zeros(3, bool), contacts, rows, np.zeros(3))
+    none = np.zeros(3)
+    push = push_out_displacement(spd_masses(0), np.zeros(3, bool), contacts, rows, none, none)
     assert push.shape == (3, 6) and not push.any()
 
 
