@@ -233,7 +233,14 @@ def single_threaded_blas() -> Iterator[None]:
     OpenBLAS's threads, which then spin on the cores PARDISO's threads solve
     on (at 10,000 blocks a back-substitution took twice as long). MKL, which
     PARDISO uses, keeps its own count (:meth:`dda.solve.policy.StepPolicy.solver_threads`).
+    The controller limits the libraries loaded when it is made, so scipy's own OpenBLAS
+    (loaded with ``scipy.linalg``, which a run calls) is loaded first: left to load
+    within the first run, it ran that run on two threads, whose sums differ from one
+    thread's in the last bits, and the first run of a process was not repeated by the
+    next.
     """
+    import scipy.linalg  # noqa: F401  (loads scipy's OpenBLAS before it is limited)
+
     with ThreadpoolController().select(internal_api="openblas").limit(limits=1):
         yield
 

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from threadpoolctl import ThreadpoolController, threadpool_info
@@ -44,3 +48,22 @@ def test_a_run_holds_openblas_to_one_thread_and_gives_it_back(monkeypatch):
         dda.simulate(dda.load_scene(wall_scene(2, steps=3)))
         assert seen == [1, 1, 1]
         assert set(openblas_threads()) == {2}
+
+
+def test_scipys_openblas_is_limited_in_a_fresh_process_too():
+    """The first run of a process loads scipy's OpenBLAS (scipy.linalg) while it runs;
+    the limit is set on it as on numpy's (before, it ran on two threads in the first run
+    only, which then differed from the next run of the same scene in the last bits)."""
+    code = (
+        "import dda, threadpoolctl\n"
+        "from dda.solve.linsolve import single_threaded_blas\n"
+        "with single_threaded_blas():\n"
+        "    import scipy.linalg, scipy.sparse.linalg\n"
+        "    print(sorted({p['num_threads'] for p in threadpoolctl.threadpool_info()\n"
+        "                  if p['internal_api'] == 'openblas'}))\n"
+    )
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "", "OMP_NUM_THREADS": ""}
+    env = {k: v for k, v in env.items() if v}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[1]"
