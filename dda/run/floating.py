@@ -90,7 +90,9 @@ def unbalanced_warning(
     acceleration = force / mass
     units = model.scene.units
     drift = ""
-    if np.isfinite(remaining) and remaining > 0.0:  # a static run starts each step at rest
+    if model.water is not None:  # the uplift changes as the model moves: no drift to extrapolate
+        drift = " (the water's uplift changes as it moves)"
+    elif np.isfinite(remaining) and remaining > 0.0:  # a static run starts each step at rest
         moved = 0.5 * acceleration * (ctx.dt if ctx.static else remaining) * remaining
         drift = f" ({moved:.3g} {units.length} by the run's end)"
     if boundary_loaded(model, ctx):

@@ -113,3 +113,17 @@ def test_a_static_run_that_nothing_holds_drifts_half_a_dt_t():
     by_steps = dda.simulate(dda.load_scene(raw))
     (said,) = [text for text in by_steps.summary["warnings"] if "nothing fixed holds" in text]
     assert f"({expected:.3g} m by the run's end)" in said
+
+
+def test_a_section_in_water_that_nothing_holds_is_said_without_a_drift():
+    """With a water table the net force changes as the section moves (the uplift follows
+    its submerged area: it comes to float), so the warning gives the force and the
+    acceleration at the start but no ½ a t² drift to the run's end."""
+    raw = section(base=False)
+    del raw["boundary_stresses"], raw["stages"]
+    raw["water"] = {"table": [[-10.0, 2.0], [10.0, 2.0]], "unit_weight": 9810.0}
+    result = dda.simulate(dda.load_scene(raw))
+    said = [text for text in result.summary["warnings"] if "nothing fixed holds" in text]
+    assert len(said) == 1 and "at the start" in said[0], result.summary["warnings"]
+    assert "the water's uplift changes as it moves" in said[0]
+    assert "by the run's end" not in said[0]
