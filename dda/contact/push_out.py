@@ -7,42 +7,61 @@ with its penalty spring, and the spring's energy ½ p g₀² would become kineti
 the blocks never had (a fragment's corner found 0.36 mm deep: 1.4 kJ in one step).
 Like the position correction of game-physics contact solvers, the step is solved with
 such a contact starting at touch (its start penetration g₀ taken out of its gap), and
-the overlap is removed by a displacement left out of the velocity: the displacement
-of least step energy ½ Dᵀ K₀ D that removes the overlap e_c = g₀ at each such
-contact c and drives no other contact o deeper than the step left it (g_o its
-penetration after the step's D; an open one may close its gap),
+what overlap the step leaves is removed by a displacement left out of the velocity.
 
-    min ½ Dᵀ K₀ D   subject to   G_c D = −e,   G_o D ≤ max(−g_o, 0),
+The push moves the blocks, it does not set them moving, so a rigid motion costs no
+energy, and a strain costs its elastic energy, which the block's spring-back would turn
+into motion. The push is therefore the displacement of least strain energy, among
+those the least rigid motion,
 
-where G holds the contacts' normal rows (penetration d = d0 + G D) and K₀ the step's
-block-diagonal stiffness (inertia 2M/Δt², elasticity, the other block springs; fixed
-blocks do not move). With W the other contacts held at their bound (an active set:
-added where the push drives them deeper, dropped where they would pull),
+    min ½ Dᵀ W D   subject to   G D ≤ b,
+    W_i = K_i + ε (E_i / m_i) M_i^rigid,
 
-    D_push = K₀⁻¹ Gᵀ λ,   (G K₀⁻¹ Gᵀ) λ = (−e, b_W),   λ_W ≤ 0,
+K_i the block's springs of the step without its inertia (elasticity, material damping,
+fixed points), M_i^rigid the translation and rotation rows of its mass matrix, ε =
+``RIGID_WEIGHT``: a rigid push of the overlap e costs about ε E e², a strain that takes
+it up E e². G holds every contact's normal row (penetration d = d0 + G D, fixed blocks
+not moving) and b its room: at a contact found overlapping by e with penetration g from
+touch after the step, b = −(e + g) (the push leaves it touching; nothing where the step
+has parted it); at every other contact b = max(−g, 0) (a closed contact goes no deeper,
+an open one may close its gap): a push drives no block into a third one, and the blocks
+behind a contact it closes are pushed along.
 
-G the rows of the overlapping contacts and of W: the blocks behind a contact in W are
-pushed along. (Without the bound on the other contacts the push drives a fragment's
-corner into a third piece, whose spring gives the overlap back as motion: 665 J, 6.4 %
-of what moved, in a crushed column at Δt = 1e-5 s.) Weighing the strain by its
-stiffness keeps the push's elastic energy, which the block's spring-back turns into
-motion, small: a rock block pushed out of a 2e-5 m overlap keeps 0.40 of ½ m (d/Δt)²
-(2.9 with the least-kinetic-energy push, which strains it freely; a rigid push keeps
-none there but shoves a fragment whole into its neighbours: 12 % of what moved in a
-crushed column).
+This is a least-distance problem in x = Lᵀ D (W = L Lᵀ block by block): min ‖x‖ with
+Ĝ x ≤ b, solved as Lawson and Hanson's non-negative least squares on [−Ĝᵀ; −bᵀ]
+(scipy.optimize.nnls), over the contacts it has to respect, found by rounds: those that
+must move, then every contact the last push drove beyond its room.
 """
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import scipy
+import scipy.optimize
+import scipy.sparse
+import scipy.sparse.csgraph
 
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import ContactRows
 from dda.result import OPEN
 
-SLACK = 1e-6  # of the deepest overlap: a contact driven deeper by less is left out
-ACTIVE_SET_PASSES = 50  # the active set's passes
+log = logging.getLogger(__name__)
+
+# the rigid motion's weight in the push's metric, over each block's E / m: a rigid push
+# is this many times cheaper than a strain of the same size
+RIGID_WEIGHT = 1e-6
+# of the deepest overlap: a contact driven beyond its room by less is not held (the
+# least-squares solve meets its rows to about 1e-5 of the overlap on 900 contacts)
+SLACK = 1e-4
+# rounds that add the contacts the last push drove beyond their room
+ROUNDS = 20
+# a round holds every contact of a block the last push moved that it brought within this
+# many overlaps of its room, not only those it drove beyond (fewer rounds)
+LOOK_AHEAD = 1.0
+# the unknowns a push moves: first the rigid motion alone, then with the strain
+RIGID, ALL = 3, 6
 
 
 def found_overlap(contacts: ContactSet, touch: float) -> np.ndarray:
@@ -56,45 +75,126 @@ def found_overlap(contacts: ContactSet, touch: float) -> np.ndarray:
     return np.where(found, contacts.penetration, 0.0)
 
 
+def push_metric(springs: np.ndarray, masses: np.ndarray, young_over_mass: np.ndarray) -> np.ndarray:
+    """(n, 6, 6) W_i = K_i + ε (E_i / m_i) M_i^rigid: the blocks' ``springs`` without
+    inertia, and ``RIGID_WEIGHT`` of their ``masses``' translation and rotation rows."""
+    metric = springs.copy()
+    metric[:, :3, :3] += RIGID_WEIGHT * young_over_mass[:, None, None] * masses[:, :3, :3]
+    return metric
+
+
 def push_out_displacement(
-    stiffness: np.ndarray,
+    metric: np.ndarray,
     fixed: np.ndarray,
     contacts: ContactSet,
     rows: ContactRows,
     overlap: np.ndarray,
     after: np.ndarray,
 ) -> np.ndarray:
-    """(n, 6) D_push for the contacts with ``overlap`` > 0 (zeros when there are none):
-    the least ½ Dᵀ K₀ D (``stiffness`` (n, 6, 6), D = 0 on ``fixed`` blocks) with
-    G_c D = −e at those contacts and G_o D ≤ max(−g, 0) at every other one, g its
-    penetration ``after`` the step's D (positive: overlap). The active set W of the other
-    contacts starts empty; each pass solves D = K₀⁻¹ Gᵀ λ, (G K₀⁻¹ Gᵀ) λ = (−e, b_W) on
-    the overlapping contacts and W, then drops the contact of W that pulls most (λ > 0)
-    if any pulls, else adds every contact the push drives deeper than its bound (by more
-    than ``SLACK`` of the deepest e), at most ``ACTIVE_SET_PASSES`` passes."""
+    """(n, 6) the push D (module docstring) for the contacts with ``overlap`` e > 0
+    (zeros where none is left), ``metric`` W (n, 6, 6), D = 0 on ``fixed`` blocks,
+    ``after`` every contact's penetration after the step's D (the overlapping ones' from
+    touch)."""
     n = len(fixed)
-    chosen = np.flatnonzero(overlap > 0.0)
-    if len(chosen) == 0:
+    room = np.where(overlap > 0.0, -(after + overlap), np.maximum(-after, 0.0))
+    if not (room < 0.0).any():
         return np.zeros((n, 6))
-    inverse = np.zeros((n, 6, 6))
-    inverse[~fixed] = np.linalg.inv(stiffness[~fixed])
-    bound = np.where(overlap > 0.0, -overlap, np.maximum(-after, 0.0))
+    free = ~fixed
     slack = SLACK * float(overlap.max())
-    other = overlap <= 0.0
-    active = chosen
+    for dofs in (RIGID, ALL):
+        whiten = _whitening(metric, free, dofs)
+        push = _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack)
+        if push is not None:
+            return push
+    log.debug("push-out: no displacement meets the contacts' room")
+    return np.zeros((n, 6))
+
+
+def _whitening(metric: np.ndarray, free: np.ndarray, dofs: int) -> np.ndarray:
+    """(n, 6, 6) L⁻ᵀ of the free blocks' metric on their first ``dofs`` unknowns (W = L Lᵀ
+    there, D = L⁻ᵀ x), zero on the others: the push moves only those."""
+    whiten = np.zeros((len(free), 6, 6))
+    factor = np.linalg.cholesky(metric[free][:, :dofs, :dofs])
+    whiten[np.ix_(free, range(dofs), range(dofs))] = np.linalg.inv(factor).transpose(0, 2, 1)
+    return whiten
+
+
+def _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack) -> np.ndarray | None:
+    """The least-distance push (:func:`_least_distance_push`) over the contacts that must
+    move and those within reach of them (:func:`_within_reach`), then, round by round,
+    every contact the last push drove beyond its room; None where none meets their room."""
+    reach = float(-room.min())  # the deepest overlap
+    held = _within_reach(contacts, free, room, reach)
+    for _ in range(ROUNDS):
+        chosen = np.flatnonzero(held)
+        push = _least_distance_push(whiten, dofs, free, contacts, rows, chosen, room)
+        if push is None:
+            return None
+        motion = _normal_motion(contacts, rows, push)
+        beyond = motion - room > slack
+        if not beyond.any():
+            return push
+        if not (beyond & ~held).any():
+            return None  # the contacts it holds are beyond their room: none meets it
+        moved = push.any(axis=1)
+        near = (motion - room > -LOOK_AHEAD * reach) & (
+            moved[contacts.block_a] | moved[contacts.block_b]
+        )
+        held |= beyond | near
+    log.debug("push-out: %d contacts held after %d rounds", held.sum(), ROUNDS)
+    return push
+
+
+def _within_reach(contacts: ContactSet, free: np.ndarray, room: np.ndarray, reach: float):
+    """(m,) the contacts that must move (room < 0) and every contact with less room than
+    ``reach`` of the free blocks joined to theirs by such contacts: a rigid push of one
+    block of a packed mass moves the blocks it is packed with (fewer rounds)."""
+    near = room < reach
+    a, b = contacts.block_a[near], contacts.block_b[near]
+    link = free[a] & free[b]
+    n = len(free)
+    graph = scipy.sparse.coo_matrix((np.ones(link.sum()), (a[link], b[link])), shape=(n, n))
+    label = scipy.sparse.csgraph.connected_components(graph, directed=False)[1]
+    must = room < 0.0
+    seeds = np.concatenate([contacts.block_a[must], contacts.block_b[must]])
+    inside = np.isin(label, label[seeds[free[seeds]]]) & free
+    return must | (near & (inside[contacts.block_a] | inside[contacts.block_b]))
+
+
+def _least_distance_push(
+    whiten: np.ndarray,
+    dofs: int,
+    free: np.ndarray,
+    contacts: ContactSet,
+    rows: ContactRows,
+    chosen: np.ndarray,
+    room: np.ndarray,
+) -> np.ndarray | None:
+    """(n, 6) D = L⁻ᵀ x, x the least ‖x‖ with Ĝ x ≤ b at the ``chosen`` contacts (Ĝ their
+    rows in x): by NNLS, min ‖E u − f‖, u ≥ 0, E = [−Ĝᵀ; −bᵀ], f = (0, …, 0, 1), then
+    x = −r / r_last with r = E u − f (Lawson and Hanson, ch. 23); None where r_last ≥ 0
+    (no x meets them)."""
+    n = len(free)
+    ends = np.concatenate([contacts.block_a[chosen], contacts.block_b[chosen]])
+    gradient = np.concatenate([rows.normal_i[chosen], rows.normal_j[chosen]])
+    which = np.tile(np.arange(len(chosen)), 2)
+    moving = free[ends]
+    ends, gradient, which = ends[moving], gradient[moving], which[moving]
+    blocks, column = np.unique(ends, return_inverse=True)
+    rows_x = np.einsum("ej,eji->ei", gradient, whiten[ends])[:, :dofs]  # g L⁻ᵀ
+    g_hat = np.zeros((len(chosen), dofs * len(blocks)))
+    np.add.at(g_hat, (which[:, None], dofs * column[:, None] + np.arange(dofs)), rows_x)
+    scale = float(np.abs(room[chosen]).max())  # b in units of the largest room
+    system = np.vstack([-g_hat.T, -room[chosen][None, :] / scale])
+    target = np.zeros(len(system))
+    target[-1] = 1.0
+    weights = scipy.optimize.nnls(system, target, maxiter=50 * system.shape[1])[0]
+    residual = system @ weights - target
+    if residual[-1] >= 0.0:
+        return None
+    x = (-scale * residual[:-1] / residual[-1]).reshape(-1, dofs)
     push = np.zeros((n, 6))
-    for _ in range(ACTIVE_SET_PASSES):
-        multiplier, push = _equality_push(inverse, fixed, contacts, rows, active, bound[active])
-        pulls = np.flatnonzero(other[active] & (multiplier > 0.0))
-        if len(pulls):
-            active = np.delete(active, pulls[np.argmax(multiplier[pulls])])
-            continue
-        deeper = _normal_motion(contacts, rows, push) - bound > slack
-        deeper &= other
-        deeper[active] = False
-        if not deeper.any():
-            break
-        active = np.concatenate([active, np.flatnonzero(deeper)])
+    push[blocks] = np.einsum("bij,bj->bi", whiten[blocks][:, :, :dofs], x)
     return push
 
 
@@ -102,34 +202,3 @@ def _normal_motion(contacts: ContactSet, rows: ContactRows, d: np.ndarray) -> np
     """(m,) G D: each contact's change of penetration under D (n, 6)."""
     moved = np.einsum("mr,mr->m", rows.normal_i, d[contacts.block_a])
     return moved + np.einsum("mr,mr->m", rows.normal_j, d[contacts.block_b])
-
-
-def _equality_push(
-    inverse: np.ndarray,
-    fixed: np.ndarray,
-    contacts: ContactSet,
-    rows: ContactRows,
-    active: np.ndarray,
-    target: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(λ, D) of the least ½ Dᵀ K₀ D with G D = ``target`` at the ``active`` contacts:
-    D = K₀⁻¹ Gᵀ λ, (G K₀⁻¹ Gᵀ) λ = target (least squares where the rows are dependent);
-    ``inverse`` holds K₀⁻¹ per block (0 on fixed blocks)."""
-    n, k = len(fixed), len(active)
-    blocks = np.concatenate([contacts.block_a[active], contacts.block_b[active]])
-    gradient = np.concatenate([rows.normal_i[active], rows.normal_j[active]])
-    which = np.tile(np.arange(k), 2)
-    free = ~fixed[blocks]
-    blocks, gradient, which = blocks[free], gradient[free], which[free]
-    weighted = np.einsum("eij,ej->ei", inverse[blocks], gradient)  # K₀⁻¹ rows
-    cols = (6 * blocks[:, None] + np.arange(6)).ravel()
-
-    def spread(values: np.ndarray) -> scipy.sparse.csr_matrix:
-        return scipy.sparse.csr_matrix(
-            (values.ravel(), (np.repeat(which, 6), cols)), shape=(k, 6 * n)
-        )
-
-    g, g_weighted = spread(gradient), spread(weighted)
-    coupling = (g @ g_weighted.T).toarray()  # G K₀⁻¹ Gᵀ
-    multiplier = np.linalg.lstsq(coupling, target, rcond=None)[0]
-    return multiplier, np.asarray(g_weighted.T @ multiplier).reshape(n, 6)

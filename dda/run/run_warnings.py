@@ -238,10 +238,10 @@ def energy_warning(
     )
     if pushed_steps:
         said += (
-            f"The push-out removed overlaps at {pushed_steps} step(s) and handed their "
-            "springs' energy to the blocks: blocks drawn overlapping (draw them apart or "
-            "touching: docs/contact.md, energy), or a block that moved into another within "
-            "a step. "
+            f"The push-out removed overlaps at {pushed_steps} step(s) by moving blocks, "
+            "which lifts them against their loads or strains them where they cannot move "
+            "as a whole: blocks drawn overlapping (draw them apart or touching: "
+            "docs/contact.md, energy), or a block that moved into another within a step. "
         )
     if fastest is None:
         return said + "A smaller analysis.time_step gives less of it"

@@ -30,7 +30,7 @@ from dda.contact.formulas import first_bound, remembered_pieces
 from dda.contact.law import BoundIteration, ContactLaw, JointProperties
 from dda.contact.narrow import separated_blocks
 from dda.contact.potential import ContactTerms
-from dda.contact.push_out import found_overlap, push_out_displacement
+from dda.contact.push_out import found_overlap, push_metric, push_out_displacement
 from dda.contact.rows import ContactRows, contact_rows, gaps_after
 from dda.effects.base import StepContext
 from dda.effects.pair_springs import PairSprings
@@ -189,6 +189,18 @@ def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
         if f is not None:
             forces += f
     return diagonal, forces
+
+
+def _push_metric(model: Model, blocks: BlockSet, ctx: StepContext) -> np.ndarray:
+    """The push-out's metric (:func:`dda.contact.push_out.push_metric`): the effects'
+    block springs but the inertia's, and a little of the blocks' rigid mass."""
+    springs = np.zeros((blocks.count, 6, 6))
+    for effect in model.effects:
+        if effect is not model.inertia and (k := effect.stiffness(blocks, ctx)) is not None:
+            springs += k
+    masses = model.inertia.masses(blocks)
+    young = model.elastic.material_elasticity[:, 0, 0][blocks.material]
+    return push_metric(springs, masses, young / masses[:, 0, 0])
 
 
 def _stiffness(
@@ -662,7 +674,8 @@ def solve_step(
     pushed = None
     if converged and overlap is not None:
         after = gaps_after(rows, contacts.block_a, contacts.block_b, d)[0]
-        pushed = push_out_displacement(base_k, blocks.fixed, contacts, rows, overlap, after)
+        metric = _push_metric(model, blocks, ctx)
+        pushed = push_out_displacement(metric, blocks.fixed, contacts, rows, overlap, after)
         d = d + pushed
     return StepSolution(
         d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,

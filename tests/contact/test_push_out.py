@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import dda
-from dda.contact.push_out import found_overlap, push_out_displacement
+from dda.contact.push_out import found_overlap, push_metric, push_out_displacement
 from dda.result import LOCKED, OPEN
 from dda.run.run_warnings import energy_excess
 
@@ -57,36 +57,94 @@ def test_only_fresh_closed_contacts_found_overlapping_count():
     assert found_overlap(contacts, 1e-9)[1] == 0.0
 
 
-def test_push_out_removes_the_overlap_with_the_least_step_energy():
-    """G D = -e at the chosen contacts, D = 0 on fixed blocks, and D = K₀⁻¹Gᵀλ
-    (so no other D with G D = -e has less ½ Dᵀ K₀ D; K₀ any block-diagonal SPD)."""
-    contacts, rows = contacts_and_rows(1)
-    masses, fixed = spd_masses(2), np.array([True, False, False])
-    overlap = np.array([1.9e-3, 4e-4, 0.0])
-    far = np.full(3, -1.0)  # the other contact 1 m open: the push does not reach it
-    push = push_out_displacement(masses, fixed, contacts, rows, overlap, far)
-    assert np.all(push[0] == 0.0)
-    moved = np.einsum("cr,cr->c", rows.normal_i[:2], push[contacts.block_a[:2]])
-    moved += np.einsum(
-        "cr,cr->c",
-        rows.normal_j[:2],
-        push[contacts.block_b[:2]] * ~fixed[contacts.block_b[:2], None],
-    )
-    np.testing.assert_allclose(moved, -overlap[:2], rtol=1e-10)
-    # the least-energy solution of the same constraints, by a dense KKT system
-    g = np.zeros((2, 12))
-    for c in range(2):
-        for block, row in (
-            (contacts.block_a[c], rows.normal_i[c]),
-            (contacts.block_b[c], rows.normal_j[c]),
-        ):
+def kkt_holds(metric, fixed, contacts, rows, room, push, scale, dofs=3):
+    """The push's optimality (sufficient for the convex problem) on the first ``dofs`` of
+    each block's unknowns (the rigid motion where it can; the others 0): G D ≤ room,
+    W D = −Gᵀν on the free blocks with ν ≥ 0 (pushing apart), ν = 0 where a contact has
+    room left."""
+    n, m = len(fixed), len(room)
+    assert not push[:, dofs:].any()
+    metric = metric.copy()
+    metric[:, dofs:, :] = metric[:, :, dofs:] = 0.0
+    metric[:, range(dofs, 6), range(dofs, 6)] = 1.0  # the other unknowns: 0 by the line above
+    g = np.zeros((m, 6 * n))
+    for c in range(m):
+        for block, row in ((contacts.block_a[c], rows.normal_i[c]),
+                           (contacts.block_b[c], rows.normal_j[c])):  # fmt: skip
             if not fixed[block]:
-                g[c, 6 * (block - 1) : 6 * block] += row
-    m = np.zeros((12, 12))
-    m[:6, :6], m[6:, 6:] = masses[1], masses[2]
-    kkt = np.block([[m, g.T], [g, np.zeros((2, 2))]])
-    expected = np.linalg.solve(kkt, np.concatenate([np.zeros(12), -overlap[:2]]))[:12]
-    np.testing.assert_allclose(push[1:].ravel(), expected, rtol=1e-9, atol=1e-15)
+                g[c, 6 * block : 6 * block + 6] += row
+    motion = g @ push.ravel()
+    assert np.all(motion <= room + 1e-9 * scale)
+    g.reshape(m, n, 6)[:, :, dofs:] = 0.0  # stationary on the unknowns the push moves
+    at_room = motion >= room - 1e-9 * scale
+    w = np.zeros((6 * n, 6 * n))
+    for i in np.flatnonzero(~fixed):
+        w[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = metric[i]
+    force = w @ push.ravel()
+    nu = np.linalg.lstsq(-g[at_room].T, force, rcond=None)[0]
+    np.testing.assert_allclose(-g[at_room].T @ nu, force, atol=1e-9 * np.abs(force).max())
+    assert np.all(nu >= -1e-9 * np.abs(nu).max())
+    return at_room
+
+
+def test_push_out_removes_the_overlap_with_the_least_energy_in_its_metric():
+    """Two contacts found overlapping, left at touch by the step, one open far away: the
+    push leaves both at most touching, D = 0 on the fixed block, and no other D that does
+    has less ½ Dᵀ W D (W any block-diagonal SPD): checked by the KKT conditions."""
+    contacts, rows = contacts_and_rows(1)
+    metric, fixed = spd_masses(2), np.array([True, False, False])
+    overlap = np.array([1.9e-3, 4e-4, 0.0])
+    after = np.array([0.0, 0.0, -1.0])  # the other contact 1 m open: the push does not reach it
+    push = push_out_displacement(metric, fixed, contacts, rows, overlap, after)
+    assert np.all(push[0] == 0.0)
+    room = np.array([-1.9e-3, -4e-4, 1.0])
+    at_room = kkt_holds(metric, fixed, contacts, rows, room, push, 1.9e-3)
+    assert at_room[0] and not at_room[2]
+
+
+def test_an_overlap_the_step_parted_is_not_pushed():
+    """A contact found 1e-3 deep whose step moved its blocks apart by more (its
+    penetration from touch after the step −2e-3): no push; by less (−4e-4): the rest."""
+    contacts, rows = contacts_and_rows(1)
+    metric, fixed = spd_masses(2), np.array([True, False, False])
+    overlap = np.array([1e-3, 0.0, 0.0])
+    parted = np.array([-2e-3, -1.0, -1.0])
+    assert not push_out_displacement(metric, fixed, contacts, rows, overlap, parted).any()
+    partly = np.array([-4e-4, -1.0, -1.0])
+    push = push_out_displacement(metric, fixed, contacts, rows, overlap, partly)
+    kkt_holds(metric, fixed, contacts, rows, np.array([-6e-4, 1.0, 1.0]), push, 1e-3)
+
+
+def test_the_push_moves_a_block_rigidly_where_it_can():
+    """A block found 1e-4 into a fixed one: pushed out by a rigid motion, with no strain
+    (which its spring-back would turn into motion)."""
+    x = np.eye(6)[1]  # the contact's penetration changes with −v of block 1
+    contacts = SimpleNamespace(block_a=np.array([1]), block_b=np.array([0]))
+    rows = SimpleNamespace(normal_i=np.array([-x + 0.3 * np.eye(6)[4]]), normal_j=np.array([x]))
+    young, mass = 1e10, 2700.0
+    springs = np.zeros((2, 6, 6))
+    springs[:, 3:, 3:] = young * np.eye(3)
+    masses = np.broadcast_to(mass * np.eye(6), (2, 6, 6)).copy()
+    metric = push_metric(springs, masses, np.full(2, young / mass))
+    fixed = np.array([True, False])
+    push = push_out_displacement(metric, fixed, contacts, rows, np.array([1e-4]), np.zeros(1))
+    assert push[1, 1] == pytest.approx(1e-4, rel=1e-12)
+    assert not push[1, 3:].any()
+
+
+def test_a_block_pinched_between_two_fixed_ones_is_pushed_by_its_strain():
+    """A unit block found 1e-3 into fixed blocks on both sides: no rigid motion clears
+    both (its left face moves u − εx/2, its right face u + εx/2), so the push is the
+    least ½ DᵀWD with strain: u = 0, εx = −2e-3 (W diagonal)."""
+    u, ex = np.eye(6)[0], np.eye(6)[3]
+    contacts = SimpleNamespace(block_a=np.array([1, 1]), block_b=np.array([0, 2]))
+    rows = SimpleNamespace(normal_i=np.array([-u + 0.5 * ex, u + 0.5 * ex]),
+                           normal_j=np.zeros((2, 6)))  # fmt: skip
+    metric = np.broadcast_to(np.eye(6), (3, 6, 6)).copy()
+    fixed = np.array([True, False, True])
+    push = push_out_displacement(metric, fixed, contacts, rows, np.full(2, 1e-3), np.zeros(2))
+    np.testing.assert_allclose(push[1], -2e-3 * ex, atol=1e-15)
+    assert not push[fixed].any()
 
 
 def in_a_row(gap_ab: float, fixed_b: bool = False):
@@ -99,7 +157,7 @@ def in_a_row(gap_ab: float, fixed_b: bool = False):
     rows = SimpleNamespace(normal_i=np.array([-x, -x]), normal_j=np.array([x, x]))
     stiffness = np.array([1.0, 2.0, 3.0])[:, None, None] * np.eye(6)  # A, B, C
     fixed = np.array([False, fixed_b, False])
-    return stiffness, fixed, contacts, rows, np.array([1.0, -gap_ab])
+    return stiffness, fixed, contacts, rows, np.array([0.0, -gap_ab])
 
 
 @pytest.mark.parametrize(
@@ -124,13 +182,11 @@ def test_the_push_drives_no_block_into_another(gap_ab, fixed_b, expected):
     assert not push[:, 1:].any()
 
 
-def test_the_push_is_the_least_step_energy_within_the_other_contacts():
-    """Random rows among five blocks (one fixed), two contacts found overlapping and ten
-    others at the step's end, some closed (penetration ≥ 0), some open: the push is the
-    minimum of ½ Dᵀ K₀ D with G_c D = −e and G_o D ≤ max(−g, 0), checked by its KKT
-    conditions (sufficient for a convex problem): feasible, K₀ D = Gᵀ ν on the free
-    blocks with ν ≤ 0 (pushing apart) at the other contacts and 0 where they are not at
-    their bound."""
+def test_the_push_is_the_least_energy_within_the_other_contacts():
+    """Random rows among five blocks (one fixed), two contacts found overlapping (left at
+    touch by the step) and ten others at the step's end, some closed (penetration ≥ 0),
+    some open: the push is the minimum of ½ Dᵀ W D with G D ≤ −e at the overlapping ones
+    and G D ≤ max(−g, 0) at the others (its KKT conditions), and the others matter."""
     rng = np.random.default_rng(7)
     n, m = 5, 12
     fixed = np.array([True, False, False, False, False])
@@ -138,30 +194,16 @@ def test_the_push_is_the_least_step_energy_within_the_other_contacts():
     b = (a + rng.integers(1, n, m)) % n
     contacts = SimpleNamespace(block_a=a, block_b=b)
     rows = SimpleNamespace(normal_i=rng.normal(size=(m, 6)), normal_j=rng.normal(size=(m, 6)))
-    stiffness = spd_masses(3, n)
+    metric = spd_masses(3, n)
     overlap = np.zeros(m)
     overlap[:2] = [1e-3, 4e-4]
     after = np.where(rng.random(m) < 0.5, rng.uniform(0.0, 1e-4, m), -rng.uniform(0, 1e-3, m))
-    push = push_out_displacement(stiffness, fixed, contacts, rows, overlap, after)
+    after[:2] = 0.0
+    push = push_out_displacement(metric, fixed, contacts, rows, overlap, after)
     assert not push[fixed].any()
-    g = np.zeros((m, 6 * n))
-    for c in range(m):
-        g[c, 6 * a[c] : 6 * a[c] + 6] += rows.normal_i[c]
-        g[c, 6 * b[c] : 6 * b[c] + 6] += rows.normal_j[c]
-    g[:, :6] = 0.0  # block 0 fixed
-    motion = g @ push.ravel()
-    np.testing.assert_allclose(motion[:2], -overlap[:2], rtol=1e-9)
-    bound = np.maximum(-after[2:], 0.0)
-    assert np.all(motion[2:] <= bound + 1e-9 * overlap.max())
-    at_bound = np.concatenate([[True, True], motion[2:] >= bound - 1e-9 * overlap.max()])
-    assert at_bound[2:].any()  # the other contacts matter here
-    k0 = np.zeros((6 * n, 6 * n))
-    for i in range(1, n):
-        k0[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = stiffness[i]
-    force = k0 @ push.ravel()
-    nu = np.linalg.lstsq(g[at_bound].T, force, rcond=None)[0]
-    np.testing.assert_allclose(g[at_bound].T @ nu, force, atol=1e-9 * np.abs(force).max())
-    assert np.all(nu[2:] <= 1e-9 * np.abs(nu).max())
+    room = np.where(overlap > 0, -overlap, np.maximum(-after, 0.0))
+    at_room = kkt_holds(metric, fixed, contacts, rows, room, push, 1e-3)
+    assert at_room[2:].any()  # the other contacts matter here
 
 
 def test_no_overlap_no_push():

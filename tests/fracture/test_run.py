@@ -309,7 +309,7 @@ def test_rock_crushed_between_platens_makes_no_energy(dt, far):
         scene["blocks"].append({"name": "far", "material": "platen",
                                 "vertices": rect(5.0, 0.0, 6.0, 1.0)})  # fmt: skip
     result = dda.simulate(scene, keep_frames=False)
-    assert len(result.fracture_events) >= 4
+    assert len(result.fracture_events) >= 3  # the column breaks, and its pieces again
     excess, moved, _ = energy_excess(result.history, result.summary["initial_energy"], False)
     assert moved > 5e3  # J
     assert excess <= 1e-5 * moved

@@ -44,16 +44,14 @@ References of kind ``motion`` (:mod:`verify.references.motion`), computed from t
     tolerance, in a dynamic run that starts unloaded: the first step finds the
     contact already that deep, solves it from touch, and removes the overlap by
     moving the block (dda.contact.push_out), not by giving it a velocity: the
-    first step's D is the displacement of least step energy ½ Dᵀ K₀ D that moves
-    the deepest vertex out by d along the normal n of the nearest boundary,
-    D = K₀⁻¹ gᵀ d / (g K₀⁻¹ gᵀ) with g = nᵀ T(vertex), K₀ = 2 M / Δt² + A E (on
-    the strains) and M = ρ ∫ Tᵀ T dA (Shi's first-order displacement T about the
-    centroid): rows ``motion`` at t = 0 and at the end of the first step only (the
-    strain the push leaves then springs back against the base). Nothing acts on
-    the block: its energy stays at E0 + W = 0, up to the elastic energy of that
-    strain. The push counted in the velocity, 2 D / Δt, would give it about
-    2 d² / (Δt² g M⁻¹ gᵀ), of the order of ½ m (d / Δt)²: the scale of the rows
-    ``energy``.
+    first step's D is the least rigid motion that moves the deepest vertex out by d
+    along the normal n of the nearest boundary, with no strain,
+    D = M⁻¹ gᵀ d / (g M⁻¹ gᵀ) on the translation and turn, g = nᵀ T(vertex) there,
+    M those rows of ρ ∫ Tᵀ T dA (Shi's first-order displacement T about the
+    centroid): rows ``motion`` at t = 0 and at the end of the first step only.
+    Nothing acts on the block: its energy stays at E0 + W = 0. The push counted in
+    the velocity, 2 D / Δt, would give it about 2 d² / (Δt² g M⁻¹ gᵀ), of the
+    order of ½ m (d / Δt)²: the scale of the rows ``energy``.
 """
 
 from __future__ import annotations
@@ -263,24 +261,24 @@ def mass_matrix(vertices: np.ndarray, density: float) -> np.ndarray:
 
 
 def least_push(scene: Scene, block: int, overlap: Overlap) -> np.ndarray:
-    """D (6,) of least step energy ½ Dᵀ K₀ D that moves the deepest vertex out by d along
-    the normal: D = K₀⁻¹ gᵀ d / (g K₀⁻¹ gᵀ), g = nᵀ T(vertex), K₀ = 2 M / Δt² plus the
-    block's elastic stiffness A E on its strains (Shi's step of Newmark β = ½)."""
+    """D (6,) that moves the deepest vertex out by d along the normal with the least rigid
+    motion and no strain (a push moves the block without setting it moving, so a rigid
+    motion costs no energy and a strain its spring-back): D = M⁻¹ gᵀ d / (g M⁻¹ gᵀ) on
+    the translation and turn, M their rows of the mass matrix, g = nᵀ T(vertex) there."""
     vertices = np.asarray(scene.blocks[block].vertices, dtype=float)
     density = scene.materials[scene.blocks[block].material].density
-    stiffness = 2.0 * mass_matrix(vertices, density) / scene.analysis.time_step**2
-    area = float(shapely.Polygon(vertices).area)
-    stiffness[3:, 3:] += area * elasticity(scene, block)
-    g = overlap.normal @ displacement_matrix(overlap.vertex, polygon_centroid(vertices))
-    weighted = np.linalg.solve(stiffness, g)
-    push = weighted * overlap.depth / float(g @ weighted)
-    # the solve's round-off (a symmetric block's turn and shear) is no motion to scale by
+    rigid = mass_matrix(vertices, density)[:3, :3]
+    g = (overlap.normal @ displacement_matrix(overlap.vertex, polygon_centroid(vertices)))[:3]
+    weighted = np.linalg.solve(rigid, g)
+    push = np.zeros(6)
+    push[:3] = weighted * overlap.depth / float(g @ weighted)
+    # the solve's round-off (a symmetric block's turn) is no motion to scale by
     return np.where(np.abs(push) > 1e-12 * np.abs(push).max(), push, 0.0)
 
 
 def placed(scene: Scene, block: int, times: np.ndarray) -> Motion:
-    """At rest at t = 0, pushed out by the push of least kinetic energy at the end of
-    the first step; energy scale ½ m (d / Δt)² (module notes)."""
+    """At rest at t = 0, pushed out by the least rigid push at the end of the first
+    step; energy scale ½ m (d / Δt)² (module notes)."""
     a, b = scene.analysis, scene.blocks[block]
     if any(a.gravity) or scene.loads or any(b.velocity) or a.start != "unloaded":
         raise ExpectationError(
