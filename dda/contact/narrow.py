@@ -85,6 +85,12 @@ class Detected:
     vertex: np.ndarray
     edge: np.ndarray
     vertex_vertex: np.ndarray  # bool
+    # bool: a vertex-vertex pairing whose vertex's block has an edge along the corner's
+    # other edge, facing the same way (:func:`_shares_line`): the blocks share that
+    # boundary line, and the vertex's depth behind this edge is the overlap of the faces
+    # that meet it however near the shared edge the vertex lies (the pipeline's
+    # nearer-edge test leaves such a pairing be)
+    shared_line: np.ndarray
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -189,7 +195,7 @@ def detect(
     """
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
-        return Detected(empty, empty, np.zeros(0, bool))
+        return Detected(empty, empty, np.zeros(0, bool), np.zeros(0, bool))
     if compiled(_detect_kernel):
         return _detect_compiled(
             blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap
@@ -200,15 +206,16 @@ def detect(
     apart = _at_filled_nodes(blocks, fans, vv_vertex, vv_edge, inside_depth)
     vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
     slack = OUTSIDE_FRACTION * search
-    vv_vertex, vv_edge = _resolve_vertex_vertex(
+    vv_vertex, vv_edge, vv_shared = _resolve_vertex_vertex(
         blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys
     )
     vertex_all = np.concatenate([ve_vertex, vv_vertex])
     edge_all = np.concatenate([ve_edge, vv_edge])
     kind = np.concatenate([np.zeros(len(ve_vertex), bool), np.ones(len(vv_vertex), bool)])
+    shared = np.concatenate([np.zeros(len(ve_vertex), bool), vv_shared])
     keep = _first_of_each(vertex_all, edge_all)
     keep = keep[~_opposed_deeper(blocks, fans, vertex_all[keep], edge_all[keep])]
-    return Detected(vertex_all[keep], edge_all[keep], kind[keep])
+    return Detected(vertex_all[keep], edge_all[keep], kind[keep], shared[keep])
 
 
 def _detect_compiled(blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap):
@@ -268,9 +275,10 @@ def _detect(
         directed, offsets, v, nxt, reflex, to_next, to_prev, radius, area, lo, hi,
         search, gap, ANGLE_TOLERANCE, EDGE_END,
     )  # fmt: skip
+    vv_s = np.zeros(0, np.bool_)
     if vv_v.shape[0]:
         close = ~separated_corners_kernel(v, owner, to_next, to_prev, vv_v, vv_e, inside)
-        vv_v, vv_e = _resolve_kernel(
+        vv_v, vv_e, vv_s = _resolve_kernel(
             vv_v[close], vv_e[close], v, nxt, prv, to_next, to_prev, outward, reflex, parts,
             known, OUTSIDE_FRACTION * search, inside, ANGLE_TIE, KEY_SCALE,
         )  # fmt: skip
@@ -278,8 +286,11 @@ def _detect(
     edge = np.concatenate((ve_e, vv_e))
     kind = np.zeros(vertex.shape[0], np.bool_)
     kind[ve_v.shape[0] :] = True
+    shared = np.zeros(vertex.shape[0], np.bool_)
+    for k in range(vv_s.shape[0]):
+        shared[ve_v.shape[0] + k] = vv_s[k]
     keep = _pairings_kernel(vertex, edge, v, nxt, reflex, owner, outward, blocks_count)
-    return vertex[keep], edge[keep], kind[keep]
+    return vertex[keep], edge[keep], kind[keep], shared[keep]
 
 
 def _screened(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float, gap: float):
@@ -471,9 +482,13 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     corners of a regular wall, where every candidate ties, swapped pairings
     with round-off from step to step (more than half of the contacts of a
     10 x 10 wall got new keys every step) and lost their history.
+
+    Returns (vertex, edge, shared line) of each pairing: the last whether the
+    vertex's block has an edge along the corner's other edge, facing the same way
+    (:attr:`Detected.shared_line`).
     """
     if len(p1) == 0:
-        return p1, p2
+        return p1, p2, np.zeros(0, bool)
     candidates = [
         (p1, p2),  # p1 onto edge starting at p2
         (p1, fans.prev[p2]),  # p1 onto edge ending at p2
@@ -522,6 +537,7 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     return (
         np.concatenate([verts[rows, best], verts[rows[nested], other]]),
         np.concatenate([edges[rows, best], edges[rows[nested], other]]),
+        np.concatenate([shared[rows, best], shared[rows[nested], other]]),
     )
 
 
@@ -549,6 +565,7 @@ def _resolve(
     k = p1.shape[0]
     out_v = np.empty(2 * k, np.int64)  # one pairing each, then the nested corners' second
     out_e = np.empty(2 * k, np.int64)
+    out_s = np.empty(2 * k, np.bool_)  # the pairing's vertex shares a line (Detected)
     seconds = 0
     verts = np.empty(4, np.int64)
     edges = np.empty(4, np.int64)
@@ -632,6 +649,7 @@ def _resolve(
             if reflex[corner] and max(depth[first], depth[first + 1]) > 0.0:
                 best = first if depth[first] >= depth[first + 1] else first + 1
         out_v[i], out_e[i] = verts[best], edges[best]
+        out_s[i] = _shares_line(outward, prv, verts[best], edges[best + 1 - 2 * (best % 2)])
         group = best - best % 2
         corner, entering = (b, a) if group == 0 else (a, b)
         if nested_in_corner(
@@ -639,8 +657,9 @@ def _resolve(
         ):
             other = group + 1 - best % 2
             out_v[k + seconds], out_e[k + seconds] = verts[other], edges[other]
+            out_s[k + seconds] = _shares_line(outward, prv, verts[other], edges[best])
             seconds += 1
-    return out_v[: k + seconds], out_e[: k + seconds]
+    return out_v[: k + seconds], out_e[: k + seconds], out_s[: k + seconds]
 
 
 _resolve_kernel = kernel(_resolve)

@@ -51,7 +51,14 @@ def refresh_contacts(
     deeper behind their edge's line than the vertex is from the block's boundary
     (by more than the contact tolerance): the vertex is nearer another edge, and
     the depth would push it out by far more than its overlap (fresh fracture
-    fragments: 4.8e-4 m against 2.5e-8 m). Every contact's shear
+    fragments: 4.8e-4 m against 2.5e-8 m). Not so a vertex-vertex pairing whose
+    vertex's block has an edge along the corner's other edge, facing the same way
+    (``Detected.shared_line``): the two blocks share that boundary line, the edge
+    the vertex is nearer is the one its own edge lies along, and its depth behind
+    the paired edge is the overlap of the faces that meet there (two pieces of one
+    fracture whose crack ends on the parent's face: refused, the crack end had no
+    contact after its pairing passed from one piece's corner to the other's, and the
+    crack faces overlapped by 1.5e-3 m² in 17 steps). Every contact's shear
     reference point is moved under its vertex: shear motion is measured from
     the step start, and the shear force carried from the last step is the
     contact's ``shear_multiplier`` (:mod:`dda.contact.law`). ``kept_pairs``: the
@@ -112,7 +119,8 @@ def _touching_and_merged(blocks, previous, settings, vertex, edge, penetration, 
 def _sift_numpy(blocks, found, previous_keys, search, slack, tolerance, depth_tolerance):
     """(penetration, parameter, keys, rows in the last step's set, plausible, distance
     to the edge's block, the pairings asked of :func:`_blocks_touch`) of the pairings
-    found: the tests of :func:`refresh_contacts` before the shapely one."""
+    found: the tests of :func:`refresh_contacts` before the shapely one (the nearer-edge
+    test not on pairings along a shared line, ``found.shared_line``)."""
     penetration, parameter, far = edge_geometry(blocks, found.vertex, found.edge)
     keys = contact_keys(blocks, found.vertex, found.edge)
     previous_rows = rows_in(keys, previous_keys)
@@ -126,7 +134,8 @@ def _sift_numpy(blocks, found, previous_keys, search, slack, tolerance, depth_to
     plausible &= ~doubtful | geometrically_sound(
         far, penetration, boundary, to_block, tolerance, slack
     )
-    plausible &= ~new_and_deep | (penetration <= boundary + depth_tolerance)
+    nearer = penetration > boundary + depth_tolerance  # another edge is nearer
+    plausible &= ~new_and_deep | found.shared_line | ~nearer
     asked = new_and_deep & plausible
     return penetration, parameter, keys, previous_rows, plausible, to_block, asked
 
@@ -136,6 +145,7 @@ def _sift_compiled(blocks, found, previous_keys, search, slack, tolerance, depth
     return _sift_kernel(
         found.vertex.astype(np.int64),
         found.edge.astype(np.int64),
+        found.shared_line.astype(np.bool_),
         np.ascontiguousarray(blocks.vertices, dtype=np.float64),
         blocks.next_vertex.astype(np.int64),
         blocks.vertex_owner.astype(np.int64),
@@ -149,8 +159,8 @@ def _sift_compiled(blocks, found, previous_keys, search, slack, tolerance, depth
     )
 
 
-def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, slack, tolerance,
-          depth_tolerance):  # fmt: skip
+def _sift(vertex, edge, shared, v, nxt, owner, offsets, parts, previous_keys, search, slack,
+          tolerance, depth_tolerance):  # fmt: skip
     """Compiled :func:`_sift_numpy`: the same tests, pairing by pairing."""
     penetration, parameter, far = _edge_geometry_kernel(v, vertex, edge, nxt)
     m = vertex.shape[0]
@@ -183,7 +193,7 @@ def _sift(vertex, edge, v, nxt, owner, offsets, parts, previous_keys, search, sl
             keep = keep and geometrically_sound(
                 far[k], penetration[k], boundary[k], to_block[k], tolerance, slack
             )
-        if new_and_deep[k]:
+        if new_and_deep[k] and not shared[k]:
             keep = keep and penetration[k] <= boundary[k] + depth_tolerance
         plausible[k] = keep
         asked[k] = new_and_deep[k] and keep
@@ -236,12 +246,12 @@ def _refresh(narrow, rules, carried, new):
     tests); else the pairings are the plausible ones, merged.
     """
     n = narrow
-    vertex, edge, _ = _detect_kernel(
+    vertex, edge, _, shared = _detect_kernel(
         n.pairs, n.offsets, n.vertices, n.next_vertex, n.previous_vertex, n.owner, n.area,
         n.parts, n.known, n.vertex_radius, n.search, n.gap, n.inside,
     )  # fmt: skip
     penetration, parameter, keys, previous_rows, plausible, to_block, asked = _sift_kernel(
-        vertex, edge, n.vertices, n.next_vertex, n.owner, n.offsets, n.parts,
+        vertex, edge, shared, n.vertices, n.next_vertex, n.owner, n.offsets, n.parts,
         rules.previous_keys, n.search, rules.slack, rules.touch_tolerance,
         rules.depth_tolerance,
     )  # fmt: skip

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 
 import dda
 import dda.contact.broad as broad
@@ -16,7 +18,7 @@ import dda.contact.pipeline as pipeline
 import dda.contact.point_distance as pd
 from dda.bench.scenes import wall_scene
 from dda.contact.broad import candidate_pairs, overlapping_pairs
-from dda.contact.contact_set import contact_keys
+from dda.contact.contact_set import ContactSet, contact_keys
 from dda.contact.narrow import detect
 from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_geometry
@@ -254,6 +256,7 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
         np.testing.assert_array_equal(first.vertex, found.vertex)
         np.testing.assert_array_equal(first.edge, found.edge)
         np.testing.assert_array_equal(first.vertex_vertex, found.vertex_vertex)
+        np.testing.assert_array_equal(first.shared_line, found.shared_line)
 
 
 @pytest.mark.skipif(pipeline._sift_kernel is None, reason="numba is not in use")
@@ -456,6 +459,74 @@ def test_a_vertex_pair_takes_the_vertex_that_is_inside():
     assert list(found.vertex) == [inside]
     penetration, _, _ = edge_geometry(blocks, found.vertex, found.edge)
     assert penetration[0] == pytest.approx(5.3e-4, rel=0.05)
+
+
+# --------------------------------- two pieces of a crack that ends on the parent's face
+
+# a unit square broken along the crack from T = (0.4, 1) on its top face to (1, 0.4) on its
+# right face: piece A below the crack, piece B (the top-right triangle) above it; the
+# pieces' top edges lie along one line, and so do their right edges
+PIECE_A = [(0.0, 0.0), (1.0, 0.0), (1.0, 0.4), (0.4, 1.0), (0.0, 1.0)]
+PIECE_B = [(0.4, 1.0), (1.0, 0.4), (1.0, 1.0)]
+SLID = np.array([2e-5, 7e-6])  # B moved by -SLID: into A, mostly along the top face
+CRACK_DEPTH = SLID.sum() / np.sqrt(2.0)  # how far the crack faces cross
+CRACK_LENGTH = 0.6 * np.sqrt(2.0)
+
+
+def crack_pieces_scene(duration: float = 0.01) -> dda.Scene:
+    """The two pieces on a fixed base, B pressed by 400 kN, B slid into A by SLID: its
+    corner at T lies 7e-6 m below A's top edge and 1.9e-5 m behind A's crack face, A's
+    corner at T outside B (above B's top edge) and behind B's crack face as deep (the
+    auditor's rock column at step 5: the pieces of one fracture, 1.45e-5 and 7.1e-6 m).
+    The scene loader refuses overlapping blocks: B is moved after loading."""
+    raw = scene(
+        [base(), block("a", PIECE_A), block("b", PIECE_B)],
+        {"duration": duration, "time_step": 1e-3, "save_every": 1},
+        {"tolerance": 1e-6, "penalty": 5e10},
+    )
+    raw["loads"] = [{"block": "b", "point": [0.8, 1.0], "force": [0.0, -4e5]}]
+    loaded = dda.load_scene(raw)
+    b = loaded.blocks[2]
+    moved = dataclasses.replace(b, vertices=tuple(tuple(p - SLID) for p in np.array(b.vertices)))
+    return dataclasses.replace(loaded, blocks=(*loaded.blocks[:2], moved))
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_crack_end_on_a_shared_face_keeps_a_contact(monkeypatch, compiled):
+    """B's corner at T is inside A (behind A's top and crack lines), A's is not inside B:
+    the vertex pair is resolved with B's corner on A's crack edge, 1.9e-5 m deep, and
+    that corner is nearer A's top edge (7e-6 m), the edge along which B's own top edge
+    lies. The pipeline used to refuse the pairing as nearer another edge: the crack's
+    end at T had no contact (the auditor's pieces then overlapped by 1.5e-3 m²)."""
+    if not compiled:
+        for name in ("_detect_kernel", "_screen_kernel"):
+            monkeypatch.setattr(narrow, name, None)
+        for name in ("_refresh_kernel", "_sift_kernel"):
+            monkeypatch.setattr(pipeline, name, None)
+    model = build(crack_pieces_scene())
+    blocks = model.blocks
+    contacts = pipeline.refresh_contacts(blocks, ContactSet.empty(), model.contact)
+    owner = blocks.vertex_owner
+    between = (owner[contacts.vertex] != 0) & (owner[contacts.edge] != 0)
+    points = blocks.vertices[contacts.vertex[between]]
+    penetration, _, _ = edge_geometry(blocks, contacts.vertex[between], contacts.edge[between])
+    at_t = np.linalg.norm(points - (0.4, 1.0), axis=1) < 1e-3
+    assert at_t.sum() == 1  # one contact at the crack's end on the top face
+    assert penetration[at_t][0] == pytest.approx(CRACK_DEPTH, rel=1e-6)
+
+
+def test_pieces_of_a_crack_that_ends_on_a_shared_face_do_not_sink_into_each_other():
+    """The pieces start overlapping by 1.6e-5 m² (the crack faces crossed by 1.9e-5 m);
+    from the first step on they overlap by less than the contact tolerance times the
+    crack's length (their vertices are within the tolerance of the other's edges). With
+    no contact at T the load drove B 2.1e-4 m² into A in the first step."""
+    result = dda.simulate(crack_pieces_scene())
+    overlap = [
+        shapely.Polygon(f.vertices[1]).intersection(shapely.Polygon(f.vertices[2])).area
+        for f in result.frames
+    ]
+    assert overlap[0] == pytest.approx(CRACK_DEPTH * CRACK_LENGTH, rel=0.05)
+    assert max(overlap[1:]) < 1e-6 * CRACK_LENGTH
 
 
 @pytest.mark.parametrize("compiled", [True, False])
