@@ -38,10 +38,6 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-import scipy
-import scipy.optimize
-import scipy.sparse
-import scipy.sparse.csgraph
 
 from dda.contact.contact_set import ContactSet
 from dda.contact.rows import ContactRows
@@ -149,6 +145,8 @@ def _within_reach(contacts: ContactSet, free: np.ndarray, room: np.ndarray, reac
     """(m,) the contacts that must move (room < 0) and every contact with less room than
     ``reach`` of the free blocks joined to theirs by such contacts: a rigid push of one
     block of a packed mass moves the blocks it is packed with (fewer rounds)."""
+    import scipy.sparse.csgraph  # here: a run without a push does not load scipy.sparse
+
     near = room < reach
     a, b = contacts.block_a[near], contacts.block_b[near]
     link = free[a] & free[b]
@@ -174,6 +172,8 @@ def _least_distance_push(
     rows in x): by NNLS, min ‖E u − f‖, u ≥ 0, E = [−Ĝᵀ; −bᵀ], f = (0, …, 0, 1), then
     x = −r / r_last with r = E u − f (Lawson and Hanson, ch. 23); None where r_last ≥ 0
     (no x meets them)."""
+    import scipy.optimize  # here: a run without a push does not load it
+
     n = len(free)
     ends = np.concatenate([contacts.block_a[chosen], contacts.block_b[chosen]])
     gradient = np.concatenate([rows.normal_i[chosen], rows.normal_j[chosen]])

@@ -224,6 +224,9 @@ def new_pardiso_handle(threads: int):
     return handle
 
 
+OPENBLAS_THREADS = "OPENBLAS_NUM_THREADS"  # read by an OpenBLAS as it loads
+
+
 @contextmanager
 def single_threaded_blas() -> Iterator[None]:
     """Within the block numpy's and scipy's OpenBLAS use one thread; restored after.
@@ -233,16 +236,29 @@ def single_threaded_blas() -> Iterator[None]:
     OpenBLAS's threads, which then spin on the cores PARDISO's threads solve
     on (at 10,000 blocks a back-substitution took twice as long). MKL, which
     PARDISO uses, keeps its own count (:meth:`dda.solve.policy.StepPolicy.solver_threads`).
-    The controller limits the libraries loaded when it is made, so scipy's own OpenBLAS
-    (loaded with ``scipy.linalg``, which a run calls) is loaded first: left to load
-    within the first run, it ran that run on two threads, whose sums differ from one
-    thread's in the last bits, and the first run of a process was not repeated by the
-    next.
+    The controller limits the libraries loaded when it is made; an OpenBLAS that the run
+    loads (scipy's, with ``scipy.linalg``) reads ``OPENBLAS_NUM_THREADS``, set to 1 for
+    the block, and is given the threads of the others after it (left to its default,
+    it ran the first run of a process that loaded it on two threads, whose sums differ
+    from one thread's in the last bits: that run was not repeated by the next).
     """
-    import scipy.linalg  # noqa: F401  (loads scipy's OpenBLAS before it is limited)
-
-    with ThreadpoolController().select(internal_api="openblas").limit(limits=1):
-        yield
+    before = os.environ.get(OPENBLAS_THREADS)
+    os.environ[OPENBLAS_THREADS] = "1"
+    controller = ThreadpoolController().select(internal_api="openblas")
+    known = {pool.filepath for pool in controller.lib_controllers}
+    threads = max((pool.num_threads for pool in controller.lib_controllers), default=None)
+    try:
+        with controller.limit(limits=1):
+            yield
+    finally:
+        if before is None:
+            del os.environ[OPENBLAS_THREADS]
+        else:
+            os.environ[OPENBLAS_THREADS] = before
+        loaded = ThreadpoolController().select(internal_api="openblas").lib_controllers
+        for pool in loaded:
+            if pool.filepath not in known and threads is not None:
+                pool.set_num_threads(threads)
 
 
 def _point_pypardiso_at_mkl() -> None:
