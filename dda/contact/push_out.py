@@ -30,7 +30,11 @@ behind a contact it closes are pushed along.
 This is a least-distance problem in x = Lᵀ D (W = L Lᵀ block by block): min ‖x‖ with
 Ĝ x ≤ b, solved as Lawson and Hanson's non-negative least squares on [−Ĝᵀ; −bᵀ]
 (scipy.optimize.nnls), over the contacts it has to respect, found by rounds: those that
-must move, then every contact the last push drove beyond its room.
+must move and those within reach of them, then every contact the last push drove beyond
+its room by more than ``SLACK`` of the overlap. In a packed mass (more than ``PACKED``
+contacts within reach: a rock mass in its in-situ field, every contact closed) a rigid
+push would shove the whole mass; there the push is the least ½ Dᵀ K₀ D, K₀ the step's
+block stiffness with its inertia 2M/Δt², which keeps it local (a few blocks strained).
 """
 
 from __future__ import annotations
@@ -48,14 +52,19 @@ log = logging.getLogger(__name__)
 # the rigid motion's weight in the push's metric, over each block's E / m: a rigid push
 # is this many times cheaper than a strain of the same size
 RIGID_WEIGHT = 1e-6
-# of the deepest overlap: a contact driven beyond its room by less is not held (the
-# least-squares solve meets its rows to about 1e-5 of the overlap on 900 contacts)
-SLACK = 1e-4
+# of the deepest overlap: a contact driven beyond its room by less is not held (its
+# spring gives back at most 1e-4 of the ½ p e² the push takes out; a push in a packed
+# mass reaches every block of it by ever smaller moves, and a smaller slack holds them
+# all: cases/tunnel_deep.toml's pushes 0.06 s each at 1e-2, 0.5-1 s at 1e-4)
+SLACK = 1e-2
 # rounds that add the contacts the last push drove beyond their room
 ROUNDS = 20
 # a round holds every contact of a block the last push moved that it brought within this
 # many overlaps of its room, not only those it drove beyond (fewer rounds)
 LOOK_AHEAD = 1.0
+# contacts within reach beyond which a mass is packed: its rigid push would move the whole
+# of it (cases/tunnel_deep.toml: 1,400 contacts, 0.5-1 s a push), and the push is local
+PACKED = 300
 # the unknowns a push moves: first the rigid motion alone, then with the strain
 RIGID, ALL = 3, 6
 
@@ -86,20 +95,28 @@ def push_out_displacement(
     rows: ContactRows,
     overlap: np.ndarray,
     after: np.ndarray,
+    step_stiffness: np.ndarray | None = None,
 ) -> np.ndarray:
     """(n, 6) the push D (module docstring) for the contacts with ``overlap`` e > 0
     (zeros where none is left), ``metric`` W (n, 6, 6), D = 0 on ``fixed`` blocks,
     ``after`` every contact's penetration after the step's D (the overlapping ones' from
-    touch)."""
+    touch). In a packed mass (more than ``PACKED`` contacts within reach) the push is
+    the least ½ Dᵀ K₀ D with ``step_stiffness`` K₀ (inertia and elasticity: a local
+    push) where it is given."""
     n = len(fixed)
     room = np.where(overlap > 0.0, -(after + overlap), np.maximum(-after, 0.0))
-    if not (room < 0.0).any():
+    must = room < 0.0
+    if not must.any():
         return np.zeros((n, 6))
     free = ~fixed
     slack = SLACK * float(overlap.max())
-    for dofs in (RIGID, ALL):
-        whiten = _whitening(metric, free, dofs)
-        push = _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack)
+    packed = _within_reach(contacts, free, room, float(-room.min()))
+    modes = [(metric, RIGID, packed), (metric, ALL, packed)]
+    if step_stiffness is not None and packed.sum() > PACKED:
+        modes = [(step_stiffness, ALL, must)]
+    for weights, dofs, held in modes:
+        whiten = _whitening(weights, free, dofs)
+        push = _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack, held)
         if push is not None:
             return push
     log.debug("push-out: no displacement meets the contacts' room")
@@ -115,12 +132,13 @@ def _whitening(metric: np.ndarray, free: np.ndarray, dofs: int) -> np.ndarray:
     return whiten
 
 
-def _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack) -> np.ndarray | None:
-    """The least-distance push (:func:`_least_distance_push`) over the contacts that must
-    move and those within reach of them (:func:`_within_reach`), then, round by round,
-    every contact the last push drove beyond its room; None where none meets their room."""
+def _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack, held) -> np.ndarray | None:
+    """The least-distance push (:func:`_least_distance_push`) over the contacts ``held``
+    (those that must move, and those within reach of them: :func:`_within_reach`), then,
+    round by round, every contact the last push drove beyond its room; None where none
+    meets their room."""
     reach = float(-room.min())  # the deepest overlap
-    held = _within_reach(contacts, free, room, reach)
+    held = held.copy()
     for _ in range(ROUNDS):
         chosen = np.flatnonzero(held)
         push = _least_distance_push(whiten, dofs, free, contacts, rows, chosen, room)

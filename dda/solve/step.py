@@ -675,7 +675,7 @@ def solve_step(
     if converged and overlap is not None:
         after = gaps_after(rows, contacts.block_a, contacts.block_b, d)[0]
         metric = _push_metric(model, blocks, ctx)
-        pushed = push_out_displacement(metric, blocks.fixed, contacts, rows, overlap, after)
+        pushed = push_out_displacement(metric, blocks.fixed, contacts, rows, overlap, after, base_k)
         d = d + pushed
     return StepSolution(
         d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,
