@@ -158,8 +158,6 @@ def build(scene: Scene) -> Model:
         scene, blocks, joints, joint_rows, float(young.max()), allowed, breakable
     )
     fracture = _fracture_effect(scene, blocks) if breakable else None
-    if fracture is not None:  # the criterion judges effective stress below the water table
-        fracture.water = engineering["water"]
     active = [e.name for e in effects]
     if contact is not None:
         active.append("contact_augmented" if contact.law.augmented else "contact_penalty")

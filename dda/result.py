@@ -81,8 +81,7 @@ class Frame:
 
 class FractureEvent(NamedTuple):
     """One block breaking: ``mode`` is "shear" or "tension"; ``stress`` the parent's
-    (sxx, syy, sxy) that met the criterion, which its children start with (below a water
-    table the effective stress σ + p I the criterion judged; the children start with σ)."""
+    (sxx, syy, sxy) that met the criterion, which its children start with."""
 
     step: int
     time: float

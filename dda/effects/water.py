@@ -63,11 +63,6 @@ class WaterPressure(Effect):
         self.follow(time)
         return self.energy(blocks)
 
-    def pressure(self, points: np.ndarray) -> np.ndarray:
-        """p = γw ⟨h(x) − y⟩₊ at ``points`` (k, 2): the pore pressure of the rock there."""
-        points = np.asarray(points, float).reshape(-1, 2)
-        return self.unit_weight * np.maximum(self.head(points[:, 0]) - points[:, 1], 0.0)
-
     def head(self, x: np.ndarray) -> np.ndarray:
         """h(x): the phreatic line's height (level beyond its ends)."""
         return np.interp(x, self.table[:, 0], self.table[:, 1])

@@ -1,10 +1,7 @@
 """The fracture effect: after each accepted step, break the blocks that fail (paper §4).
 
 ``FractureEffect.after_step(blocks, ctx)`` evaluates the three-parameter
-Mohr–Coulomb criterion (22)–(25) at the centroid of every breakable block
-(on the effective stress σ' = σ + p I below a ``[water]`` table, p = γw ⟨h − y⟩₊ the
-pore pressure at the centroid, tension positive: Terzaghi's principle, as the joints
-carry the normal force less the water's),
+Mohr–Coulomb criterion (22)–(25) at the centroid of every breakable block,
 cuts the failing ones through their centroid (two planes in shear, one in
 tension), and returns a new BlockSet plus one :class:`FractureEvent` per
 broken block. A block breaks at most once per step: its fragments are
@@ -113,7 +110,6 @@ class FractureEffect(Effect):
         self.crack_joint = int(crack_joint)
         self.min_area = float(min_area)
         self.next_id = int(next_id)
-        self.water = None  # the scene's WaterPressure: pore pressure at the centroids
 
     @classmethod
     def from_scene(cls, scene: Scene, blocks: BlockSet) -> FractureEffect:
@@ -135,14 +131,6 @@ class FractureEffect(Effect):
         """Rows of the blocks the criterion applies to: breakable material, not fixed."""
         return np.flatnonzero(self.strength.breakable[blocks.material] & ~blocks.fixed)
 
-    def effective_stress(self, blocks: BlockSet, rows: np.ndarray) -> np.ndarray:
-        """(k, 3) σ' = σ + p I at the centroids of ``rows`` (σ itself without water)."""
-        stress = blocks.stress[rows]
-        if self.water is None:
-            return stress
-        pore = self.water.pressure(blocks.centroid[rows])
-        return stress + pore[:, None] * np.array([1.0, 1.0, 0.0])
-
     def after_step(  # type: ignore[override]
         self, blocks: BlockSet, ctx: StepContext
     ) -> tuple[BlockSet, list[FractureEvent]]:
@@ -152,11 +140,9 @@ class FractureEffect(Effect):
             return blocks, []
         mat = blocks.material[rows]
         s = self.strength
-        judged = self.effective_stress(blocks, rows)
         state = evaluate(
-            judged,
-            s.cohesion[mat], s.friction_angle[mat], s.tensile_strength[mat],
-        )  # fmt: skip
+            blocks.stress[rows], s.cohesion[mat], s.friction_angle[mat], s.tensile_strength[mat]
+        )
         failing = state.failing
         # two pieces of at least min_area each need twice that: smaller blocks cannot split
         failing = failing[blocks.area[rows[failing]] >= 2.0 * self.min_area]
@@ -177,7 +163,7 @@ class FractureEffect(Effect):
                         blocks.names[row],
                         pieces.names,
                         mode,
-                        tuple(float(x) for x in judged[k]),
+                        tuple(float(x) for x in blocks.stress[row]),
                     )  # fmt: skip
                 )
         if not fragments:
