@@ -202,13 +202,24 @@ def _least_distance_push(
     rows_x = np.einsum("ej,eji->ei", gradient, whiten[ends])[:, :dofs]  # g L⁻ᵀ
     g_hat = np.zeros((len(chosen), dofs * len(blocks)))
     np.add.at(g_hat, (which[:, None], dofs * column[:, None] + np.arange(dofs)), rows_x)
-    scale = float(np.abs(room[chosen]).max())  # b in units of the largest room
-    system = np.vstack([-g_hat.T, -room[chosen][None, :] / scale])
+    # each row over its norm, b over the largest of those distances: x in units of the
+    # farthest constraint, whatever the metric's scale (K₀'s 2M/Δt² at a small Δt)
+    norms = np.linalg.norm(g_hat, axis=1)
+    bound = room[chosen]
+    if np.any((norms == 0.0) & (bound < 0.0)):
+        return None  # a contact the unknowns cannot move
+    keep = norms > 0.0
+    g_hat, bound = g_hat[keep] / norms[keep, None], bound[keep] / norms[keep]
+    scale = float(np.abs(bound).max())
+    system = np.vstack([-g_hat.T, -bound[None, :] / scale])
     target = np.zeros(len(system))
     target[-1] = 1.0
-    weights = scipy.optimize.nnls(system, target, maxiter=50 * system.shape[1])[0]
+    try:
+        weights = scipy.optimize.nnls(system, target, maxiter=50 * system.shape[1])[0]
+    except RuntimeError:  # its iterations ran out
+        return None
     residual = system @ weights - target
-    if residual[-1] >= 0.0:
+    if residual[-1] >= -1e-12:
         return None
     x = (-scale * residual[:-1] / residual[-1]).reshape(-1, dofs)
     push = np.zeros((n, 6))

@@ -227,3 +227,24 @@ def test_an_overlap_within_the_contact_tolerance_is_removed_without_energy():
     excess, _, _ = energy_excess(result.history, result.summary["initial_energy"], False)
     assert excess <= 1e-3 * scale
     assert result.history["kinetic_energy"].max() <= 1e-4 * scale
+
+
+@pytest.mark.parametrize("size, dt", [(1.0, 1e-5), (1.0, 1e-6), (10.0, 1e-5)])
+def test_the_push_clears_the_overlap_whatever_the_metrics_scale(size, dt):
+    """A block found 1e-6 m into a fixed base with the metric K₀ = 2M/Δt² + S E (the packed
+    mass's): the least-distance problem is scaled by its rows, so the push clears the
+    overlap at any Δt and block size (unscaled, the last residual fell into round-off at
+    Δt = 1e-6 s and at a 10 m block: no push)."""
+    x = np.eye(6)[1]
+    contacts = SimpleNamespace(block_a=np.array([1]), block_b=np.array([0]))
+    rows = SimpleNamespace(normal_i=np.array([-x + 0.5 * size * np.eye(6)[4]]),
+                           normal_j=np.array([x]))  # fmt: skip
+    mass = 2700.0 * size**2
+    metric = np.zeros((2, 6, 6))
+    metric[:] = 2.0 * mass * np.diag([1, 1, size**2 / 6, size**2 / 12, size**2 / 12, size**2 / 24])
+    metric /= dt**2
+    metric[:, 3:, 3:] += 1e10 * size**2 * np.eye(3)
+    fixed = np.array([True, False])
+    push = push_out_displacement(metric, fixed, contacts, rows, np.array([1e-6]), np.zeros(1))
+    cleared = -(rows.normal_i[0] @ push[1])
+    assert cleared == pytest.approx(1e-6, rel=1e-9)
