@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 import resource
 import subprocess
 import sys
@@ -24,6 +23,7 @@ from dataclasses import asdict, dataclass, field
 import dda
 from dda.bench.limits import wall_blocks
 from dda.bench.scenes import wall_scene
+from dda.io.environment_variable import environment_variable
 from dda.jit import numba_enabled, run_work
 from dda.solve.linsolve import new_pardiso_handle, pardiso_available
 from dda.solve.policy import SYSTEMS_VARIABLE, current_policy
@@ -195,15 +195,8 @@ def systems_variable(systems: str) -> Iterator[None]:
     if not systems:
         yield
         return
-    before = os.environ.get(SYSTEMS_VARIABLE)
-    os.environ[SYSTEMS_VARIABLE] = systems
-    try:
+    with environment_variable(SYSTEMS_VARIABLE, systems):
         yield
-    finally:
-        if before is None:
-            del os.environ[SYSTEMS_VARIABLE]
-        else:
-            os.environ[SYSTEMS_VARIABLE] = before
 
 
 def peak_memory_mib() -> float:

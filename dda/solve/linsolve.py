@@ -28,6 +28,7 @@ import numpy as np
 import scipy
 from threadpoolctl import ThreadpoolController
 
+from dda.io.environment_variable import environment_variable
 from dda.solve.pardiso_call import PardisoCall
 from dda.solve.policy import StepPolicy, current_policy
 
@@ -242,19 +243,13 @@ def single_threaded_blas() -> Iterator[None]:
     it ran the first run of a process that loaded it on two threads, whose sums differ
     from one thread's in the last bits: that run was not repeated by the next).
     """
-    before = os.environ.get(OPENBLAS_THREADS)
-    os.environ[OPENBLAS_THREADS] = "1"
     controller = ThreadpoolController().select(internal_api="openblas")
     known = {pool.filepath for pool in controller.lib_controllers}
     threads = max((pool.num_threads for pool in controller.lib_controllers), default=None)
     try:
-        with controller.limit(limits=1):
+        with environment_variable(OPENBLAS_THREADS, "1"), controller.limit(limits=1):
             yield
     finally:
-        if before is None:
-            del os.environ[OPENBLAS_THREADS]
-        else:
-            os.environ[OPENBLAS_THREADS] = before
         loaded = ThreadpoolController().select(internal_api="openblas").lib_controllers
         for pool in loaded:
             if pool.filepath not in known and threads is not None:
