@@ -89,8 +89,9 @@ def kkt_holds(metric, fixed, contacts, rows, room, push, scale, dofs=3):
 
 def test_push_out_removes_the_overlap_with_the_least_energy_in_its_metric():
     """Two contacts found overlapping, left at touch by the step, one open far away: the
-    push leaves both at most touching, D = 0 on the fixed block, and no other D that does
-    has less ½ Dᵀ W D (W any block-diagonal SPD): checked by the KKT conditions."""
+    push leaves both at most touching, D = 0 on the fixed block, and it is a rigid motion
+    (no strain) and no other rigid motion that does has less ½ Dᵀ W D (W any
+    block-diagonal SPD): checked by the KKT conditions on the rigid unknowns."""
     contacts, rows = contacts_and_rows(1)
     metric, fixed = spd_masses(2), np.array([True, False, False])
     overlap = np.array([1.9e-3, 4e-4, 0.0])
