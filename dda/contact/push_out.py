@@ -44,7 +44,7 @@ import logging
 import numpy as np
 
 from dda.contact.contact_set import ContactSet
-from dda.contact.rows import ContactRows
+from dda.contact.rows import ContactRows, gaps_after
 from dda.result import OPEN
 
 log = logging.getLogger(__name__)
@@ -110,13 +110,14 @@ def push_out_displacement(
         return np.zeros((n, 6))
     free = ~fixed
     slack = SLACK * float(overlap.max())
-    packed = _within_reach(contacts, free, room, float(-room.min()))
+    reach = float(-room.min())  # the deepest overlap
+    packed = _within_reach(contacts, free, room, reach)
     modes = [(metric, RIGID, packed), (metric, ALL, packed)]
     if step_stiffness is not None and packed.sum() > PACKED:
         modes = [(step_stiffness, ALL, must)]
     for weights, dofs, held in modes:
         whiten = _whitening(weights, free, dofs)
-        push = _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack, held)
+        push = _push_in_rounds(whiten, dofs, free, contacts, rows, room, reach, slack, held)
         if push is not None:
             return push
     log.debug("push-out: no displacement meets the contacts' room")
@@ -132,12 +133,13 @@ def _whitening(metric: np.ndarray, free: np.ndarray, dofs: int) -> np.ndarray:
     return whiten
 
 
-def _push_in_rounds(whiten, dofs, free, contacts, rows, room, slack, held) -> np.ndarray | None:
+def _push_in_rounds(
+    whiten, dofs, free, contacts, rows, room, reach, slack, held
+) -> np.ndarray | None:
     """The least-distance push (:func:`_least_distance_push`) over the contacts ``held``
     (those that must move, and those within reach of them: :func:`_within_reach`), then,
     round by round, every contact the last push drove beyond its room; None where none
-    meets their room."""
-    reach = float(-room.min())  # the deepest overlap
+    meets their room; ``reach`` the deepest overlap."""
     held = held.copy()
     for _ in range(ROUNDS):
         chosen = np.flatnonzero(held)
@@ -228,6 +230,6 @@ def _least_distance_push(
 
 
 def _normal_motion(contacts: ContactSet, rows: ContactRows, d: np.ndarray) -> np.ndarray:
-    """(m,) G D: each contact's change of penetration under D (n, 6)."""
-    moved = np.einsum("mr,mr->m", rows.normal_i, d[contacts.block_a])
-    return moved + np.einsum("mr,mr->m", rows.normal_j, d[contacts.block_b])
+    """(m,) G D: each contact's change of penetration under D (n, 6)
+    (:func:`dda.contact.rows.gaps_after` less the penetration it starts from)."""
+    return gaps_after(rows, contacts.block_a, contacts.block_b, d)[0] - rows.penetration

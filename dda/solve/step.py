@@ -191,13 +191,12 @@ def _effect_terms(model: Model, blocks: BlockSet, ctx: StepContext):
     return diagonal, forces
 
 
-def _push_metric(model: Model, blocks: BlockSet, ctx: StepContext) -> np.ndarray:
-    """The push-out's metric (:func:`dda.contact.push_out.push_metric`): the effects'
-    block springs but the inertia's, and a little of the blocks' rigid mass."""
-    springs = np.zeros((blocks.count, 6, 6))
-    for effect in model.effects:
-        if effect is not model.inertia and (k := effect.stiffness(blocks, ctx)) is not None:
-            springs += k
+def _push_metric(
+    model: Model, blocks: BlockSet, ctx: StepContext, base_k: np.ndarray
+) -> np.ndarray:
+    """The push-out's metric (:func:`dda.contact.push_out.push_metric`): the step's block
+    springs ``base_k`` less the inertia's, and a little of the blocks' rigid mass."""
+    springs = base_k - model.inertia.stiffness(blocks, ctx)
     masses = model.inertia.masses(blocks)
     young = model.elastic.material_elasticity[:, 0, 0][blocks.material]
     return push_metric(springs, masses, young / masses[:, 0, 0])
@@ -674,7 +673,7 @@ def solve_step(
     pushed = None
     if converged and overlap is not None:
         after = gaps_after(rows, contacts.block_a, contacts.block_b, d)[0]
-        metric = _push_metric(model, blocks, ctx)
+        metric = _push_metric(model, blocks, ctx, base_k)
         pushed = push_out_displacement(metric, blocks.fixed, contacts, rows, overlap, after, base_k)
         d = d + pushed
     return StepSolution(

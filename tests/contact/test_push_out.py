@@ -18,6 +18,17 @@ from dda.run.run_warnings import energy_excess
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
 
+def normal_rows(normal_i, normal_j, penetration=None) -> SimpleNamespace:
+    """Contact rows with these normal rows (m, 6), no shear rows, the penetration given
+    or 0."""
+    normal_i, normal_j = np.asarray(normal_i, float), np.asarray(normal_j, float)
+    m = len(normal_i)
+    zeros = np.zeros((m, 6))
+    penetration = np.zeros(m) if penetration is None else np.asarray(penetration, float)
+    return SimpleNamespace(normal_i=normal_i, normal_j=normal_j, shear_i=zeros,
+                           shear_j=zeros, penetration=penetration, slip=np.zeros(m))  # fmt: skip
+
+
 def contacts_and_rows(seed: int = 0):
     """Three contacts of free block 1 on fixed block 0 and on free block 2; random rows."""
     rng = np.random.default_rng(seed)
@@ -27,7 +38,7 @@ def contacts_and_rows(seed: int = 0):
         state=np.array([LOCKED, LOCKED, OPEN]),
         fresh=np.array([True, True, True]),
     )
-    rows = SimpleNamespace(
+    rows = normal_rows(
         normal_i=rng.normal(size=(3, 6)),
         normal_j=rng.normal(size=(3, 6)),
         penetration=np.array([2e-3, 5e-4, 3e-3]),
@@ -121,7 +132,7 @@ def test_the_push_moves_a_block_rigidly_where_it_can():
     (which its spring-back would turn into motion)."""
     x = np.eye(6)[1]  # the contact's penetration changes with −v of block 1
     contacts = SimpleNamespace(block_a=np.array([1]), block_b=np.array([0]))
-    rows = SimpleNamespace(normal_i=np.array([-x + 0.3 * np.eye(6)[4]]), normal_j=np.array([x]))
+    rows = normal_rows(normal_i=np.array([-x + 0.3 * np.eye(6)[4]]), normal_j=np.array([x]))
     young, mass = 1e10, 2700.0
     springs = np.zeros((2, 6, 6))
     springs[:, 3:, 3:] = young * np.eye(3)
@@ -139,7 +150,7 @@ def test_a_block_pinched_between_two_fixed_ones_is_pushed_by_its_strain():
     least ½ DᵀWD with strain: u = 0, εx = −2e-3 (W diagonal)."""
     u, ex = np.eye(6)[0], np.eye(6)[3]
     contacts = SimpleNamespace(block_a=np.array([1, 1]), block_b=np.array([0, 2]))
-    rows = SimpleNamespace(normal_i=np.array([-u + 0.5 * ex, u + 0.5 * ex]),
+    rows = normal_rows(normal_i=np.array([-u + 0.5 * ex, u + 0.5 * ex]),
                            normal_j=np.zeros((2, 6)))  # fmt: skip
     metric = np.broadcast_to(np.eye(6), (3, 6, 6)).copy()
     fixed = np.array([True, False, True])
@@ -155,7 +166,7 @@ def in_a_row(gap_ab: float, fixed_b: bool = False):
     translations u: contact 0 by u_A − u_C, contact 1 by u_B − u_A."""
     x = np.eye(6)[0]
     contacts = SimpleNamespace(block_a=np.array([2, 0]), block_b=np.array([0, 1]))
-    rows = SimpleNamespace(normal_i=np.array([-x, -x]), normal_j=np.array([x, x]))
+    rows = normal_rows(normal_i=np.array([-x, -x]), normal_j=np.array([x, x]))
     stiffness = np.array([1.0, 2.0, 3.0])[:, None, None] * np.eye(6)  # A, B, C
     fixed = np.array([False, fixed_b, False])
     return stiffness, fixed, contacts, rows, np.array([0.0, -gap_ab])
@@ -194,7 +205,7 @@ def test_the_push_is_the_least_energy_within_the_other_contacts():
     a = rng.integers(1, n, m)
     b = (a + rng.integers(1, n, m)) % n
     contacts = SimpleNamespace(block_a=a, block_b=b)
-    rows = SimpleNamespace(normal_i=rng.normal(size=(m, 6)), normal_j=rng.normal(size=(m, 6)))
+    rows = normal_rows(normal_i=rng.normal(size=(m, 6)), normal_j=rng.normal(size=(m, 6)))
     metric = spd_masses(3, n)
     overlap = np.zeros(m)
     overlap[:2] = [1e-3, 4e-4]
@@ -238,7 +249,7 @@ def test_the_push_clears_the_overlap_whatever_the_metrics_scale(size, dt):
     Δt = 1e-6 s and at a 10 m block: no push)."""
     x = np.eye(6)[1]
     contacts = SimpleNamespace(block_a=np.array([1]), block_b=np.array([0]))
-    rows = SimpleNamespace(normal_i=np.array([-x + 0.5 * size * np.eye(6)[4]]),
+    rows = normal_rows(normal_i=np.array([-x + 0.5 * size * np.eye(6)[4]]),
                            normal_j=np.array([x]))  # fmt: skip
     mass = 2700.0 * size**2
     metric = np.zeros((2, 6, 6))
