@@ -26,6 +26,7 @@ from dda.jit import compile_seconds, run_work
 from dda.model import SEARCH_FACTOR, Model, build
 from dda.result import OPEN, FractureEvent, Frame, Result
 from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
+from dda.run.deep_overlap import Overlap, deeper, deepest_overlap, overlap_warning
 from dda.run.energy import TERMS, EnergyAccount
 from dda.run.environment import environment
 from dda.run.equilibrium_start import StartInterrupted, Unsettled, settle
@@ -122,6 +123,7 @@ class _Run:
         self.unbalanced_force = (0.0, 0.0)  # ... and the net force the last one said
         self.misplaced_bolts: list[str] = []  # stage bolts with an end off their block
         self.pushed_steps = 0  # steps whose push-out removed an overlap
+        self.deepest_overlap: Overlap | None = None  # two blocks' at the saved frames
         self.history: dict[str, array] = {  # 8 bytes a number, not a list's 32
             k: array("q" if k == "iterations" else "d")
             for k in ("time", "dt", "iterations", "max_penetration", *HISTORY_ENERGY)
@@ -582,6 +584,8 @@ def run(
 def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> Frame:
     """The frame of the run's state (with the measurement rows ``measured``), in the
     scene's coordinates (the run's own are ``origin`` less: dda.scene.local_frame)."""
+    found = deepest_overlap(state.blocks, state.shown_time)
+    state.deepest_overlap = deeper(found, state.deepest_overlap)
     placed = state.model.bolts
     bolts = None if placed is None else placed.segments()
     tensions = None if placed is None else placed.tension()[placed.active]
@@ -695,6 +699,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "start_in_situ_change_block": state.in_situ_change[1],
         "start_in_situ_relaxed": state.in_situ_change[0] > IN_SITU_KEPT,
         "max_penetration": state.max_penetration,
+        "deepest_overlap": 0.0 if state.deepest_overlap is None else state.deepest_overlap.depth,
         "cut_steps": state.cut_steps,
         "smallest_cut_time_step": None if state.cut_steps == 0 else state.smallest_cut_dt,
         "search_redos": state.search_redos,
@@ -725,6 +730,10 @@ def _warnings(state: _Run) -> list[str]:
         else None,
         None if m.static else _energy_warning(state),
         penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
+        overlap_warning(
+            state.deepest_overlap, state.max_penetration, state.blocks.area, state.blocks.fixed,
+            (length, m.scene.units.time),
+        ),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
         _last_motion_warning(state, length),
         _fracture_warning(state, length),

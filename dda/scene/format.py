@@ -70,6 +70,7 @@ from dda.scene.in_situ import IN_SITU_KEYS, BoundaryStress, StressField, parse_i
 from dda.scene.joints import Joint, parse_joints
 from dda.scene.limits import DEFAULT_MAX_STEPS
 from dda.scene.local_frame import origin_of
+from dda.scene.overlap import sharing_area
 from dda.scene.stability import (
     STABILITY_KEYS,
     EnsembleSettings,
@@ -734,67 +735,20 @@ def _clockwise(packed: _Packed) -> np.ndarray:
     return np.bincount(packed.owner, weights=cross, minlength=len(packed.areas)) < 0
 
 
-def _box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Area shared by bounding boxes (xmin, ymin, xmax, ymax), row by row."""
-    width = np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
-    height = np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
-    return np.clip(width, 0.0, None) * np.clip(height, 0.0, None)
-
-
 def _overlaps(chk: Checker, packed: _Packed, blocks: Sequence[Mapping[str, Any]]) -> None:
-    """Refuse two blocks sharing more than 1e-9 of the smaller area.
-
-    Candidate pairs come from one STRtree query ("intersects") in the frame of the
-    blocks' most common edge direction (:func:`_search_turn`), so the cost is near
-    O(n log n); touching along an edge or at a point has zero area. The shared areas
-    are those of the blocks as given.
-    """
-    turn = _search_turn(packed)
-    searched = packed.polygons
-    if turn is not None:
-        searched = shapely.transform(packed.polygons, lambda xy: xy @ turn)
-    tree = shapely.STRtree(searched)
-    left, right = tree.query(searched, predicate="intersects")
-    left, right = left[left < right], right[left < right]
-    limit = 1e-9 * np.minimum(packed.areas[left], packed.areas[right])
-    # the shared area is at most the shared bounding-box area: skip pairs below the limit
-    bounds = packed.bounds if turn is None else shapely.bounds(searched)
-    possible = _box_overlap(bounds[left], bounds[right]) > limit
-    left, right, limit = left[possible], right[possible], limit[possible]
-    shared = shapely.area(shapely.intersection(packed.polygons[left], packed.polygons[right]))
-    bad = np.flatnonzero(shared > limit)
-    if bad.size:
-        k = bad[np.lexsort((left[bad], right[bad]))[0]]
+    """Refuse two blocks sharing more than 1e-9 of the smaller area (the blocks as given;
+    :func:`dda.scene.overlap.sharing_area`)."""
+    left, right, shared = sharing_area(
+        packed.polygons, packed.coords, packed.offsets, packed.areas, 1e-9
+    )
+    if left.size:
+        k = np.lexsort((left, right))[0]
         i, j = left[k], right[k]
         chk.fail(
             f"blocks[{j}].vertices",
-            f"overlaps block {blocks[i]['name']!r} (blocks[{i}]) by area {shared[k]:g}",
+            f"overlaps block {blocks[i]['name']!r} (blocks[{i}]) "
+            f"by area {shapely.area(shared[k]):g}",
         )
-
-
-def _search_turn(packed: _Packed) -> np.ndarray | None:
-    """R (2 × 2) with ``xy @ R`` turning the blocks' most common edge direction (the
-    length-weighted peak of a histogram in 1° bins) to x; None when it lies along an
-    axis already.
-
-    Blocks cut by one inclined joint set are thin strips whose bounding boxes all
-    overlap one another's, so a search by boxes tests every pair (4,085 strips took
-    8.7 s of CPU); turned along x their boxes are thin and overlap only their
-    neighbours'. Blocks of no common direction are turned harmlessly.
-    """
-    start = packed.coords
-    edge = start[next_vertex_index(packed.offsets)] - start
-    length = np.hypot(edge[:, 0], edge[:, 1])
-    angle = np.mod(np.arctan2(edge[:, 1], edge[:, 0]), np.pi)  # [0, π)
-    bins = np.minimum((angle * (180.0 / np.pi)).astype(np.int64), 179)
-    peak = bins == np.argmax(np.bincount(bins, weights=length, minlength=180))
-    if length[peak].sum() <= 0.0:
-        return None
-    theta = float(np.average(angle[peak], weights=length[peak]))
-    if min(theta, abs(theta - 0.5 * np.pi), np.pi - theta) < 1e-9:
-        return None
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array([[c, -s], [s, c]])
 
 
 def _fixed_points_on_blocks(
