@@ -125,6 +125,22 @@ def nested_in_corner(corner_reflex, vertex_reflex, depth, other_depth, inside_de
 
 
 @formula
+def face_to_face(separation, normal_dot, depth, off, apart, slack, angle_tolerance):
+    """The other end of a face-to-face contact that a vertex-vertex pair stands for: the
+    corner vertex (its fan clears the edge, ``separation`` ≥ −``angle_tolerance``) onto
+    the entering vertex's edge that faces the chosen pairing's edge (``normal_dot``, of
+    their unit outward normals, within that angle of −1), where the corner lies over
+    that edge (not ``off`` it), at most ``slack`` in front of its line (``depth``), and
+    more than ``slack`` from the entering vertex (``apart``: corners that meet need one
+    contact). Two blocks whose faces overlap by less than the vertex radius are such a
+    pair; held at one end only, the face turned about it and the other corner entered
+    the block (the tunnel's falling debris: 1.5e-4 m² over 45 steps, no contact)."""
+    facing = normal_dot <= -np.sqrt(1.0 - angle_tolerance * angle_tolerance)
+    near = (depth >= -slack) & np.logical_not(off) & (apart > slack)
+    return facing & fan_clears(separation, angle_tolerance) & near
+
+
+@formula
 def off_edge(along, length, slack):
     """P1 projects beyond the edge's ends by more than ``slack`` (m)."""
     return np.maximum(-along, along - 1.0) * length > slack

@@ -46,6 +46,7 @@ from dda.contact.candidate_tests import (
     edge_along,
     edge_depth,
     edge_parameter,
+    face_to_face,
     fan_clears,
     fan_separation,
     inside_corner,
@@ -508,6 +509,7 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     shared = _shared_lines(fans, candidates)
     fake = _fake_pairings(depth, along, slack, fans.reflex[p2], fans.reflex[p1], shared)
     fake |= _hidden_penetration(depth, inside_depth)
+    separation = scores
     scores = np.where(fake & ~fake.all(axis=1, keepdims=True), -np.inf, scores)
     # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
     # the edge whose line the vertex is furthest outside of (least penetration)
@@ -533,12 +535,39 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
         fans.reflex[corner], fans.reflex[entering], depth[rows, group], depth[rows, group + 1],
         inside_depth,
     )  # fmt: skip
-    other = (group + 1 - best % 2)[nested]
+    facing = _face_to_face(blocks, fans, candidates, best, separation, depth, along, fake, slack)
+    second = nested | (facing >= 0)
+    other = np.where(nested, group + 1 - best % 2, facing)[second]
     return (
-        np.concatenate([verts[rows, best], verts[rows[nested], other]]),
-        np.concatenate([edges[rows, best], edges[rows[nested], other]]),
-        np.concatenate([shared[rows, best], shared[rows[nested], other]]),
+        np.concatenate([verts[rows, best], verts[rows[second], other]]),
+        np.concatenate([edges[rows, best], edges[rows[second], other]]),
+        np.concatenate([shared[rows, best], shared[rows[second], other]]),
     )
+
+
+def _face_to_face(blocks, fans, candidates, best, separation, depth, along, fake, slack):
+    """(k,) the candidate (column) that is the other end of the face-to-face contact each
+    pair's pairing ``best`` stands for (:func:`face_to_face`: the corner vertex onto the
+    entering vertex's edge that faces the chosen edge), −1 where none is."""
+    rows = np.arange(len(best))
+    chosen_edge = np.column_stack([ed for _, ed in candidates])[rows, best]
+    counter = 2 - (best - best % 2)  # the corner vertex's candidates: columns 2, 3 or 0, 1
+    vertex_a, vertex_b = candidates[0][0], candidates[2][0]
+    apart = np.linalg.norm(blocks.vertices[vertex_a] - blocks.vertices[vertex_b], axis=1)
+    found = np.full(len(best), -1)
+    for shift in (1, 0):  # the first of the two columns wins
+        column = counter + shift
+        edge = np.column_stack([ed for _, ed in candidates])[rows, column]
+        nxt = fans.next[edge]
+        length = np.linalg.norm(blocks.vertices[nxt] - blocks.vertices[edge], axis=1)
+        dot = np.einsum("ij,ij->i", fans.outward[chosen_edge], fans.outward[edge])
+        off = off_edge(along[rows, column], length, slack)
+        face = face_to_face(
+            separation[rows, column], dot, depth[rows, column], off, apart, slack,
+            ANGLE_TOLERANCE,
+        ) & ~fake[rows, column]  # fmt: skip
+        found = np.where(face, column, found)
+    return found
 
 
 def _shares_line(outward, prv, vertex, other_edge):
@@ -652,16 +681,49 @@ def _resolve(
         out_s[i] = _shares_line(outward, prv, verts[best], edges[best + 1 - 2 * (best % 2)])
         group = best - best % 2
         corner, entering = (b, a) if group == 0 else (a, b)
+        other = -1
         if nested_in_corner(
             reflex[corner], reflex[entering], depth[group], depth[group + 1], inside
         ):
             other = group + 1 - best % 2
+        else:
+            other = _face_to_face_kernel(
+                best, verts, edges, v, nxt, to_next, to_prev, outward, reflex, depth,
+                fake, slack, a, b,
+            )  # fmt: skip
+        if other >= 0:
             out_v[k + seconds], out_e[k + seconds] = verts[other], edges[other]
-            out_s[k + seconds] = _shares_line(outward, prv, verts[other], edges[best])
+            partner = other + 1 - 2 * (other % 2)
+            out_s[k + seconds] = _shares_line(outward, prv, verts[other], edges[partner])
             seconds += 1
     return out_v[: k + seconds], out_e[: k + seconds], out_s[: k + seconds]
 
 
+def _face_to_face_one(
+    best, verts, edges, v, nxt, to_next, to_prev, outward, reflex, depth, fake, slack, a, b
+):
+    """Compiled :func:`_face_to_face` of one pair (its four candidates)."""
+    counter = 2 - (best - best % 2)
+    apart = np.sqrt((v[a, 0] - v[b, 0]) ** 2 + (v[a, 1] - v[b, 1]) ** 2)
+    chosen = edges[best]
+    for column in (counter, counter + 1):
+        vert, ed = verts[column], edges[column]
+        if reflex[vert] or fake[column]:
+            continue
+        nx, ny = outward[ed, 0], outward[ed, 1]
+        separation = fan_separation(
+            to_next[vert, 0], to_next[vert, 1], to_prev[vert, 0], to_prev[vert, 1], nx, ny
+        )
+        ex, ey = v[nxt[ed], 0] - v[ed, 0], v[nxt[ed], 1] - v[ed, 1]
+        wx, wy = v[vert, 0] - v[ed, 0], v[vert, 1] - v[ed, 1]
+        off = off_edge(edge_along(wx, wy, ex, ey), np.sqrt(ex * ex + ey * ey), slack)
+        dot = outward[chosen, 0] * nx + outward[chosen, 1] * ny
+        if face_to_face(separation, dot, depth[column], off, apart, slack, ANGLE_TOLERANCE):
+            return column
+    return -1
+
+
+_face_to_face_kernel = kernel(_face_to_face_one) or _face_to_face_one
 _resolve_kernel = kernel(_resolve)
 
 

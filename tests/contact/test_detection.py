@@ -23,6 +23,7 @@ from dda.contact.narrow import detect
 from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_geometry
 from dda.model import build
+from dda.run import run_warnings
 from tests.helpers import rectangle
 from tests.standing.scenes import base, block, scene
 
@@ -610,3 +611,59 @@ def test_a_corner_nested_in_a_reflex_corner_pairs_with_both_edges(monkeypatch, c
     assert {(corner, floor), (corner, wall)} <= pairs
     assert (corner + 1, floor) in pairs and (corner + 3, wall) in pairs
     assert len(pairs) == 4
+
+
+# ------------------------------ faces overlapping by less than the vertex radius
+
+
+def tilted_on_a_corner(theta: float = 0.005, steps: int = 200) -> dict:
+    """A unit square B resting by its bottom-left corner on the top of a fixed unit square
+    A, 0.2 m from A's top-right corner, its bottom face turned up by ``theta``: its
+    weight, outside A, turns it down onto A's corner. The two corners (0.2 m apart) are
+    within the vertex radius (g2 = 0.1: search distance 0.25 m), so they are one
+    vertex-vertex pair, which stands for the face-to-face contact along the 0.2 m."""
+    c, s = np.cos(theta), np.sin(theta)
+    square = np.array(rectangle(0.0, 0.0, 1.0, 1.0)) @ np.array([[c, s], [-s, c]])
+    return scene(
+        [block("A", rectangle(0.0, 0.0, 1.0, 1.0), fixed=True),
+         block("B", (square + [0.8, 1.0 + 1e-9]).tolist())],
+        {"steps": steps, "time_step": 1e-3, "save_every": 5, "max_displacement_ratio": 0.1},
+        {"method": "penalty", "penalty": 1e10},
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_faces_overlapping_within_the_vertex_radius_are_held_at_both_ends(monkeypatch, compiled):
+    """The vertex-vertex pair of B's corner and A's corner (above) gives both ends of the
+    face-to-face contact: B's corner onto A's top edge and A's corner onto B's bottom
+    edge. One pairing (A's corner, the one with the gap) left B's corner free to enter A
+    (the tunnel's falling debris: a corner 1 mm into another block, 45 steps, no
+    contact)."""
+    if not compiled:
+        monkeypatch.setattr(narrow, "_detect_kernel", None)
+        monkeypatch.setattr(narrow, "_screen_kernel", None)
+    model = build(dda.load_scene(tilted_on_a_corner()))
+    blocks, c = model.blocks, model.contact
+    found = detect(blocks, np.array([[0, 1]]), c.search_distance, c.vertex_radius)
+    a_corner, b_corner = blocks.offsets[0] + 2, blocks.offsets[1]  # (1, 1) and (0.8, 1)
+    a_top, b_bottom = blocks.offsets[0] + 2, blocks.offsets[1]  # edges leaving them
+    pairs = {(int(v), int(e)) for v, e in zip(found.vertex, found.edge, strict=True)}
+    assert pairs == {(a_corner, b_bottom), (b_corner, a_top)}
+
+
+def test_a_block_turning_onto_a_corner_within_the_vertex_radius_does_not_enter_it():
+    """B (above, penalty contact) turns down onto A's corner: the two blocks share no more
+    area than their contacts' penetration makes (4e-9 m²; with one pairing B's corner
+    sank 1.3e-4 m into A, 1.4e-5 m², nine times the deepest contact penetration), and no
+    energy is made."""
+    result = dda.simulate(dda.load_scene(tilted_on_a_corner()))
+    worst = max(
+        shapely.Polygon(f.vertices[0]).intersection(shapely.Polygon(f.vertices[1])).area
+        for f in result.frames
+    )
+    summary = result.summary
+    assert worst < 1e-7
+    assert summary["deepest_overlap"] <= 2.0 * summary["max_penetration"]
+    assert result.frames[-1].rotations[1] < -0.1  # it turned onto the corner
+    excess, moved, _ = run_warnings.energy_excess(result.history, summary["initial_energy"])
+    assert excess <= 1e-9 * moved
