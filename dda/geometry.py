@@ -20,6 +20,15 @@ def next_vertex_index(offsets: np.ndarray) -> np.ndarray:
     return nxt
 
 
+def block_sizes(vertices: np.ndarray, offsets: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """(n,) each polygon's size 4 A / P (area over perimeter): a square's side, a circle's
+    diameter, twice a sliver's thickness (√A would be √(length × thickness))."""
+    edges = vertices[next_vertex_index(offsets)] - vertices
+    owner = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
+    perimeter = np.bincount(owner, weights=np.hypot(edges[:, 0], edges[:, 1]), minlength=len(areas))
+    return 4.0 * np.asarray(areas) / np.maximum(perimeter, 1e-300)
+
+
 def previous_vertex_index(offsets: np.ndarray) -> np.ndarray:
     """Index of the previous vertex (cyclic within each polygon)."""
     prv = np.arange(offsets[-1]) - 1

@@ -29,6 +29,10 @@ when P1 lies on the inner side of the edge.
   A convex vertex at a reflex corner of the other block (nested in it) is
   paired with both of the corner's edges: it is inside once it is behind
   either line, and with one pairing it entered through the other within a step.
+  Where the two blocks' faces overlap (the corners apart, each over the other's
+  face), the pair stands for a face-to-face contact: the other corner is paired
+  too, with the face that faces the chosen edge (``face_to_face``), so the faces
+  are held at both ends.
 """
 
 from __future__ import annotations

@@ -14,10 +14,10 @@ import numpy as np
 # that matters (numerics may dissipate, never create)
 ENERGY_WARNING = 0.01
 
-# the largest penetration, over the size (√area) of the smallest free block, beyond
-# which the contacts no longer model touching blocks (the shipped cases: ≤ 2.9e-4; the
-# paper's pure penalty case, Fig. 2a, 0.11: the penetration the augmented Lagrangian
-# removes)
+# the largest penetration, over the size (4 area / perimeter: twice a sliver's thickness)
+# of the smallest free block, beyond which the contacts no longer model touching blocks
+# (the shipped cases: ≤ 2.9e-4; the paper's pure penalty case, Fig. 2a, 0.11: the
+# penetration the augmented Lagrangian removes)
 PENETRATION_WARNING = 0.01
 # the largest change of a free block's in-situ stress by the equilibrium start, as a
 # fraction of the field, that the run takes as the field kept (tunnel_deep: 6e-5; a
@@ -36,21 +36,27 @@ STATIC_UNBALANCED_WARNING = 1e-3
 
 
 def penetration_warning(
-    max_penetration: float, areas: np.ndarray, fixed: np.ndarray, length: str
+    max_penetration: float, sizes: np.ndarray, fixed: np.ndarray, length: str, augmented: bool
 ) -> str | None:
     """The sentence when the largest penetration exceeds :data:`PENETRATION_WARNING` of
-    the smallest free block's size, else None."""
+    the smallest free block's size (``sizes``: :func:`dda.geometry.block_sizes`), else
+    None; its advice for the contact method (``augmented``: the augmented Lagrangian's
+    tolerance, else the penalty)."""
     free = ~np.asarray(fixed, bool)
     if not free.any() or max_penetration <= 0.0:
         return None
-    size = float(np.sqrt(np.asarray(areas)[free]).min())
+    size = float(np.asarray(sizes)[free].min())
     if max_penetration <= PENETRATION_WARNING * size:
         return None
+    advice = (
+        "lower [contact] tolerance (the penetration the augmented Lagrangian accepts)"
+        if augmented
+        else 'raise [contact] penalty, or use the "augmented-lagrangian" method'
+    )
     return (
         f"contacts penetrated by up to {max_penetration:.3g} {length}, "
         f"{100.0 * max_penetration / size:.3g} % of the smallest free block's size "
-        f"({size:.3g} {length}): raise [contact] penalty, or use the "
-        '"augmented-lagrangian" method'
+        f"({size:.3g} {length}, 4 × area / perimeter): {advice}"
     )
 
 

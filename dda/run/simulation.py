@@ -22,6 +22,7 @@ from dda.effects.base import StepContext
 from dda.errors import SimulationError
 from dda.fracture.fragments import parent_rows
 from dda.fracture.inherited_contacts import after_breaking
+from dda.geometry import block_sizes
 from dda.jit import compile_seconds, run_work
 from dda.model import SEARCH_FACTOR, Model, build
 from dda.result import OPEN, FractureEvent, Frame, Result
@@ -720,6 +721,8 @@ def _warnings(state: _Run) -> list[str]:
     """The run's warnings (:mod:`dda.run.run_warnings`), in the scene's units."""
     m = state.model
     length = m.scene.units.length
+    blocks = state.blocks
+    sizes = block_sizes(blocks.vertices, blocks.offsets, blocks.area)
     found = [
         in_situ_warning(*state.in_situ_change),
         in_situ_slip_warning(*state.in_situ_slip, length),
@@ -729,9 +732,18 @@ def _warnings(state: _Run) -> list[str]:
         if state.start == UNSETTLED_START
         else None,
         None if m.static else _energy_warning(state),
-        penetration_warning(state.max_penetration, state.blocks.area, state.blocks.fixed, length),
+        penetration_warning(
+            state.max_penetration,
+            sizes,
+            state.blocks.fixed,
+            length,
+            m.contact is not None and m.contact.law.augmented,
+        ),
         overlap_warning(
-            state.deepest_overlap, state.max_penetration, state.blocks.area, state.blocks.fixed,
+            state.deepest_overlap,
+            state.max_penetration,
+            sizes,
+            state.blocks.fixed,
             (length, m.scene.units.time),
         ),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),

@@ -41,7 +41,7 @@ def test_an_overlap_is_said_where_no_contact_accounts_for_it(depth, penetration,
     """Said when deeper than 1 % of the smallest free block's size (1 m here) and than
     twice the deepest contact penetration."""
     overlap = Overlap(depth, 0.01, "a", "b", 0.25)
-    text = overlap_warning(overlap, penetration, np.array([1.0, 4.0]), np.array([False, True]),
+    text = overlap_warning(overlap, penetration, np.array([1.0, 2.0]), np.array([False, True]),
                            ("m", "s"))  # fmt: skip
     assert (text is not None) == warned
     if warned:

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import dda
+from dda.geometry import block_sizes
 from dda.run.run_warnings import (
     CUT_STEPS_WARNING,
     ENERGY_WARNING,
@@ -24,6 +25,7 @@ from dda.run.run_warnings import (
 )
 from dda.run.simulation import shown_time
 from dda.solve import update
+from tests.helpers import rectangle
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -33,12 +35,23 @@ def _analysis(scene, **changes):
 
 
 def test_penetration_is_measured_against_the_smallest_free_block():
-    areas, fixed = np.array([100.0, 4.0, 1.0]), np.array([False, False, True])  # sizes 10, 2
+    sizes, fixed = np.array([10.0, 2.0, 1.0]), np.array([False, False, True])
     at_limit = PENETRATION_WARNING * 2.0
-    assert penetration_warning(at_limit, areas, fixed, "m") is None
-    text = penetration_warning(1.01 * at_limit, areas, fixed, "m")
-    assert text is not None and "1.01 %" in text and "(2 m)" in text
-    assert penetration_warning(1.0, areas, np.ones(3, bool), "m") is None  # nothing free
+    assert penetration_warning(at_limit, sizes, fixed, "m", False) is None
+    text = penetration_warning(1.01 * at_limit, sizes, fixed, "m", False)
+    assert text is not None and "1.01 %" in text and "(2 m," in text and "penalty" in text
+    text = penetration_warning(1.01 * at_limit, sizes, fixed, "m", True)
+    assert "lower [contact] tolerance" in text and "augmented-lagrangian" not in text
+    assert penetration_warning(1.0, sizes, np.ones(3, bool), "m", False) is None  # nothing free
+
+
+def test_a_block_size_is_four_times_its_area_over_its_perimeter():
+    """A square's side; twice a sliver's thickness (1 m × 1 mm: 2.0e-3 m, where √A says
+    3.2e-2 m and hid a sliver penetrated through a third of its thickness)."""
+    square, sliver = rectangle(0.0, 0.0, 2.0, 2.0), rectangle(0.0, 0.0, 1.0, 1e-3)
+    vertices = np.array(square + sliver, float)
+    sizes = block_sizes(vertices, np.array([0, 4, 8]), np.array([4.0, 1e-3]))
+    np.testing.assert_allclose(sizes, [2.0, 4e-3 / 2.002], rtol=1e-12)
 
 
 def test_cut_steps_warn_beyond_their_share():
