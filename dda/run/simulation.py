@@ -17,6 +17,7 @@ from dda.contact.formulas import normal_trial
 from dda.contact.law import friction_bound
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
+from dda.contact.push_out import pay_for_the_lift
 from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
 from dda.errors import SimulationError
@@ -415,6 +416,9 @@ def _advance(run: _Run) -> None:
             m.scene.analysis.newmark_gamma,
             moves=solution.moves,
         )
+        if solution.pushed is not None and not m.static and run.energy.gravity is not None:
+            masses = m.inertia.masses(run.blocks)
+            pay_for_the_lift(run.blocks.velocity, solution.pushed, masses, run.energy.gravity)
         if m.ground is not None:  # the blocks that follow the ground move at its velocity
             m.ground.set_velocity(run.blocks, ctx.time)
         if not np.all(np.isfinite(run.blocks.vertices)):
