@@ -17,11 +17,12 @@ the state of the scene's geometry under its loads at t = 0:
   from the D of the last, by a primal–dual interior-point method
   (:mod:`dda.solve.interior_point`: Coulomb's bound solved with the normal forces, in a
   number of factorisations that does not follow the number of contacts that change
-  state), at the regularisers ``INTERIOR_REGULARISERS``: the first, 1e-2 E/m, holds the
+  state), at the regularisers ``INTERIOR_REGULARISERS``: where touching contacts hold
+  bonds (cohesion, tension, a residual friction), the first, 1e-2 E/m, holds the
   blocks at 1 % of their elastic stiffness while the loads go into the contacts (the
   bonds that path breaks are broken, each solve repeated with them, as the step's
-  passes do; without bonds it ends early, :func:`_interior_policy`), the second is the
-  last. The step's Newton (:func:`dda.solve.step.
+  passes do), then the last; without bonds the last alone (:func:`_holds_bonds`: one
+  solve, 5 fewer factorisations on the bench walls). The step's Newton (:func:`dda.solve.step.
   solve_step`) then finishes at the last regulariser from there (one iteration on the
   bench walls: its pieces are the solution's), and goes on lowering the regulariser
   tenfold a pseudo-step if it did not stand. First, though, where the touching
@@ -75,7 +76,6 @@ from dda.effects.inertia import Inertia
 from dda.model import Model
 from dda.result import OPEN
 from dda.solve.interior_point import NewtonMatrix, solve_interior
-from dda.solve.policy import StepPolicy, current_policy
 from dda.solve.step import solve_step, static_contact_problem
 from dda.solve.timing import StageTimer
 
@@ -111,10 +111,11 @@ RETRIES = 3
 # last regulariser takes a block that stands
 STANDING = RELATIVE_REGULARISER
 # the interior-point pseudo-steps' regularisers over each block's E_i / m_i (the last
-# RELATIVE_REGULARISER; none: the continuation alone). The first holds the blocks while
-# the loads go into the contacts, as the continuation's first does: the bonds that path
-# breaks are broken (cases/jointed_slope_fos.toml's stored factor of safety holds with it,
-# not with one solve at the last regulariser)
+# RELATIVE_REGULARISER; none: the continuation alone). The first, where touching contacts
+# hold bonds, holds the blocks while the loads go into the contacts, as the
+# continuation's first does: the bonds that path breaks are broken
+# (cases/jointed_slope_fos.toml's stored factor of safety holds with it, not with one
+# solve at the last regulariser); without bonds the last alone
 INTERIOR_REGULARISERS = (FIRST_REGULARISER, RELATIVE_REGULARISER)
 # interior-point solves of one pseudo-step: each after the first with the bonds the
 # last one broke (contacts that slip lose their cohesion, as in the step's passes)
@@ -249,12 +250,12 @@ def _by_interior_point(limit, blocks, start, stiffness, timer):
     settle."""
     d = np.zeros((blocks.count, 6))
     contacts, newton = start, 0
-    for fraction in INTERIOR_REGULARISERS:
-        last = fraction == INTERIOR_REGULARISERS[-1]
+    regularisers = INTERIOR_REGULARISERS
+    if not _holds_bonds(limit.model, blocks, start):
+        regularisers = regularisers[-1:]  # nothing for a first pseudo-step to break
+    for fraction in regularisers:
         with timer("interior_point"):
-            step, recorded, iterations = limit.interior(
-                blocks, contacts, fraction * stiffness, d, last
-            )
+            step, recorded, iterations = limit.interior(blocks, contacts, fraction * stiffness, d)
         newton += iterations
         limit.count(iterations)
         if recorded is None:
@@ -263,6 +264,19 @@ def _by_interior_point(limit, blocks, start, stiffness, timer):
         contacts = _restarted(start, recorded)
     found, more = _by_continuation(limit, blocks, start, stiffness, timer, (d, recorded, fraction))
     return found, newton + more
+
+
+def _holds_bonds(model: Model, blocks: BlockSet, touching: ContactSet) -> bool:
+    """Some touching contact holds a bond: a strength that changes when it slips or opens
+    (:attr:`dda.contact.strength.JointProperties.breakable`: cohesion, tension, a
+    residual friction), which the start's first pseudo-step may break."""
+    contact = model.contact
+    if contact is None or not len(touching):
+        return False
+    joints = contact.joints
+    rows = joints.rows_for(blocks, touching)
+    strengths = joints.properties(rows, np.ones(len(rows)))
+    return bool(np.any(touching.intact & strengths.breakable))
 
 
 def _by_continuation(limit, blocks, start, stiffness, timer, reached=None, at_most=False):
@@ -359,12 +373,11 @@ class _Limit:
         ctx.prescribed = d
         return solve_step(model, blocks, contacts, ctx, timer)
 
-    def interior(self, blocks, contacts, scale, d, last):
+    def interior(self, blocks, contacts, scale, d):
         """(ΔD, the contacts with the states and forces at d + ΔD, factorisations) of the
         interior-point solve of the step from the accumulated ``d`` held by the regulariser
         ``scale`` (as :meth:`solve`), each repeated with the bonds the last broke; the
-        contacts None when one did not converge. ``last``: the last pseudo-step's solve
-        (:func:`_interior_policy`)."""
+        contacts None when one did not converge."""
         offset = -np.einsum("nij,nj->ni", self.linear, d)
         effects = [Proximal(self.masses, scale, offset), *self.effects]
         model = replace(self.model, effects=effects)
@@ -376,10 +389,7 @@ class _Limit:
             if self.matrix is None or not self.matrix.fits(problem):
                 self.release()
                 self.matrix = NewtonMatrix(problem)
-            bonded = problem.joints is not None and bool(
-                np.any(work.intact & problem.joints.breakable)
-            )
-            solution = solve_interior(problem, self.matrix, _interior_policy(last or bonded))
+            solution = solve_interior(problem, self.matrix)
             iterations += solution.iterations
             if not solution.converged:
                 return solution.d, None, iterations
@@ -407,20 +417,6 @@ class _Limit:
         (one that cannot goes on moving by about its unbalanced load / r)."""
         held = scale[:, None] * np.einsum("nij,nj->ni", self.masses, step)
         return bool(np.linalg.norm(held) <= STANDING * self.loads)
-
-
-def _interior_policy(exact: bool) -> StepPolicy:
-    """The settings of an interior-point solve: the environment's where ``exact`` (the
-    last pseudo-step's, or one whose contacts hold bonds: which break follows from its
-    solution); else μ and the residuals ending at ``interior_first_end``: its solution
-    only centres the next pseudo-step's proximal term, which picks among the equilibria
-    friction allows the one nearest it (the forces at t = 0 move by up to 2.4e-6 of the
-    largest on the tunnel, docs/contact.md)."""
-    policy = current_policy()
-    if exact:
-        return policy
-    end = policy.interior_first_end
-    return replace(policy, interior_complementarity_end=end, interior_residual_end=end)
 
 
 def _backed_off(fraction: float, settled: float | None) -> float:

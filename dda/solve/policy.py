@@ -180,15 +180,6 @@ class StepPolicy:
     interior_residual_end: float = 1e-9
     # ... plus this fraction of the large terms it is the difference of (round-off)
     interior_round_off: float = 1e-13
-    # an equilibrium start's solve before its last ends at this fraction, for μ and the
-    # residuals alike, where its contacts hold no bonds: its solution only centres the
-    # last solve (with bonds it decides which break, and ends as the last: else
-    # cases/jointed_slope_fos.toml's stored bracket fails). Newton iterations of the
-    # start, walls 10x10 / 30x30 / 60x60: 22 / 27 / 34 at the ends above, 18 / 22 / 28 at
-    # 1e-4, 17 / 21 / 26 at 1e-3, 17 / 20 / 25 at 1e-2; the contact forces at t = 0
-    # within 1e-6 of the largest on the 10x10 wall and a sliding block
-    # (tests/solve/test_interior_point.py), 2.4e-6 on the tunnel
-    interior_first_end: float = 1e-3
     # the first iterate's contact unknowns lie this many f inside their bounds (0.1, 0.3
     # and 3 took more iterations on the 20 x 20 and 40 x 40 walls and the rock slope)
     interior_start_shift: float = 1.0
