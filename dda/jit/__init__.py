@@ -15,7 +15,8 @@ Kernels copy an array into a slice or an index set element by element, in loops
 (``for k in range(n): a[k] = b[k]``), never by ``a[:] = b`` or ``a[rows] = b``: for such
 an assignment numba compiles its shape-mismatch error message with its string
 formatting, about 9 s of CPU more in a process's first compile of the rock slope's
-kernels (docs/benchmarks.md, start-up). ``tests/jit/test_jit.py`` checks the kernels' slices.
+kernels (docs/design.md, "Compiled kernels and start-up"). ``tests/jit/test_jit.py``
+checks the kernels' slices.
 
 ``DDA_NO_NUMBA=1`` turns the kernels off altogether (the tests compare both
 paths with it); without numba installed the numpy twins run.
