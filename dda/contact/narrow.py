@@ -690,7 +690,8 @@ def _resolve(
             reflex[corner], reflex[entering], depth[group], depth[group + 1], inside
         ):
             other = group + 1 - best % 2
-        else:
+        elif (v[a, 0] - v[b, 0]) ** 2 + (v[a, 1] - v[b, 1]) ** 2 > slack * slack:
+            # corners apart (at most of a wall's they meet: no call made for them)
             other = _face_to_face_kernel(
                 best, verts, edges, v, nxt, to_next, to_prev, outward, reflex, depth,
                 fake, slack, a, b,
@@ -707,8 +708,8 @@ def _face_to_face_one(
     best, verts, edges, v, nxt, to_next, to_prev, outward, reflex, depth, fake, slack, a, b
 ):
     """Compiled :func:`_face_to_face` of one pair (its four candidates)."""
-    counter = 2 - (best - best % 2)
     apart = np.sqrt((v[a, 0] - v[b, 0]) ** 2 + (v[a, 1] - v[b, 1]) ** 2)
+    counter = 2 - (best - best % 2)
     chosen = edges[best]
     for column in (counter, counter + 1):
         vert, ed = verts[column], edges[column]
