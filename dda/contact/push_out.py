@@ -37,10 +37,10 @@ push would shove the whole mass; there the push is the least ½ Dᵀ K₀ D, K�
 block stiffness with its inertia 2M/Δt², which keeps it local (a few blocks strained).
 
 An overlap found late is one the blocks sank into with no contact, turning potential
-energy into motion; the push lifts them back out, and the potential it restores would
-be energy made, as their motion stays. The pushed blocks pay for it
-(:func:`pay_for_the_lift`): their kinetic energy falls by the lift −Σ mᵢ g·Δxᵢ (Δxᵢ the
-push's translation of block i), as far as they have it.
+energy into motion; the push lifts them back out, and the energy it stores (potential,
+elastic) would be energy made, as their motion stays. The pushed blocks pay for it
+(:func:`pay_for_the_push`): their kinetic energy falls by what the push stores less the
+loads' work over it, as far as they have it.
 """
 
 from __future__ import annotations
@@ -241,19 +241,17 @@ def _normal_motion(contacts: ContactSet, rows: ContactRows, d: np.ndarray) -> np
     return gaps_after(rows, contacts.block_a, contacts.block_b, d)[0] - rows.penetration
 
 
-def pay_for_the_lift(
-    velocity: np.ndarray, pushed: np.ndarray, masses: np.ndarray, gravity: np.ndarray
-) -> float:
+def pay_for_the_push(
+    velocity: np.ndarray, pushed: np.ndarray, masses: np.ndarray, cost: float
+) -> None:
     """Scale the velocities (n, 6, in place) of the blocks that ``pushed`` (n, 6) moved so
-    that their kinetic energy ½ Σ vᵢᵀ Mᵢ vᵢ (``masses`` (n, 6, 6)) falls by the lift
-    L = −Σ mᵢ g·Δxᵢ of the push (mᵢ = Mᵢ[0, 0], Δxᵢ its translation), to 0 at most;
-    return L (0 where the push lowered them: that energy is the loads' work, no gain)."""
+    that their kinetic energy ½ Σ vᵢᵀ Mᵢ vᵢ (``masses`` (n, 6, 6)) falls by ``cost`` (the
+    energy the push stored less the loads' work over it), to 0 at most; nothing where
+    the cost is not positive (a push that lowers the blocks gives the loads' work)."""
     moved = np.flatnonzero(np.any(pushed != 0.0, axis=1))
-    lift = -float(np.sum(masses[moved, 0, 0] * (pushed[moved, :2] @ gravity)))
-    if lift <= 0.0 or not len(moved):
-        return max(lift, 0.0)
+    if cost <= 0.0 or not len(moved):
+        return
     v = velocity[moved]
     kinetic = 0.5 * float(np.einsum("ni,nij,nj->", v, masses[moved], v))
     if kinetic > 0.0:
-        velocity[moved] = v * np.sqrt(max(0.0, 1.0 - lift / kinetic))
-    return lift
+        velocity[moved] = v * np.sqrt(max(0.0, 1.0 - cost / kinetic))

@@ -7,6 +7,9 @@ depth δ, about 0.4 δ for a corner's triangle), measured at every saved frame. 
 deeper than twice the deepest contact penetration of the run, and than
 ``PENETRATION_WARNING`` of the smallest free block's size, is held by no contact: the
 run missed one between those blocks, and what it says near them is not to be trusted.
+Only regions deeper than twice the deepest contact penetration so far are measured (a
+wall's pressed faces are skipped by their boxes before any intersection), and only at
+the saved frames: an overlap that comes and goes between two frames is not seen.
 """
 
 from __future__ import annotations
@@ -38,13 +41,15 @@ class Overlap:
     time: float
 
 
-def deepest_overlap(blocks: BlockSet, time: float) -> Overlap | None:
-    """The deepest region two blocks (not both fixed) share (module docstring), None
-    where none shares area."""
+def deepest_overlap(blocks: BlockSet, time: float, penetration: float = 0.0) -> Overlap | None:
+    """The deepest region two blocks (not both fixed) share (module docstring) among
+    those deeper than ``UNHELD`` × ``penetration`` (the deepest contact penetration so
+    far: regions the contacts account for are not measured), None where there is none."""
     polygons = block_polygons(blocks.vertices, blocks.offsets)
     left, right, shared = sharing_area(
-        polygons, blocks.vertices, blocks.offsets, blocks.area, SHARED_FRACTION
-    )
+        polygons, blocks.vertices, blocks.offsets, blocks.area, SHARED_FRACTION,
+        UNHELD * penetration,
+    )  # fmt: skip
     moving = ~(blocks.fixed[left] & blocks.fixed[right])
     left, right, shared = left[moving], right[moving], shared[moving]
     if not len(left):
@@ -52,6 +57,8 @@ def deepest_overlap(blocks: BlockSet, time: float) -> Overlap | None:
     area = shapely.area(shared)
     depth = 2.0 * area / np.maximum(shapely.length(shared), 1e-300)
     k = int(np.argmax(depth))
+    if depth[k] <= UNHELD * penetration:
+        return None
     names = blocks.names
     return Overlap(float(depth[k]), float(area[k]), names[left[k]], names[right[k]], time)
 

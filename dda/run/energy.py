@@ -322,6 +322,16 @@ class EnergyAccount:
             springs=spring_energy(self.springs) + (self.bolts.energy() if self.bolts else 0.0),
         )
 
+    def stored(self, blocks: BlockSet) -> float:
+        """The blocks' potential (gravity, water) and elastic energy."""
+        terms = self.measure(blocks, ContactSet.empty())
+        return terms.potential + terms.elastic
+
+    def load_work(self, blocks: BlockSet, d: np.ndarray, time: float) -> float:
+        """The work of the loads (point loads, boundary stresses) over ``d`` from
+        ``blocks``."""
+        return sum(load_work(loads, blocks, d, time) for loads in self.loads)
+
     def add_step_work(
         self,
         blocks: BlockSet,
@@ -337,7 +347,7 @@ class EnergyAccount:
         pressure is a potential (``potential``), not work, but where the ground carries
         its table (``[seismic]``) the potential it gains at the blocks' place over the
         step, V(x₀, t₁) − V(x₀, t₀), is (``start``: t₀, the step's start; required then)."""
-        w = sum(load_work(loads, blocks, d, time) for loads in self.loads)
+        w = self.load_work(blocks, d, time)
         if prescribed is not None:
             w += ground_work(blocks, contacts, self.bolts, d, prescribed)
         if self.water is not None and self.water.ground is not None:

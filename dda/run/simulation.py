@@ -17,7 +17,7 @@ from dda.contact.formulas import normal_trial
 from dda.contact.law import friction_bound
 from dda.contact.pipeline import refresh_contacts
 from dda.contact.preload import carry_stress
-from dda.contact.push_out import pay_for_the_lift
+from dda.contact.push_out import pay_for_the_push
 from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
 from dda.errors import SimulationError
@@ -405,6 +405,8 @@ def _advance(run: _Run) -> None:
             effect.after_step(run.blocks, solution.d, ctx)
         if run.probes is not None:
             run.probes.move(run.blocks, solution.d)
+        pushed = solution.pushed if solution.pushed is not None and not m.static else None
+        before = None if pushed is None else run.blocks.copy()
         apply_step(
             run.blocks,
             solution.d,
@@ -416,9 +418,8 @@ def _advance(run: _Run) -> None:
             m.scene.analysis.newmark_gamma,
             moves=solution.moves,
         )
-        if solution.pushed is not None and not m.static and run.energy.gravity is not None:
-            masses = m.inertia.masses(run.blocks)
-            pay_for_the_lift(run.blocks.velocity, solution.pushed, masses, run.energy.gravity)
+        if before is not None:
+            _pay_for_the_push(run, before, solution.d, pushed, dt, ctx.time)
         if m.ground is not None:  # the blocks that follow the ground move at its velocity
             m.ground.set_velocity(run.blocks, ctx.time)
         if not np.all(np.isfinite(run.blocks.vertices)):
@@ -586,10 +587,26 @@ def run(
     return result
 
 
+def _pay_for_the_push(run: _Run, before: BlockSet, d, pushed, dt: float, time: float) -> None:
+    """The pushed blocks pay for the push with their motion
+    (:func:`dda.contact.push_out.pay_for_the_push`): the energy it stored, the blocks'
+    potential and elastic energy after the step less what they would hold after it
+    without the push, less the loads' work over it."""
+    m = run.model
+    without = before.copy()
+    apply_step(without, d - pushed, dt, m.elastic, m.static, m.exact_rotation,
+               gamma=m.scene.analysis.newmark_gamma)  # fmt: skip
+    energy = run.energy
+    cost = (
+        energy.stored(run.blocks) - energy.stored(without) - energy.load_work(before, pushed, time)
+    )
+    pay_for_the_push(run.blocks.velocity, pushed, m.inertia.masses(run.blocks), cost)
+
+
 def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> Frame:
     """The frame of the run's state (with the measurement rows ``measured``), in the
     scene's coordinates (the run's own are ``origin`` less: dda.scene.local_frame)."""
-    found = deepest_overlap(state.blocks, state.shown_time)
+    found = deepest_overlap(state.blocks, state.shown_time, state.max_penetration)
     state.deepest_overlap = deeper(found, state.deepest_overlap)
     placed = state.model.bolts
     bolts = None if placed is None else placed.segments()

@@ -27,10 +27,13 @@ def sharing_area(
     offsets: np.ndarray,
     areas: np.ndarray,
     fraction: float,
+    thinnest: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(left, right, shared) the pairs of blocks (left < right) whose ``polygons`` share
     more than ``fraction`` of the smaller of their ``areas``, and each pair's shared
-    region (shapely polygons).
+    region (shapely polygons); where ``thinnest`` is given, only the regions that may be
+    deeper than it (2 area / perimeter is at most the smaller side of the boxes' overlap:
+    blocks pressed together along a face are skipped before any intersection).
 
     Candidate pairs come from one STRtree query ("intersects") in the frame of the
     blocks' most common edge direction (:func:`search_turn`), so the cost is near
@@ -46,6 +49,8 @@ def sharing_area(
     # the shared area is at most the shared bounding-box area: skip pairs below the limit
     bounds = shapely.bounds(searched)
     possible = _box_overlap(bounds[left], bounds[right]) > limit
+    if thinnest > 0.0:
+        possible &= _box_overlap_side(bounds[left], bounds[right]) > thinnest
     left, right, limit = left[possible], right[possible], limit[possible]
     shared = shapely.intersection(polygons[left], polygons[right])
     keep = shapely.area(shared) > limit
@@ -57,6 +62,13 @@ def _box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     width = np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
     height = np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
     return np.clip(width, 0.0, None) * np.clip(height, 0.0, None)
+
+
+def _box_overlap_side(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smaller side of the boxes' overlap, row by row (0 where they do not overlap)."""
+    width = np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
+    height = np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
+    return np.clip(np.minimum(width, height), 0.0, None)
 
 
 def search_turn(vertices: np.ndarray, offsets: np.ndarray) -> np.ndarray | None:

@@ -13,7 +13,7 @@ import pytest
 import dda
 from dda.contact.push_out import (
     found_overlap,
-    pay_for_the_lift,
+    pay_for_the_push,
     push_metric,
     push_out_displacement,
 )
@@ -285,26 +285,46 @@ def test_a_rock_block_drawn_into_its_base_is_lifted_out_without_energy(dt):
     assert result.history["kinetic_energy"].max() == 0.0
 
 
-def test_the_pushed_blocks_pay_for_the_lift_with_their_motion():
-    """A 2 kg block (M = 2 I on its translations) moving at (3, 4) m/s pushed up by 1 mm
-    under g = 9.81: its kinetic energy 25 J falls by m g e = 0.01962 J. Pushed down, it
-    keeps its speed (the loads' work); with less motion than the lift, it stops."""
+def test_the_pushed_blocks_pay_for_the_push_with_their_motion():
+    """A 2 kg block (M = 2 I on its translations) moving at (3, 4) m/s, pushed at a cost of
+    0.01962 J (m g e for 1 mm up): its kinetic energy 25 J falls by that, the block the
+    push left alone keeps its speed; no cost, no change; a cost beyond its motion stops
+    it."""
     masses = np.zeros((2, 6, 6))
     masses[:, [0, 1], [0, 1]] = 2.0
     masses[:, 2, 2] = 1.0
-    gravity = np.array([0.0, -9.81])
     velocity = np.array([[3.0, 4.0, 0, 0, 0, 0], [1.0, 0, 0, 0, 0, 0]])
     pushed = np.array([[0.0, 1e-3, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]])
-    lift = pay_for_the_lift(velocity, pushed, masses, gravity)
-    assert lift == pytest.approx(2.0 * 9.81 * 1e-3, rel=1e-12)
+    cost = 2.0 * 9.81 * 1e-3
+    pay_for_the_push(velocity, pushed, masses, cost)
     kinetic = 0.5 * np.einsum("ni,nij,nj->n", velocity, masses, velocity)
-    np.testing.assert_allclose(kinetic, [25.0 - lift, 1.0], rtol=1e-12)
-    down = velocity.copy()
-    assert pay_for_the_lift(down, -pushed, masses, gravity) == 0.0
-    np.testing.assert_array_equal(down, velocity)
-    slow = np.array([[0.0, 0.1, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]])  # 0.01 J < the lift
-    pay_for_the_lift(slow, pushed, masses, gravity)
+    np.testing.assert_allclose(kinetic, [25.0 - cost, 1.0], rtol=1e-12)
+    kept = velocity.copy()
+    pay_for_the_push(kept, pushed, masses, -cost)
+    np.testing.assert_array_equal(kept, velocity)
+    slow = np.array([[0.0, 0.1, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]])  # 0.01 J < the cost
+    pay_for_the_push(slow, pushed, masses, cost)
     assert not slow.any()
+
+
+@pytest.mark.parametrize("weight", ["gravity", "point load"])
+def test_a_sliding_block_found_in_its_base_pays_for_its_push(weight):
+    """cases/verify/overlap.toml's block (rock, 1 m/s along its base, its corner found
+    2e-5 m in) under its weight as gravity or as an equal point load: the push lifts it
+    against either, and it pays with its motion (0.50 J above E0 + W unpaid against the
+    load, when only a lift against gravity was paid)."""
+    raw = tomllib.loads((CASES / "verify" / "overlap.toml").read_text())
+    raw["materials"]["soft"].update(density=2600.0, young=1e10)
+    raw["analysis"].update(time_step=1e-3, steps=20)
+    raw["blocks"][1]["velocity"] = [1.0, 0.0, 0.0]
+    if weight == "gravity":
+        raw["analysis"]["gravity"] = [0.0, -9.81]
+    else:
+        force = [0.0, -2600.0 * 9.81]
+        raw["loads"] = [{"block": "block", "point": [0.0, 0.7071], "force": force}]
+    result = dda.simulate(dda.load_scene(raw))
+    excess, moved, _ = energy_excess(result.history, result.summary["initial_energy"])
+    assert excess <= 1e-9 * moved
 
 
 FAN = Path(__file__).parent / "fan_of_four.toml"
