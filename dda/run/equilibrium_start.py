@@ -101,7 +101,7 @@ BUDGET_FACTOR = 5
 # the continuation's Newton iterations in all, as a multiple of a pseudo-step's budget:
 # beyond them it gives up (a 5,000-block slope whose interior point had stalled spent
 # 5,463 Newton iterations, 14 minutes, in pseudo-steps tried again before it did; the
-# continuation alone settles the 60 × 60 wall of dda bench in 462)
+# continuation alone settles the 60 × 60 wall of dda bench in 466, one solver thread)
 CONTINUATION_BUDGETS = 2
 # a pseudo-step that does not settle within its budget is tried again at a larger
 # regulariser (``_backed_off``), up to this many times in a row
