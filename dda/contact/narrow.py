@@ -510,6 +510,7 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     )
     depth = np.column_stack([_depth(blocks, fans, vert, ed) for vert, ed in candidates])
     along = np.column_stack([_along(blocks, fans, vert, ed) for vert, ed in candidates])
+    off = _off_their_edges(blocks, fans, candidates, along, slack)
     shared = _shared_lines(fans, candidates)
     fake = _fake_pairings(depth, along, slack, fans.reflex[p2], fans.reflex[p1], shared)
     fake |= _hidden_penetration(depth, inside_depth)
@@ -518,7 +519,7 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
     # the edge whose line the vertex is furthest outside of (least penetration)
     tied = scores >= scores.max(axis=1, keepdims=True) - ANGLE_TIE
-    tied &= _on_their_edges(blocks, fans, candidates, along, slack, tied)
+    tied &= _on_their_edges(off, tied)
     least = np.where(tied, depth, np.inf).min(axis=1, keepdims=True)
     near = tied & (depth <= least + inside_depth)
     tied &= _persisting(blocks, candidates, near, previous_keys)
@@ -539,7 +540,7 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
         fans.reflex[corner], fans.reflex[entering], depth[rows, group], depth[rows, group + 1],
         inside_depth,
     )  # fmt: skip
-    facing = _face_to_face(blocks, fans, candidates, best, separation, depth, along, fake, slack)
+    facing = _face_to_face(blocks, fans, candidates, best, separation, depth, off, fake, slack)
     second = nested | (facing >= 0)
     other = np.where(nested, group + 1 - best % 2, facing)[second]
     return (
@@ -549,26 +550,23 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     )
 
 
-def _face_to_face(blocks, fans, candidates, best, separation, depth, along, fake, slack):
+def _face_to_face(blocks, fans, candidates, best, separation, depth, off, fake, slack):
     """(k,) the candidate (column) that is the other end of the face-to-face contact each
     pair's pairing ``best`` stands for (:func:`face_to_face`: the corner vertex onto the
     entering vertex's edge that faces the chosen edge), −1 where none is."""
     rows = np.arange(len(best))
-    chosen_edge = np.column_stack([ed for _, ed in candidates])[rows, best]
+    edges = np.column_stack([ed for _, ed in candidates])
+    normals = fans.outward[edges[rows, best]]
     counter = 2 - (best - best % 2)  # the corner vertex's candidates: columns 2, 3 or 0, 1
     vertex_a, vertex_b = candidates[0][0], candidates[2][0]
     apart = np.linalg.norm(blocks.vertices[vertex_a] - blocks.vertices[vertex_b], axis=1)
     found = np.full(len(best), -1)
     for shift in (1, 0):  # the first of the two columns wins
         column = counter + shift
-        edge = np.column_stack([ed for _, ed in candidates])[rows, column]
-        nxt = fans.next[edge]
-        length = np.linalg.norm(blocks.vertices[nxt] - blocks.vertices[edge], axis=1)
-        dot = np.einsum("ij,ij->i", fans.outward[chosen_edge], fans.outward[edge])
-        off = off_edge(along[rows, column], length, slack)
+        dot = np.einsum("ij,ij->i", normals, fans.outward[edges[rows, column]])
         face = face_to_face(
-            separation[rows, column], dot, depth[rows, column], off, apart, slack,
-            ANGLE_TOLERANCE,
+            separation[rows, column], dot, depth[rows, column], off[rows, column], apart,
+            slack, ANGLE_TOLERANCE,
         ) & ~fake[rows, column]  # fmt: skip
         found = np.where(face, column, found)
     return found
@@ -693,9 +691,8 @@ def _resolve(
         elif (v[a, 0] - v[b, 0]) ** 2 + (v[a, 1] - v[b, 1]) ** 2 > slack * slack:
             # corners apart (at most of a wall's they meet: no call made for them)
             other = _face_to_face_kernel(
-                best, verts, edges, v, nxt, to_next, to_prev, outward, reflex, depth,
-                fake, slack, a, b,
-            )  # fmt: skip
+                best, edges, outward, score, depth, off, fake, slack, v, a, b
+            )
         if other >= 0:
             out_v[k + seconds], out_e[k + seconds] = verts[other], edges[other]
             partner = other + 1 - 2 * (other % 2)
@@ -704,26 +701,20 @@ def _resolve(
     return out_v[: k + seconds], out_e[: k + seconds], out_s[: k + seconds]
 
 
-def _face_to_face_one(
-    best, verts, edges, v, nxt, to_next, to_prev, outward, reflex, depth, fake, slack, a, b
-):
-    """Compiled :func:`_face_to_face` of one pair (its four candidates)."""
+def _face_to_face_one(best, edges, outward, score, depth, off, fake, slack, v, a, b):
+    """Compiled :func:`_face_to_face` of one pair (corners ``a`` and ``b``), from its four
+    candidates' ``score`` (the fan separation; −∞ where the vertex is reflex or the
+    pairing fake), ``depth``, ``off`` and ``fake``."""
     apart = np.sqrt((v[a, 0] - v[b, 0]) ** 2 + (v[a, 1] - v[b, 1]) ** 2)
     counter = 2 - (best - best % 2)
     chosen = edges[best]
     for column in (counter, counter + 1):
-        vert, ed = verts[column], edges[column]
-        if reflex[vert] or fake[column]:
-            continue
-        nx, ny = outward[ed, 0], outward[ed, 1]
-        separation = fan_separation(
-            to_next[vert, 0], to_next[vert, 1], to_prev[vert, 0], to_prev[vert, 1], nx, ny
+        ed = edges[column]
+        dot = outward[chosen, 0] * outward[ed, 0] + outward[chosen, 1] * outward[ed, 1]
+        face = face_to_face(
+            score[column], dot, depth[column], off[column], apart, slack, ANGLE_TOLERANCE
         )
-        ex, ey = v[nxt[ed], 0] - v[ed, 0], v[nxt[ed], 1] - v[ed, 1]
-        wx, wy = v[vert, 0] - v[ed, 0], v[vert, 1] - v[ed, 1]
-        off = off_edge(edge_along(wx, wy, ex, ey), np.sqrt(ex * ex + ey * ey), slack)
-        dot = outward[chosen, 0] * nx + outward[chosen, 1] * ny
-        if face_to_face(separation, dot, depth[column], off, apart, slack, ANGLE_TOLERANCE):
+        if face and not fake[column]:
             return column
     return -1
 
@@ -732,18 +723,24 @@ _face_to_face_kernel = kernel(_face_to_face_one) or _face_to_face_one
 _resolve_kernel = kernel(_resolve)
 
 
-def _on_their_edges(blocks: BlockSet, fans: VertexFans, candidates, along, slack, tied):
-    """(k, 4) mask: the tied candidates whose vertex projects within ``slack`` of its
-    edge, where there is one among the tied (else every candidate). Without it the
-    last step's pairing won a tie after its vertex had slid past the edge's end (a
-    toppling stack: the corner 17 mm beyond it, on the edge's line); the pipeline's
-    soundness test then refused it, the corner had no contact for a step and entered
-    the other block by 0.4 mm."""
+def _off_their_edges(blocks: BlockSet, fans: VertexFans, candidates, along, slack):
+    """(k, 4): whether each candidate's vertex projects beyond its edge's ends by more
+    than ``slack`` (:func:`off_edge`)."""
     length = np.column_stack(
         [np.linalg.norm(blocks.vertices[fans.next[ed]] - blocks.vertices[ed], axis=1)
          for _, ed in candidates]
     )  # fmt: skip
-    on_edge = ~off_edge(along, length, slack)
+    return off_edge(along, length, slack)
+
+
+def _on_their_edges(off: np.ndarray, tied: np.ndarray) -> np.ndarray:
+    """(k, 4) mask: the tied candidates whose vertex projects within the slack of its
+    edge (not ``off`` it), where there is one among the tied (else every candidate).
+    Without it the last step's pairing won a tie after its vertex had slid past the
+    edge's end (a toppling stack: the corner 17 mm beyond it, on the edge's line); the
+    pipeline's soundness test then refused it, the corner had no contact for a step and
+    entered the other block by 0.4 mm."""
+    on_edge = ~off
     usable = (on_edge & tied).any(axis=1, keepdims=True)
     return np.where(usable, on_edge, True)
 

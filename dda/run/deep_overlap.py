@@ -71,20 +71,14 @@ def deeper(found: Overlap | None, kept: Overlap | None) -> Overlap | None:
 
 
 def overlap_warning(
-    overlap: Overlap | None,
-    max_penetration: float,
-    sizes: np.ndarray,
-    fixed: np.ndarray,
-    units: tuple[str, str],
+    overlap: Overlap | None, max_penetration: float, size: float | None, units: tuple[str, str]
 ) -> str | None:
     """The sentence when ``overlap`` is deeper than ``UNHELD`` times the run's deepest
     contact penetration and than ``PENETRATION_WARNING`` of the smallest free block's
-    size (``sizes``: :func:`dda.geometry.block_sizes`), else None. ``units``: (length,
-    time)."""
-    free = ~np.asarray(fixed, bool)
-    if overlap is None or not free.any():
+    ``size`` (:func:`dda.run.run_warnings.smallest_free_size`; None: no free block), else
+    None. ``units``: (length, time)."""
+    if overlap is None or size is None:
         return None
-    size = float(np.asarray(sizes)[free].min())
     if overlap.depth <= max(UNHELD * max_penetration, PENETRATION_WARNING * size):
         return None
     length, time = units

@@ -35,18 +35,21 @@ STATIC_MOTION_WARNING = 1e-3
 STATIC_UNBALANCED_WARNING = 1e-3
 
 
+def smallest_free_size(sizes: np.ndarray, fixed: np.ndarray) -> float | None:
+    """The smallest size (``sizes``: :func:`dda.geometry.block_sizes`) of a free block;
+    None where every block is fixed."""
+    free = ~np.asarray(fixed, bool)
+    return float(np.asarray(sizes)[free].min()) if free.any() else None
+
+
 def penetration_warning(
-    max_penetration: float, sizes: np.ndarray, fixed: np.ndarray, length: str, augmented: bool
+    max_penetration: float, size: float | None, length: str, augmented: bool
 ) -> str | None:
     """The sentence when the largest penetration exceeds :data:`PENETRATION_WARNING` of
-    the smallest free block's size (``sizes``: :func:`dda.geometry.block_sizes`), else
-    None; its advice for the contact method (``augmented``: the augmented Lagrangian's
-    tolerance, else the penalty)."""
-    free = ~np.asarray(fixed, bool)
-    if not free.any() or max_penetration <= 0.0:
-        return None
-    size = float(np.asarray(sizes)[free].min())
-    if max_penetration <= PENETRATION_WARNING * size:
+    the smallest free block's ``size`` (:func:`smallest_free_size`; None: no free
+    block), else None; its advice for the contact method (``augmented``: the augmented
+    Lagrangian's tolerance, else the penalty)."""
+    if size is None or max_penetration <= PENETRATION_WARNING * size:
         return None
     advice = (
         "lower [contact] tolerance (the penetration the augmented Lagrangian accepts)"

@@ -44,6 +44,7 @@ from dda.run.run_warnings import (
     in_situ_warning,
     penetration_warning,
     restitution_warning,
+    smallest_free_size,
     static_motion_warning,
     unsettled_start_warning,
 )
@@ -393,7 +394,8 @@ def _advance(run: _Run) -> None:
         run.move_before = _largest_move(run.last_moves)
         run.last_moves = (solution.moves, run.blocks.vertex_owner, run.blocks.names)
         run.static_held = _held_by_damping(m, run.blocks, solution, dt, run.energy.gravity)
-    if solution.pushed is not None and np.any(solution.pushed):
+    pushing = solution.pushed is not None and bool(np.any(solution.pushed))
+    if pushing:
         run.pushed_steps += 1
     with run.timer("update"):
         ctx = StepContext(dt=dt, time=run.time + dt, step=run.step + 1, static=m.static)
@@ -405,7 +407,7 @@ def _advance(run: _Run) -> None:
             effect.after_step(run.blocks, solution.d, ctx)
         if run.probes is not None:
             run.probes.move(run.blocks, solution.d)
-        pushed = solution.pushed if solution.pushed is not None and not m.static else None
+        pushed = solution.pushed if pushing and not m.static else None
         before = None if pushed is None else run.blocks.copy()
         apply_step(
             run.blocks,
@@ -743,7 +745,10 @@ def _warnings(state: _Run) -> list[str]:
     m = state.model
     length = m.scene.units.length
     blocks = state.blocks
-    sizes = block_sizes(blocks.vertices, blocks.offsets, blocks.area)
+    size = smallest_free_size(
+        block_sizes(blocks.vertices, blocks.offsets, blocks.area), blocks.fixed
+    )
+    augmented = m.contact is not None and m.contact.law.augmented
     found = [
         in_situ_warning(*state.in_situ_change),
         in_situ_slip_warning(*state.in_situ_slip, length),
@@ -753,19 +758,9 @@ def _warnings(state: _Run) -> list[str]:
         if state.start == UNSETTLED_START
         else None,
         None if m.static else _energy_warning(state),
-        penetration_warning(
-            state.max_penetration,
-            sizes,
-            state.blocks.fixed,
-            length,
-            m.contact is not None and m.contact.law.augmented,
-        ),
+        penetration_warning(state.max_penetration, size, length, augmented),
         overlap_warning(
-            state.deepest_overlap,
-            state.max_penetration,
-            sizes,
-            state.blocks.fixed,
-            (length, m.scene.units.time),
+            state.deepest_overlap, state.max_penetration, size, (length, m.scene.units.time)
         ),
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
         _last_motion_warning(state, length),

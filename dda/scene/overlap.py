@@ -48,27 +48,22 @@ def sharing_area(
     limit = fraction * np.minimum(areas[left], areas[right])
     # the shared area is at most the shared bounding-box area: skip pairs below the limit
     bounds = shapely.bounds(searched)
-    possible = _box_overlap(bounds[left], bounds[right]) > limit
+    width, height = _box_overlap(bounds[left], bounds[right])
+    possible = width * height > limit
     if thinnest > 0.0:
-        possible &= _box_overlap_side(bounds[left], bounds[right]) > thinnest
+        possible &= np.minimum(width, height) > thinnest
     left, right, limit = left[possible], right[possible], limit[possible]
     shared = shapely.intersection(polygons[left], polygons[right])
     keep = shapely.area(shared) > limit
     return left[keep], right[keep], shared[keep]
 
 
-def _box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Area shared by bounding boxes (xmin, ymin, xmax, ymax), row by row."""
+def _box_overlap(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(width, height) of the overlap of bounding boxes (xmin, ymin, xmax, ymax), row by
+    row (0 where they do not overlap)."""
     width = np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
     height = np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
-    return np.clip(width, 0.0, None) * np.clip(height, 0.0, None)
-
-
-def _box_overlap_side(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The smaller side of the boxes' overlap, row by row (0 where they do not overlap)."""
-    width = np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0])
-    height = np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1])
-    return np.clip(np.minimum(width, height), 0.0, None)
+    return np.clip(width, 0.0, None), np.clip(height, 0.0, None)
 
 
 def search_turn(vertices: np.ndarray, offsets: np.ndarray) -> np.ndarray | None:

@@ -3,7 +3,6 @@ the summary (``deepest_overlap``) and, where no contact holds them, in a warning
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 import dda
@@ -41,8 +40,7 @@ def test_an_overlap_is_said_where_no_contact_accounts_for_it(depth, penetration,
     """Said when deeper than 1 % of the smallest free block's size (1 m here) and than
     twice the deepest contact penetration."""
     overlap = Overlap(depth, 0.01, "a", "b", 0.25)
-    text = overlap_warning(overlap, penetration, np.array([1.0, 2.0]), np.array([False, True]),
-                           ("m", "s"))  # fmt: skip
+    text = overlap_warning(overlap, penetration, 1.0, ("m", "s"))
     assert (text is not None) == warned
     if warned:
         assert "'a' and 'b'" in text and "t = 0.25 s" in text

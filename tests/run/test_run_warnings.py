@@ -21,6 +21,7 @@ from dda.run.run_warnings import (
     energy_excess,
     energy_warning,
     penetration_warning,
+    smallest_free_size,
     static_motion_warning,
 )
 from dda.run.simulation import shown_time
@@ -36,13 +37,15 @@ def _analysis(scene, **changes):
 
 def test_penetration_is_measured_against_the_smallest_free_block():
     sizes, fixed = np.array([10.0, 2.0, 1.0]), np.array([False, False, True])
+    size = smallest_free_size(sizes, fixed)
+    assert size == 2.0 and smallest_free_size(sizes, np.ones(3, bool)) is None
     at_limit = PENETRATION_WARNING * 2.0
-    assert penetration_warning(at_limit, sizes, fixed, "m", False) is None
-    text = penetration_warning(1.01 * at_limit, sizes, fixed, "m", False)
+    assert penetration_warning(at_limit, size, "m", False) is None
+    text = penetration_warning(1.01 * at_limit, size, "m", False)
     assert text is not None and "1.01 %" in text and "(2 m," in text and "penalty" in text
-    text = penetration_warning(1.01 * at_limit, sizes, fixed, "m", True)
+    text = penetration_warning(1.01 * at_limit, size, "m", True)
     assert "lower [contact] tolerance" in text and "augmented-lagrangian" not in text
-    assert penetration_warning(1.0, sizes, np.ones(3, bool), "m", False) is None  # nothing free
+    assert penetration_warning(1.0, None, "m", False) is None  # nothing free
 
 
 def test_a_block_size_is_four_times_its_area_over_its_perimeter():
