@@ -141,6 +141,32 @@ def face_to_face(separation, normal_dot, depth, off, apart, slack, angle_toleran
 
 
 @formula
+def on_one_line(normal_dot, offset, slack, cosine):
+    """Two edges on one line, facing the same way: their unit outward normals' dot product
+    ``normal_dot`` at least ``cosine``, and one edge's start ``offset`` from the other's
+    line by at most ``slack``."""
+    return (normal_dot >= cosine) & (np.abs(offset) <= slack)
+
+
+@formula
+def along_one_line(normal_dot, cosine):
+    """Two edges through one point lie along one line: their unit outward normals
+    parallel or opposed (|``normal_dot``| at least ``cosine``)."""
+    return np.abs(normal_dot) >= cosine
+
+
+@formula
+def continues_line(normal_dot, offset, depth, slack, inside_depth, cosine):
+    """A vertex-vertex candidate (a vertex onto an edge) that continues the line of an
+    edge the vertex was paired with last step (:func:`on_one_line`), the vertex on it
+    (``depth`` behind it between −``slack`` and ``inside_depth``). A corner sliding
+    along a face onto the next block's face of the same line (a block crossing the flush
+    joint of two base blocks) stays on that line (:mod:`dda.contact.line_continuation`)."""
+    on_line = on_one_line(normal_dot, offset, slack, cosine)
+    return on_line & (depth >= -slack) & (depth <= inside_depth)
+
+
+@formula
 def off_edge(along, length, slack):
     """P1 projects beyond the edge's ends by more than ``slack`` (m)."""
     return np.maximum(-along, along - 1.0) * length > slack

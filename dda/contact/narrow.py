@@ -62,6 +62,13 @@ from dda.contact.candidate_tests import (
     within_reach,
 )
 from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
+from dda.contact.line_continuation import (
+    continuing,
+    keep_to_lines_kernel,
+    keeping_to_one_line,
+    previous_partners,
+    sliding_and_held,
+)
 from dda.contact.node import separated_corners_kernel, separated_pairs
 from dda.geometry import (
     expand_counts,
@@ -179,6 +186,7 @@ def detect(
     inside_depth: float = np.inf,
     previous_keys: np.ndarray | None = None,
     gap: float | None = None,
+    previous_states: np.ndarray | None = None,
 ) -> Detected:
     """Vertex-edge and vertex-vertex contacts for candidate block pairs.
 
@@ -197,14 +205,18 @@ def detect(
     ``previous_keys``: contact keys of the last step; a vertex-vertex tie is
     resolved with the pairing among them, so that the contact keeps its
     identity (and its history: state, multipliers, shear reference).
+    ``previous_states``: those contacts' states (OPEN, SLIDING, LOCKED; None: all open):
+    a corner that slid along a face onto the next face of its line keeps to that line
+    (:mod:`dda.contact.line_continuation`).
     """
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
         return Detected(empty, empty, np.zeros(0, bool), np.zeros(0, bool))
     if compiled(_detect_kernel):
         return _detect_compiled(
-            blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap
-        )
+            blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap,
+            previous_states,
+        )  # fmt: skip
     fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(
         blocks, pairs, search, vertex_radius, search if gap is None else gap
     )
@@ -212,7 +224,7 @@ def detect(
     vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
     slack = OUTSIDE_FRACTION * search
     vv_vertex, vv_edge, vv_shared = _resolve_vertex_vertex(
-        blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys
+        blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys, previous_states
     )
     vertex_all = np.concatenate([ve_vertex, vv_vertex])
     edge_all = np.concatenate([ve_edge, vv_edge])
@@ -223,18 +235,24 @@ def detect(
     return Detected(vertex_all[keep], edge_all[keep], kind[keep], shared[keep])
 
 
-def _detect_compiled(blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap):
+def _detect_compiled(
+    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, previous_states=None
+):
     """:func:`detect` in one compiled call (:func:`_detect`): the same contacts, in the
     same order, as the numpy path's and the compiled pieces' it strings together."""
     arguments = detect_arguments(
-        blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap
+        blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, previous_states
     )
     return Detected(*_detect_kernel(*arguments))
 
 
-def detect_arguments(blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap):
+def detect_arguments(
+    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, previous_states=None
+):
     """The arguments of the compiled narrow phase (:func:`_detect`) for :func:`detect`'s."""
     known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
+    sliding, held = sliding_and_held(previous_keys, previous_states)
+    partner_ptr, partner_edges = previous_partners(blocks, sliding)
     return (
         np.ascontiguousarray(pairs, dtype=np.int64),
         blocks.offsets.astype(np.int64),
@@ -245,6 +263,9 @@ def detect_arguments(blocks, pairs, search, vertex_radius, inside_depth, previou
         np.ascontiguousarray(blocks.area, dtype=np.float64),
         vertex_key_parts(blocks),
         known.astype(np.int64),
+        partner_ptr,
+        partner_edges,
+        np.sort(held),
         float(vertex_radius),
         float(search),
         float(search if gap is None else gap),
@@ -253,8 +274,9 @@ def detect_arguments(blocks, pairs, search, vertex_radius, inside_depth, previou
 
 
 def _detect(
-    pairs, offsets, v, nxt, prv, owner, area, parts, known, vertex_radius, search, gap, inside
-):
+    pairs, offsets, v, nxt, prv, owner, area, parts, known, partner_ptr, partner_edges, held,
+    vertex_radius, search, gap, inside,
+):  # fmt: skip
     """Compiled :func:`detect`: fans, screen, corners separated at filled nodes,
     vertex-vertex resolution and one row per pairing, the kernels of each stage."""
     to_next, to_prev, reflex, shortest = _fans_kernel(v, nxt, prv)
@@ -285,7 +307,8 @@ def _detect(
         close = ~separated_corners_kernel(v, owner, to_next, to_prev, vv_v, vv_e, inside)
         vv_v, vv_e, vv_s = _resolve_kernel(
             vv_v[close], vv_e[close], v, nxt, prv, to_next, to_prev, outward, reflex, parts,
-            known, OUTSIDE_FRACTION * search, inside, ANGLE_TIE, KEY_SCALE,
+            known, (partner_ptr, partner_edges, held), OUTSIDE_FRACTION * search, inside, ANGLE_TIE,
+            KEY_SCALE,
         )  # fmt: skip
     vertex = np.concatenate((ve_v, vv_v))
     edge = np.concatenate((ve_e, vv_e))
@@ -468,7 +491,9 @@ def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.
     return fans.outward[edge]
 
 
-def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys):
+def _resolve_vertex_vertex(
+    blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys, previous_states=None
+):
     """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
 
     Candidates: the two edges at p2 (vertex p1 enters them) and the two edges
@@ -519,6 +544,8 @@ def _resolve_vertex_vertex(blocks, fans, p1, p2, slack: float, inside_depth: flo
     # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
     # the edge whose line the vertex is furthest outside of (least penetration)
     tied = scores >= scores.max(axis=1, keepdims=True) - ANGLE_TIE
+    tied = _keeping_to_a_line(blocks, fans, candidates, depth, tied, slack, inside_depth,
+                              previous_keys, previous_states)  # fmt: skip
     tied &= _on_their_edges(off, tied)
     least = np.where(tied, depth, np.inf).min(axis=1, keepdims=True)
     near = tied & (depth <= least + inside_depth)
@@ -590,8 +617,9 @@ _shares_line = kernel(_shares_line) or _shares_line  # the compiled resolver cal
 
 
 def _resolve(
-    p1, p2, v, nxt, prv, to_next, to_prev, outward, reflex, parts, known, slack, inside, tie, scale
-):
+    p1, p2, v, nxt, prv, to_next, to_prev, outward, reflex, parts, known, partners, slack,
+    inside, tie, scale,
+):  # fmt: skip
     """Compiled :func:`_resolve_vertex_vertex` (the same rules, candidate by candidate)."""
     k = p1.shape[0]
     out_v = np.empty(2 * k, np.int64)  # one pairing each, then the nested corners' second
@@ -605,6 +633,7 @@ def _resolve(
     fake = np.empty(4, np.bool_)
     off = np.empty(4, np.bool_)
     tied = np.empty(4, np.bool_)
+    line = np.empty(4, np.bool_)
     for i in range(k):
         a, b = p1[i], p2[i]
         verts[0], edges[0] = a, b
@@ -646,9 +675,16 @@ def _resolve(
                 if fake[c]:
                     score[c] = -np.inf
         top = max(max(score[0], score[1]), max(score[2], score[3]))
-        on_edge = False
         for c in range(4):
             tied[c] = score[c] >= top - tie
+            line[c] = False
+        if known.shape[0] > 0:
+            keep_to_lines_kernel(
+                tied, line, verts, edges, depth, v, outward, partners, parts, scale, slack,
+                inside, SHARED_LINE_COSINE,
+            )  # fmt: skip
+        on_edge = False
+        for c in range(4):
             on_edge |= tied[c] and not off[c]
         least = np.inf
         for c in range(4):
@@ -731,6 +767,26 @@ def _off_their_edges(blocks: BlockSet, fans: VertexFans, candidates, along, slac
          for _, ed in candidates]
     )  # fmt: skip
     return off_edge(along, length, slack)
+
+
+def _keeping_to_a_line(
+    blocks, fans, candidates, depth, tied, slack, inside_depth, previous_keys, previous_states
+):
+    """``tied`` (k, 4), narrowed, where some continue the line of another edge their vertex
+    slid along last step, to those and to the tied candidates that were closed contacts
+    then (each keeps to its own line), where all of them lie along one line
+    (:mod:`dda.contact.line_continuation`)."""
+    sliding, held = sliding_and_held(previous_keys, previous_states)
+    if len(sliding) == 0:
+        return tied
+    verts = np.column_stack([c[0] for c in candidates])
+    edges = np.column_stack([c[1] for c in candidates])
+    partners = previous_partners(blocks, sliding)
+    line = tied & continuing(blocks.vertices, fans.outward, verts, edges, depth, slack,
+                             inside_depth, partners, SHARED_LINE_COSINE)  # fmt: skip
+    own = tied & np.isin(contact_keys(blocks, verts, edges), held)  # a closed contact's line
+    line |= own & line.any(axis=1, keepdims=True)
+    return keeping_to_one_line(tied, line, fans.outward[edges], SHARED_LINE_COSINE)
 
 
 def _on_their_edges(off: np.ndarray, tied: np.ndarray) -> np.ndarray:

@@ -80,6 +80,7 @@ def refresh_contacts(
         settings.law.tolerance,
         previous.key,
         gap,
+        previous.state,
     )
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
     sift = _sift_compiled if compiled(_sift_kernel) else _sift_numpy
@@ -208,7 +209,16 @@ def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
     (:func:`_refresh`); from the shapely test on in Python when a pairing asks for it."""
     search, depth = settings.search_distance, settings.law.tolerance
     narrow = NarrowInput(
-        *detect_arguments(blocks, pairs, search, settings.vertex_radius, depth, previous.key, gap)
+        *detect_arguments(
+            blocks,
+            pairs,
+            search,
+            settings.vertex_radius,
+            depth,
+            previous.key,
+            gap,
+            previous.state,
+        )  # fmt: skip
     )
     rules = SiftRules(
         np.asarray(previous.key, dtype=np.int64),
@@ -248,7 +258,8 @@ def _refresh(narrow, rules, carried, new):
     n = narrow
     vertex, edge, _, shared = _detect_kernel(
         n.pairs, n.offsets, n.vertices, n.next_vertex, n.previous_vertex, n.owner, n.area,
-        n.parts, n.known, n.vertex_radius, n.search, n.gap, n.inside,
+        n.parts, n.known, n.partner_ptr, n.partner_edges, n.held, n.vertex_radius, n.search,
+        n.gap, n.inside,
     )  # fmt: skip
     penetration, parameter, keys, previous_rows, plausible, to_block, asked = _sift_kernel(
         vertex, edge, shared, n.vertices, n.next_vertex, n.owner, n.offsets, n.parts,

@@ -27,6 +27,9 @@ class NarrowInput(NamedTuple):
     area: np.ndarray  # each block's area
     parts: np.ndarray  # the vertices' key parts (dda.contact.contact_set.vertex_key_parts)
     known: np.ndarray  # the last step's contact keys, sorted
+    partner_ptr: np.ndarray  # each vertex's list of the edges of its sliding contacts of
+    partner_edges: np.ndarray  # the last step (dda.contact.line_continuation.previous_partners)
+    held: np.ndarray  # the last step's keys of the contacts that were closed, sorted
     vertex_radius: float
     search: float  # the search distance
     gap: float  # the widest gap of a new or open contact

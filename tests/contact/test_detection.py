@@ -23,6 +23,7 @@ from dda.contact.narrow import detect
 from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_geometry
 from dda.model import build
+from dda.result import LOCKED, OPEN, SLIDING
 from dda.run import run_warnings
 from tests.helpers import rectangle
 from tests.standing.scenes import base, block, scene
@@ -239,14 +240,17 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
     """The compiled narrow phase (one call: screen, corners at filled nodes,
     vertex-vertex resolution, pairings kept — one a vertex-edge pair, the shallower of
     opposed edges) gives the numpy path's contacts (with and without the compiled screen),
-    with last step's keys (from a nudged copy) for half of the pairings, the others
-    decided by position, and the contact tolerance as the inside depth. The L's and
+    with last step's keys (from a nudged copy) for half of the pairings, a third of them
+    sliding, a third locked (the corners that keep to a line), the others decided by
+    position, and the contact tolerance as the inside depth. The L's and
     the tunnel's blocks around the opening have reflex vertices."""
     model, blocks = make()
     c = model.contact
     pairs = candidate_pairs(blocks, c.search_distance)
     previous = keys_after_a_nudge(blocks, pairs, c)[::2]
-    args = (blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance, previous)
+    states = np.array([SLIDING, LOCKED, OPEN])[np.arange(len(previous)) % 3]
+    args = (blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance, previous, None,
+            states)  # fmt: skip
     first = detect(*args)  # one compiled call
     monkeypatch.setattr(narrow, "_detect_kernel", None)
     pieces = detect(*args)  # the numpy path around the compiled screen
@@ -667,3 +671,58 @@ def test_a_block_turning_onto_a_corner_within_the_vertex_radius_does_not_enter_i
     assert result.frames[-1].rotations[1] < -0.1  # it turned onto the corner
     excess, moved, _ = run_warnings.energy_excess(result.history, summary["initial_energy"])
     assert excess <= 1e-9 * moved
+
+
+def flush_approach(front: float):
+    """Fixed blocks A (x < 0) and C (x > 0), tops flush at y = 0, and B on A with its
+    front corner at x = ``front``: (blocks, search distance, vertex radius, tolerance)."""
+    raw = scene(
+        [block("A", rectangle(-3, -1, 0, 0), fixed=True),
+         block("C", rectangle(0, -1, 3, 0), fixed=True),
+         block("B", rectangle(front - 1.0, 0.0, front, 1.0))],
+    )  # fmt: skip
+    model = build(dda.load_scene(raw))
+    c = model.contact
+    return model.blocks, c.search_distance, c.vertex_radius, c.law.tolerance
+
+
+def approach_pairings() -> list[tuple[float, np.ndarray, np.ndarray, np.ndarray]]:
+    """(front, vertex, edge, edge's blocks) of each detection as B's front corner comes up
+    to the joint, 0.5 mm a step, each given the last one's keys and states: sliding for the
+    pairings that touch (B slides on A at zero penetration), open for the others."""
+    keys, states, out = None, None, []
+    for front in np.arange(-0.02, 0.0101, 5e-4):
+        blocks, search, radius, tolerance = flush_approach(front)
+        pairs = np.array([[0, 2], [1, 2]])
+        found = detect(blocks, pairs, search, radius, tolerance, keys, None, states)
+        keys = contact_keys(blocks, found.vertex, found.edge)
+        penetration, _, _ = edge_geometry(blocks, found.vertex, found.edge)
+        states = np.where(penetration >= -1e-12, SLIDING, OPEN)
+        out.append((front, found.vertex, found.edge, blocks))
+    return out
+
+
+def test_a_corner_reaching_a_flush_joint_keeps_to_the_line_it_slid_along(monkeypatch):
+    """B's front corner comes up to the joint of A and C: its pair with C's corner is
+    paired along the flush line (normal ±y) from where those pairings are candidates
+    (within the vertex-vertex slack) until it is past, never across it (normal ±x: C's
+    side, covered by A, or B's front face), which the corner would hit as a wall. The
+    numpy path finds the same pairings at every step."""
+    compiled = approach_pairings()
+    monkeypatch.setattr(narrow, "_detect_kernel", None)
+    monkeypatch.setattr(narrow, "_screen_kernel", None)
+    along_line = 0
+    for (front, vertex, edge, blocks), (_, numpy_vertex, numpy_edge, _) in zip(
+        compiled, approach_pairings(), strict=True
+    ):
+        np.testing.assert_array_equal(vertex, numpy_vertex)
+        np.testing.assert_array_equal(edge, numpy_edge)
+        owner = blocks.vertex_owner
+        at_c = (owner[vertex] == 1) | (owner[edge] == 1)
+        tangent = blocks.vertices[blocks.next_vertex[edge[at_c]]] - blocks.vertices[edge[at_c]]
+        across = np.abs(tangent[:, 1]) > np.abs(tangent[:, 0])  # a vertical edge
+        slack = 0.01 * flush_approach(front)[1]  # narrow.OUTSIDE_FRACTION of the search
+        if front > -slack:
+            assert not across.any(), f"paired across the line at front = {front:.4f}"
+            along_line += 1
+    assert along_line >= 20
