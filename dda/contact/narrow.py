@@ -250,8 +250,13 @@ def detect_arguments(
     blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, previous_states=None
 ):
     """The arguments of the compiled narrow phase (:func:`_detect`) for :func:`detect`'s."""
-    known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
-    sliding, held = sliding_and_held(previous_keys, previous_states)
+    known = np.zeros(0, np.int64) if previous_keys is None else np.asarray(previous_keys)
+    states = None
+    if previous_keys is not None:
+        order = np.argsort(known)
+        known = known[order]
+        states = None if previous_states is None else np.asarray(previous_states)[order]
+    sliding, held = sliding_and_held(known, states)  # sorted as ``known`` is
     partner_ptr, partner_edges = previous_partners(blocks, sliding)
     return (
         np.ascontiguousarray(pairs, dtype=np.int64),
@@ -265,7 +270,7 @@ def detect_arguments(
         known.astype(np.int64),
         partner_ptr,
         partner_edges,
-        np.sort(held),
+        held,
         float(vertex_radius),
         float(search),
         float(search if gap is None else gap),
