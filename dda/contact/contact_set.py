@@ -135,7 +135,7 @@ def key_vertices(blocks: BlockSet, keys: np.ndarray) -> tuple[np.ndarray, np.nda
         at = np.minimum(np.searchsorted(parts, part, sorter=order), len(parts) - 1)
         if order is not None:
             at = order[at]
-        found.append(np.where(parts[at] == part, at, -1) if len(parts) else part * 0 - 1)
+        found.append(np.where(parts[at] == part, at, -1) if len(parts) else np.full_like(part, -1))
     return found[0], found[1]
 
 

@@ -7,23 +7,23 @@ of them lie along the line: the sliding corner onto the far block's face, and th
 block's corner onto the slider's face. The other two lie across the motion: the
 sliding corner onto the far block's side (covered by the near block) and the far
 corner onto the slider's front face. While the corner is further from the joint than
-the vertex-vertex slack, the two along the line are not candidates (the corner is not
-over the far block's face), and one across the motion is chosen, open; the last
-step's pairing then kept it as the corner came up, and the slider met a wall at the
-joint (a frictionless block at 0.5 m/s came back at 0.15 m/s; pushed at 1.5 times its
-friction it slid 21 % short of ½ a t² in 0.3 s at Δt = 1e-3 s and 45 % short at
-2.5e-4 s).
+the vertex-vertex slack, the two along the line are no candidates (the corner is not
+over the far block's face): one across the motion is the pair's pairing, open, and the
+last step's pairing would keep it as the corner comes up, a wall at the joint (a
+frictionless block at 0.5 m/s would come back at 0.15 m/s;
+tests/standing/test_flush_joint.py).
 
 The geometry of the node alone cannot tell the two pairs apart: mirrored in the line
 through the node and the near block's corner, the slider becomes the far block and
 the far block a slider moving along the joint. What does tell them apart is the last
-step: the sliding corner was paired with the near block's face, whose line the far
-block's face continues. So a tied candidate that continues the line of another edge
-its vertex slid along last step (a sliding contact;
-:func:`dda.contact.candidate_tests.continues_line`) wins the tie, over the pair's own
-pairing of the last step unless that was a closed contact along the same line. Where
-such lines cross (two corners meeting at a node, each from its own face), the tie is
-left to the usual rules.
+step: the sliding corner slid on the near block's face, whose line the far block's
+face continues. So a tied candidate that continues the line of another edge its
+vertex slid along last step (a sliding contact;
+:func:`dda.contact.candidate_tests.continues_line`) wins the tie. The pair's own
+pairing of the last step, where it was a closed contact, joins those candidates: along
+their line, it keeps the tie by the usual rules; across it (two corners meeting at a
+node, each from its own face, as around a fresh opening, or a wall already closed),
+the rule stands aside and the usual rules decide.
 """
 
 from __future__ import annotations
@@ -38,7 +38,9 @@ from dda.jit import kernel
 from dda.result import OPEN, SLIDING
 
 
-def sliding_and_held(previous_keys, previous_states) -> tuple[np.ndarray, np.ndarray]:
+def sliding_and_held(
+    previous_keys: np.ndarray | None, previous_states: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
     """(the keys of the last step's sliding contacts, of its closed ones: sliding or
     locked) of ``previous_keys`` and their ``previous_states`` (None: none of either)."""
     if previous_keys is None or previous_states is None:
@@ -47,7 +49,9 @@ def sliding_and_held(previous_keys, previous_states) -> tuple[np.ndarray, np.nda
     return keys[states == SLIDING], keys[states != OPEN]
 
 
-def previous_partners(blocks: BlockSet, previous_keys) -> tuple[np.ndarray, np.ndarray]:
+def previous_partners(
+    blocks: BlockSet, previous_keys: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
     """(indptr, edges): for each vertex of ``blocks``, the edges (start vertices) it was
     paired with in ``previous_keys`` (the last step's contact keys), as CSR lists."""
     keys = np.zeros(0, np.int64) if previous_keys is None else np.asarray(previous_keys)
@@ -138,7 +142,9 @@ def _keep_to_lines(tied, line, verts, edges, depth, v, outward, partners, parts,
 keep_to_lines_kernel = kernel(_keep_to_lines) or _keep_to_lines
 
 
-def keeping_to_one_line(tied: np.ndarray, line: np.ndarray, normals: np.ndarray, cosine: float):
+def keeping_to_one_line(
+    tied: np.ndarray, line: np.ndarray, normals: np.ndarray, cosine: float
+) -> np.ndarray:
     """``tied`` (k, 4) narrowed to ``line`` (the tied candidates that continue a line, of
     outward normals ``normals`` (k, 4, 2)) where those lie along one line
     (:func:`dda.contact.candidate_tests.along_one_line`); where they cross, or none does,
