@@ -24,8 +24,8 @@ def block_sizes(vertices: np.ndarray, offsets: np.ndarray, areas: np.ndarray) ->
     """(n,) each polygon's size 4 A / P (area over perimeter): a square's side, a circle's
     diameter, twice a sliver's thickness (√A would be √(length × thickness))."""
     edges = vertices[next_vertex_index(offsets)] - vertices
-    owner = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
-    perimeter = np.bincount(owner, weights=np.hypot(edges[:, 0], edges[:, 1]), minlength=len(areas))
+    lengths = np.hypot(edges[:, 0], edges[:, 1])
+    perimeter = np.bincount(owner_of_vertex(offsets), weights=lengths, minlength=len(areas))
     return 4.0 * np.asarray(areas) / np.maximum(perimeter, 1e-300)
 
 

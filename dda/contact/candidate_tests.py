@@ -141,14 +141,6 @@ def face_to_face(separation, normal_dot, depth, off, apart, slack, angle_toleran
 
 
 @formula
-def on_one_line(normal_dot, offset, slack, cosine):
-    """Two edges on one line, facing the same way: their unit outward normals' dot product
-    ``normal_dot`` at least ``cosine``, and one edge's start ``offset`` from the other's
-    line by at most ``slack``."""
-    return (normal_dot >= cosine) & (np.abs(offset) <= slack)
-
-
-@formula
 def along_one_line(normal_dot, cosine):
     """Two edges through one point lie along one line: their unit outward normals
     parallel or opposed (|``normal_dot``| at least ``cosine``)."""
@@ -156,13 +148,18 @@ def along_one_line(normal_dot, cosine):
 
 
 @formula
-def continues_line(normal_dot, offset, depth, slack, inside_depth, cosine):
-    """A vertex-vertex candidate (a vertex onto an edge) that continues the line of an
-    edge the vertex was paired with last step (:func:`on_one_line`), the vertex on it
-    (``depth`` behind it between −``slack`` and ``inside_depth``). A corner sliding
-    along a face onto the next block's face of the same line (a block crossing the flush
-    joint of two base blocks) stays on that line (:mod:`dda.contact.line_continuation`)."""
-    on_line = on_one_line(normal_dot, offset, slack, cosine)
+def continues_line(nx, ny, other_nx, other_ny, dx, dy, depth, slack, inside_depth, cosine):
+    """A vertex-vertex candidate (a vertex onto an edge of unit outward normal (nx, ny))
+    that continues the line of an edge the vertex was paired with last step (normal
+    (other_nx, other_ny)): the two face the same way (their normals' dot product at least
+    ``cosine``), this edge's start, (dx, dy) from the other's, lies within ``slack`` of
+    the other's line, and the vertex is on it (``depth`` behind it between −``slack`` and
+    ``inside_depth``). A corner sliding along a face onto the next block's face of the
+    same line (a block crossing the flush joint of two base blocks) stays on that line
+    (:mod:`dda.contact.line_continuation`)."""
+    same_way = nx * other_nx + ny * other_ny >= cosine
+    offset = dx * other_nx + dy * other_ny
+    on_line = same_way & (np.abs(offset) <= slack)
     return on_line & (depth >= -slack) & (depth <= inside_depth)
 
 

@@ -125,20 +125,6 @@ def contact_keys(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.n
     return parts[vertex] * KEY_SCALE + parts[edge]
 
 
-def key_vertices(blocks: BlockSet, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(vertex, edge start) of each key (:func:`contact_keys`' inverse) among ``blocks``'
-    vertices, −1 where that block or vertex is not there now."""
-    parts = vertex_key_parts(blocks)
-    order = None if np.all(parts[1:] > parts[:-1]) else np.argsort(parts)
-    found = []
-    for part in (keys // KEY_SCALE, keys % KEY_SCALE):
-        at = np.minimum(np.searchsorted(parts, part, sorter=order), len(parts) - 1)
-        if order is not None:
-            at = order[at]
-        found.append(np.where(parts[at] == part, at, -1) if len(parts) else np.full_like(part, -1))
-    return found[0], found[1]
-
-
 def rows_in(keys: np.ndarray, known: np.ndarray) -> np.ndarray:
     """Row of each key in ``known``, -1 where it is not there (keys are unique in both:
     one contact per vertex-edge pair). One sort of ``known`` and a binary search per key."""

@@ -28,40 +28,46 @@ the rule stands aside and the usual rules decide.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from dda.blocks import BlockSet
 from dda.contact.candidate_tests import along_one_line, continues_line
-from dda.contact.contact_set import key_vertices
+from dda.contact.contact_set import ContactSet
 from dda.geometry import expand_counts
 from dda.jit import kernel
 from dda.result import OPEN, SLIDING
 
 
-def sliding_and_held(
-    previous_keys: np.ndarray | None, previous_states: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """(the keys of the last step's sliding contacts, of its closed ones: sliding or
-    locked) of ``previous_keys`` and their ``previous_states`` (None: none of either)."""
-    if previous_keys is None or previous_states is None:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    keys, states = np.asarray(previous_keys, np.int64), np.asarray(previous_states)
-    return keys[states == SLIDING], keys[states != OPEN]
+class LastStep(NamedTuple):
+    """What the line rule needs of the last step's contacts (:func:`last_step`)."""
+
+    sliding_vertex: np.ndarray  # the vertices of its sliding contacts (present numbering)
+    sliding_edge: np.ndarray  # ... and their edges (start vertices)
+    held_keys: np.ndarray  # the sorted keys of its closed contacts (sliding or locked)
 
 
-def previous_partners(
-    blocks: BlockSet, previous_keys: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """(indptr, edges): for each vertex of ``blocks``, the edges (start vertices) it was
-    paired with in ``previous_keys`` (the last step's contact keys), as CSR lists."""
-    keys = np.zeros(0, np.int64) if previous_keys is None else np.asarray(previous_keys)
-    vertex, edge = key_vertices(blocks, keys.astype(np.int64))
-    kept = (vertex >= 0) & (edge >= 0)
-    vertex, edge = vertex[kept], edge[kept]
-    order = np.argsort(vertex, kind="stable")
-    indptr = np.zeros(len(blocks.vertices) + 1, dtype=np.int64)
-    np.cumsum(np.bincount(vertex, minlength=len(blocks.vertices)), out=indptr[1:])
-    return indptr, edge[order].astype(np.int64)
+def last_step(contacts: ContactSet) -> LastStep:
+    """The line rule's view of ``contacts``, the last step's contact set (its vertex and
+    edge numbers are the present blocks': stages and fracture renumber them)."""
+    sliding = contacts.state == SLIDING
+    held = np.sort(np.asarray(contacts.key, np.int64)[contacts.state != OPEN])
+    return LastStep(
+        contacts.vertex[sliding].astype(np.int64), contacts.edge[sliding].astype(np.int64), held
+    )
+
+
+def previous_partners(blocks: BlockSet, last: LastStep | None) -> tuple[np.ndarray, np.ndarray]:
+    """(indptr, edges): for each vertex of ``blocks``, the edges (start vertices) of its
+    sliding contacts of the last step, as CSR lists."""
+    n = len(blocks.vertices)
+    if last is None:
+        return np.zeros(n + 1, np.int64), np.zeros(0, np.int64)
+    order = np.argsort(last.sliding_vertex, kind="stable")
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(last.sliding_vertex, minlength=n), out=indptr[1:])
+    return indptr, last.sliding_edge[order]
 
 
 def continuing(
@@ -77,17 +83,17 @@ def continuing(
 ) -> np.ndarray:
     """Mask of the candidates (``vertex`` onto ``edge``, arrays of one shape, ``depth``
     the vertex's behind the edge's line) that continue the line of an edge their vertex
-    slid along last step (``partners``: :func:`previous_partners` of the sliding
-    contacts), not their own."""
+    slid along last step (``partners``: :func:`previous_partners`), not their own."""
     indptr, edges = partners
     flat_vertex, flat_edge = vertex.ravel(), edge.ravel()
     row, position = expand_counts(indptr[flat_vertex + 1] - indptr[flat_vertex])
     other = edges[indptr[flat_vertex][row] + position]
     mine = flat_edge[row]
-    normal = outward[other]
-    offset = np.einsum("ij,ij->i", vertices[mine] - vertices[other], normal)
-    dot = np.einsum("ij,ij->i", outward[mine], normal)
-    hit = continues_line(dot, offset, depth.ravel()[row], slack, inside_depth, cosine)
+    gap = vertices[mine] - vertices[other]
+    hit = continues_line(
+        outward[mine, 0], outward[mine, 1], outward[other, 0], outward[other, 1], gap[:, 0],
+        gap[:, 1], depth.ravel()[row], slack, inside_depth, cosine,
+    )  # fmt: skip
     hit &= other != mine  # the same pairing as last step's: not a line continued
     out = np.zeros(flat_vertex.shape, bool)
     out[row[hit]] = True
@@ -113,10 +119,11 @@ def _keep_to_lines(tied, line, verts, edges, depth, v, outward, partners, parts,
             other = partner_edges[j]
             if other == mine:
                 continue  # the same pairing as last step's: not a line continued
-            nx, ny = outward[other, 0], outward[other, 1]
-            offset = (v[mine, 0] - v[other, 0]) * nx + (v[mine, 1] - v[other, 1]) * ny
-            dot = outward[mine, 0] * nx + outward[mine, 1] * ny
-            line[c] |= continues_line(dot, offset, depth[c], slack, inside, cosine)
+            line[c] |= continues_line(
+                outward[mine, 0], outward[mine, 1], outward[other, 0], outward[other, 1],
+                v[mine, 0] - v[other, 0], v[mine, 1] - v[other, 1], depth[c], slack, inside,
+                cosine,
+            )  # fmt: skip
         continued |= line[c]
     if not continued:
         return

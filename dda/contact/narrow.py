@@ -63,11 +63,11 @@ from dda.contact.candidate_tests import (
 )
 from dda.contact.contact_set import KEY_SCALE, contact_keys, vertex_key_parts
 from dda.contact.line_continuation import (
+    LastStep,
     continuing,
     keep_to_lines_kernel,
     keeping_to_one_line,
     previous_partners,
-    sliding_and_held,
 )
 from dda.contact.node import separated_corners_kernel, separated_pairs
 from dda.geometry import (
@@ -186,7 +186,7 @@ def detect(
     inside_depth: float = np.inf,
     previous_keys: np.ndarray | None = None,
     gap: float | None = None,
-    previous_states: np.ndarray | None = None,
+    last: LastStep | None = None,
 ) -> Detected:
     """Vertex-edge and vertex-vertex contacts for candidate block pairs.
 
@@ -205,18 +205,17 @@ def detect(
     ``previous_keys``: contact keys of the last step; a vertex-vertex tie is
     resolved with the pairing among them, so that the contact keeps its
     identity (and its history: state, multipliers, shear reference).
-    ``previous_states``: those contacts' states (OPEN, SLIDING, LOCKED; None: all open):
-    a corner that slid along a face onto the next face of its line keeps to that line
-    (:mod:`dda.contact.line_continuation`).
+    ``last``: the last step's sliding and closed contacts
+    (:func:`dda.contact.line_continuation.last_step`; None: none): a corner that slid
+    along a face onto the next face of its line keeps to that line.
     """
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
         return Detected(empty, empty, np.zeros(0, bool), np.zeros(0, bool))
     if compiled(_detect_kernel):
         return _detect_compiled(
-            blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap,
-            previous_states,
-        )  # fmt: skip
+            blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last
+        )
     fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(
         blocks, pairs, search, vertex_radius, search if gap is None else gap
     )
@@ -224,7 +223,7 @@ def detect(
     vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
     slack = OUTSIDE_FRACTION * search
     vv_vertex, vv_edge, vv_shared = _resolve_vertex_vertex(
-        blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys, previous_states
+        blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys, last
     )
     vertex_all = np.concatenate([ve_vertex, vv_vertex])
     edge_all = np.concatenate([ve_edge, vv_edge])
@@ -236,28 +235,23 @@ def detect(
 
 
 def _detect_compiled(
-    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, previous_states=None
+    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last=None
 ):
     """:func:`detect` in one compiled call (:func:`_detect`): the same contacts, in the
     same order, as the numpy path's and the compiled pieces' it strings together."""
     arguments = detect_arguments(
-        blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, previous_states
+        blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last
     )
     return Detected(*_detect_kernel(*arguments))
 
 
 def detect_arguments(
-    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, previous_states=None
+    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last=None
 ):
     """The arguments of the compiled narrow phase (:func:`_detect`) for :func:`detect`'s."""
-    known = np.zeros(0, np.int64) if previous_keys is None else np.asarray(previous_keys)
-    states = None
-    if previous_keys is not None:
-        order = np.argsort(known)
-        known = known[order]
-        states = None if previous_states is None else np.asarray(previous_states)[order]
-    sliding, held = sliding_and_held(known, states)  # sorted as ``known`` is
-    partner_ptr, partner_edges = previous_partners(blocks, sliding)
+    known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
+    partner_ptr, partner_edges = previous_partners(blocks, last)
+    held = np.zeros(0, np.int64) if last is None else last.held_keys
     return (
         np.ascontiguousarray(pairs, dtype=np.int64),
         blocks.offsets.astype(np.int64),
@@ -497,7 +491,7 @@ def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.
 
 
 def _resolve_vertex_vertex(
-    blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys, previous_states=None
+    blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys, last=None
 ):
     """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
 
@@ -530,6 +524,8 @@ def _resolve_vertex_vertex(
         (p2, p1),
         (p2, fans.prev[p1]),
     ]
+    verts = np.column_stack([c[0] for c in candidates])
+    edges = np.column_stack([c[1] for c in candidates])
     scores = np.column_stack(
         [
             np.where(
@@ -549,8 +545,7 @@ def _resolve_vertex_vertex(
     # near-ties in angle (symmetric corners, a slight rotation) are decided by position:
     # the edge whose line the vertex is furthest outside of (least penetration)
     tied = scores >= scores.max(axis=1, keepdims=True) - ANGLE_TIE
-    tied = _keeping_to_a_line(blocks, fans, candidates, depth, tied, slack, inside_depth,
-                              previous_keys, previous_states)  # fmt: skip
+    tied = _keeping_to_a_line(blocks, fans, verts, edges, depth, tied, slack, inside_depth, last)
     tied &= _on_their_edges(off, tied)
     least = np.where(tied, depth, np.inf).min(axis=1, keepdims=True)
     near = tied & (depth <= least + inside_depth)
@@ -562,8 +557,6 @@ def _resolve_vertex_vertex(
         pair = depth[:, first : first + 2]
         inside = fans.reflex[corner] & (pair.max(axis=1) > 0)
         best = np.where(inside, first + np.argmax(pair, axis=1), best)
-    verts = np.column_stack([c[0] for c in candidates])
-    edges = np.column_stack([c[1] for c in candidates])
     rows = np.arange(len(p1))
     # a convex vertex nested in a reflex corner is paired with the corner's other edge too
     group = best - best % 2
@@ -572,7 +565,7 @@ def _resolve_vertex_vertex(
         fans.reflex[corner], fans.reflex[entering], depth[rows, group], depth[rows, group + 1],
         inside_depth,
     )  # fmt: skip
-    facing = _face_to_face(blocks, fans, candidates, best, separation, depth, off, fake, slack)
+    facing = _face_to_face(blocks, fans, verts, edges, best, separation, depth, off, fake, slack)
     second = nested | (facing >= 0)
     other = np.where(nested, group + 1 - best % 2, facing)[second]
     return (
@@ -582,15 +575,14 @@ def _resolve_vertex_vertex(
     )
 
 
-def _face_to_face(blocks, fans, candidates, best, separation, depth, off, fake, slack):
+def _face_to_face(blocks, fans, verts, edges, best, separation, depth, off, fake, slack):
     """(k,) the candidate (column) that is the other end of the face-to-face contact each
     pair's pairing ``best`` stands for (:func:`face_to_face`: the corner vertex onto the
     entering vertex's edge that faces the chosen edge), −1 where none is."""
     rows = np.arange(len(best))
-    edges = np.column_stack([ed for _, ed in candidates])
     normals = fans.outward[edges[rows, best]]
     counter = 2 - (best - best % 2)  # the corner vertex's candidates: columns 2, 3 or 0, 1
-    vertex_a, vertex_b = candidates[0][0], candidates[2][0]
+    vertex_a, vertex_b = verts[:, 0], verts[:, 2]
     apart = np.linalg.norm(blocks.vertices[vertex_a] - blocks.vertices[vertex_b], axis=1)
     found = np.full(len(best), -1)
     for shift in (1, 0):  # the first of the two columns wins
@@ -774,22 +766,17 @@ def _off_their_edges(blocks: BlockSet, fans: VertexFans, candidates, along, slac
     return off_edge(along, length, slack)
 
 
-def _keeping_to_a_line(
-    blocks, fans, candidates, depth, tied, slack, inside_depth, previous_keys, previous_states
-):
+def _keeping_to_a_line(blocks, fans, verts, edges, depth, tied, slack, inside_depth, last):
     """``tied`` (k, 4), narrowed, where some continue the line of another edge their vertex
-    slid along last step, to those and to the tied candidates that were closed contacts
-    then (each keeps to its own line), where all of them lie along one line
-    (:mod:`dda.contact.line_continuation`)."""
-    sliding, held = sliding_and_held(previous_keys, previous_states)
-    if len(sliding) == 0:
+    slid along last step, to those and to the tied candidates (``verts`` onto ``edges``)
+    that were closed contacts then (each keeps to its own line), where all of them lie
+    along one line (:mod:`dda.contact.line_continuation`; ``last``: the last step's)."""
+    if last is None or len(last.sliding_vertex) == 0:
         return tied
-    verts = np.column_stack([c[0] for c in candidates])
-    edges = np.column_stack([c[1] for c in candidates])
-    partners = previous_partners(blocks, sliding)
+    partners = previous_partners(blocks, last)
     line = tied & continuing(blocks.vertices, fans.outward, verts, edges, depth, slack,
                              inside_depth, partners, SHARED_LINE_COSINE)  # fmt: skip
-    own = tied & np.isin(contact_keys(blocks, verts, edges), held)  # a closed contact's line
+    own = tied & np.isin(contact_keys(blocks, verts, edges), last.held_keys)  # closed ones
     line |= own & line.any(axis=1, keepdims=True)
     return keeping_to_one_line(tied, line, fans.outward[edges], SHARED_LINE_COSINE)
 

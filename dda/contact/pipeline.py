@@ -19,6 +19,7 @@ from dda.contact.contact_set import (
     rows_in,
     vertex_key_parts,
 )
+from dda.contact.line_continuation import last_step
 from dda.contact.narrow import OUTSIDE_FRACTION, _detect_kernel, detect, detect_arguments
 from dda.contact.point_distance import _distances_kernel, block_polygons, point_distances
 from dda.contact.refresh_arguments import (
@@ -80,7 +81,7 @@ def refresh_contacts(
         settings.law.tolerance,
         previous.key,
         gap,
-        previous.state,
+        last_step(previous),
     )
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
     sift = _sift_compiled if compiled(_sift_kernel) else _sift_numpy
@@ -217,7 +218,7 @@ def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
             depth,
             previous.key,
             gap,
-            previous.state,
+            last_step(previous),
         )  # fmt: skip
     )
     rules = SiftRules(

@@ -29,7 +29,7 @@ class NarrowInput(NamedTuple):
     known: np.ndarray  # the last step's contact keys, sorted
     partner_ptr: np.ndarray  # each vertex's list of the edges of its sliding contacts of
     partner_edges: np.ndarray  # the last step (dda.contact.line_continuation.previous_partners)
-    held: np.ndarray  # the last step's keys of the contacts that were closed, sorted
+    held: np.ndarray  # the sorted keys of the last step's closed contacts (LastStep)
     vertex_radius: float
     search: float  # the search distance
     gap: float  # the widest gap of a new or open contact

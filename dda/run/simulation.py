@@ -593,15 +593,20 @@ def _pay_for_the_push(run: _Run, before: BlockSet, d, pushed, dt: float, time: f
     """The pushed blocks pay for the push with their motion
     (:func:`dda.contact.push_out.pay_for_the_push`): the energy it stored, the blocks'
     potential and elastic energy after the step less what they would hold after it
-    without the push, less the loads' work over it."""
-    m = run.model
-    without = before.copy()
-    apply_step(without, d - pushed, dt, m.elastic, m.static, m.exact_rotation,
-               gamma=m.scene.analysis.newmark_gamma)  # fmt: skip
-    energy = run.energy
-    cost = (
-        energy.stored(run.blocks) - energy.stored(without) - energy.load_work(before, pushed, time)
-    )
+    without the push (``before``, the blocks at the step's start, is stepped so, in
+    place), less the loads' work over it."""
+    m, energy = run.model, run.energy
+    work = energy.load_work(before, pushed, time)
+    apply_step(
+        before,
+        d - pushed,
+        dt,
+        m.elastic,
+        m.static,
+        m.exact_rotation,
+        gamma=m.scene.analysis.newmark_gamma,
+    )  # fmt: skip
+    cost = energy.stored(run.blocks) - energy.stored(before) - work
     pay_for_the_push(run.blocks.velocity, pushed, m.inertia.masses(run.blocks), cost)
 
 

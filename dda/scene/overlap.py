@@ -12,13 +12,12 @@ import math
 import numpy as np
 import shapely
 
-from dda.geometry import next_vertex_index
+from dda.geometry import next_vertex_index, owner_of_vertex
 
 
 def block_polygons(vertices: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """(n,) shapely polygons of the packed blocks (``vertices[offsets[i]:offsets[i+1]]``)."""
-    owner = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
-    return shapely.polygons(shapely.linearrings(vertices, indices=owner))
+    return shapely.polygons(shapely.linearrings(vertices, indices=owner_of_vertex(offsets)))
 
 
 def sharing_area(

@@ -19,11 +19,11 @@ import dda.contact.point_distance as pd
 from dda.bench.scenes import wall_scene
 from dda.contact.broad import candidate_pairs, overlapping_pairs
 from dda.contact.contact_set import ContactSet, contact_keys
+from dda.contact.line_continuation import LastStep
 from dda.contact.narrow import detect
 from dda.contact.pipeline import _blocks_touch, _distances_where
 from dda.contact.rows import edge_geometry
 from dda.model import build
-from dda.result import LOCKED, OPEN, SLIDING
 from dda.run import run_warnings
 from tests.helpers import rectangle
 from tests.standing.scenes import base, block, scene
@@ -212,16 +212,16 @@ def test_vertex_fans_compiled_equal_numpy(monkeypatch, make):
         )
 
 
-def keys_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
-    """Contact keys found with every vertex moved by ``scale`` at random: where
-    vertex-vertex candidates tie, round-off picks pairings other than the unmoved
-    blocks' own (last step's keys in a run)."""
+def pairings_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
+    """(vertex, edge) of the pairings found with every vertex moved by ``scale`` at random:
+    where vertex-vertex candidates tie, round-off picks pairings other than the unmoved
+    blocks' own (the last step's in a run)."""
     moved = blocks.copy()
     moved.vertices = moved.vertices + np.random.default_rng(7).normal(
         scale=scale, size=moved.vertices.shape
     )
     found = detect(moved, pairs, c.search_distance, c.vertex_radius)
-    return contact_keys(moved, found.vertex, found.edge)
+    return found.vertex, found.edge
 
 
 @pytest.mark.parametrize(
@@ -247,10 +247,13 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make):
     model, blocks = make()
     c = model.contact
     pairs = candidate_pairs(blocks, c.search_distance)
-    previous = keys_after_a_nudge(blocks, pairs, c)[::2]
-    states = np.array([SLIDING, LOCKED, OPEN])[np.arange(len(previous)) % 3]
+    vertex, edge = pairings_after_a_nudge(blocks, pairs, c)
+    previous = contact_keys(blocks, vertex, edge)[::2]
+    sliding = slice(0, None, 6)  # a third of the last step's contacts sliding, a third locked
+    closed = np.sort(np.concatenate([previous[::3], previous[1::3]]))
+    last = LastStep(vertex[sliding], edge[sliding], closed)
     args = (blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance, previous, None,
-            states)  # fmt: skip
+            last)  # fmt: skip
     first = detect(*args)  # one compiled call
     monkeypatch.setattr(narrow, "_detect_kernel", None)
     pieces = detect(*args)  # the numpy path around the compiled screen
@@ -690,14 +693,15 @@ def approach_pairings() -> list[tuple[float, np.ndarray, np.ndarray, np.ndarray]
     """(front, vertex, edge, edge's blocks) of each detection as B's front corner comes up
     to the joint, 0.5 mm a step, each given the last one's keys and states: sliding for the
     pairings that touch (B slides on A at zero penetration), open for the others."""
-    keys, states, out = None, None, []
+    keys, last, out = None, None, []
     for front in np.arange(-0.02, 0.0101, 5e-4):
         blocks, search, radius, tolerance = flush_approach(front)
         pairs = np.array([[0, 2], [1, 2]])
-        found = detect(blocks, pairs, search, radius, tolerance, keys, None, states)
+        found = detect(blocks, pairs, search, radius, tolerance, keys, None, last)
         keys = contact_keys(blocks, found.vertex, found.edge)
         penetration, _, _ = edge_geometry(blocks, found.vertex, found.edge)
-        states = np.where(penetration >= -1e-12, SLIDING, OPEN)
+        touching = penetration >= -1e-12
+        last = LastStep(found.vertex[touching], found.edge[touching], np.sort(keys[touching]))
         out.append((front, found.vertex, found.edge, blocks))
     return out
 
