@@ -164,6 +164,14 @@ def continues_line(nx, ny, other_nx, other_ny, dx, dy, depth, slack, inside_dept
 
 
 @formula
+def passing_corner(dx, dy, slack):
+    """The corner (dx, dy) from a vertex that slid under the vertex's own edge last step
+    lies within ``slack`` of it: the vertex is passing over that corner, and its edge's
+    line goes on past it (:mod:`dda.contact.line_continuation`)."""
+    return dx * dx + dy * dy <= slack * slack
+
+
+@formula
 def off_edge(along, length, slack):
     """P1 projects beyond the edge's ends by more than ``slack`` (m)."""
     return np.maximum(-along, along - 1.0) * length > slack

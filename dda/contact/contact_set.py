@@ -12,7 +12,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from dda.blocks import BlockSet
-from dda.jit import compiled, kernel
+from dda.jit import compiled, formula, kernel
 from dda.result import LOCKED, OPEN
 
 _LOCAL = 1 << 10  # vertices per block allowed in a key
@@ -117,6 +117,12 @@ def _key_parts(blocks: BlockSet) -> np.ndarray:
 
 
 KEY_SCALE = _IDS * _LOCAL  # key = part(vertex) x KEY_SCALE + part(edge start)
+
+
+@formula
+def same_block(part, other_part):
+    """Two vertices' key parts (:func:`vertex_key_parts`) are of one block."""
+    return part // _LOCAL == other_part // _LOCAL
 
 
 def contact_keys(blocks: BlockSet, vertex: np.ndarray, edge: np.ndarray) -> np.ndarray:

@@ -24,6 +24,16 @@ pairing of the last step, where it was a closed contact, joins those candidates:
 their line, it keeps the tie by the usual rules; across it (two corners meeting at a
 node, each from its own face, as around a fresh opening, or a wall already closed),
 the rule stands aside and the usual rules decide.
+
+A corner at rest near the joint has slid along no face when its block starts to move;
+within the vertex-vertex slack of the joint, its face's contact with the near block's
+corner at the joint is that corner's, onto the face (the corner slides under it). So a
+vertex also moved along its own two edges where a corner of another block slid under
+one of them last step and lies within the slack of the vertex: the vertex is passing
+over that corner, and a tied candidate onto a third block's edge that continues the
+edge's line (facing it) wins the tie as well. A corner elsewhere on the face (a rock
+mass's faces carry many) or the corner's own block does not count: the line carries
+the vertex past that corner, onto the face beyond it.
 """
 
 from __future__ import annotations
@@ -33,10 +43,10 @@ from typing import NamedTuple
 import numpy as np
 
 from dda.blocks import BlockSet
-from dda.contact.candidate_tests import along_one_line, continues_line
-from dda.contact.contact_set import ContactSet
+from dda.contact.candidate_tests import along_one_line, continues_line, passing_corner
+from dda.contact.contact_set import ContactSet, same_block
 from dda.geometry import expand_counts
-from dda.jit import kernel
+from dda.jit import formula, kernel, select
 from dda.result import OPEN, SLIDING
 
 
@@ -59,20 +69,34 @@ def last_step(contacts: ContactSet) -> LastStep:
 
 
 def previous_partners(blocks: BlockSet, last: LastStep | None) -> tuple[np.ndarray, np.ndarray]:
-    """(indptr, edges): for each vertex of ``blocks``, the edges (start vertices) of its
-    sliding contacts of the last step, as CSR lists."""
+    """(indptr, lines): for each vertex of ``blocks``, as CSR lists, the lines it moved
+    along last step, each a row (line, via) of ``lines``:
+
+    * (e, −1) for the edge e (its start vertex) of each of its sliding contacts;
+    * (−(e + 1), w) for each of its own two edges e along which a vertex w of another
+      block slid: a corner slid under that edge, whose line carried the vertex past it
+      (a base block's corner under a sliding block's face). It counts towards the faces
+      of blocks other than w's (:func:`continuing`)."""
     n = len(blocks.vertices)
     if last is None:
-        return np.zeros(n + 1, np.int64), np.zeros(0, np.int64)
-    order = np.argsort(last.sliding_vertex, kind="stable")
+        return np.zeros(n + 1, np.int64), np.zeros((0, 2), np.int64)
+    slid, slider = last.sliding_edge, last.sliding_vertex
+    vertex = np.concatenate([slider, slid, blocks.next_vertex[slid]])
+    own = -(slid + 1)
+    lines = np.column_stack(
+        [np.concatenate([slid, own, own]),
+         np.concatenate([np.full(len(slid), -1), slider, slider])]
+    ).astype(np.int64)  # fmt: skip
+    order = np.argsort(vertex, kind="stable")
     indptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(last.sliding_vertex, minlength=n), out=indptr[1:])
-    return indptr, last.sliding_edge[order]
+    np.cumsum(np.bincount(vertex, minlength=n), out=indptr[1:])
+    return indptr, np.ascontiguousarray(lines[order])
 
 
 def continuing(
     vertices: np.ndarray,
     outward: np.ndarray,
+    parts: np.ndarray,
     vertex: np.ndarray,
     edge: np.ndarray,
     depth: np.ndarray,
@@ -82,22 +106,50 @@ def continuing(
     cosine: float,
 ) -> np.ndarray:
     """Mask of the candidates (``vertex`` onto ``edge``, arrays of one shape, ``depth``
-    the vertex's behind the edge's line) that continue the line of an edge their vertex
-    slid along last step (``partners``: :func:`previous_partners`), not their own."""
-    indptr, edges = partners
+    the vertex's behind the edge's line) that continue a line their vertex moved along
+    last step (``partners``: :func:`previous_partners`; ``parts``: the vertices' key
+    parts, :func:`dda.contact.contact_set.vertex_key_parts`), not by the same pairing."""
+    indptr, lines = partners
     flat_vertex, flat_edge = vertex.ravel(), edge.ravel()
     row, position = expand_counts(indptr[flat_vertex + 1] - indptr[flat_vertex])
-    other = edges[indptr[flat_vertex][row] + position]
+    coded, via = lines[indptr[flat_vertex][row] + position].T
     mine = flat_edge[row]
+    own = coded < 0
+    other = np.where(own, -coded - 1, coded)
+    via = np.maximum(via, 0)
     gap = vertices[mine] - vertices[other]
-    hit = continues_line(
+    corner = vertices[via] - vertices[flat_vertex[row]]
+    hit = continues_moved_line(
         outward[mine, 0], outward[mine, 1], outward[other, 0], outward[other, 1], gap[:, 0],
-        gap[:, 1], depth.ravel()[row], slack, inside_depth, cosine,
+        gap[:, 1], depth.ravel()[row], own, corner[:, 0], corner[:, 1],
+        same_block(parts[via], parts[mine]), slack, inside_depth, cosine,
     )  # fmt: skip
-    hit &= other != mine  # the same pairing as last step's: not a line continued
+    hit &= coded != mine  # the same pairing as last step's: not a line continued
     out = np.zeros(flat_vertex.shape, bool)
     out[row[hit]] = True
     return out.reshape(vertex.shape)
+
+
+@formula
+def continues_moved_line(nx, ny, other_nx, other_ny, dx, dy, depth, own, corner_dx, corner_dy,
+                         corners_block, slack, inside_depth, cosine):  # fmt: skip
+    """A candidate (a vertex onto an edge of outward normal (nx, ny), ``depth`` behind its
+    line) that continues a line its vertex moved along last step, the line of an edge of
+    normal (other_nx, other_ny) whose start is (dx, dy) from the candidate edge's
+    (:func:`dda.contact.candidate_tests.continues_line`):
+
+    * an edge the vertex slid along (``own`` False);
+    * or one of its own edges (``own``; its normal reversed: the candidate's edge faces
+      it) under which a corner slid, where that corner, (corner_dx, corner_dy) from the
+      vertex, is within ``slack`` of it (the vertex is passing over it,
+      :func:`dda.contact.candidate_tests.passing_corner`) and the candidate's edge is not
+      of the corner's block (``corners_block``)."""
+    sign = select(own, -1.0, 1.0)
+    on_line = continues_line(
+        nx, ny, sign * other_nx, sign * other_ny, dx, dy, depth, slack, inside_depth, cosine
+    )
+    passing = passing_corner(corner_dx, corner_dy, slack) & np.logical_not(corners_block)
+    return on_line & (np.logical_not(own) | passing)
 
 
 def _keep_to_lines(tied, line, verts, edges, depth, v, outward, partners, parts, scale, slack,
@@ -116,13 +168,17 @@ def _keep_to_lines(tied, line, verts, edges, depth, v, outward, partners, parts,
             continue
         mine = edges[c]
         for j in range(partner_ptr[verts[c]], partner_ptr[verts[c] + 1]):
-            other = partner_edges[j]
-            if other == mine:
+            coded = partner_edges[j, 0]
+            if coded == mine:
                 continue  # the same pairing as last step's: not a line continued
-            line[c] |= continues_line(
+            own = coded < 0
+            other = -coded - 1 if own else coded
+            via = max(partner_edges[j, 1], 0)
+            line[c] |= continues_moved_line(
                 outward[mine, 0], outward[mine, 1], outward[other, 0], outward[other, 1],
-                v[mine, 0] - v[other, 0], v[mine, 1] - v[other, 1], depth[c], slack, inside,
-                cosine,
+                v[mine, 0] - v[other, 0], v[mine, 1] - v[other, 1], depth[c], own,
+                v[via, 0] - v[verts[c], 0], v[via, 1] - v[verts[c], 1],
+                same_block(parts[via], parts[mine]), slack, inside, cosine,
             )  # fmt: skip
         continued |= line[c]
     if not continued:

@@ -774,7 +774,8 @@ def _keeping_to_a_line(blocks, fans, verts, edges, depth, tied, slack, inside_de
     if last is None or len(last.sliding_vertex) == 0:
         return tied
     partners = previous_partners(blocks, last)
-    line = tied & continuing(blocks.vertices, fans.outward, verts, edges, depth, slack,
+    parts = vertex_key_parts(blocks)
+    line = tied & continuing(blocks.vertices, fans.outward, parts, verts, edges, depth, slack,
                              inside_depth, partners, SHARED_LINE_COSINE)  # fmt: skip
     own = tied & np.isin(contact_keys(blocks, verts, edges), last.held_keys)  # closed ones
     line |= own & line.any(axis=1, keepdims=True)
