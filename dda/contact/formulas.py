@@ -95,8 +95,11 @@ def tension_held(joint, intact, opened):
 
 @formula
 def mobilised_tangent(joint, pressed):
-    """tan φ_mob of Barton–Bandis at the normal force ``pressed`` ≥ 0 (module notes)."""
-    ratio = np.maximum(joint.jcs_length, TINY) / np.maximum(pressed, TINY)
+    """tan φ_mob of Barton–Bandis at the normal force ``pressed`` ≥ 0 (module notes). The
+    ratio JCS l / σn l is held below 1/TINY (σn l at least TINY JCS l), so that an
+    unloaded contact of a strong joint gives the cap without overflowing."""
+    strength = np.maximum(joint.jcs_length, TINY)
+    ratio = strength / np.maximum(np.maximum(pressed, TINY * strength), TINY)
     residual = joint.residual_angle
     angle = residual + joint.jrc * np.log10(ratio) * (math.pi / 180.0)
     return np.tan(np.minimum(np.maximum(angle, residual), MOBILISED_CAP))

@@ -184,6 +184,18 @@ def test_the_barton_bandis_angle_is_held_between_the_residual_and_70_degrees():
     np.testing.assert_allclose(bound, expected, rtol=1e-12)
 
 
+@pytest.mark.filterwarnings("error")
+def test_an_unloaded_contact_of_a_strong_barton_bandis_joint_takes_the_cap_without_overflow():
+    """σn l = 0 on a joint whose JCS l exceeds 1.8e8 (JCS 50 MPa on a 5 m edge): the
+    ratio JCS / σn is held finite (no overflow warning) and the angle at its 70° cap."""
+    joint = props(
+        barton=np.array([True]), jrc=np.array([20.0]), jcs_length=np.array([2.5e8]),
+        residual_angle=np.radians([30.0]), cohesion=np.array([0.0]), divisor=np.array([1.0]),
+    )  # fmt: skip
+    tangent = formulas.mobilised_tangent(joint, np.array([0.0]))
+    assert tangent[0] == pytest.approx(np.tan(np.radians(70.0)), rel=1e-15)
+
+
 REFUSED = [
     ({"model": "barton-bandis", "jrc": 5.0, "jcs": 1e5}, "residual_friction_angle",
      "is required by model = 'barton-bandis'"),
