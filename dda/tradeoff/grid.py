@@ -117,7 +117,8 @@ def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, 
     Raises
     ------
     ValueError
-        For an unknown key, method or a value that is not a finite positive number
+        For an unknown key, method or a value that is not a finite positive number (below
+        1 for a fraction of the model size)
         (whether the scene takes it is :func:`dda.tradeoff.checks.check_settings`'s).
     """
     values = {k: list(v) for k, v in (defaults or {}).items()}
@@ -144,14 +145,24 @@ def _method(word: str) -> str:
     return ALIASES[word]
 
 
+# grid keys that are fractions of the model size, below 1: an AL tolerance of the model's
+# size lets blocks pass through each other (a scene takes any positive length)
+FRACTIONS = ("tolerance",)
+
+
 def _positive(word: str, key: str) -> float:
-    """``word`` as a finite number above zero (inf and nan are refused: no run takes them)."""
+    """``word`` as a finite number above zero (inf and nan are refused: no run takes them),
+    below 1 for a fraction of the model size (:data:`FRACTIONS`)."""
     try:
         value = float(word)
     except ValueError:
         raise ValueError(f"grid key {key!r}: {word!r} is not a number") from None
     if not 0 < value < math.inf:
         raise ValueError(f"grid key {key!r}: {word!r} must be a finite positive number")
+    if key in FRACTIONS and value >= 1.0:
+        raise ValueError(
+            f"grid key {key!r}: {word!r} must be below 1 (a fraction of the model size)"
+        )
     return value
 
 

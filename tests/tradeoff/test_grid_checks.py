@@ -39,6 +39,7 @@ def test_the_grid_parser_refuses_values_that_are_not_finite(value):
     "key, value, said",
     [
         ("time_step", "inf", "grid key 'time_step': 'inf' must be a finite positive number"),
+        ("tolerance", "1e300", "grid key 'tolerance': '1e300' must be below 1 (a fraction of"),
         ("ratio", "2", "--grid ratio=2: analysis.max_displacement_ratio: must be in (0, 1)"),
         ("penalty", "1e300", "--grid penalty=1e+300: contact.penalty: must be finite"),
         ("time_step", "1e-300", "--grid time_step=1e-300: analysis.duration: 1 s at time_step"),
