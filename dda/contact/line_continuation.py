@@ -108,7 +108,10 @@ def continuing(
     """Mask of the candidates (``vertex`` onto ``edge``, arrays of one shape, ``depth``
     the vertex's behind the edge's line) that continue a line their vertex moved along
     last step (``partners``: :func:`previous_partners`; ``parts``: the vertices' key
-    parts, :func:`dda.contact.contact_set.vertex_key_parts`), not by the same pairing."""
+    parts, :func:`dda.contact.contact_set.vertex_key_parts`). An edge the vertex slid along
+    does not count for the same pairing again; an own edge counts for any candidate (a
+    vertex sliding on an edge and passing over a corner under its own edge keeps to both
+    lines, which the usual rules then decide between)."""
     indptr, lines = partners
     flat_vertex, flat_edge = vertex.ravel(), edge.ravel()
     row, position = expand_counts(indptr[flat_vertex + 1] - indptr[flat_vertex])
@@ -155,12 +158,12 @@ def continues_moved_line(nx, ny, other_nx, other_ny, dx, dy, depth, own, corner_
 def _keep_to_lines(tied, line, verts, edges, depth, v, outward, partners, parts, scale, slack,
                    inside, cosine):  # fmt: skip
     """Compiled :func:`continuing` and :func:`keeping_to_one_line` of one vertex-vertex
-    pair's four candidates (``verts`` onto ``edges``; ``partners``: the sliding contacts'
-    CSR lists, then the sorted keys, ``parts`` × ``scale`` + ``parts``, of the contacts
-    that were closed): ``line`` set where a ``tied`` candidate continues the line of
-    another edge its vertex slid along; where some do, also where one was a closed
-    contact (it keeps to its own line), and where all those lie along one line, ``tied``
-    narrowed to them. In place."""
+    pair's four candidates (``verts`` onto ``edges``; ``partners``: the CSR lists of the
+    lines the vertices moved along last step (:func:`previous_partners`), then the sorted
+    keys, ``parts`` × ``scale`` + ``parts``, of the contacts that were closed): ``line``
+    set where a ``tied`` candidate continues a line its vertex moved along; where some
+    do, also where one was a closed contact (it keeps to its own line), and where all
+    those lie along one line, ``tied`` narrowed to them. In place."""
     partner_ptr, partner_edges, held = partners
     continued = False
     for c in range(4):

@@ -767,10 +767,11 @@ def _off_their_edges(blocks: BlockSet, fans: VertexFans, candidates, along, slac
 
 
 def _keeping_to_a_line(blocks, fans, verts, edges, depth, tied, slack, inside_depth, last):
-    """``tied`` (k, 4), narrowed, where some continue the line of another edge their vertex
-    slid along last step, to those and to the tied candidates (``verts`` onto ``edges``)
-    that were closed contacts then (each keeps to its own line), where all of them lie
-    along one line (:mod:`dda.contact.line_continuation`; ``last``: the last step's)."""
+    """``tied`` (k, 4), narrowed, where some continue a line their vertex moved along last
+    step (an edge it slid along, or an own edge it is passing along over a corner), to
+    those and to the tied candidates (``verts`` onto ``edges``) that were closed contacts
+    then (each keeps to its own line), where all of them lie along one line
+    (:mod:`dda.contact.line_continuation`; ``last``: the last step's)."""
     if last is None or len(last.sliding_vertex) == 0:
         return tied
     partners = previous_partners(blocks, last)

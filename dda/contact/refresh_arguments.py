@@ -27,8 +27,8 @@ class NarrowInput(NamedTuple):
     area: np.ndarray  # each block's area
     parts: np.ndarray  # the vertices' key parts (dda.contact.contact_set.vertex_key_parts)
     known: np.ndarray  # the last step's contact keys, sorted
-    partner_ptr: np.ndarray  # each vertex's list of the edges of its sliding contacts of
-    partner_edges: np.ndarray  # the last step (dda.contact.line_continuation.previous_partners)
+    partner_ptr: np.ndarray  # each vertex's (line, via) rows of the lines it moved along
+    partner_edges: np.ndarray  # last step, (k, 2) (line_continuation.previous_partners)
     held: np.ndarray  # the sorted keys of the last step's closed contacts (LastStep)
     vertex_radius: float
     search: float  # the search distance

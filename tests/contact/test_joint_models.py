@@ -14,6 +14,7 @@ Closed forms on a block sliding on a plane at θ (weight W, base length L):
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -187,13 +188,16 @@ def test_the_barton_bandis_angle_is_held_between_the_residual_and_70_degrees():
 @pytest.mark.filterwarnings("error")
 def test_an_unloaded_contact_of_a_strong_barton_bandis_joint_takes_the_cap_without_overflow():
     """σn l = 0 on a joint whose JCS l exceeds 1.8e8 (JCS 50 MPa on a 5 m edge): the
-    ratio JCS / σn is held finite (no overflow warning) and the angle at its 70° cap."""
+    ratio JCS / σn is held finite (no overflow warning) and the angle at its 70° cap; with
+    JRC = 0, at the residual angle (it was NaN: 0 × inf)."""
     joint = props(
         barton=np.array([True]), jrc=np.array([20.0]), jcs_length=np.array([2.5e8]),
         residual_angle=np.radians([30.0]), cohesion=np.array([0.0]), divisor=np.array([1.0]),
     )  # fmt: skip
     tangent = formulas.mobilised_tangent(joint, np.array([0.0]))
     assert tangent[0] == pytest.approx(np.tan(np.radians(70.0)), rel=1e-15)
+    smooth = formulas.mobilised_tangent(replace(joint, jrc=np.array([0.0])), np.array([0.0]))
+    assert smooth[0] == pytest.approx(np.tan(np.radians(30.0)), rel=1e-15)  # φr, not NaN
 
 
 REFUSED = [

@@ -115,11 +115,13 @@ def test_a_block_sliding_down_a_slope_across_a_joint_slides_as_the_closed_form()
     "dt",
     [1e-3, pytest.param(1e-4, marks=pytest.mark.slow), pytest.param(5e-5, marks=pytest.mark.slow)],
 )
-def test_a_block_with_its_corner_at_the_joint_stands_inside_its_friction(dt):
-    """B's front corner on the joint, pushed towards C at 0.5 of its friction: it moves
-    less than twice its static settlement + 1 µm."""
-    result = run_checked(flush_joint(dt, 0.3, 0.0, push=0.5))
-    static = dda.simulate(dda.load_scene(flush_joint(1e-3, 0.3, 0.0, push=0.5, mode="static")))
+@pytest.mark.parametrize("front", [0.0, -0.005], ids=["at-the-joint", "within-the-slack"])
+def test_a_block_with_its_corner_at_the_joint_stands_inside_its_friction(dt, front):
+    """B's front corner on the joint or 5 mm before it (within the vertex-vertex slack),
+    pushed towards C at 0.5 of its friction: it moves less than twice its static
+    settlement + 1 µm."""
+    result = run_checked(flush_joint(dt, 0.3, front, push=0.5))
+    static = dda.simulate(dda.load_scene(flush_joint(1e-3, 0.3, front, push=0.5, mode="static")))
     assert largest_move(result) <= 2.0 * largest_move(static) + 1e-6
 
 
@@ -134,10 +136,33 @@ def test_a_block_starting_at_rest_within_the_slack_slides_across_the_joint(dt, w
     line the far block's face continues. It slides ½ (0.5 tan φ g) t² (0.127 m in 0.3 s):
     4.5e-5 relative at Δt = 1e-3 s, −3.7e-7, −3.7e-6 and −7.3e-7 at 5e-4, 2.5e-4 and 1e-4 s
     (6.9 mm in all, a wall at the joint, when only the lines a corner slid along
-    counted)."""
+    counted). The 300 steps at Δt = 1e-3 s run the numpy path, the shorter steps the
+    kernels."""
     result = run_checked(flush_joint(dt, 0.3, -0.005, push=1.5))
     expected = 0.5 * (0.5 * np.tan(np.radians(FRICTION)) * G) * 0.3**2
     assert slid(result) == pytest.approx(expected, rel=within)
+
+
+def test_a_block_starting_at_rest_within_the_slack_slides_across_the_joint_leftwards():
+    """The mirror image: B on C, its corner 5 mm right of the joint, pushed left at 1.5
+    times its friction onto A: −0.127441 m against −0.127435 m of ½ a t² (4.5e-5; 6.9 mm
+    when only the faces a corner slid along counted)."""
+    raw = flush_joint(1e-3, 0.3, 1.005, push=1.5)
+    raw["loads"][0]["force"][0] *= -1.0
+    result = run_checked(raw)
+    expected = -0.5 * (0.5 * np.tan(np.radians(FRICTION)) * G) * 0.3**2
+    assert slid(result) == pytest.approx(expected, rel=1e-4)
+
+
+def test_a_block_sliding_towards_a_wall_standing_at_the_joint_stops_at_it():
+    """A fixed wall W stands on C with its face on the joint's line: B, its corner 5 mm
+    before the joint and pushed at 1.5 times its friction, stops against W after 5 mm
+    (its corner passes over A's corner at the joint, but W's face is no line it slides
+    along): 5.001 mm, W's face the contact tolerance away."""
+    raw = flush_joint(1e-3, 0.3, -0.005, push=1.5)
+    raw["blocks"].append(block("W", rectangle(0, 0, 1, 1), fixed=True))
+    result = run_checked(raw)
+    assert slid(result) == pytest.approx(0.005, abs=1e-5)
 
 
 @pytest.mark.xfail(
