@@ -225,6 +225,26 @@ def test_uniaxial_compression_below_c0_does_not_break():
     assert result.final.stresses[rock, 1] == pytest.approx(-0.98 * C0, rel=3e-3)
 
 
+def free_block_scene(time_step: float, duration: float, min_area: float = 1e-3) -> dict:
+    """The rock 1.6 x 4 alone, given syy = -1.2 C0 and released on unloaded springs (the
+    equilibrium start lets a free block's stress go before step 1): its cascade against
+    the time step and min_area, here a fraction of the block's area (1e-3: the default;
+    docs/fracture.md)."""
+    return {
+        "analysis": {"time_step": time_step, "duration": duration, "start": "unloaded"},
+        "materials": {"rock": STRONG},
+        "fracture": {"min_area": min_area * 1.6 * 4.0},
+        "blocks": [{"name": "a", "material": "rock", "vertices": rect(0, 0, 1.6, 4.0),
+                    "stress": [0.0, -1.2 * C0, 0.0]}],
+    }  # fmt: skip
+
+
+def test_a_free_block_beyond_c0_breaks_one_generation_a_step():
+    """1 -> 4 -> 16 in two steps: the pieces inherit the stress that broke their parent."""
+    result = dda.simulate(free_block_scene(2e-5, 4e-5), keep_frames=False)
+    assert (result.final.step, len(result.final.names)) == (2, 16)
+
+
 def test_a_loaded_block_that_breaks_in_shear_gives_its_load_to_one_of_its_pieces():
     """The load point moves to the piece that holds it, though the pieces differ in shape."""
     force = 1.05 * C0 * 1.6
