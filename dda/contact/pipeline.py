@@ -209,18 +209,11 @@ def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
     """:func:`refresh_contacts` after its broad phase in one compiled call
     (:func:`_refresh`); from the shapely test on in Python when a pairing asks for it."""
     search, depth = settings.search_distance, settings.law.tolerance
-    narrow = NarrowInput(
-        *detect_arguments(
-            blocks,
-            pairs,
-            search,
-            settings.vertex_radius,
-            depth,
-            previous.key,
-            gap,
-            last_step(previous),
-        )  # fmt: skip
+    last = last_step(previous)
+    arguments = detect_arguments(
+        blocks, pairs, search, settings.vertex_radius, depth, previous.key, gap, last
     )
+    narrow = NarrowInput(*arguments)
     rules = SiftRules(
         np.asarray(previous.key, dtype=np.int64),
         float(OUTSIDE_FRACTION * search),

@@ -597,15 +597,8 @@ def _pay_for_the_push(run: _Run, before: BlockSet, d, pushed, dt: float, time: f
     place), less the loads' work over it."""
     m, energy = run.model, run.energy
     work = energy.load_work(before, pushed, time)
-    apply_step(
-        before,
-        d - pushed,
-        dt,
-        m.elastic,
-        m.static,
-        m.exact_rotation,
-        gamma=m.scene.analysis.newmark_gamma,
-    )  # fmt: skip
+    apply_step(before, d - pushed, dt, m.elastic, m.static, m.exact_rotation,
+               gamma=m.scene.analysis.newmark_gamma)  # fmt: skip
     cost = energy.stored(run.blocks) - energy.stored(before) - work
     pay_for_the_push(run.blocks.velocity, pushed, m.inertia.masses(run.blocks), cost)
 
