@@ -19,6 +19,10 @@ import numpy as np
 
 from dda.jit import formula, kernel, select
 
+# the rows of the contacts' unknowns (``state``) and of a direction
+LIFT, SPARE, SHEAR, SLIP_FORWARD, SLIP_BACK, ROOM_FORWARD, ROOM_BACK = range(7)
+UNKNOWNS = 7
+
 
 @formula
 def springs(lift, spare, u, v, r1, r2, slope, penalty, shear_penalty, live):
@@ -79,24 +83,23 @@ def room(value, change):
 def _rhs(equilibrium, rows, state, spring_values, residual, target, second, live):
     """(−r_eq − Σ ΔN'₀ ∇g − Σ (ΔF₀ + k_sn ΔN'₀) ∇s, ΔN'₀, ΔF₀) contact by contact
     (:func:`free_terms`; ``rows``: ∇g and ∇s, the contacts' CSR rows (indptr, indices,
-    data) of each), each sum in numpy's order
+    data) of each; ``state`` (7, m), ``spring_values`` (4, m), ``residual`` (5, m),
+    ``second`` (3, m): the module docstring's rows), each sum in numpy's order
     (scipy's product by the transposed rows adds the contacts in turn): the same numbers."""
     n_indptr, n_indices, n_data, s_indptr, s_indices, s_data = rows
-    lift, spare, u, v, r1, r2 = state
-    kn, ks, k_sn, q = spring_values
-    res_n, res_s, res_1, res_2, _ = residual
-    c_n, c_u, c_v = second
-    m, size = lift.shape[0], equilibrium.shape[0]
+    m, size = state.shape[1], equilibrium.shape[0]
     normal_part, shear_part = np.zeros(size), np.zeros(size)
     n_free, f_free = np.empty(m), np.empty(m)
     for c in range(m):  # contact by contact, each unknown's sums in contact order
         n_free[c], f_free[c] = free_terms(
-            lift[c], spare[c], u[c], v[c], r1[c], r2[c], q[c], res_n[c], res_s[c],
-            res_1[c], res_2[c], target, c_n[c], c_u[c], c_v[c], live[c],
+            state[LIFT, c], state[SPARE, c], state[SLIP_FORWARD, c], state[SLIP_BACK, c],
+            state[ROOM_FORWARD, c], state[ROOM_BACK, c], spring_values[3, c],
+            residual[0, c], residual[1, c], residual[2, c], residual[3, c], target,
+            second[0, c], second[1, c], second[2, c], live[c],
         )  # fmt: skip
         for k in range(n_indptr[c], n_indptr[c + 1]):
             normal_part[n_indices[k]] += n_data[k] * n_free[c]
-        shear_force = f_free[c] + k_sn[c] * n_free[c]
+        shear_force = f_free[c] + spring_values[2, c] * n_free[c]
         for k in range(s_indptr[c], s_indptr[c + 1]):
             shear_part[s_indices[k]] += s_data[k] * shear_force
     rhs = np.empty(size)
@@ -109,14 +112,10 @@ def _direction(dx, rows, state, spring_values, residual, penalty, shear_penalty,
                f_free, target, second, live):  # fmt: skip
     """(the contact unknowns' direction (7, m), the largest step that keeps them positive
     (:func:`room`, infinite when none falls)) from the blocks' Δx by way of the gaps'
-    changes Δg, Δs (``rows``: as :func:`_rhs`'s)."""
+    changes Δg, Δs (``rows`` and the stacked arguments: as :func:`_rhs`'s)."""
     n_indptr, n_indices, n_data, s_indptr, s_indices, s_data = rows
-    lift, spare, u, v, r1, r2 = state
-    kn, ks, k_sn, _ = spring_values
-    res_n, res_s, res_1, res_2, slope = residual
-    _, c_u, c_v = second
-    m = lift.shape[0]
-    out = np.empty((7, m))
+    m = state.shape[1]
+    out = np.empty((UNKNOWNS, m))
     limit = np.inf
     for c in range(m):
         dg = ds = 0.0
@@ -125,21 +124,131 @@ def _direction(dx, rows, state, spring_values, residual, penalty, shear_penalty,
         for k in range(s_indptr[c], s_indptr[c + 1]):
             ds += s_data[k] * dx[s_indices[k]]
         changes = contact_direction(
-            dg, ds, lift[c], spare[c], u[c], v[c], r1[c], r2[c], kn[c], ks[c],
-            k_sn[c], slope[c], penalty[c], shear_penalty[c], n_free[c], f_free[c],
-            res_n[c], res_s[c], res_1[c], res_2[c], target, c_u[c], c_v[c], live[c],
+            dg, ds, state[LIFT, c], state[SPARE, c], state[SLIP_FORWARD, c],
+            state[SLIP_BACK, c], state[ROOM_FORWARD, c], state[ROOM_BACK, c],
+            spring_values[0, c], spring_values[1, c], spring_values[2, c], residual[4, c],
+            penalty[c], shear_penalty[c], n_free[c], f_free[c], residual[0, c],
+            residual[1, c], residual[2, c], residual[3, c], target, second[1, c],
+            second[2, c], live[c],
         )  # fmt: skip
-        for j in range(7):
+        for j in range(UNKNOWNS):
             out[j, c] = changes[j]
-        limit = min(limit, room(lift[c], changes[0]), room(spare[c], changes[1]))
+        limit = min(limit, room(state[LIFT, c], changes[0]), room(state[SPARE, c], changes[1]))
         if live[c]:
-            limit = min(limit, room(u[c], changes[3]), room(v[c], changes[4]))
-            limit = min(limit, room(r1[c], changes[5]), room(r2[c], changes[6]))
+            for j in range(SLIP_FORWARD, UNKNOWNS):
+                limit = min(limit, room(state[j, c], changes[j]))
     return out, limit
 
 
 rhs_kernel = kernel(_rhs)
 direction_kernel = kernel(_direction)
+
+
+@formula
+def product_after(value, change, other, other_change, alpha):
+    """A complementarity product after ``alpha`` × the step: (x + α Δx)(y + α Δy)."""
+    return (value + alpha * change) * (other + alpha * other_change)
+
+
+@formula
+def centring_push(product, target):
+    """Gondzio's push of a product towards [0.1, 10] μ_t: its distance to that band
+    (negative above it), at most 10 μ_t down."""
+    bounded = np.minimum(np.maximum(product, 0.1 * target), 10.0 * target)
+    return np.maximum(bounded - product, -10.0 * target)
+
+
+def _springs(state, slope, penalty, shear_penalty, live):
+    """(4, m): :func:`springs` (kn, ks, k_sn, q) of every contact."""
+    m = state.shape[1]
+    out = np.empty((4, m))
+    for c in range(m):
+        values = springs(
+            state[LIFT, c], state[SPARE, c], state[SLIP_FORWARD, c], state[SLIP_BACK, c],
+            state[ROOM_FORWARD, c], state[ROOM_BACK, c], slope[c], penalty[c],
+            shear_penalty[c], live[c],
+        )  # fmt: skip
+        for j in range(4):
+            out[j, c] = values[j]
+    return out
+
+
+springs_kernel = kernel(_springs)
+
+
+def _mean_product(state, step, alpha, live):
+    """μ: the mean of N'w over the contacts and of u σ₁, v σ₂ over the live ones, after
+    ``alpha`` × ``step`` (:func:`product_after`; α = 0: at the iterate), each sum
+    BLAS's dot of the factors, as numpy's ``@`` makes it."""
+    m = state.shape[1]
+    live_count = 0
+    for c in range(m):
+        if live[c]:
+            live_count += 1
+    lift, spare = np.empty(m), np.empty(m)
+    u, r1 = np.empty(live_count), np.empty(live_count)
+    v, r2 = np.empty(live_count), np.empty(live_count)
+    k = 0
+    for c in range(m):
+        lift[c] = state[LIFT, c] + alpha * step[LIFT, c]
+        spare[c] = state[SPARE, c] + alpha * step[SPARE, c]
+        if live[c]:
+            u[k] = state[SLIP_FORWARD, c] + alpha * step[SLIP_FORWARD, c]
+            r1[k] = state[ROOM_FORWARD, c] + alpha * step[ROOM_FORWARD, c]
+            v[k] = state[SLIP_BACK, c] + alpha * step[SLIP_BACK, c]
+            r2[k] = state[ROOM_BACK, c] + alpha * step[ROOM_BACK, c]
+            k += 1
+    total = np.dot(lift, spare) + np.dot(u, r1) + np.dot(v, r2)
+    return total / max(1, m + 2 * live_count)
+
+
+mean_product_kernel = kernel(_mean_product)
+
+
+def _centring(state, step, aim, target, second, live):
+    """(3, m) the products' terms beyond the linear ones, ``second`` less Gondzio's push
+    (:func:`centring_push`) of N'w, u σ₁, v σ₂ after ``aim`` × ``step`` (0 where not
+    live)."""
+    m = state.shape[1]
+    out = np.empty((3, m))
+    for c in range(m):
+        trial = product_after(state[LIFT, c], step[LIFT, c], state[SPARE, c], step[SPARE, c], aim)
+        out[0, c] = second[0, c] - centring_push(trial, target)
+        forward = back = 0.0
+        if live[c]:
+            forward = product_after(state[SLIP_FORWARD, c], step[SLIP_FORWARD, c],
+                                    state[ROOM_FORWARD, c], step[ROOM_FORWARD, c], aim)  # fmt: skip
+            back = product_after(state[SLIP_BACK, c], step[SLIP_BACK, c],
+                                 state[ROOM_BACK, c], step[ROOM_BACK, c], aim)  # fmt: skip
+        out[1, c] = second[1, c] - centring_push(forward, target)
+        out[2, c] = second[2, c] - centring_push(back, target)
+    return out
+
+
+centring_kernel = kernel(_centring)
+
+
+def _advance(x, g, s, state, rows, dx, step, alpha):
+    """Move the iterate by ``alpha`` × the step, in place: x + α Δx, the gaps g + ∇g·(α Δx)
+    and s + ∇s·(α Δx) (sums in scipy's order), the contact unknowns + α × ``step``."""
+    n_indptr, n_indices, n_data, s_indptr, s_indices, s_data = rows
+    scaled = np.empty(x.shape[0])
+    for k in range(x.shape[0]):
+        scaled[k] = alpha * dx[k]
+        x[k] = x[k] + scaled[k]
+    for c in range(g.shape[0]):
+        dg = ds = 0.0
+        for k in range(n_indptr[c], n_indptr[c + 1]):
+            dg += n_data[k] * scaled[n_indices[k]]
+        for k in range(s_indptr[c], s_indptr[c + 1]):
+            ds += s_data[k] * scaled[s_indices[k]]
+        g[c] = g[c] + dg
+        s[c] = s[c] + ds
+        for j in range(UNKNOWNS):
+            state[j, c] = state[j, c] + alpha * step[j, c]
+
+
+advance_kernel = kernel(_advance)
 
 
 def _add_products(values, where, rows, columns, springs):

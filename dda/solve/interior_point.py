@@ -63,12 +63,26 @@ from dda.contact.potential import ContactTerms
 from dda.contact.strength import JointProperties
 from dda.jit import compiled, floats
 from dda.solve.interior_contacts import (
+    LIFT,
+    ROOM_BACK,
+    ROOM_FORWARD,
+    SHEAR,
+    SLIP_BACK,
+    SLIP_FORWARD,
+    SPARE,
+    UNKNOWNS,
+    advance_kernel,
+    centring_kernel,
+    centring_push,
     contact_direction,
     direction_kernel,
     free_terms,
     matrix_values_kernel,
+    mean_product_kernel,
+    product_after,
     rhs_kernel,
     room,
+    springs_kernel,
 )
 from dda.solve.interior_contacts import springs as interior_springs
 from dda.solve.newton import BlockQuadratic, ContactGeometry
@@ -338,9 +352,11 @@ def _rows_matrix(rows: np.ndarray, dofs: np.ndarray, size: int) -> scipy.sparse.
 
 
 class _Iterate:
-    """The iterate: x (D's free unknowns), the gaps g, s and the contact unknowns N'
-    (``lift``: N + T), w (``spare``), F (``shear``), u, v (``slip_forward``,
-    ``slip_back``), σ₁, σ₂ (``room_forward``, ``room_back``)."""
+    """The iterate: x (D's free unknowns), the gaps g, s and the contact unknowns stacked
+    in ``state`` (7, m), the rows of :mod:`dda.solve.interior_contacts`: N' (N + T),
+    w, F, u, v, σ₁, σ₂. Where the kernels are used (:func:`dda.jit.compiled`), an
+    iteration's contact algebra is a few compiled calls (:meth:`step`), else numpy runs
+    the same formulas on the arrays."""
 
     def __init__(
         self, problem: StaticContactProblem, system: NewtonMatrix, policy: StepPolicy
@@ -359,8 +375,9 @@ class _Iterate:
         self.g = problem.geometry.rows.penetration.copy()
         self.s = problem.geometry.rows.slip.copy()
         self.scale = 0.0  # f: a typical contact force, set by :meth:`start`
-        m = len(self.live)
-        self.splits = [m, 2 * m]  # the products' array: N'w, u σ₁, v σ₂
+        self.state = np.zeros((UNKNOWNS, len(self.live)))
+        self.penalties = floats(terms.penalty), floats(terms.shear_penalty)
+        self.fast = compiled(direction_kernel)
 
     def d(self) -> np.ndarray:
         """D (n, 6) of the iterate (fixed blocks 0)."""
@@ -370,10 +387,10 @@ class _Iterate:
 
     def normal(self) -> np.ndarray:
         """N = N' − T."""
-        return self.lift - self.problem.terms.tension
+        return self.state[LIFT] - self.problem.terms.tension
 
     def finite(self) -> bool:
-        return bool(np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.lift)))
+        return bool(np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.state[LIFT])))
 
     def gradient(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """K₀ D − F₀ + Σ N ∇g + Σ F ∇s over the free unknowns."""
@@ -404,42 +421,46 @@ class _Iterate:
         if not f > 0.0:
             return False
         shift = self.policy.interior_start_shift * f
-        self.lift, self.spare = np.maximum(y, 0.0) + shift, np.maximum(-y, 0.0) + shift
+        state = self.state
+        state[LIFT], state[SPARE] = np.maximum(y, 0.0) + shift, np.maximum(-y, 0.0) + shift
         bound = self.problem.bound(self.normal())
         z = t.shear_trial(self.s)
-        self.shear = np.where(live, np.clip(z, -0.5 * bound, 0.5 * bound), 0.0)
-        self.slip_forward = np.where(live, shift, 1.0)
-        self.slip_back = self.slip_forward.copy()
-        self.room_forward = np.where(live, np.maximum(bound - self.shear, shift), 1.0)
-        self.room_back = np.where(live, np.maximum(bound + self.shear, shift), 1.0)
+        state[SHEAR] = np.where(live, np.clip(z, -0.5 * bound, 0.5 * bound), 0.0)
+        state[SLIP_FORWARD] = state[SLIP_BACK] = np.where(live, shift, 1.0)
+        state[ROOM_FORWARD] = np.where(live, np.maximum(bound - state[SHEAR], shift), 1.0)
+        state[ROOM_BACK] = np.where(live, np.maximum(bound + state[SHEAR], shift), 1.0)
         return True
 
     def residuals(self) -> _Residuals:
         """The equations' residuals at the iterate, and the bound's slope b'(N)."""
         t, live = self.problem.terms, self.live
+        lift, spare, shear, u, v, r1, r2 = self.state
         normal = self.normal()
         bound = self.problem.bound(normal)
         step = self.policy.interior_slope_step * np.maximum(np.abs(normal), self.scale)
         slope = np.where(live, (self.problem.bound(normal + step) - bound) / step, 0.0)
         y = t.normal_trial(self.g) + t.tension
         z = t.shear_trial(self.s)
-        return _Residuals(
-            self.gradient(normal, self.shear),
-            y + self.spare - self.lift,
-            np.where(live, z - self.slip_forward + self.slip_back - self.shear, 0.0),
-            np.where(live, bound - self.shear - self.room_forward, 0.0),
-            np.where(live, bound + self.shear - self.room_back, 0.0),
-            slope,
-        )
+        contact = np.empty((5, len(live)))
+        contact[0] = y + spare - lift
+        contact[1] = np.where(live, z - u + v - shear, 0.0)
+        contact[2] = np.where(live, bound - shear - r1, 0.0)
+        contact[3] = np.where(live, bound + shear - r2, 0.0)
+        contact[4] = slope
+        return _Residuals(self.gradient(normal, shear), contact)
 
     def complementarity(self, step: _Direction | None = None, alpha: float = 0.0) -> float:
         """μ: the mean of N'w, u σ₁ and v σ₂ (after ``alpha`` × ``step`` when given)."""
-        lift, spare, u, v = self.lift, self.spare, self.slip_forward, self.slip_back
-        r1, r2 = self.room_forward, self.room_back
+        if self.fast:
+            change = self.state if step is None else step.change
+            return mean_product_kernel(self.state, change, 0.0 if step is None else alpha,
+                                       self.live)  # fmt: skip
+        lift, spare, _, u, v, r1, r2 = self.state
         if step is not None:
-            lift, spare = lift + alpha * step.lift, spare + alpha * step.spare
-            u, v = u + alpha * step.slip_forward, v + alpha * step.slip_back
-            r1, r2 = r1 + alpha * step.room_forward, r2 + alpha * step.room_back
+            lift, spare = lift + alpha * step.change[LIFT], spare + alpha * step.change[SPARE]
+            u, v = u + alpha * step.change[SLIP_FORWARD], v + alpha * step.change[SLIP_BACK]
+            r1 = r1 + alpha * step.change[ROOM_FORWARD]
+            r2 = r2 + alpha * step.change[ROOM_BACK]
         live = self.live
         total = float(lift @ spare) + float(u[live] @ r1[live]) + float(v[live] @ r2[live])
         return total / max(1, len(lift) + 2 * int(live.sum()))
@@ -458,31 +479,26 @@ class _Iterate:
             return False
         t, system, x = self.problem.terms, self.system, np.abs(self.x)
         rows = self.problem.geometry.rows
+        lift, spare, shear, u, v, r1, r2 = self.state
         # the large terms whose difference is a force: an open contact's y and w, a
         # sliding one's z and u (or v), all with the gaps' own round-off p |∇g||D|
-        y = np.abs(t.normal_trial(self.g)) + self.spare
+        y = np.abs(t.normal_trial(self.g)) + spare
         y += t.penalty * (np.abs(rows.penetration) + system.gn_abs @ x)
-        z = np.abs(t.shear_trial(self.s)) + self.slip_forward + self.slip_back
+        z = np.abs(t.shear_trial(self.s)) + u + v
         z += t.shear_penalty * (np.abs(rows.slip) + system.gs_abs @ x)
-        forces = (self.lift, np.abs(self.shear), self.room_forward, self.room_back)
+        forces = (lift, np.abs(shear), r1, r2)
         noises = (y, z, 0.0, 0.0)
         return all(
             bool(np.all(np.abs(r) <= end * np.maximum(force, f) + round_off * noise))
-            for r, force, noise in zip(residuals.contact(), forces, noises, strict=True)
+            for r, force, noise in zip(residuals.contact[:4], forces, noises, strict=True)
         )
 
     def step(self, residuals: _Residuals) -> None:
         """One predictor–corrector iteration (one factorisation, two solves)."""
-        t, live = self.problem.terms, self.live
-        u, v, r1, r2 = self.slip_forward, self.slip_back, self.room_forward, self.room_back
-        springs = kn, ks, k_sn, q = interior_springs(
-            self.lift, self.spare, u, v, r1, r2, residuals.slope, t.penalty, t.shear_penalty,
-            live,
-        )  # fmt: skip
-        self.system.factor(kn, ks, k_sn)
+        springs = self.springs(residuals.contact[4])
+        self.system.factor(springs[0], springs[1], springs[2])
         mu, fraction = self.complementarity(), self.policy.interior_step_to_boundary
-        nothing = np.zeros(len(live))
-        predictor = self.direction(residuals, springs, 0.0, (nothing, nothing, nothing))
+        predictor = self.direction(residuals, springs, 0.0, np.zeros((3, len(self.live))))
         reach = self.reach(predictor, 1.0)
         target = (self.complementarity(predictor, reach) / mu) ** 3 * mu
         second = self.second_order(predictor)
@@ -490,36 +506,47 @@ class _Iterate:
         alpha = self.reach(corrector, fraction)
         for _ in range(self.policy.interior_centrality_correctors):
             aim = min(1.0, 1.5 * alpha + 0.1)
-            trial = self.products_after(corrector, aim)
-            bounded = np.clip(trial, 0.1 * target, 10.0 * target)
-            push = np.maximum(bounded - trial, -10.0 * target)
-            changes = [c - p for c, p in zip(second, np.split(push, self.splits), strict=True)]
-            better = self.direction(residuals, springs, target, tuple(changes))
+            changes = self.centring(corrector, aim, target, second)
+            better = self.direction(residuals, springs, target, changes)
             longer = self.reach(better, fraction)
             if longer < alpha + 0.1 * (aim - alpha):
                 break
-            corrector, alpha, second = better, longer, tuple(changes)
+            corrector, alpha, second = better, longer, changes
         self.advance(corrector, alpha)
 
-    @staticmethod
-    def second_order(step: _Direction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """ΔN'Δw, Δu Δσ₁, Δv Δσ₂ of ``step``: the products' terms beyond the linear ones
-        (Mehrotra's corrector carries the predictor's)."""
-        return (step.lift * step.spare, step.slip_forward * step.room_forward,
-                step.slip_back * step.room_back)  # fmt: skip
+    def springs(self, slope: np.ndarray) -> np.ndarray:
+        """(4, m): kn, ks, k_sn, q of every contact (:func:`interior_springs`)."""
+        t, state = self.problem.terms, self.state
+        if self.fast:
+            return springs_kernel(state, slope, *self.penalties, self.live)
+        return np.array(interior_springs(
+            state[LIFT], state[SPARE], state[SLIP_FORWARD], state[SLIP_BACK],
+            state[ROOM_FORWARD], state[ROOM_BACK], slope, t.penalty, t.shear_penalty, self.live,
+        ))  # fmt: skip
 
-    def products_after(self, step: _Direction, alpha: float) -> np.ndarray:
-        """N'w, u σ₁ and v σ₂ (0 where not live) after ``alpha`` × ``step``, in one array
-        (Gondzio's corrector)."""
-        live = self.live
-        parts = [
-            (self.lift + alpha * step.lift) * (self.spare + alpha * step.spare),
-            np.where(live, (self.slip_forward + alpha * step.slip_forward)
-                     * (self.room_forward + alpha * step.room_forward), 0.0),
-            np.where(live, (self.slip_back + alpha * step.slip_back)
-                     * (self.room_back + alpha * step.room_back), 0.0),
+    @staticmethod
+    def second_order(step: _Direction) -> np.ndarray:
+        """(3, m) ΔN'Δw, Δu Δσ₁, Δv Δσ₂ of ``step``: the products' terms beyond the linear
+        ones (Mehrotra's corrector carries the predictor's)."""
+        change = step.change
+        return np.array([change[LIFT] * change[SPARE],
+                         change[SLIP_FORWARD] * change[ROOM_FORWARD],
+                         change[SLIP_BACK] * change[ROOM_BACK]])  # fmt: skip
+
+    def centring(self, step: _Direction, aim: float, target: float, second) -> np.ndarray:
+        """(3, m) ``second`` less Gondzio's push (:func:`centring_push`) of N'w, u σ₁,
+        v σ₂ after ``aim`` × ``step`` (0 where not live) towards [0.1, 10] ``target``."""
+        state, change, live = self.state, step.change, self.live
+        if self.fast:
+            return centring_kernel(state, change, float(aim), float(target), second, live)
+        trial = [
+            product_after(state[LIFT], change[LIFT], state[SPARE], change[SPARE], aim),
+            np.where(live, product_after(state[SLIP_FORWARD], change[SLIP_FORWARD],
+                                         state[ROOM_FORWARD], change[ROOM_FORWARD], aim), 0.0),
+            np.where(live, product_after(state[SLIP_BACK], change[SLIP_BACK],
+                                         state[ROOM_BACK], change[ROOM_BACK], aim), 0.0),
         ]  # fmt: skip
-        return np.concatenate(parts)
+        return second - centring_push(np.array(trial), target)
 
     def direction(self, res: _Residuals, springs, target: float, second) -> _Direction:
         """The Newton direction of the equations with the products N'w, u σ₁, v σ₂ at
@@ -527,78 +554,58 @@ class _Iterate:
         products, Mehrotra; less Gondzio's push towards the target) (module docstring;
         contact by contact :mod:`dda.solve.interior_contacts`, compiled where the kernels
         are used)."""
-        t, live, system = self.problem.terms, self.live, self.system
-        state = (self.lift, self.spare, self.slip_forward, self.slip_back,
-                 self.room_forward, self.room_back)  # fmt: skip
-        residual = (res.normal, res.shear, res.room_forward, res.room_back, res.slope)
-        if compiled(direction_kernel):
-            return self._compiled_direction(res, springs, target, second, state, residual)
+        t, live, system, state = self.problem.terms, self.live, self.system, self.state
+        if self.fast:
+            rows = system.gradient_rows
+            rhs, n_free, f_free = rhs_kernel(
+                res.equilibrium, rows, state, springs, res.contact, float(target), second, live
+            )
+            dx = system.solve(rhs)
+            change, limit = direction_kernel(
+                dx, rows, state, springs, res.contact, *self.penalties, n_free, f_free,
+                float(target), second, live,
+            )  # fmt: skip
+            return _Direction(dx, change, float(limit))
         kn, ks, k_sn, q = springs
-        n_free, f_free = free_terms(*state, q, *residual[:4], target, *second, live)
+        lift, spare, _, u, v, r1, r2 = state
+        res_n, res_s, res_1, res_2, slope = res.contact
+        n_free, f_free = free_terms(lift, spare, u, v, r1, r2, q, res_n, res_s, res_1, res_2,
+                                    target, *second, live)  # fmt: skip
         rhs = -res.equilibrium - system.gn_t @ n_free - system.gs_t @ (f_free + k_sn * n_free)
         dx = system.solve(rhs)
         dg, ds = system.gn @ dx, system.gs @ dx
-        changes = contact_direction(
-            dg, ds, *state, kn, ks, k_sn, res.slope, t.penalty, t.shear_penalty, n_free,
-            f_free, *residual[:4], target, *second[1:], live,
-        )  # fmt: skip
-        rooms = [room(value, change) for value, change in zip(state[:2], changes[:2], strict=True)]
-        rooms += [room(value[live], change[live])
-                  for value, change in zip(state[2:], changes[3:], strict=True)]  # fmt: skip
+        change = np.array(contact_direction(
+            dg, ds, lift, spare, u, v, r1, r2, kn, ks, k_sn, slope, t.penalty, t.shear_penalty,
+            n_free, f_free, res_n, res_s, res_1, res_2, target, second[1], second[2], live,
+        ))  # fmt: skip
+        rooms = [room(state[j], change[j]) for j in (LIFT, SPARE)]
+        rooms += [room(state[j][live], change[j][live])
+                  for j in range(SLIP_FORWARD, UNKNOWNS)]  # fmt: skip
         limit = min((float(np.min(r)) for r in rooms if len(r)), default=np.inf)
-        return _Direction(dx, *changes, limit)
-
-    def _compiled_direction(self, res, springs, target, second, state, residual) -> _Direction:
-        """:meth:`direction` by the kernels of :mod:`dda.solve.interior_contacts`."""
-        t, live, system = self.problem.terms, self.live, self.system
-        rows = system.gradient_rows
-        rhs, n_free, f_free = rhs_kernel(
-            res.equilibrium, rows, state, springs, residual, float(target), second, live
-        )
-        dx = system.solve(rhs)
-        penalties = floats(t.penalty), floats(t.shear_penalty)
-        changes, limit = direction_kernel(
-            dx, rows, state, springs, residual, *penalties, n_free, f_free, float(target),
-            second, live,
-        )  # fmt: skip
-        return _Direction(dx, *changes, float(limit))
+        return _Direction(dx, change, limit)
 
     def reach(self, step: _Direction, fraction: float) -> float:
         """The longest step ≤ 1 that keeps N', w, u, v, σ₁, σ₂ positive, times ``fraction``."""
         return min(1.0, fraction * step.limit)
 
     def advance(self, step: _Direction, alpha: float) -> None:
+        """Move the iterate by ``alpha`` × ``step``."""
+        if self.fast:
+            advance_kernel(self.x, self.g, self.s, self.state, self.system.gradient_rows,
+                           step.x, step.change, float(alpha))  # fmt: skip
+            return
         self.move(alpha * step.x)
-        self.lift = self.lift + alpha * step.lift
-        self.spare = self.spare + alpha * step.spare
-        self.shear = self.shear + alpha * step.shear
-        self.slip_forward = self.slip_forward + alpha * step.slip_forward
-        self.slip_back = self.slip_back + alpha * step.slip_back
-        self.room_forward = self.room_forward + alpha * step.room_forward
-        self.room_back = self.room_back + alpha * step.room_back
+        self.state = self.state + alpha * step.change
 
 
 @dataclass(frozen=True)
 class _Residuals:
     equilibrium: np.ndarray  # K₀D − F₀ + Σ N∇g + Σ F∇s (free unknowns)
-    normal: np.ndarray  # y + w − N'
-    shear: np.ndarray  # z − u + v − F
-    room_forward: np.ndarray  # b(N) − F − σ₁
-    room_back: np.ndarray  # b(N) + F − σ₂
-    slope: np.ndarray  # b'(N)
-
-    def contact(self) -> tuple[np.ndarray, ...]:
-        return self.normal, self.shear, self.room_forward, self.room_back
+    contact: np.ndarray  # (5, m): y + w − N', z − u + v − F, b(N) − F − σ₁, b(N) + F − σ₂, b'(N)
 
 
 @dataclass(frozen=True)
 class _Direction:
     x: np.ndarray
-    lift: np.ndarray
-    spare: np.ndarray
-    shear: np.ndarray
-    slip_forward: np.ndarray
-    slip_back: np.ndarray
-    room_forward: np.ndarray
-    room_back: np.ndarray
+    change: np.ndarray  # (7, m) of the contact unknowns, the rows of ``_Iterate.state``
     limit: float  # the largest step that keeps the contact unknowns positive
