@@ -25,6 +25,7 @@ NOT_THRESHOLDS = {
     ("band_newton.py", "_LOWER"): "LAPACK's character 'L'",
     ("contact_dashpots.py", "SHEAR_DAMPING_RATIO"): "the restitution law's, not the solve's",
     ("integrator.py", "SHI_GAMMA"): "the scene's default Newmark γ",
+    ("interior_contacts.py", "UNKNOWNS"): "a contact's unknowns: N', w, F, u, v, σ₁, σ₂",
     ("unsymmetric.py", "UNSYMMETRIC"): "PARDISO's code of a real unsymmetric matrix",
     ("thread_policy.py", "WINDOW"): "the thread policy's sampling, not the step's",
     ("thread_policy.py", "FIRST_WINDOW"): "the thread policy's sampling, not the step's",
