@@ -65,6 +65,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
@@ -183,8 +184,9 @@ def settle(
 ) -> Settled | Unsettled:
     """The loaded start of ``blocks`` and ``contacts`` (found at t = 0), or what was spent
     (:class:`Unsettled`) when the limit solve does not settle (the run then starts
-    unloaded). ``report``: told the Newton iterations spent so far after each solve (a
-    long start's progress). The effects'
+    unloaded). ``report``: told the Newton iterations spent so far after each solve and
+    each interior-point iteration (a long start's progress; what it raises stops the
+    start). The effects'
     springs (fixed points, rock bolts) are preloaded in place (``Effect.preload``).
 
     The limit solve (module docstring): the continuation within
@@ -361,8 +363,14 @@ class _Limit:
     def count(self, iterations: int) -> None:
         """Add ``iterations`` to those spent, and report the sum."""
         self.spent += iterations
+        self.tell(0)
+
+    def tell(self, under_way: int) -> None:
+        """Report the iterations spent and ``under_way`` more of a solve not ended (the
+        report may stop the start: an interior-point solve is asked after each of its
+        iterations, not only at its end)."""
         if self.report is not None:
-            self.report(self.spent)
+            self.report(self.spent + under_way)
 
     def solve(self, blocks, contacts, scale, d, timer):
         """The step ΔD from the accumulated ``d`` held by the regulariser ``scale`` r_i."""
@@ -389,7 +397,8 @@ class _Limit:
             if self.matrix is None or not self.matrix.fits(problem):
                 self.release()
                 self.matrix = NewtonMatrix(problem)
-            solution = solve_interior(problem, self.matrix)
+            tell = partial(_shifted, self.tell, iterations)  # this call's earlier rounds
+            solution = solve_interior(problem, self.matrix, after_iteration=tell)
             iterations += solution.iterations
             if not solution.converged:
                 return solution.d, None, iterations
@@ -417,6 +426,11 @@ class _Limit:
         (one that cannot goes on moving by about its unbalanced load / r)."""
         held = scale[:, None] * np.einsum("nij,nj->ni", self.masses, step)
         return bool(np.linalg.norm(held) <= STANDING * self.loads)
+
+
+def _shifted(tell: Callable[[int], None], earlier: int, under_way: int) -> None:
+    """``tell`` the iterations under way after ``earlier`` ones."""
+    tell(earlier + under_way)
 
 
 def _backed_off(fraction: float, settled: float | None) -> float:

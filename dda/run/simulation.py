@@ -212,8 +212,8 @@ def _equilibrium_start(run: _Run, report=None, stop=None) -> None:
     """Load the contacts that touch at t = 0, the blocks and the effects' springs
     (dda.run.equilibrium_start); a start that does not settle leaves the run unloaded.
     ``report``: the run's progress reporter, shown the start's Newton iterations;
-    ``stop``: asked after each of the start's solves, True raises
-    :class:`StartInterrupted`."""
+    ``stop``: asked after each of the start's solves and interior-point iterations, True
+    raises :class:`StartInterrupted`."""
     m = run.model
     started, compiled = wallclock.perf_counter(), compile_seconds()
     _touching_at_start(run)
@@ -502,8 +502,8 @@ def run(
     stop : asked before every step; True ends the run there with status
         "interrupted" (after a last checkpoint when ``checkpoints`` is given). A
         :class:`dda.run.stop.StopOnSignal` (``dda run``'s) is asked after each of the
-        equilibrium start's solves too: a signal there ends the run before step 1,
-        without a checkpoint
+        equilibrium start's solves and interior-point iterations too: a signal there
+        ends the run before step 1, without a checkpoint
     checkpoints : where and when to write checkpoints (:mod:`dda.run.checkpoint`)
     resume : a checkpoint of this scene to continue from; the Result's first
         frame is then the checkpoint's state, which ``on_frame`` does not see

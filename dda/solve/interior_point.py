@@ -120,13 +120,16 @@ def solve_interior(
     problem: StaticContactProblem,
     matrix: NewtonMatrix | None = None,
     policy: StepPolicy | None = None,
+    after_iteration: Callable[[int], None] | None = None,
 ) -> InteriorSolution:
     """D, N of ``problem`` by the predictor–corrector interior-point method (module
     docstring; its settings: the policy's ``interior_*``); ``converged`` False when
     ``interior_iterations`` did not reach the end, the iterates stopped being finite or
     nothing is loaded. ``matrix``: a :class:`NewtonMatrix` that fits the problem
     (:meth:`NewtonMatrix.fits`), to re-use (its pattern, its analysis); else one is made
-    and released. ``policy``: the settings (None: the environment's)."""
+    and released. ``policy``: the settings (None: the environment's).
+    ``after_iteration``: told the factorisations so far after each iteration (a long
+    solve's progress; what it raises ends the solve, the matrix released if made here)."""
     policy = current_policy() if policy is None else policy
     own = matrix is None
     system = NewtonMatrix(problem) if own else matrix.load(problem)
@@ -141,6 +144,8 @@ def solve_interior(
                     break
                 iterate.step(residuals)
                 iterations += 1
+                if after_iteration is not None:
+                    after_iteration(iterations)
     finally:
         if own:
             system.release()

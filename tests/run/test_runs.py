@@ -328,6 +328,31 @@ def test_sigterm_during_the_equilibrium_start_stops_it(tmp_path, monkeypatch, ca
     assert not Path("out/checkpoint.npz").exists()
 
 
+def test_sigterm_during_an_interior_point_solve_stops_the_start_at_its_next_iteration(
+    tmp_path, monkeypatch, capsys
+):
+    """SIGTERM in the middle of the start's interior-point solve (one solve took ~100 s on
+    a 5,000-block model) stops the start after the iteration under way, not at the
+    solve's end: the start's Newton iterations are the two spent."""
+    from dda.run import equilibrium_start
+    from dda.run.simulation import INTERRUPTED_START
+
+    monkeypatch.chdir(tmp_path)
+    scene = slope_file(tmp_path, 20)
+    tell = equilibrium_start._Limit.tell
+
+    def tell_and_signal(limit, under_way):
+        if under_way == 2:
+            os.kill(os.getpid(), signal.SIGTERM)
+        tell(limit, under_way)
+
+    monkeypatch.setattr(equilibrium_start._Limit, "tell", tell_and_signal)
+    assert cli.main(["run", str(scene), "-o", "out", "-q"]) == 143
+    assert "stopped during the equilibrium start" in capsys.readouterr().err
+    summary = json.loads(Path("out/summary.json").read_text())
+    assert summary["start"] == INTERRUPTED_START and summary["start_newton_iterations"] == 2
+
+
 def test_sigkill_leaves_a_readable_prefix_and_the_run_resumes(tmp_path, monkeypatch, superlu):
     """Killed (SIGKILL: nothing runs) mid-run: summary.json (status "running"), history.csv
     (whole frames) and the PVD indexes are readable, a new run is refused, --resume
