@@ -163,8 +163,8 @@ def test_a_scene_whose_contacts_start_unloaded_starts_by_the_interior_point(monk
     solves = []
     original = equilibrium_start.solve_interior
 
-    def counted(*args):
-        solution = original(*args)
+    def counted(*args, **kwargs):
+        solution = original(*args, **kwargs)
         solves.append(solution.iterations)
         return solution
 
