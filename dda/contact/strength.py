@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -83,7 +84,7 @@ class JointProperties:
             if getattr(self, name) is None:
                 setattr(self, name, value)
 
-    @property
+    @cached_property
     def any_barton(self) -> bool:
         """Some contact is on a Barton–Bandis joint (else the bounds skip that formula)."""
         return bool(np.any(self.barton))

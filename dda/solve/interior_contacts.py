@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dda.contact.formulas import normal_trial, shear_trial
 from dda.jit import formula, kernel, select
 
 # the rows of the contacts' unknowns (``state``) and of a direction
@@ -142,6 +143,41 @@ def _direction(dx, rows, state, spring_values, residual, penalty, shear_penalty,
 
 rhs_kernel = kernel(_rhs)
 direction_kernel = kernel(_direction)
+
+
+@formula
+def contact_residuals(lift, spare, shear, u, v, r1, r2, y, z, bound, bound_after, step, live):
+    """(r_N, r_F, r₁, r₂, b'(N)) of a contact: r_N = y + w − N', r_F = z − u + v − F,
+    r₁ = b − F − σ₁, r₂ = b + F − σ₂ and b'(N) ≈ (b(N + h) − b(N)) / h (``bound_after``
+    at N + ``step``); 0 but r_N where not live. y = λn + p g + T, z = λt + ps s."""
+    return (
+        y + spare - lift,
+        select(live, z - u + v - shear, 0.0),
+        select(live, bound - shear - r1, 0.0),
+        select(live, bound + shear - r2, 0.0),
+        select(live, (bound_after - bound) / step, 0.0),
+    )
+
+
+def _residuals(state, g, s, terms, bound, bound_after, step, live):
+    """(5, m): :func:`contact_residuals` of every contact, y and z from its gaps g, s and
+    ``terms`` (5, m): λn, p, T, λt, ps."""
+    m = state.shape[1]
+    out = np.empty((5, m))
+    for c in range(m):
+        y = normal_trial(terms[0, c], terms[1, c], g[c]) + terms[2, c]
+        z = shear_trial(terms[3, c], terms[4, c], s[c])
+        values = contact_residuals(
+            state[LIFT, c], state[SPARE, c], state[SHEAR, c], state[SLIP_FORWARD, c],
+            state[SLIP_BACK, c], state[ROOM_FORWARD, c], state[ROOM_BACK, c], y, z, bound[c],
+            bound_after[c], step[c], live[c],
+        )  # fmt: skip
+        for j in range(5):
+            out[j, c] = values[j]
+    return out
+
+
+residuals_kernel = kernel(_residuals)
 
 
 @formula

@@ -75,11 +75,13 @@ from dda.solve.interior_contacts import (
     centring_kernel,
     centring_push,
     contact_direction,
+    contact_residuals,
     direction_kernel,
     free_terms,
     matrix_values_kernel,
     mean_product_kernel,
     product_after,
+    residuals_kernel,
     rhs_kernel,
     room,
     springs_kernel,
@@ -383,6 +385,10 @@ class _Iterate:
         self.state = np.zeros((UNKNOWNS, len(self.live)))
         self.penalties = floats(terms.penalty), floats(terms.shear_penalty)
         self.fast = compiled(direction_kernel)
+        if self.fast:  # λn, p, T, λt, ps (:func:`residuals_kernel`)
+            springs = (terms.normal_base, terms.penalty, terms.tension, terms.shear_base,
+                       terms.shear_penalty)  # fmt: skip
+            self.terms = np.array(springs, dtype=np.float64)
 
     def d(self) -> np.ndarray:
         """D (n, 6) of the iterate (fixed blocks 0)."""
@@ -437,22 +443,26 @@ class _Iterate:
         return True
 
     def residuals(self) -> _Residuals:
-        """The equations' residuals at the iterate, and the bound's slope b'(N)."""
-        t, live = self.problem.terms, self.live
-        lift, spare, shear, u, v, r1, r2 = self.state
+        """The equations' residuals at the iterate, and the bound's slope b'(N)
+        (:func:`contact_residuals`)."""
+        t, live, state = self.problem.terms, self.live, self.state
         normal = self.normal()
         bound = self.problem.bound(normal)
         step = self.policy.interior_slope_step * np.maximum(np.abs(normal), self.scale)
-        slope = np.where(live, (self.problem.bound(normal + step) - bound) / step, 0.0)
+        after = self.problem.bound(normal + step)
+        equilibrium = self.gradient(normal, state[SHEAR])
+        if self.fast:
+            contact = residuals_kernel(
+                state, self.g, self.s, self.terms, floats(bound), floats(after), step, live
+            )
+            return _Residuals(equilibrium, contact)
         y = t.normal_trial(self.g) + t.tension
         z = t.shear_trial(self.s)
-        contact = np.empty((5, len(live)))
-        contact[0] = y + spare - lift
-        contact[1] = np.where(live, z - u + v - shear, 0.0)
-        contact[2] = np.where(live, bound - shear - r1, 0.0)
-        contact[3] = np.where(live, bound + shear - r2, 0.0)
-        contact[4] = slope
-        return _Residuals(self.gradient(normal, shear), contact)
+        lift, spare, shear, u, v, r1, r2 = state
+        contact = np.array(
+            contact_residuals(lift, spare, shear, u, v, r1, r2, y, z, bound, after, step, live)
+        )
+        return _Residuals(equilibrium, contact)
 
     def complementarity(self, step: _Direction | None = None, alpha: float = 0.0) -> float:
         """μ: the mean of N'w, u σ₁ and v σ₂ (after ``alpha`` × ``step`` when given)."""
