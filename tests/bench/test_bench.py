@@ -228,3 +228,16 @@ def test_no_kernel_loads_inside_the_measured_30_by_30_run():
     measured = out.split("measured run: start")[1].split("measured run: end")[0]
     assert "measured run: end" in out
     assert "data loaded" not in measured and "data saved" not in measured, measured
+
+
+def test_the_start_cost_gives_the_start_a_step_and_their_ratio_of_a_shipped_case():
+    """python -m dda.bench.start_cost's row: the start's seconds and Newton iterations, a
+    step's seconds from two run lengths, the start over 20 steps (docs/contact.md)."""
+    from dda.bench.start_cost import HEADER, start_cost
+
+    cost = start_cost("jointed_slope_fos", starts=1, runs=1, long=4, short=2, kernels=False)
+    assert cost.blocks == 32 and cost.start_newton > 0
+    assert cost.start_seconds > 0 and cost.step_seconds > 0
+    assert cost.in_steps == pytest.approx(cost.start_seconds / (20 * cost.step_seconds))
+    assert cost.row().startswith("| `cases/jointed_slope_fos.toml` | 32 | ")
+    assert cost.row().count("|") == HEADER.splitlines()[0].count("|")
