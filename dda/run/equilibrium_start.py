@@ -208,6 +208,7 @@ def settle(
     if found is None and INTERIOR_REGULARISERS and FEW_NEWTON_ITERATIONS and _may_stand(start):
         quick = _Limit.of(model, blocks, budget=FEW_NEWTON_ITERATIONS, report=report)
         found, newton = _by_continuation(quick, blocks, start, stiffness, timer, at_most=True)
+        limit.spent = quick.spent  # the progress goes on from the iterations spent
     if found is None and INTERIOR_REGULARISERS:
         method = INTERIOR_POINT
         try:

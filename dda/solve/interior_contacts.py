@@ -212,10 +212,17 @@ def _springs(state, slope, penalty, shear_penalty, live):
 springs_kernel = kernel(_springs)
 
 
-def _mean_product(state, step, alpha, live):
-    """μ: the mean of N'w over the contacts and of u σ₁, v σ₂ over the live ones, after
-    ``alpha`` × ``step`` (:func:`product_after`; α = 0: at the iterate), each sum
-    BLAS's dot of the factors, as numpy's ``@`` makes it."""
+@formula
+def moved_value(value, change, alpha, moved):
+    """x + α Δx where ``moved``, else x itself (an infinite x stays infinite: 0 × inf is
+    not 0)."""
+    return value + alpha * change if moved else value
+
+
+def _mean_product(state, step, alpha, moved, live):
+    """μ: the mean of N'w over the contacts and of u σ₁, v σ₂ over the live ones, at the
+    iterate, or after ``alpha`` × ``step`` where ``moved`` (:func:`product_after`), each
+    sum BLAS's dot of the factors, as numpy's ``@`` makes it."""
     m = state.shape[1]
     live_count = 0
     for c in range(m):
@@ -226,13 +233,13 @@ def _mean_product(state, step, alpha, live):
     v, r2 = np.empty(live_count), np.empty(live_count)
     k = 0
     for c in range(m):
-        lift[c] = state[LIFT, c] + alpha * step[LIFT, c]
-        spare[c] = state[SPARE, c] + alpha * step[SPARE, c]
+        lift[c] = moved_value(state[LIFT, c], step[LIFT, c], alpha, moved)
+        spare[c] = moved_value(state[SPARE, c], step[SPARE, c], alpha, moved)
         if live[c]:
-            u[k] = state[SLIP_FORWARD, c] + alpha * step[SLIP_FORWARD, c]
-            r1[k] = state[ROOM_FORWARD, c] + alpha * step[ROOM_FORWARD, c]
-            v[k] = state[SLIP_BACK, c] + alpha * step[SLIP_BACK, c]
-            r2[k] = state[ROOM_BACK, c] + alpha * step[ROOM_BACK, c]
+            u[k] = moved_value(state[SLIP_FORWARD, c], step[SLIP_FORWARD, c], alpha, moved)
+            r1[k] = moved_value(state[ROOM_FORWARD, c], step[ROOM_FORWARD, c], alpha, moved)
+            v[k] = moved_value(state[SLIP_BACK, c], step[SLIP_BACK, c], alpha, moved)
+            r2[k] = moved_value(state[ROOM_BACK, c], step[ROOM_BACK, c], alpha, moved)
             k += 1
     total = np.dot(lift, spare) + np.dot(u, r1) + np.dot(v, r2)
     return total / max(1, m + 2 * live_count)

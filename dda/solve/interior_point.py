@@ -80,6 +80,7 @@ from dda.solve.interior_contacts import (
     free_terms,
     matrix_values_kernel,
     mean_product_kernel,
+    moved_value,
     product_after,
     residuals_kernel,
     rhs_kernel,
@@ -401,7 +402,8 @@ class _Iterate:
         return self.state[LIFT] - self.problem.terms.tension
 
     def finite(self) -> bool:
-        return bool(np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.state[LIFT])))
+        """x and every contact unknown finite (an overflow ends the solve unconverged)."""
+        return bool(np.all(np.isfinite(self.x)) and np.all(np.isfinite(self.state)))
 
     def gradient(self, normal: np.ndarray, shear: np.ndarray) -> np.ndarray:
         """K₀ D − F₀ + Σ N ∇g + Σ F ∇s over the free unknowns."""
@@ -466,16 +468,11 @@ class _Iterate:
 
     def complementarity(self, step: _Direction | None = None, alpha: float = 0.0) -> float:
         """μ: the mean of N'w, u σ₁ and v σ₂ (after ``alpha`` × ``step`` when given)."""
+        moved = step is not None
+        change = step.change if moved else self.state  # (not read where not moved)
         if self.fast:
-            change = self.state if step is None else step.change
-            return mean_product_kernel(self.state, change, 0.0 if step is None else alpha,
-                                       self.live)  # fmt: skip
-        lift, spare, _, u, v, r1, r2 = self.state
-        if step is not None:
-            lift, spare = lift + alpha * step.change[LIFT], spare + alpha * step.change[SPARE]
-            u, v = u + alpha * step.change[SLIP_FORWARD], v + alpha * step.change[SLIP_BACK]
-            r1 = r1 + alpha * step.change[ROOM_FORWARD]
-            r2 = r2 + alpha * step.change[ROOM_BACK]
+            return mean_product_kernel(self.state, change, float(alpha), moved, self.live)
+        lift, spare, _, u, v, r1, r2 = moved_value(self.state, change, alpha, moved)
         live = self.live
         total = float(lift @ spare) + float(u[live] @ r1[live]) + float(v[live] @ r2[live])
         return total / max(1, len(lift) + 2 * int(live.sum()))

@@ -5,9 +5,9 @@ makes eight ctypes pointers on every call (~0.05 ms; the 10x10 wall calls
 PARDISO ~20 times a step, 1 ms of its ~10). :class:`PardisoCall` makes them
 once per pattern and per matrix, and keeps one right-hand side and one solution
 vector with their pointers: a call with one right-hand side copies it in and the
-solution out (the equilibrium start's interior point calls PARDISO about five
-times an iteration; on the 32-block jointed slope the pointers of fresh vectors
-were a quarter of each call's 40 µs). The solver state (``pt``, ``iparm``, ``perm``) stays
+solution out, without making new ones (the equilibrium start's interior point calls
+PARDISO about five times an iteration, on small systems a few tens of µs each). The
+solver state (``pt``, ``iparm``, ``perm``) stays
 in the pypardiso handle, which keeps loading the library and releasing
 memory.
 """

@@ -147,6 +147,30 @@ def test_the_unsymmetric_lu_solves_to_round_off(monkeypatch, pardiso):
     lu.release()
 
 
+def test_pardisos_solves_are_separate_arrays_and_leave_their_right_hand_sides():
+    """PARDISO's call keeps one right-hand side and one solution vector (their pointers
+    made once): each solve copies its right-hand side in and its solution out."""
+    if not unsymmetric.pardiso_available():
+        pytest.skip("PARDISO is not installed")
+    rng = np.random.default_rng(3)
+    size = 50
+    matrix = (sp.random(size, size, density=0.1, random_state=4, format="csr")
+              + sp.identity(size, format="csr") * 5.0).tocsr()  # fmt: skip
+    matrix.sort_indices()
+    lu = unsymmetric.UnsymmetricLU(matrix)
+    lu.factor(matrix.data)
+    first_rhs, second_rhs = rng.standard_normal(size), rng.standard_normal(size)
+    kept = first_rhs.copy()
+    first = lu.solve(first_rhs)
+    first_copy = first.copy()
+    second = lu.solve(second_rhs)
+    assert first is not second and np.array_equal(first, first_copy)
+    assert np.array_equal(first_rhs, kept)
+    for x, rhs in ((first, first_rhs), (second, second_rhs)):
+        assert np.linalg.norm(matrix @ x - rhs) <= 1e-10 * np.linalg.norm(rhs)
+    lu.release()
+
+
 def test_a_scene_drawn_in_equilibrium_starts_by_a_few_newton_iterations():
     """Two jointed columns in their gravity field (their contacts carry it at t = 0): the
     continuation's first pseudo-steps settle within ``FEW_NEWTON_ITERATIONS``, and no
