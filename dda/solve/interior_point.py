@@ -384,12 +384,12 @@ class _Iterate:
         self.s = problem.geometry.rows.slip.copy()
         self.scale = 0.0  # f: a typical contact force, set by :meth:`start`
         self.state = np.zeros((UNKNOWNS, len(self.live)))
-        self.penalties = floats(terms.penalty), floats(terms.shear_penalty)
         self.fast = compiled(direction_kernel)
-        if self.fast:  # λn, p, T, λt, ps (:func:`residuals_kernel`)
-            springs = (terms.normal_base, terms.penalty, terms.tension, terms.shear_base,
-                       terms.shear_penalty)  # fmt: skip
-            self.terms = np.array(springs, dtype=np.float64)
+        if self.fast:  # the kernels' copy of λn, p, T, λt, ps (:func:`residuals_kernel`)
+            rows = (terms.normal_base, terms.penalty, terms.tension, terms.shear_base,
+                    terms.shear_penalty)  # fmt: skip
+            self.terms = np.array(rows, dtype=np.float64)
+            self.penalties = self.terms[1], self.terms[4]  # p, ps: its rows, not copies
 
     def d(self) -> np.ndarray:
         """D (n, 6) of the iterate (fixed blocks 0)."""
