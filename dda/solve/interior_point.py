@@ -44,7 +44,14 @@ ks → ps, a sliding one ks → 0 and k_sn → ±b'(N), an open one kn → 0: th
 piece, reached continuously.
 
 The method starts from the solution with every contact closed and stuck (one linear
-solve), its forces shifted into the interior by a typical contact force. It stops when
+solve), its forces shifted into the interior by a typical contact force f. Where blocks
+cannot stand that start lies far inside the solution's slacks: a block its contacts
+cannot hold moves by its load over the regulariser, and w, u, v of its contacts grow
+with it to ~1e8 f. The iterates then creep towards them, their steps cut to a few
+hundredths by the bounds, for about 20 iterations. So the first step cut below
+``interior_stall_step`` raises every w, u, v to at least ``interior_stall_shift`` f (a
+"big M"; the products N'w, u σ₁, v σ₂ and μ with them), and the method goes on from
+there: 31 factorisations for the tunnel's start, not 59. It stops when
 μ and the residuals are small against the loads; the caller finishes with the step's
 Newton from there, whose pieces are then the solution's (one iteration, measured on the
 bench walls and the shipped cases: docs/contact.md).
@@ -383,6 +390,7 @@ class _Iterate:
         self.g = problem.geometry.rows.penetration.copy()
         self.s = problem.geometry.rows.slip.copy()
         self.scale = 0.0  # f: a typical contact force, set by :meth:`start`
+        self.stalled = False  # a step was cut below interior_stall_step (raise_slacks)
         self.state = np.zeros((UNKNOWNS, len(self.live)))
         self.fast = compiled(direction_kernel)
         if self.fast:  # the kernels' copy of λn, p, T, λt, ps (:func:`residuals_kernel`)
@@ -525,6 +533,18 @@ class _Iterate:
                 break
             corrector, alpha, second = better, longer, changes
         self.advance(corrector, alpha)
+        if alpha < self.policy.interior_stall_step and not self.stalled:
+            self.raise_slacks()
+
+    def raise_slacks(self) -> None:
+        """After the first stall (a step cut below ``interior_stall_step``): every w, and u
+        and v of the contacts with friction, at least ``interior_stall_shift`` f (a big M,
+        module docstring)."""
+        self.stalled = True
+        floor, state, live = self.policy.interior_stall_shift * self.scale, self.state, self.live
+        state[SPARE] = np.maximum(state[SPARE], floor)
+        for row in (SLIP_FORWARD, SLIP_BACK):
+            state[row] = np.where(live, np.maximum(state[row], floor), state[row])
 
     def springs(self, slope: np.ndarray) -> np.ndarray:
         """(4, m): kn, ks, k_sn, q of every contact (:func:`interior_springs`)."""

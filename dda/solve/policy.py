@@ -183,6 +183,21 @@ class StepPolicy:
     # the first iterate's contact unknowns lie this many f inside their bounds (0.1, 0.3
     # and 3 took more iterations on the 20 x 20 and 40 x 40 walls and the rock slope)
     interior_start_shift: float = 1.0
+    # a step that the bounds cut below this fraction of the Newton step is a stall: the
+    # iterate's slacks w, u, v are far smaller than the solution's (blocks that cannot
+    # stand, whose contacts open and slide by their load over the regulariser). The
+    # tunnel's and the rock slope's starts stalled at 1e-3 to 0.05 for about 20
+    # iterations; the bench walls (10 x 10 to 40 x 40), the jointed slope and the staged
+    # tunnel never step below 0.14 ...
+    interior_stall_step: float = 0.05
+    # ... and the first stall raises them to at least this many f (a "big M": an
+    # interior point takes short steps where it starts far inside the solution's slacks,
+    # not where it starts outside them). A block its contacts cannot hold moves by its
+    # load over the regulariser, about 1 / RELATIVE_REGULARISER of the equilibrium start
+    # (1e-8) times its elastic settlement, and the slacks of its contacts grow with it:
+    # the tunnel's start 31 factorisations against 59, the rock slope's 22 against 40
+    # (1e6: 34 and 23; 1e10: 33 and 24; a stall at 0.02 or 0.1: 31-32 and 22-23)
+    interior_stall_shift: float = 1e8
     # Gondzio's centrality correctors after Mehrotra's (each one solve with the
     # iteration's factorisation), while each lengthens the step
     interior_centrality_correctors: int = 2
