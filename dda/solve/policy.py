@@ -187,8 +187,9 @@ class StepPolicy:
     # iterate's slacks w, u, v are far smaller than the solution's (blocks that cannot
     # stand, whose contacts open and slide by their load over the regulariser). The
     # tunnel's and the rock slope's starts stalled at 1e-3 to 0.05 for about 20
-    # iterations; the bench walls (10 x 10 to 40 x 40), the jointed slope and the staged
-    # tunnel never step below 0.14 ...
+    # iterations (the sliding block's and the wet slope's raise too: 15 to 13, 25 to 24);
+    # the bench walls (10 x 10 to 60 x 60), the jointed slope and the staged tunnel never
+    # step below 0.14 ...
     interior_stall_step: float = 0.05
     # ... and the first stall raises them to at least this many f (a "big M": an
     # interior point takes short steps where it starts far inside the solution's slacks,
