@@ -294,31 +294,23 @@ def _advance(x, g, s, state, rows, dx, step, alpha):
 advance_kernel = kernel(_advance)
 
 
-def _add_products(values, where, rows, columns, springs):
-    """values[where[c, i, j]] += rows[c, i] columns[c, j] springs[c], contact by contact."""
+def _matrix_values(base, where, normal, shear, kn, ks, coupling):
+    """The matrix's values: ``base`` + Σ kn ∇g∇gᵀ + Σ ks ∇s∇sᵀ + Σ k_sn kn ∇s∇gᵀ
+    (``coupling`` = k_sn kn), each contact's three 12 × 12 terms added in one pass at the
+    values ``where`` (−1: a fixed block's unknown), contact by contact and at each value
+    its ∇g∇gᵀ term, then its ∇s∇sᵀ, then its ∇s∇gᵀ: the order of numpy's product by the
+    fill matrix of :class:`dda.solve.interior_point.NewtonMatrix` (the same numbers)."""
+    values = np.zeros(base.shape[0])
     for c in range(where.shape[0]):
-        spring = springs[c]
+        normal_spring, shear_spring, coupled = kn[c], ks[c], coupling[c]
         for i in range(12):
-            row = rows[c, i]
+            normal_i, shear_i = normal[c, i], shear[c, i]
             for j in range(12):
                 e = where[c, i, j]
                 if e >= 0:
-                    values[e] += row * columns[c, j] * spring
-
-
-add_products_kernel = kernel(_add_products)
-
-
-def _matrix_values(base, where, normal, shear, kn, ks, coupling):
-    """The matrix's values: ``base`` + Σ kn ∇g∇gᵀ + Σ ks ∇s∇sᵀ + Σ k_sn kn ∇s∇gᵀ
-    (``coupling`` = k_sn kn), each contact's 12 × 12 terms added at the values
-    ``where`` (−1: a fixed block's unknown), in numpy's order (the product by the fill
-    matrix of :class:`dda.solve.interior_point.NewtonMatrix`: every contact's ∇g∇gᵀ term,
-    then its ∇s∇sᵀ, then its ∇s∇gᵀ): the same numbers."""
-    values = np.zeros(base.shape[0])
-    add_products_kernel(values, where, normal, normal, kn)
-    add_products_kernel(values, where, shear, shear, ks)
-    add_products_kernel(values, where, shear, normal, coupling)
+                    values[e] += normal_i * normal[c, j] * normal_spring
+                    values[e] += shear_i * shear[c, j] * shear_spring
+                    values[e] += shear_i * normal[c, j] * coupled
     out = np.empty(base.shape[0])
     for e in range(base.shape[0]):
         out[e] = base[e] + values[e]

@@ -244,13 +244,14 @@ class NewtonMatrix:
                 self.base, self.where, self.normal_rows, self.shear_rows, kn, ks, k_sn * kn
             )
         else:
-            values = self.base + self.fill @ np.concatenate([kn, ks, k_sn * kn])
+            values = self.base + self.fill @ np.column_stack([kn, ks, k_sn * kn]).ravel()
         self.lu.factor(values)
 
     @property
     def fill(self) -> scipy.sparse.csr_matrix:
-        """The (values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part of the
-        values (:func:`_fill_matrix`), made at its first use (numpy's path)."""
+        """The (values × 3m) matrix W with W (kn, ks, k_sn kn of each contact in turn) =
+        the contacts' part of the values (:func:`_fill_matrix`), made at its first use
+        (numpy's path)."""
         if self._fill is None:
             values = self.blocks_pattern.values
             self._fill = _fill_matrix(self.normal_rows, self.shear_rows, self.where, values)
@@ -332,9 +333,12 @@ def _dofs(column: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _fill_matrix(normal, shear, where, values: int) -> scipy.sparse.csr_matrix:
-    """The (pattern's values × 3m) matrix W with W [kn; ks; k_sn kn] = the contacts' part
-    of the values: ∇g∇gᵀ, ∇s∇sᵀ and ∇s∇gᵀ of each contact at its blocks' unknowns
-    (``where``: their places among the values, −1 for a fixed block's)."""
+    """The (pattern's values × 3m) matrix W with W (kn, ks, k_sn kn of each contact in
+    turn: columns 3c, 3c + 1, 3c + 2) = the contacts' part of the values: ∇g∇gᵀ, ∇s∇sᵀ
+    and ∇s∇gᵀ of each contact at its blocks' unknowns (``where``: their places among the
+    values, −1 for a fixed block's). Its rows' entries, sorted by column, add a value's
+    terms contact by contact, each contact's three in turn: the order of the kernel
+    :func:`dda.solve.interior_contacts._matrix_values`."""
     m = len(where)
     valid = where >= 0
     contact = np.broadcast_to(np.arange(m)[:, None, None], valid.shape)[valid]
@@ -346,7 +350,7 @@ def _fill_matrix(normal, shear, where, values: int) -> scipy.sparse.csr_matrix:
     return scipy.sparse.csr_matrix(
         (
             np.concatenate(parts),
-            (np.tile(where[valid], 3), np.concatenate([contact + k * m for k in range(3)])),
+            (np.tile(where[valid], 3), np.concatenate([3 * contact + k for k in range(3)])),
         ),
         shape=(values, 3 * m),
     )
