@@ -35,6 +35,7 @@ class PardisoCall:
     def __init__(self, handle, indptr: np.ndarray, indices: np.ndarray) -> None:
         self._handle = handle  # keeps pt, iparm and perm alive while their pointers are used
         self._function = handle._mkl_pardiso
+        self._defaults = handle.libmkl.pardisoinit  # pardisoinit(pt, mtype, iparm)
         self._ia = np.ascontiguousarray(indptr + 1, dtype=np.int32)
         self._ja = np.ascontiguousarray(indices + 1, dtype=np.int32)
         self._ints = {
@@ -55,6 +56,12 @@ class PardisoCall:
         size = len(indptr) - 1
         self._vectors = np.zeros(size), np.zeros(size)  # one right-hand side, its solution
         self._vector_pointers = tuple(v.ctypes.data_as(_DOUBLE_POINTER) for v in self._vectors)
+
+    def defaults(self) -> None:
+        """Fill the handle's ``iparm`` with PARDISO's defaults for its matrix type
+        (``pardisoinit``; ``iparm[0]`` = 1: the caller may change any of them before the
+        analysis, phase 11)."""
+        self._defaults(self._pt, ctypes.byref(self._ints["type"]), self._iparm)
 
     def set_values(self, values: np.ndarray) -> None:
         """The matrix values (upper triangle, in the pattern's order) of the next calls."""

@@ -204,6 +204,15 @@ class StepPolicy:
     interior_centrality_correctors: int = 2
     # relative increment of N for the slope b'(N) of the friction bound
     interior_slope_step: float = 1e-6
+    # PARDISO's fill-reducing ordering of its unsymmetric matrix (iparm[1]): 0 minimum
+    # degree, 2 or 3 nested dissection (METIS, its default). The 60 x 60 wall's matrix
+    # (21,600 rows, 20 factorisations): 3.69e6 values in L and U and 709 Mflop a
+    # factorisation by minimum degree, 4.45e6 and 1,027 by METIS; its start 1.35 s
+    # against 1.51, the 40 x 40's 0.43 against 0.46, the 30 x 30's 0.172 against 0.187
+    # (the same iterations; AMD EPYC, threads by the thread policy, the fastest of three).
+    # The step's symmetric K keeps METIS: by minimum degree, fewer flops but slower
+    # back-substitutions, the unloaded 60 x 60 wall's steps took 164 ms against 138
+    interior_ordering: int = 0
 
     # ---------------------------------------------------------------- the environment
     solver: str = ""  # DDA_SOLVER: "pardiso", "superlu" or "" (PARDISO where installed)

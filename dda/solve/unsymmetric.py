@@ -1,7 +1,8 @@
 """Sparse LU of a general (unsymmetric) matrix whose pattern stays fixed over many
 factorisations: MKL PARDISO's real unsymmetric factorisation (matrix type 11, with its
 default weighted matching and scaling) where it is installed and not turned off
-(``DDA_SOLVER=superlu``), else SuperLU. PARDISO's default two steps of iterative
+(``DDA_SOLVER=superlu``), else SuperLU. The fill-reducing ordering is the policy's
+``interior_ordering`` (minimum degree). PARDISO's default two steps of iterative
 refinement in every solve are off: the interior point computes its residuals afresh
 each iteration (the same factorisations on the bench walls and the shipped cases; the
 60 × 60 wall's start 4.1 s against 5.1).
@@ -50,9 +51,10 @@ class UnsymmetricLU:
             return
         self._pardiso.set_values(values)
         if not self.analysed:
-            self._handle.iparm[0] = 0  # PARDISO's defaults for its matrix type
+            self._pardiso.defaults()
+            self._handle.iparm[1] = current_policy().interior_ordering
+            self._handle.iparm[7] = 0  # no iterative refinement
             self._pardiso(11, np.zeros(self.pattern.shape[0]))
-            self._handle.iparm[7] = 0  # no iterative refinement (set after the defaults)
             self.analysed = True
         self._pardiso(22, np.zeros(self.pattern.shape[0]))
 
