@@ -67,3 +67,20 @@ def test_scipys_openblas_is_limited_in_a_fresh_process_too():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[1]"
+
+
+def test_the_pools_are_looked_for_again_only_after_an_import(monkeypatch):
+    """threadpoolctl's walk over the loaded libraries (1.5 ms, twice a run) is repeated
+    only when a module was imported since the last one (a library loads with a module)."""
+    from dda.solve.linsolve import _openblas_pools
+
+    first = _openblas_pools()
+    assert _openblas_pools() is first
+    monkeypatch.setitem(sys.modules, "a_module_imported_since", object())
+    again = _openblas_pools()
+    assert again is not first
+
+    def paths(pools):
+        return {pool.filepath for pool in pools.lib_controllers}
+
+    assert paths(again) == paths(first)
