@@ -60,7 +60,8 @@ class PardisoCall:
     def defaults(self) -> None:
         """Fill the handle's ``iparm`` with PARDISO's defaults for its matrix type
         (``pardisoinit``; ``iparm[0]`` = 1: the caller may change any of them before the
-        analysis, phase 11)."""
+        analysis, phase 11). It zeroes ``pt`` too: call it only on a handle that holds
+        no analysis (new, or released by phase −1), else PARDISO's memory is lost."""
         self._defaults(self._pt, ctypes.byref(self._ints["type"]), self._iparm)
 
     def set_values(self, values: np.ndarray) -> None:
