@@ -46,14 +46,18 @@ def add_cluster_options(parser: Any, workers: int = DEFAULT_WORKERS) -> None:
 def cluster_of(args: argparse.Namespace, command: str | None = None):
     """The :class:`dda.parallel.Cluster` the options name, or None for ``--serial``.
 
-    With ``command`` (a command that can run without dask): None also when dask is
-    not installed and no scheduler is named (a warning says so), and the one-line
-    refusal (a str) when a scheduler is named without dask.
+    The one-line refusal (a str) when ``--scheduler-file`` cannot be used
+    (:func:`scheduler_refusal`). With ``command`` (a command that can run without dask):
+    None also when dask is not installed and no scheduler is named (a warning says so),
+    and the one-line refusal when a scheduler is named without dask.
     """
     from dda.parallel import Cluster, has_dask
 
     if args.serial:
         return None
+    refused = scheduler_refusal(args)
+    if refused:
+        return f"dda {command}: {refused}" if command else refused
     cluster = Cluster(
         args.scheduler, args.scheduler_file, local_workers(args), getattr(args, "verbose", 0) > 0
     )
@@ -63,6 +67,18 @@ def cluster_of(args: argparse.Namespace, command: str | None = None):
         return dask_missing(command)
     log.warning("dask is not installed: the tasks run in this process")
     return None
+
+
+def scheduler_refusal(args: argparse.Namespace) -> str | None:
+    """Why ``--scheduler-file`` cannot be used (``--scheduler-file FILE: reason``), or
+    None: checked before any work, as dask would wait for a missing file without end."""
+    from dda.parallel import scheduler_file_problem
+
+    path = getattr(args, "scheduler_file", None)
+    if getattr(args, "serial", False) or not path:
+        return None
+    problem = scheduler_file_problem(path)
+    return None if problem is None else f"--scheduler-file {path}: {problem}"
 
 
 def local_workers(args: argparse.Namespace) -> int:

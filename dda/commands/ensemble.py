@@ -49,6 +49,7 @@ def register(subparsers: Any) -> None:
 def ensemble_command(args: argparse.Namespace) -> int:
     """Run the realisations; return the exit code (0 done, 1 every realisation refused,
     2 bad input, 130 interrupted)."""
+    from dda.parallel import ClusterError, Workers
     from dda.stability.store import RowStore, scene_hash
 
     prepared = prepare(args, "ensemble", reduced=args.fos, edit=_ensemble_overrides(args))
@@ -60,21 +61,28 @@ def ensemble_command(args: argparse.Namespace) -> int:
         print(f"dda ensemble: {source}: ensemble.vary: the scene draws no value "
               "(add [[ensemble.vary]] tables, docs/scene.md)", file=sys.stderr)  # fmt: skip
         return EXIT_INPUT
-    args.kept_on_interrupt = (
-        f"the finished realisations are in {outdir / 'ensemble.csv'}: the same command reuses them"
-    )
     ensemble = scene.ensemble
     keys = [d.key for d in ensemble.vary]
     columns = (*BASE_COLUMNS, *keys, *OUTCOME_COLUMNS)
     unsized = {**raw, "ensemble": {k: v for k, v in raw["ensemble"].items() if k != "realisations"}}
-    store = RowStore(outdir / "ensemble.csv", columns, scene_hash(unsized, source, args.fos))
-    rows = {r["realisation"]: r for r in store.open(lambda row: _parse(row, keys))}
-    for note in store.notes():
-        print(f"dda ensemble: {note}", file=sys.stderr)
-    rows = {k: r for k, r in rows.items() if k < ensemble.realisations}
-    print(f"{source}: {ensemble.realisations} realisations (seed {ensemble.seed}; "
-          f"{len(rows)} reused), drawing " + ", ".join(keys), file=sys.stderr)  # fmt: skip
-    frames = _run(raw, source, args.fos, ensemble.realisations, rows, store, cluster, keys)
+    try:
+        with Workers(cluster) as workers:  # connected before anything is written
+            args.kept_on_interrupt = (
+                f"the finished realisations are in {outdir / 'ensemble.csv'}: the same "
+                "command reuses them"
+            )
+            digest = scene_hash(unsized, source, args.fos)
+            store = RowStore(outdir / "ensemble.csv", columns, digest)
+            rows = {r["realisation"]: r for r in store.open(lambda row: _parse(row, keys))}
+            for note in store.notes():
+                print(f"dda ensemble: {note}", file=sys.stderr)
+            rows = {k: r for k, r in rows.items() if k < ensemble.realisations}
+            print(f"{source}: {ensemble.realisations} realisations (seed {ensemble.seed}; "
+                  f"{len(rows)} reused), drawing " + ", ".join(keys), file=sys.stderr)  # fmt: skip
+            frames = _run(raw, source, args.fos, ensemble.realisations, rows, store, workers, keys)
+    except ClusterError as exc:
+        print(f"dda ensemble: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     _finish(outdir, raw, source, scene, rows, frames, keys, args.fos)
     if rows and all(r["failed"] is None for r in rows.values()):  # no answer: say why
         first = rows[min(rows)]
@@ -100,23 +108,22 @@ def _ensemble_overrides(args: argparse.Namespace):
     return edit
 
 
-def _run(raw, source, with_fos, total, rows, store, cluster, keys) -> dict[int, Any]:
-    """Run the missing realisations, writing each row as it finishes; the frames of the
+def _run(raw, source, with_fos, total, rows, store, workers, keys) -> dict[int, Any]:
+    """Run the missing realisations on ``workers`` (a connected
+    :class:`dda.parallel.Workers`), writing each row as it finishes; the frames of the
     failing ones."""
-    from dda.parallel import Workers
     from dda.stability.ensemble import Realisation, run_realisation
 
     todo = [Realisation(raw, k, source, with_fos) for k in range(total) if k not in rows]
     frames: dict[int, Any] = {}
-    with Workers(cluster) as workers:
-        for row in workers.map_unordered(run_realisation, todo):
-            frame = row.pop("frame", None)
-            if frame is not None and len(frames) < 4 * PICTURES:
-                frames[row["realisation"]] = frame
-            flat = {**row, **row.pop("values")}
-            store.append(flat)
-            rows[row["realisation"]] = flat
-            _progress(len(rows), total, flat, keys)
+    for row in workers.map_unordered(run_realisation, todo):
+        frame = row.pop("frame", None)
+        if frame is not None and len(frames) < 4 * PICTURES:
+            frames[row["realisation"]] = frame
+        flat = {**row, **row.pop("values")}
+        store.append(flat)
+        rows[row["realisation"]] = flat
+        _progress(len(rows), total, flat, keys)
     return frames
 
 

@@ -142,7 +142,7 @@ def output_and_cluster(args: argparse.Namespace, command: str, outdir: Path):
 
 def fos_command(args: argparse.Namespace) -> int:
     """Run the search; return the exit code (0 done, 2 bad input, 130 interrupted)."""
-    from dda.parallel import Workers
+    from dda.parallel import ClusterError, Workers
     from dda.stability.search import search
     from dda.stability.store import RowStore, scene_hash
     from dda.stability.strength_reduction import brittle_note
@@ -152,11 +152,6 @@ def fos_command(args: argparse.Namespace) -> int:
         print(prepared, file=sys.stderr)
         return EXIT_INPUT
     raw, scene, criterion, source, outdir, cluster = prepared
-    args.kept_on_interrupt = (
-        f"the finished trials are in {outdir / 'fos.csv'}: the same command reuses them"
-    )
-    store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
-    runner = _Runner(raw, source, store, scene.units.velocity)
     fos = scene.fos
     print(
         f"{source}: strength reduction F in [{fos.lower:g}, {fos.upper:g}] to {fos.tolerance:g}; "
@@ -167,9 +162,18 @@ def fos_command(args: argparse.Namespace) -> int:
     note = brittle_note(scene)
     if note is not None:
         print(note, file=sys.stderr)
-    with Workers(cluster) as workers:
-        runner.workers = workers
-        outcome = search(runner.run, fos.lower, fos.upper, fos.tolerance, workers.size)
+    try:
+        with Workers(cluster) as workers:  # connected before anything is written
+            args.kept_on_interrupt = (
+                f"the finished trials are in {outdir / 'fos.csv'}: the same command reuses them"
+            )
+            store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
+            runner = _Runner(raw, source, store, scene.units.velocity)
+            runner.workers = workers
+            outcome = search(runner.run, fos.lower, fos.upper, fos.tolerance, workers.size)
+    except ClusterError as exc:
+        print(f"dda fos: {exc}", file=sys.stderr)
+        return EXIT_INPUT
     _finish(outdir, runner, outcome, scene, criterion)
     print(outcome.describe())
     return 0

@@ -16,6 +16,7 @@ from dda.commands.cluster_options import (
     count,
     dask_missing,
     local_workers,
+    scheduler_refusal,
 )
 from dda.io.atomic import write_text
 from dda.io.output_paths import OutputError, check_output_dir
@@ -111,6 +112,7 @@ def _repeats(text: str) -> int:
 
 def tradeoff_command(args: argparse.Namespace) -> int:
     """Run the study; return the exit code (0 ok, 2 bad input, 3 the reference run failed)."""
+    from dda.parallel import ClusterError
     from dda.tradeoff.outputs import remove_earlier_study
     from dda.tradeoff.report import markdown_table, pareto_plot, plan_line, write_csv
     from dda.tradeoff.runner import Cluster, SweepInterrupted, add_errors, sweep
@@ -134,6 +136,9 @@ def tradeoff_command(args: argparse.Namespace) -> int:
         rows, fine_row = sweep(tasks, reference, cluster, serial=args.serial, progress=_progress)
     except SweepInterrupted as stopped:
         return _write_interrupted(stopped, case, reference, args.outdir)
+    except ClusterError as exc:  # nothing is written before the sweep
+        print(f"dda tradeoff: {exc}", file=sys.stderr)
+        return 2
     if reference is not None and (fine_row is None or fine_row["value"] is None):
         print("dda tradeoff: the fine reference run failed", file=sys.stderr)
         return 3
@@ -175,6 +180,9 @@ def _prepare(args: argparse.Namespace):
         return str(exc)
     if not (args.serial or _has_dask()):
         return dask_missing("tradeoff").removeprefix("dda tradeoff: ")
+    refused = scheduler_refusal(args)
+    if refused:
+        return refused
     tasks = make_tasks(case, settings, args.threads, args.repeats)
     reference = None
     if fine is not None:

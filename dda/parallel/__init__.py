@@ -4,7 +4,7 @@ as they finish). Used by the sweeps of :mod:`dda.tradeoff` and the trials of
 :mod:`dda.stability`. Imports no engine code.
 """
 
-from dda.parallel.cluster import Cluster, connect, has_dask
+from dda.parallel.cluster import Cluster, ClusterError, connect, has_dask, scheduler_file_problem
 from dda.parallel.workers import Workers
 
-__all__ = ["Cluster", "Workers", "connect", "has_dask"]
+__all__ = ["Cluster", "ClusterError", "Workers", "connect", "has_dask", "scheduler_file_problem"]

@@ -6,11 +6,13 @@ dask (a dependency) is imported only when a cluster is used.
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import signal
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 log = logging.getLogger(__name__)
 
@@ -28,6 +30,39 @@ class Cluster:
     def remote(self) -> bool:
         """True when an existing scheduler is named."""
         return bool(self.scheduler or self.scheduler_file)
+
+    @property
+    def option(self) -> str:
+        """The option that names the scheduler, with its value (a remote cluster's)."""
+        if self.scheduler:
+            return f"--scheduler {self.scheduler}"
+        return f"--scheduler-file {self.scheduler_file}"
+
+
+class ClusterError(Exception):
+    """The named scheduler cannot be used: the option, its value and why, in one line."""
+
+
+SCHEDULER_FILE = 'a dask scheduler file (JSON with an "address")'
+
+
+def scheduler_file_problem(path: str) -> str | None:
+    """Why the scheduler file at ``path`` cannot be used, or None. Checked before any
+    work: dask waits without end for a file that is not there."""
+    file = Path(path)
+    if not file.exists():
+        return "no such file"
+    if not file.is_file():
+        return f"not a file; give {SCHEDULER_FILE}"
+    try:
+        data = json.loads(file.read_text(encoding="utf-8"))
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        data = None
+    if not isinstance(data, dict) or not isinstance(data.get("address"), str):
+        return f"not {SCHEDULER_FILE}"
+    return None
 
 
 def has_dask() -> bool:
@@ -47,7 +82,10 @@ def connect(cluster: Cluster):
     dask.config.set({"logging.distributed": logging.getLevelName(level).lower()})
     logging.getLogger("distributed").setLevel(level)
     if cluster.remote:
-        client = Client(address=cluster.scheduler, scheduler_file=cluster.scheduler_file)
+        try:
+            client = Client(address=cluster.scheduler, scheduler_file=cluster.scheduler_file)
+        except (OSError, TimeoutError, ValueError) as exc:  # unreachable, refused, malformed
+            raise ClusterError(f"{cluster.option}: cannot connect ({_reason(exc)})") from exc
         log.info("connected to %s (dashboard %s)", client.scheduler.address, client.dashboard_link)
         return client, None
     with _sigint_ignored():  # Ctrl-C stops the client, which closes the workers
@@ -61,6 +99,12 @@ def connect(cluster: Cluster):
     client = Client(local)
     log.info("local cluster of %d workers (dashboard %s)", cluster.workers, client.dashboard_link)
     return client, local
+
+
+def _reason(exc: BaseException) -> str:
+    """An exception's message on one line, or its type where it has none."""
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
 
 
 @contextlib.contextmanager

@@ -12,7 +12,10 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
-from dda.parallel.cluster import Cluster, connect
+from dda.parallel.cluster import Cluster, ClusterError, connect
+
+# seconds a named scheduler may take to have a worker
+WAIT_FOR_WORKERS = 60
 
 
 class Workers:
@@ -32,10 +35,19 @@ class Workers:
         return max(1, len(self._client.scheduler_info().get("workers", {})))
 
     def __enter__(self) -> Workers:
+        """Connect (:func:`dda.parallel.cluster.connect`); a named scheduler that cannot
+        be reached, or that has no worker within ``WAIT_FOR_WORKERS`` seconds, raises
+        :class:`dda.parallel.cluster.ClusterError`."""
         if self.cluster is not None:
             self._client, self._local = connect(self.cluster)
             if self.cluster.remote:
-                self._client.wait_for_workers(1, timeout=60)
+                try:
+                    self._client.wait_for_workers(1, timeout=WAIT_FOR_WORKERS)
+                except TimeoutError as exc:
+                    self.__exit__(None, None, None)
+                    raise ClusterError(
+                        f"{self.cluster.option}: no worker joined it within {WAIT_FOR_WORKERS} s"
+                    ) from exc
         return self
 
     def __exit__(self, *exc: object) -> None:
