@@ -25,6 +25,7 @@ import math
 import os
 import re
 import sys
+import warnings
 from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
@@ -80,6 +81,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: list[str]) -> int:
     verbosity = _verbosity(argv)
     configure_logging(verbosity)
+    if not verbosity:
+        warnings.formatwarning = _one_line_warning
     parser = build_parser(plugins=_command_of(argv) not in BUILT_IN)
     try:
         args, unknown = parser.parse_known_args(_plain_negative_numbers(argv))
@@ -128,6 +131,14 @@ def _plain_negative_numbers(argv: list[str]) -> list[str]:
 def _command_parser(parser: argparse.ArgumentParser, args: argparse.Namespace):
     """The parser of the sub-command ``args`` is for (``parser`` itself without one)."""
     return parser.commands.get(getattr(args, "command", None), parser)
+
+
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    """A Python warning (numpy's overflow in a run of absurd numbers, ...) as one line,
+    ``dda: warning: Category: message (file.py:line)``, not the source line under it
+    (``dda -v`` keeps Python's own form)."""
+    text = " ".join(str(message).split())
+    return f"dda: warning: {category.__name__}: {text} ({Path(filename).name}:{lineno})\n"
 
 
 def _one_line(exc: BaseException) -> str:
@@ -514,6 +525,8 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
             return _stopped_at_once(writer, scene, folder, args, stop, result)
         except OSError as exc:  # a full disk, a file system gone read-only, ...
             return _write_failed(exc, writer, scene, folder, args)
+        except Exception as exc:  # an error of the engine's own: the folder left whole
+            return _crashed(exc, writer, scene, folder, args)
     if summary["status"] == "interrupted":
         print(_stopped_sentence(summary, stop.name, args, folder), file=sys.stderr)
         return stop.exit_code
@@ -590,6 +603,23 @@ def _offer_compile_helper(args: argparse.Namespace) -> None:
     from dda.solve.policy import current_policy
 
     compile_helper.offer(scene_source(args.case), current_policy().solver_threads() >= 2)
+
+
+def _crashed(exc: Exception, writer, scene, folder, args: argparse.Namespace) -> int:
+    """An error the engine did not expect stopped the run: its summary says "failed" and
+    why, the folder's lock is given up, and the run says so in one line (with -v, the
+    traceback follows)."""
+    what = _one_line(exc)
+    writer.image = False
+    writer.finish(None, scene, status="failed", error=f"internal error: {what}")
+    print(
+        f"dda run: internal error: {what} (dda -v run ... shows where); partial output in "
+        f"{folder.outdir} (a new run into it needs --overwrite)",
+        file=sys.stderr,
+    )
+    if getattr(args, "verbose", 0):
+        raise exc
+    return EXIT_FAILURE
 
 
 def _write_failed(exc: OSError, writer, scene, folder, args: argparse.Namespace) -> int:

@@ -153,6 +153,36 @@ def test_run_failure_keeps_partial_output_and_exits_3(case, monkeypatch, capsys)
     assert Path("out/blocks.pvd").is_file() and Path("out/history.csv").is_file()
 
 
+def test_an_engine_error_marks_the_run_failed_in_one_line(case, monkeypatch, capsys):
+    """An error the engine did not expect (a density of 1e-200 kg/m³ underflowed the
+    equilibrium start's products to 0: ZeroDivisionError) left no summary.json and the
+    traceback's last line, exit 1: now the summary says "failed" and why, exit 1."""
+
+    def failing(scene, progress=False, on_frame=None, **options):
+        on_frame(square_frame(0))
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(dda, "simulate", failing)
+    assert cli.main(["run", str(case), "-o", "out", "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith("dda run: internal error: ZeroDivisionError: float division by zero")
+    summary = json.loads(Path("out/summary.json").read_text())
+    assert summary["status"] == "failed"
+    assert summary["error"] == "internal error: ZeroDivisionError: float division by zero"
+    assert summary["frames_written"] == 1 and Path("out/blocks.pvd").is_file()
+
+
+def test_a_python_warning_is_one_line_without_its_source_line():
+    """numpy's RuntimeWarnings of a run of absurd numbers showed their source paths and
+    lines (``damping.py:57 ... symmetric = inverse @ ...``)."""
+    text = cli._one_line_warning(
+        "overflow encountered\nin matmul", RuntimeWarning, "/x/dda/effects/damping.py", 57,
+        "symmetric = inverse @ stiffness",
+    )  # fmt: skip
+    assert text == "dda: warning: RuntimeWarning: overflow encountered in matmul (damping.py:57)\n"
+
+
 def test_run_passes_options_to_the_engine(case, monkeypatch, capsys):
     seen = {}
 

@@ -193,7 +193,10 @@ def test_an_unexpected_error_is_one_line_and_its_traceback_comes_with_v(
     Path("ok.toml").write_text(SMALL_SCENE)
     assert cli.main(["run", "ok.toml", "-o", "new", "-q"]) == 1
     err = capsys.readouterr().err.strip()
-    assert err == "dda run: RuntimeError: something unforeseen (dda -v run ... shows where)"
+    assert err == (
+        "dda run: internal error: RuntimeError: something unforeseen (dda -v run ... shows "
+        "where); partial output in new (a new run into it needs --overwrite)"
+    )
     with pytest.raises(RuntimeError, match="unforeseen"):
         cli.main(["-v", "run", "ok.toml", "-o", "newer", "-q"])
 
