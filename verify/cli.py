@@ -82,8 +82,9 @@ def run_verify(args: argparse.Namespace) -> int:
     from verify.report import format_console
     from verify.suite import OutputError, run_suite
 
-    if args.cases_dir is not None and not Path(args.cases_dir).is_dir():
-        print(f"dda verify: --cases-dir {args.cases_dir}: no such folder", file=sys.stderr)
+    problem = _cases_dir_problem(args.cases_dir)
+    if problem:
+        print(f"dda verify: --cases-dir {args.cases_dir}: {problem}", file=sys.stderr)
         return EXIT_INPUT
     default = 4 if args.quick else 16
     largest = default if args.refinement_max is None else args.refinement_max
@@ -114,6 +115,19 @@ def run_verify(args: argparse.Namespace) -> int:
     if output.errors:
         return EXIT_ERRORS
     return EXIT_OK if output.passed else EXIT_FAILED
+
+
+def _cases_dir_problem(cases_dir: str | None) -> str | None:
+    """Why ``--cases-dir`` cannot be used (no such folder, no case in it), or None (a
+    folder without cases passed as "0/0 cases within their tolerances")."""
+    if cases_dir is None:
+        return None
+    folder = Path(cases_dir)
+    if not folder.is_dir():
+        return "no such folder"
+    if not any(folder.glob("*.expect.toml")):
+        return "no NAME.expect.toml in it"
+    return None
 
 
 def format_findings(findings) -> str:

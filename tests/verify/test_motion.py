@@ -155,7 +155,8 @@ def test_a_case_runs_under_its_own_engine_settings(tmp_path, monkeypatch):
     path.write_text('quick = true\n[environment]\nPATH = "/tmp"\n')
     with pytest.raises(ExpectationError, match="environment.PATH"):
         load_expectation(path)
-    path.write_text('quick = true\n[environment]\nDDA_SYSTEMS = "sparse"\n')
+    check = '[checks.stress]\ntolerance = 1e-6\nwhy = "the same"\n'
+    path.write_text(f'quick = true\n[environment]\nDDA_SYSTEMS = "sparse"\n{check}')
     assert load_expectation(path).environment == {"DDA_SYSTEMS": "sparse"}
     monkeypatch.setenv("DDA_THREADS", "1")
     monkeypatch.delenv("DDA_SYSTEMS", raising=False)

@@ -769,6 +769,44 @@ def test_cli_refuses_a_bad_expectation_file_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "out" / "report.md").exists()
 
 
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: "bogus = 1\n" + t, "bogus: unknown key"),
+        (lambda t: t.replace("[checks.centroid]", "[checks.centroid]\ntolerence = 5"),
+         "checks.centroid.tolerence: unknown key"),
+        (lambda t: t.replace("[fem]", "[fem]\nsise = 0.1"), "fem.sise: unknown key"),
+        (lambda t: t.split("[checks.")[0], "checks: the case checks nothing"),
+        (lambda t: t.replace("tolerance = 1e-3", 'tolerance = "x"', 1),
+         "tolerance: must be a number >= 0, got 'x'"),
+    ],
+)  # fmt: skip
+def test_an_expectation_that_cannot_be_used_is_refused_by_its_key(tmp_path, capsys, edit, message):
+    """An unknown key, a check table that checks nothing, a tolerance that is no number:
+    was "1/1 cases within their tolerances" with no check, exit 0."""
+    from verify.cli import main
+
+    source = discover(names=["self_weight"])[0]
+    (tmp_path / "mine.toml").write_text(source.scene_path.read_text())
+    text = edit(source.expect_path.read_text())
+    assert text != source.expect_path.read_text()
+    (tmp_path / "mine.expect.toml").write_text(text)
+    assert main(["--cases-dir", str(tmp_path), "-o", str(tmp_path / "out"), *QUICK_CLI]) == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "mine.expect.toml" in error and message in error
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_cases_folder_without_cases_is_refused(tmp_path, capsys):
+    from verify.cli import main
+
+    (tmp_path / "cases").mkdir()
+    assert main(["--cases-dir", str(tmp_path / "cases"), "-o", str(tmp_path / "out")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error == f"dda verify: --cases-dir {tmp_path / 'cases'}: no NAME.expect.toml in it"
+    assert not (tmp_path / "out").exists()
+
+
 def test_dda_command_has_verify():
     from dda.commands.cli import build_parser
 

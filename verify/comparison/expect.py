@@ -98,6 +98,30 @@ class ExpectationError(ValueError):
     """An expectation file that cannot be used; the message names the file and the key."""
 
 
+# the keys of an expectation file, of its [fem] table and of each [checks.NAME] table
+TOP_KEYS = (
+    "summary", "quick", "kind", "component", "frame", "catches", "environment", "fem",
+    "checks", "offsets", "closed_form", "dda_closed_form", "notes", "reference",
+    "time_steps", "order",
+)  # fmt: skip
+FEM_KEYS = ("size", "order", "turn", "about")
+CHECK_KEYS = ("tolerance", "why", "blocks", "components")
+
+
+def _known_keys(path: Path, table: object, where: str, known: tuple[str, ...]) -> dict:
+    """``table`` (a TOML table at ``where``, "" for the file) with only ``known`` keys."""
+    label = f"{where}: " if where else ""
+    if not isinstance(table, dict):
+        raise ExpectationError(f"{path}: {label}must be a table")
+    for key in table:
+        if key not in known:
+            raise ExpectationError(
+                f"{path}: {where + '.' if where else ''}{key}: unknown key "
+                f"(known: {', '.join(known)})"
+            )
+    return table
+
+
 @dataclass(frozen=True)
 class Check:
     """A tolerance on one quantity and the reason for it."""
@@ -157,20 +181,40 @@ def _environment(path: Path, table: dict) -> dict[str, str]:
     return {name: str(value) for name, value in table.items()}
 
 
-def _check(path: Path, name: str, table: dict) -> Check:
+def _check(path: Path, name: str, table: object) -> Check:
     if name not in KNOWN_CHECKS:
         raise ExpectationError(f"{path}: checks.{name}: unknown quantity (known: {KNOWN_CHECKS})")
+    table = _known_keys(path, table, f"checks.{name}", CHECK_KEYS)
     if not str(table.get("why", "")).strip():
         raise ExpectationError(f"{path}: checks.{name}: 'why' is required")
     if "tolerance" not in table:
         raise ExpectationError(f"{path}: checks.{name}: 'tolerance' is required")
+    tolerance = table["tolerance"]
+    if isinstance(tolerance, bool) or not isinstance(tolerance, int | float) or tolerance < 0:
+        raise ExpectationError(
+            f"{path}: checks.{name}.tolerance: must be a number >= 0, got {tolerance!r}"
+        )
     return Check(
         name,
-        float(table["tolerance"]),
+        float(tolerance),
         str(table["why"]).strip(),
         tuple(table.get("blocks", ())),
         tuple(table.get("components", ())),
     )
+
+
+def _checks(path: Path, raw: dict) -> dict[str, Check]:
+    """The ``[checks.NAME]`` tables: at least one (a case that checks nothing passes
+    whatever the engine does)."""
+    tables = raw.get("checks", {})
+    if not isinstance(tables, dict):
+        raise ExpectationError(f"{path}: checks: must be a table of [checks.NAME] tables")
+    if not tables:
+        raise ExpectationError(
+            f"{path}: checks: the case checks nothing; give at least one [checks.NAME] table "
+            f"(NAME one of {', '.join(KNOWN_CHECKS)})"
+        )
+    return {name: _check(path, name, table) for name, table in tables.items()}
 
 
 def _check_motion(path: Path, raw: dict) -> None:
@@ -194,12 +238,23 @@ def load_expectation(path: Path) -> Expectation:
         raw = tomllib.loads((Path(path) if isinstance(path, str) else path).read_text())
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ExpectationError(f"{path}: not valid TOML: {exc}") from exc
+    _known_keys(path, raw, "", TOP_KEYS)
     kind = str(raw.get("kind", "static"))
     if kind not in KINDS:
         raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")
-    fem = raw.get("fem", {})
+    fem = _known_keys(path, raw.get("fem", {}), "fem", FEM_KEYS)
     if kind == "motion":
         _check_motion(path, raw)
+    environment = _environment(path, raw.get("environment", {}))
+    checks = _checks(path, raw)
+    try:
+        return _expectation(raw, kind, fem, checks, environment)
+    except (TypeError, ValueError) as exc:  # a value of the wrong type
+        raise ExpectationError(f"{path}: {exc}") from exc
+
+
+def _expectation(raw: dict, kind: str, fem: dict, checks: dict, environment) -> Expectation:
+    """The :class:`Expectation` of the checked file ``raw``."""
     return Expectation(
         summary=str(raw.get("summary", "")),
         quick=bool(raw.get("quick", False)),
@@ -211,7 +266,7 @@ def load_expectation(path: Path) -> Expectation:
         fem_order=int(fem.get("order", 2)),
         fem_turn=float(fem.get("turn", 0.0)),
         fem_about=tuple(float(x) for x in fem.get("about", (0.0, 0.0))),
-        checks={name: _check(path, name, t) for name, t in raw.get("checks", {}).items()},
+        checks=checks,
         offsets={k: float(v) for k, v in raw.get("offsets", {}).items()},
         closed_form={k: float(v) for k, v in raw.get("closed_form", {}).items()},
         dda_closed_form={k: float(v) for k, v in raw.get("dda_closed_form", {}).items()},
@@ -219,5 +274,5 @@ def load_expectation(path: Path) -> Expectation:
         reference=str(raw.get("reference", "")),
         time_steps=tuple(int(f) for f in raw.get("time_steps", (1,))),
         order=None if raw.get("order") is None else float(raw["order"]),
-        environment=_environment(path, raw.get("environment", {})),
+        environment=environment,
     )
