@@ -861,6 +861,8 @@ def _groups(
     for name, members in table.items():
         key = join_key("groups", name)
         items = chk.sequence(members, key)
+        if not items:  # [seismic] blocks, a stage or [fos] naming it would do nothing
+            chk.fail(key, "names no block")
         groups[name] = tuple(
             chk.known(m, f"{key}[{k}]", blocks, "block") for k, m in enumerate(items)
         )

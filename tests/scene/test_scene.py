@@ -372,6 +372,8 @@ BAD = [
     (("groups",), {"g": ["slider", "nope"]}, "groups.g[1]"),
     (("groups",), {"g": "slider"}, "groups.g"),
     (("groups",), ["slider"], "groups"),
+    # an empty group: [seismic] blocks, a stage or [fos] naming it did nothing, silently
+    (("groups",), {"g": []}, "groups.g"),
 ]
 
 
