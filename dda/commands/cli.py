@@ -799,7 +799,7 @@ def render_command(args: argparse.Namespace) -> int:
             )
         found = find_frame(args.source, args.step)
         output = args.output or found.default_png(args.scalars)
-        _check_png(output)
+        check_png(output)
         check_output_file(output)
         frame = read_found_frame(found)
     except (FileNotFoundError, ValueError, OutputError) as exc:
@@ -825,14 +825,14 @@ def render_command(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _check_png(output: Path | str) -> None:
-    """A ValueError saying what to give when ``-o output`` does not end in .png."""
+def check_png(output: Path | str, option: str = "-o") -> None:
+    """A ValueError saying what to give when ``option output`` does not end in .png."""
     suffix = Path(output).suffix
     if suffix.lower() == ".png":
         return
     given = f", not {suffix}" if suffix else ""
     raise ValueError(
-        f"-o {output}: a picture is written as .png{given}; give a file name ending in .png"
+        f"{option} {output}: a picture is written as .png{given}; give a file name ending in .png"
     )
 
 

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from dda.commands.cli import default_outdir, output_path, positive_int
+from dda.commands.cli import check_png, default_outdir, output_path, positive_int
 from dda.errors import SceneError
 from dda.io.atomic import atomic_path, write_text
 from dda.io.output_paths import OutputError, check_output_file
@@ -51,8 +52,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser.add_argument(
         "-o",
         "--output",
-        type=output_path,
-        help="TOML file to write (default: out/cut_<scene>/<scene>.toml)",
+        type=_output_text,
+        help="TOML file to write, or a folder (an existing one, or a name ending in /) to "
+        "write <scene>.toml in (default: out/cut_<scene>/<scene>.toml)",
     )
     parser.add_argument(
         "--png", type=output_path, default=None, help="picture to write (default: OUTPUT.png)"
@@ -85,8 +87,14 @@ def run_cut(args: argparse.Namespace) -> int:
         sys.stderr.write(f"dda cut: {exc}\n")
         return 2
     stem = Path(args.scene).stem
-    output = Path(args.output or default_outdir("cut", args.scene) / f"{stem}.toml")
+    output = _output_file(args.output, default_outdir("cut", args.scene), f"{stem}.toml")
     png = None if args.no_png else Path(args.png) if args.png else output.with_suffix(".png")
+    if args.png is not None and not args.no_png:
+        try:
+            check_png(args.png, "--png")
+        except ValueError as exc:  # before any work (was matplotlib's, after the cut)
+            sys.stderr.write(f"dda cut: {exc}\n")
+            return 2
     stages = _stage_ends(picture=png is not None)
     with CutBar(Path(args.scene).name, share=stages["cutting"], quiet=args.quiet) as bar:
         try:
@@ -123,6 +131,22 @@ def run_cut(args: argparse.Namespace) -> int:
     if not args.quiet:
         sys.stdout.write(f"{output}: {len(blocks)} blocks, {fixed} fixed\n")
     return 0
+
+
+def _output_text(text: str) -> str:
+    """argparse type of ``-o``: the name as given (a trailing / says it is a folder)."""
+    output_path(text)  # not empty
+    return text
+
+
+def _output_file(given: str | None, default_folder: Path, name: str) -> Path:
+    """The scene file ``-o`` names: ``given``, or ``name`` in it where it is a folder (an
+    existing one, or a name ending in a separator), or ``name`` in ``default_folder``."""
+    if given is None:
+        return default_folder / name
+    if given.endswith(("/", os.sep)) or Path(given).is_dir():
+        return Path(given) / name
+    return Path(given)
 
 
 def _stage_ends(picture: bool) -> dict[str, float]:

@@ -86,7 +86,8 @@ REFUSED = [
     (["cut", "ok.toml", "-o", "a_file/x.toml"], 2, "-o a_file/x.toml: a_file is a file, not a"),
     (["cut", "no_such_case", "-o", "x.toml"], 2, "dda cut: no_such_case: no such file"),
     (["cut", "ok.toml", "-o", "heavier.toml"], 2, "-o heavier.toml: exists; give --overwrite to"),
-    (["cut", "ok.toml", "-o", "new.toml", "--png", "a_file"], 2, "--png a_file: exists; give --o"),
+    (["cut", "ok.toml", "-o", "new.toml", "--png", "a_file.png"], 2, "--png a_file.png: exists;"),
+    (["cut", "ok.toml", "-o", "new.toml", "--png", "a_file"], 2, "--png a_file: a picture is"),
     (["render", "a_file"], 2, "dda render: a_file: not a blocks frame file"),
     (["render", "contacts_000000.vtu"], 2, "contacts_000000.vtu: not a blocks frame file"),
     (["render", "a_dir"], 2, "dda render: a_dir: no written frame"),
@@ -140,6 +141,7 @@ def _prepare() -> None:
     for name, text in SCENES.items():
         Path(name).write_text(text)
     Path("a_file").write_text("not a directory")
+    Path("a_file.png").write_text("a picture")
     Path("contacts_000000.vtu").write_text("<VTKFile")
     Path("a_dir").mkdir()
     Path("read_only").mkdir()

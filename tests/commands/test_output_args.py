@@ -51,3 +51,30 @@ def test_overwrite_removes_the_pictures_drawn_from_the_earlier_run(tmp_path, mon
     assert "blocks_000100_syy.png" not in left and not Path("out/plots").exists()
     assert "movie.mp4" not in left
     assert "notes.txt" in left and "final.png" in left
+
+
+def test_cut_into_a_folder_writes_the_scene_in_it(tmp_path, monkeypatch, capsys):
+    """``-o DIR/`` (or an existing folder) is a folder: DIR/<scene>.toml and its picture
+    (a trailing slash made the files DIR and DIR.png)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["cut", "rock_slope", "-o", "new/", "-q"]) == 0
+    assert sorted(p.name for p in (tmp_path / "new").iterdir()) == [
+        "rock_slope.png",
+        "rock_slope.toml",
+    ]
+    (tmp_path / "there").mkdir()
+    assert main(["cut", "rock_slope", "-o", "there", "--no-png", "-q"]) == 0
+    assert [p.name for p in (tmp_path / "there").iterdir()] == ["rock_slope.toml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new", "there"]
+
+
+def test_cut_refuses_a_picture_that_is_not_png_before_cutting(tmp_path, monkeypatch, capsys):
+    """Was matplotlib's ``ValueError: Format 'xyz' is not supported``, exit 1, after the cut."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["cut", "rock_slope", "-o", "z.toml", "--png", "z.xyz"]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        "dda cut: --png z.xyz: a picture is written as .png, not .xyz; give a file name "
+        "ending in .png\n"
+    )
+    assert os.listdir(tmp_path) == []
