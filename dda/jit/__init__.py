@@ -55,7 +55,7 @@ _RUN_WORK: ContextVar[tuple[float, float] | None] = ContextVar("dda_run_work", d
 
 def numba_enabled() -> bool:
     """True when numba is installed and ``DDA_NO_NUMBA`` is not set to 1 (nothing imported)."""
-    if os.environ.get("DDA_NO_NUMBA", "") == "1":
+    if os.environ.get("DDA_NO_NUMBA", "").strip() == "1":
         return False
     return importlib.util.find_spec("numba") is not None
 

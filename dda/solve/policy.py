@@ -21,6 +21,8 @@ SOLVER_VARIABLE, SOLVER_CHOICES = "DDA_SOLVER", ("pardiso", "superlu")  # sparse
 # every step's systems on the sparse block pattern (the path of large models), whatever
 # the model's size: for checking that path on small models (dda verify's cradle_sparse)
 SYSTEMS_VARIABLE, SYSTEMS_CHOICES = "DDA_SYSTEMS", ("sparse",)
+# 1: no compiled kernels, numpy's path throughout (read by dda.jit.numba_enabled)
+NO_NUMBA_VARIABLE, NO_NUMBA_CHOICES = "DDA_NO_NUMBA", ("0", "1")
 
 
 @dataclass(frozen=True)
@@ -226,7 +228,8 @@ class StepPolicy:
     def from_environment(cls, environ: Mapping[str, str] | None = None) -> StepPolicy:
         """The defaults with ``DDA_SOLVER``, ``DDA_SYSTEMS`` and ``DDA_THREADS`` read in
         (``environ``: ``os.environ`` when None). ``DDA_NO_NUMBA``, whether the kernels are
-        built at all, is :mod:`dda.jit`'s (:func:`dda.jit.numba_enabled`).
+        built at all, is :mod:`dda.jit`'s (:func:`dda.jit.numba_enabled`); here its value
+        is checked (1 or 0, or unset).
 
         Raises
         ------
@@ -234,6 +237,7 @@ class StepPolicy:
             otherwise go unnoticed), named with the values it can
         """
         environ = os.environ if environ is None else environ
+        _choice(environ, NO_NUMBA_VARIABLE, NO_NUMBA_CHOICES)  # read by dda.jit
         return replace(
             DEFAULT,
             solver=_choice(environ, SOLVER_VARIABLE, SOLVER_CHOICES),

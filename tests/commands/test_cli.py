@@ -122,6 +122,7 @@ def test_run_takes_a_shipped_case_by_name_from_any_folder(tmp_path, monkeypatch,
         ("DDA_SOLVER", "super-lu", "DDA_SOLVER='super-lu': expected pardiso or superlu"),
         ("DDA_SOLVER", "mumps", "DDA_SOLVER='mumps': expected pardiso or superlu"),
         ("DDA_SYSTEMS", "band", "DDA_SYSTEMS='band': expected sparse"),
+        ("DDA_NO_NUMBA", "true", "DDA_NO_NUMBA='true': expected 0 or 1"),  # was the kernels
     ],
 )
 def test_run_refuses_a_bad_solver_setting_and_writes_nothing(
