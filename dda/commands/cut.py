@@ -196,14 +196,11 @@ def _cut(
     drawing: Path | None = None,
 ):  # fmt: skip
     """Cut the scene file ``path`` (its ``[drawing] file`` replaced by ``drawing``)."""
-    if path.is_dir():
-        raise SceneError(str(path), "<file>", "is a directory, not a scene file")
-    if not path.is_file():
-        raise SceneError(str(path), "<file>", "no such file")
     from dda.scene.format import parse_toml
     from dda.scene.rockmass.expand import cut_rock_mass
-    from dda.scene.text_file import read_scene_text
+    from dda.scene.text_file import check_scene_file, read_scene_text
 
+    check_scene_file(path)
     raw = parse_toml(read_scene_text(path), str(path))
     if max_blocks is not None and isinstance(raw.get("cutting", {}), dict):
         raw["cutting"] = {**raw.get("cutting", {}), "max_blocks": max_blocks}

@@ -53,7 +53,8 @@ class FrameFiles:
         units = summary.get("units")
         if isinstance(units, dict):
             return units
-        why = "holds no units" if summary else "is not there"
+        there = (self.run_folder / "summary.json").exists()
+        why = "holds no units" if summary else "cannot be read" if there else "is not there"
         log.warning(
             "%s: the summary.json of %s %s, so the units are unknown: the picture labels "
             "each quantity by its dimension (force/length², not Pa)",

@@ -77,7 +77,7 @@ from dda.scene.stability import (
     FosSettings,
     parse_stability,
 )
-from dda.scene.text_file import read_scene_text
+from dda.scene.text_file import check_scene_file, read_scene_text
 
 logger = logging.getLogger(__name__)
 
@@ -329,10 +329,7 @@ def _read_raw(scene: str | Path | Mapping[str, Any]) -> tuple[Mapping[str, Any],
 
 
 def _read_file(path: Path) -> dict[str, Any]:
-    if path.is_dir():
-        raise SceneError(str(path), "<file>", "is a directory, not a scene file")
-    if not path.is_file():
-        raise SceneError(str(path), "<file>", "no such file")
+    check_scene_file(path)
     return parse_toml(read_scene_text(path), str(path))
 
 

@@ -31,6 +31,17 @@ def _utf16(data: bytes) -> bool:
     return (not any(high) and all(low)) or (not any(low) and all(high))
 
 
+def check_scene_file(path: Path) -> None:
+    """Raise a SceneError (key ``<file>``) unless ``path`` is a regular file: a folder,
+    a missing file and a device or pipe (``/dev/null``) each say so."""
+    if path.is_dir():
+        raise SceneError(str(path), "<file>", "is a directory, not a scene file")
+    if not path.exists():
+        raise SceneError(str(path), "<file>", "no such file")
+    if not path.is_file():
+        raise SceneError(str(path), "<file>", "is not a regular file (a scene is a TOML file)")
+
+
 def read_scene_text(path: Path) -> str:
     """The text of the scene file ``path``.
 

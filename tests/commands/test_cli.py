@@ -415,6 +415,11 @@ def test_a_frame_read_without_its_run_is_labelled_by_dimension(tmp_path, monkeyp
     assert given["units"] == {"length": "length", "force": "force", "time": "time"}
     assert unit_name("stress", given["units"]) == "force/length²"
     assert "is not there" in caplog.text and "units are unknown" in caplog.text
+    caplog.clear()  # a summary.json that cannot be parsed is there, not "not there"
+    (tmp_path / "run" / "summary.json").write_text("{")
+    with caplog.at_level(logging.WARNING):
+        assert cli.main(["render", str(tmp_path / "run")]) == 0
+    assert "summary.json of" in caplog.text and "cannot be read" in caplog.text
 
 
 # ------------------------------------------------------------------ plugins

@@ -52,6 +52,8 @@ REFUSED = [
     ),
     (["run", "a_dir"], 2, "a_dir: is a directory, not a scene file"),
     (["run", "absent.toml"], 2, "absent.toml: no such file"),
+    (["run", "/dev/null"], 2, "/dev/null: is not a regular file (a scene is a TOML file)"),
+    (["cut", "/dev/null"], 2, "/dev/null: is not a regular file (a scene is a TOML file)"),
     (["run", "not_toml.toml"], 2, "not_toml.toml: not valid TOML: Expected ']' at the end of"),
     (
         ["run", "forever.toml"],
