@@ -32,29 +32,38 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 
 def plot_command(args: argparse.Namespace) -> int:
     """``dda plot``: 0 with the PNGs written, 2 when OUTDIR holds no measurements."""
+    from dda.io.frame_files import run_units
     from dda.io.history_plots import plot_histories
     from dda.io.output_paths import OutputError, check_output_dir
     from dda.io.tables import POINTS_NAME
 
     points = args.outdir / POINTS_NAME
     if not points.is_file():
-        reason = "no such directory" if not args.outdir.is_dir() else f"has no {POINTS_NAME}"
-        hint = "" if not args.outdir.is_dir() else " (does the scene have [[measure]]?)"
-        print(f"dda plot: {args.outdir}: {reason}{hint}", file=sys.stderr)
+        print(f"dda plot: {args.outdir}: {_no_points(args.outdir)}", file=sys.stderr)
         return EXIT_INPUT
     summary = _summary(args.outdir)
+    units = run_units(summary, args.outdir, POINTS_NAME)  # not SI where it says none
     try:
         if args.output is not None:
             check_output_dir(args.output)
-        written = plot_histories(
-            args.outdir, args.output, summary.get("title") or "", summary.get("units")
-        )
+        written = plot_histories(args.outdir, args.output, summary.get("title") or "", units)
     except (ValueError, OutputError) as exc:
         print(f"dda plot: {exc}", file=sys.stderr)
         return EXIT_INPUT
     for path in written:
         print(path)
     return EXIT_OK
+
+
+def _no_points(outdir: Path) -> str:
+    """Why ``outdir`` gives no measurements to draw."""
+    from dda.io.tables import POINTS_NAME
+
+    if outdir.is_file():
+        return "is a file; give the run's output folder (the one that holds it)"
+    if not outdir.is_dir():
+        return "no such directory"
+    return f"has no {POINTS_NAME} (does the scene have [[measure]]?)"
 
 
 def _summary(outdir: Path) -> dict:

@@ -48,21 +48,28 @@ class FrameFiles:
         return summary if isinstance(summary, dict) else {}
 
     def units(self, summary: dict) -> dict[str, str]:
-        """The run's ``[units]`` from its ``summary``; where it has none (the frame read
-        without its run folder), :data:`UNKNOWN_UNITS`, with a warning."""
-        units = summary.get("units")
-        if isinstance(units, dict):
-            return units
-        there = (self.run_folder / "summary.json").exists()
-        why = "holds no units" if summary else "cannot be read" if there else "is not there"
-        log.warning(
-            "%s: the summary.json of %s %s, so the units are unknown: the picture labels "
-            "each quantity by its dimension (force/length², not Pa)",
-            self.blocks.name,
-            self.run_folder,
-            why,
-        )
-        return UNKNOWN_UNITS
+        """The run's ``[units]`` from its ``summary`` (:func:`run_units`)."""
+        return run_units(summary, self.run_folder, self.blocks.name)
+
+
+def run_units(summary: dict, run_folder: Path, subject: str) -> dict[str, str]:
+    """The run's ``[units]`` from its ``summary`` (of ``run_folder``); where it has none
+    (a file read without its run folder), :data:`UNKNOWN_UNITS`, with a warning naming
+    ``subject``, the file drawn: its pictures label each quantity by its dimension, never
+    by an SI unit the run may not have used."""
+    units = summary.get("units")
+    if isinstance(units, dict):
+        return units
+    there = (run_folder / "summary.json").exists()
+    why = "holds no units" if summary else "cannot be read" if there else "is not there"
+    log.warning(
+        "%s: the summary.json of %s %s, so the units are unknown: the picture labels "
+        "each quantity by its dimension (force/length², not Pa)",
+        subject,
+        run_folder,
+        why,
+    )
+    return UNKNOWN_UNITS
 
 
 def find_frame(source: str | os.PathLike[str], step: int | None = None) -> FrameFiles:

@@ -93,6 +93,29 @@ def test_run_writes_history_points_and_plot_draws_them(tmp_path, capsys):
     assert all((out / "plots" / n).stat().st_size > 10_000 for n in names)
 
 
+def test_plot_without_the_run_summary_labels_by_dimension_and_says_so(
+    tmp_path, capsys, caplog, monkeypatch
+):
+    """history_points.csv without its summary.json: the units are unknown, not SI (a
+    run in lb and ft was drawn as kN/m); and the file itself given is pointed to its
+    folder (was "no such directory")."""
+    import logging
+
+    import dda.io.history_plots as plots
+
+    folder = tmp_path / "alone"
+    folder.mkdir()
+    (folder / "history_points.csv").write_text("step,time,c.ux\n0,0,0\n1,0.1,2e-3\n")
+    seen = {}
+    monkeypatch.setattr(plots, "_draw", lambda *args: seen.update(units=args[-1]))
+    with caplog.at_level(logging.WARNING):
+        assert cli.main(["plot", str(folder)]) == 0
+    assert seen["units"] == {"length": "length", "force": "force", "time": "time"}
+    assert "summary.json of" in caplog.text and "units are unknown" in caplog.text
+    assert cli.main(["plot", str(folder / "history_points.csv")]) == 2
+    assert "is a file; give the run's output folder" in capsys.readouterr().err
+
+
 def test_plot_without_measurements_is_refused_in_one_line(tmp_path, capsys):
     assert cli.main(["plot", str(tmp_path)]) == 2
     err = capsys.readouterr().err
