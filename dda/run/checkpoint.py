@@ -131,6 +131,16 @@ class CheckpointPlan:
     written: int = 0
     _last: float = field(default_factory=time.monotonic, repr=False)
 
+    def __post_init__(self) -> None:
+        """Refuse a step count that is not a positive whole number, or seconds that are
+        not positive (-1 wrote a checkpoint after every step)."""
+        steps, seconds = self.every_steps, self.every_seconds
+        whole = isinstance(steps, int) and not isinstance(steps, bool)
+        if steps is not None and not (whole and steps >= 1):
+            raise ValueError(f"every_steps: expected a positive integer or None, got {steps!r}")
+        if seconds is not None and not (isinstance(seconds, int | float) and seconds > 0):
+            raise ValueError(f"every_seconds: expected a positive number or None, got {seconds!r}")
+
     def due(self, step: int) -> bool:
         """True when a checkpoint should be written after ``step``."""
         if self.every_steps and step % self.every_steps == 0:

@@ -510,10 +510,12 @@ def run(
 
     Raises
     ------
+    TypeError : an option of the wrong type (before any work)
     SceneError : the run would exceed ``analysis.max_steps`` (:mod:`dda.scene.limits`)
     CheckpointError : ``resume`` was written for another scene or version
     SimulationError : a step that cannot be solved, or ``analysis.max_steps`` reached
     """
+    _check_options(scene, progress, on_frame, keep_frames, stop, checkpoints, resume)
     start = wallclock.perf_counter()
     policy = StepPolicy.from_environment()  # a bad DDA_THREADS, DDA_SOLVER or DDA_SYSTEMS:
     # ValueError at once
@@ -669,6 +671,27 @@ def _fraction(state: _Run) -> float:
     if m.steps is not None:
         return state.step / max(m.steps, 1)
     return min(state.time / m.duration, 1.0)
+
+
+def _check_options(scene, progress, on_frame, keep_frames, stop, checkpoints, resume) -> None:
+    """Raise a TypeError naming the first of :func:`run`'s options of the wrong type,
+    before any work (a string given for ``on_frame`` failed after the equilibrium start;
+    one for ``checkpoints`` or ``resume`` as an AttributeError)."""
+    expected = [
+        ("scene", scene, isinstance(scene, Scene), "a dda.Scene"),
+        ("progress", progress, isinstance(progress, bool) or callable(progress),
+         "True, False or a callable(fraction, info)"),
+        ("on_frame", on_frame, on_frame is None or callable(on_frame), "None or a callable(frame)"),
+        ("keep_frames", keep_frames, isinstance(keep_frames, bool), "True or False"),
+        ("stop", stop, stop is None or callable(stop), "None or a callable() -> bool"),
+        ("checkpoints", checkpoints, checkpoints is None or isinstance(checkpoints, CheckpointPlan),
+         "None or a dda.run.checkpoint.CheckpointPlan"),
+        ("resume", resume, resume is None or isinstance(resume, Checkpoint),
+         "None or a checkpoint (dda.run.checkpoint.read_checkpoint(path))"),
+    ]  # fmt: skip
+    for name, value, right, what in expected:
+        if not right:
+            raise TypeError(f"{name}: expected {what}, got {type(value).__name__} {value!r:.40}")
 
 
 def _progress_reporter(progress, model: Model, state: _Run, resumed: bool):
