@@ -106,6 +106,7 @@ def find_frame(source: str | os.PathLike[str], step: int | None = None) -> Frame
         return _describe(source, _times(source.parent.parent / "blocks.pvd"))
     if not source.is_dir():
         raise FileNotFoundError(f"{source}: no such file or directory")
+    source = _run_folder(source)
     times = _times(source / "blocks.pvd")
     candidates = list(times) or sorted((source / "frames").glob("blocks_*.vtu"), key=step_of_file)
     written = candidates
@@ -115,6 +116,15 @@ def find_frame(source: str | os.PathLike[str], step: int | None = None) -> Frame
         wanted = f"step {step}" if step is not None else "any frame"
         raise FileNotFoundError(f"{source}: no written frame ({wanted}){_steps_note(written)}")
     return _describe(candidates[-1], times)
+
+
+def _run_folder(folder: Path) -> Path:
+    """The run's output folder of ``folder``: its parent where ``folder`` is the run's
+    ``frames`` folder (given for the run's, it held no frame of its own)."""
+    if folder.name == "frames" and not (folder / "blocks.pvd").exists():
+        if any(folder.glob("blocks_*.vtu")):
+            return folder.parent
+    return folder
 
 
 def _steps_note(written: list[Path]) -> str:
@@ -140,6 +150,7 @@ def all_frames(folder: str | os.PathLike[str]) -> list[FrameFiles]:
         raise FileNotFoundError(f"{folder}: no such directory")
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder}: not an output directory of `dda run`")
+    folder = _run_folder(folder)
     times = _times(folder / "blocks.pvd")
     files = list(times) or sorted((folder / "frames").glob("blocks_*.vtu"), key=step_of_file)
     if not files:

@@ -20,6 +20,7 @@ matplotlib is imported when a picture is made, never by ``import dda.io``.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import textwrap
 from collections.abc import Mapping, Sequence
@@ -141,7 +142,14 @@ def render_side_by_side(
     -------
     Path
         ``path``.
+
+    Raises
+    ------
+    ValueError
+        ``path`` does not end in ``.png``, or ``clim`` is not two finite numbers, the
+        first below the second (a reversed range drew a colour bar without numbers)
     """
+    _check_picture(path, clim)
     figure = compose(
         frames, titles, scalars, show_contacts, window_size, clim, scene_title, units,
         water_table=water_table, water_follows=water_follows,
@@ -451,3 +459,14 @@ def contact_segments(
     reference = force_max or force[keep].max()
     half = 0.5 * length * (force[keep] / reference)[:, None] * c.normals[keep]
     return np.stack([c.points[keep] - half, c.points[keep] + half], axis=1)
+
+
+def _check_picture(path: str | os.PathLike[str], clim: tuple[float, float] | None) -> None:
+    """A ValueError unless ``path`` ends in .png and ``clim`` (when given) is a range."""
+    if Path(path).suffix.lower() != ".png":
+        raise ValueError(f"{path}: a picture is written as .png; give a file name ending in .png")
+    if clim is None:
+        return
+    low, high = (float(x) for x in clim)
+    if not (math.isfinite(low) and math.isfinite(high) and low < high):
+        raise ValueError(f"clim {clim!r}: give two finite numbers, the first below the second")

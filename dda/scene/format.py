@@ -317,6 +317,8 @@ def _read_raw(scene: str | Path | Mapping[str, Any]) -> tuple[Mapping[str, Any],
     """The raw nested mapping of a scene and its source name."""
     if isinstance(scene, Mapping):
         return scene, "<dict>"
+    if isinstance(scene, str) and not scene.strip():  # Path("") is ".": "a directory"
+        raise SceneError("<text>", "<scene>", "empty: give a path, TOML text or a dict")
     if _is_path(scene):
         return _read_file(Path(scene)), str(scene)
     if isinstance(scene, str):

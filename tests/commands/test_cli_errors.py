@@ -208,3 +208,19 @@ def test_an_unexpected_error_is_one_line_and_its_traceback_comes_with_v(
 def test_load_scene_of_a_wrong_type_is_a_scene_error():
     with pytest.raises(dda.SceneError, match="^scene int: expected a path, TOML text or a"):
         dda.load_scene(123)
+
+
+@pytest.mark.parametrize("text", ["", "  "])
+def test_an_empty_scene_text_is_said_to_be_empty(text):
+    """Was read as the path "." ("is a directory, not a scene file")."""
+    with pytest.raises(dda.SceneError, match="^scene text: empty: give a path, TOML text"):
+        dda.load_scene(text)
+
+
+def test_render_takes_a_runs_frames_folder_for_the_run(tmp_path, monkeypatch, capsys):
+    """``dda render OUT/frames`` drew nothing: "no written frame (any frame)"."""
+    monkeypatch.chdir(tmp_path)
+    Path("ok.toml").write_text(SMALL_SCENE)
+    assert cli.main(["run", "ok.toml", "-o", "out", "-q", "--no-picture"]) == 0
+    assert cli.main(["render", "out/frames", "-o", "from_frames.png"]) == 0
+    assert Path("from_frames.png").stat().st_size > 10_000

@@ -239,3 +239,17 @@ def test_lines_thin_and_contact_marks_stay_among_the_blocks_of_a_large_model():
     assert longest_contact_mark(frame) == pytest.approx(2.0)
     few = dataclasses.replace(frame, vertices=grid[:2], areas=np.ones(2))
     assert longest_contact_mark(few) == pytest.approx(0.06 * 2.0)
+
+
+@pytest.mark.parametrize(
+    ("name", "clim", "message"),
+    [
+        ("x.jpg", None, "a picture is written as .png"),  # was PNG data in x.jpg
+        ("x.png", (5.0, 1.0), "the first below the second"),  # a colour bar without numbers
+        ("x.png", (0.0, float("inf")), "give two finite numbers"),
+    ],
+)
+def test_render_frame_refuses_what_dda_render_refuses(tmp_path, name, clim, message):
+    with pytest.raises(ValueError, match=message):
+        render_frame(make_frame(), tmp_path / name, clim=clim)
+    assert list(tmp_path.iterdir()) == []
