@@ -21,7 +21,6 @@ import argparse
 import dataclasses
 import gc
 import logging
-import math
 import os
 import re
 import sys
@@ -776,12 +775,12 @@ def checked_range(args: argparse.Namespace) -> tuple[float, float] | None:
     """``args.range``, or a ValueError naming it when it is no range."""
     if args.range is None:
         return None
+    from dda.io.images import range_problem
+
     low, high = args.range
-    text = f"--range {low:g} {high:g}"
-    if not (math.isfinite(low) and math.isfinite(high)):
-        raise ValueError(f"{text}: give finite numbers")
-    if not low < high:
-        raise ValueError(f"{text}: the first number must be below the second")
+    problem = range_problem(low, high)
+    if problem:
+        raise ValueError(f"--range {low:g} {high:g}: {problem}")
     return float(low), float(high)
 
 
@@ -827,13 +826,11 @@ def render_command(args: argparse.Namespace) -> int:
 
 def check_png(output: Path | str, option: str = "-o") -> None:
     """A ValueError saying what to give when ``option output`` does not end in .png."""
-    suffix = Path(output).suffix
-    if suffix.lower() == ".png":
-        return
-    given = f", not {suffix}" if suffix else ""
-    raise ValueError(
-        f"{option} {output}: a picture is written as .png{given}; give a file name ending in .png"
-    )
+    from dda.io.images import png_problem
+
+    problem = png_problem(output)
+    if problem:
+        raise ValueError(f"{option} {output}: {problem}")
 
 
 if __name__ == "__main__":

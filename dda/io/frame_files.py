@@ -121,10 +121,8 @@ def find_frame(source: str | os.PathLike[str], step: int | None = None) -> Frame
 def _run_folder(folder: Path) -> Path:
     """The run's output folder of ``folder``: its parent where ``folder`` is the run's
     ``frames`` folder (given for the run's, it held no frame of its own)."""
-    if folder.name == "frames" and not (folder / "blocks.pvd").exists():
-        if any(folder.glob("blocks_*.vtu")):
-            return folder.parent
-    return folder
+    in_frames = folder.name == "frames" and not (folder / "blocks.pvd").exists()
+    return folder.parent if in_frames and any(folder.glob("blocks_*.vtu")) else folder
 
 
 def _steps_note(written: list[Path]) -> str:

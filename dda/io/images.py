@@ -461,12 +461,29 @@ def contact_segments(
     return np.stack([c.points[keep] - half, c.points[keep] + half], axis=1)
 
 
+def png_problem(path: str | os.PathLike[str]) -> str | None:
+    """Why ``path`` is no name for a picture (pictures are PNG files), or None."""
+    suffix = Path(path).suffix
+    if suffix.lower() == ".png":
+        return None
+    given = f", not {suffix}" if suffix else ""
+    return f"a picture is written as .png{given}; give a file name ending in .png"
+
+
+def range_problem(low: float, high: float) -> str | None:
+    """Why (``low``, ``high``) is no colour range, or None."""
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "give finite numbers"
+    if not low < high:
+        return "the first number must be below the second"
+    return None
+
+
 def _check_picture(path: str | os.PathLike[str], clim: tuple[float, float] | None) -> None:
-    """A ValueError unless ``path`` ends in .png and ``clim`` (when given) is a range."""
-    if Path(path).suffix.lower() != ".png":
-        raise ValueError(f"{path}: a picture is written as .png; give a file name ending in .png")
-    if clim is None:
-        return
-    low, high = (float(x) for x in clim)
-    if not (math.isfinite(low) and math.isfinite(high) and low < high):
-        raise ValueError(f"clim {clim!r}: give two finite numbers, the first below the second")
+    """A ValueError unless ``path`` names a PNG and ``clim`` (when given) is a range."""
+    problem = png_problem(path)
+    if problem:
+        raise ValueError(f"{path}: {problem}")
+    problem = None if clim is None else range_problem(*(float(x) for x in clim))
+    if problem:
+        raise ValueError(f"clim {tuple(clim)!r}: {problem}")

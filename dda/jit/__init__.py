@@ -53,9 +53,14 @@ MIN_STEPS = 500
 _RUN_WORK: ContextVar[tuple[float, float] | None] = ContextVar("dda_run_work", default=None)
 
 
+# 1: no compiled kernels, numpy's path throughout (0 or unset: the kernels; the run's
+# policy refuses any other value, dda.solve.policy.StepPolicy.from_environment)
+NO_NUMBA_VARIABLE = "DDA_NO_NUMBA"
+
+
 def numba_enabled() -> bool:
     """True when numba is installed and ``DDA_NO_NUMBA`` is not set to 1 (nothing imported)."""
-    if os.environ.get("DDA_NO_NUMBA", "").strip() == "1":
+    if os.environ.get(NO_NUMBA_VARIABLE, "").strip() == "1":
         return False
     return importlib.util.find_spec("numba") is not None
 

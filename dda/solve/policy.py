@@ -14,6 +14,7 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+from dda.jit import NO_NUMBA_VARIABLE
 from dda.solve import thread_policy
 
 THREADS_VARIABLE = "DDA_THREADS"  # threads of PARDISO's factorisation
@@ -21,8 +22,7 @@ SOLVER_VARIABLE, SOLVER_CHOICES = "DDA_SOLVER", ("pardiso", "superlu")  # sparse
 # every step's systems on the sparse block pattern (the path of large models), whatever
 # the model's size: for checking that path on small models (dda verify's cradle_sparse)
 SYSTEMS_VARIABLE, SYSTEMS_CHOICES = "DDA_SYSTEMS", ("sparse",)
-# 1: no compiled kernels, numpy's path throughout (read by dda.jit.numba_enabled)
-NO_NUMBA_VARIABLE, NO_NUMBA_CHOICES = "DDA_NO_NUMBA", ("0", "1")
+NO_NUMBA_CHOICES = ("0", "1")  # of DDA_NO_NUMBA (dda.jit.numba_enabled reads it)
 
 
 @dataclass(frozen=True)

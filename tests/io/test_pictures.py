@@ -245,8 +245,8 @@ def test_lines_thin_and_contact_marks_stay_among_the_blocks_of_a_large_model():
     ("name", "clim", "message"),
     [
         ("x.jpg", None, "a picture is written as .png"),  # was PNG data in x.jpg
-        ("x.png", (5.0, 1.0), "the first below the second"),  # a colour bar without numbers
-        ("x.png", (0.0, float("inf")), "give two finite numbers"),
+        ("x.png", (5.0, 1.0), "must be below the second"),  # a colour bar without numbers
+        ("x.png", (0.0, float("inf")), "give finite numbers"),
     ],
 )
 def test_render_frame_refuses_what_dda_render_refuses(tmp_path, name, clim, message):

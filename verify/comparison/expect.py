@@ -110,15 +110,13 @@ CHECK_KEYS = ("tolerance", "why", "blocks", "components")
 
 def _known_keys(path: Path, table: object, where: str, known: tuple[str, ...]) -> dict:
     """``table`` (a TOML table at ``where``, "" for the file) with only ``known`` keys."""
-    label = f"{where}: " if where else ""
     if not isinstance(table, dict):
-        raise ExpectationError(f"{path}: {label}must be a table")
+        raise ExpectationError(f"{path}: {where or 'the file'}: must be a table")
+    prefix = f"{where}." if where else ""
     for key in table:
         if key not in known:
-            raise ExpectationError(
-                f"{path}: {where + '.' if where else ''}{key}: unknown key "
-                f"(known: {', '.join(known)})"
-            )
+            listed = ", ".join(known)
+            raise ExpectationError(f"{path}: {prefix}{key}: unknown key (known: {listed})")
     return table
 
 
