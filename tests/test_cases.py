@@ -128,7 +128,8 @@ EXPECTED = {
     "tunnel_deep": ({"duration": 0.02}, measured("wall.syy"), -1.28335e7, 0.02),
     # closed form (W sin 30 - tan 35 (W cos 30 - U)) / m / 2 = 0.3594179 m in 1 s, U the
     # water's uplift (dry, the blocks stand); DDA gives 0.35941790 (1.3e-8) and the
-    # effective normal force W cos 30 - U = 8070.924 N on the upper block's base as 8070.933
+    # effective normal force W cos 30 - U = 8070.924 N on the upper block's base as 8070.924
+    # at 1 s (within 1e-5 below it over the run)
     "wet_slope": ({}, block_slide("upper"), 0.3594179, 0.01),
     # the drawn rock, 672 m2 (a 512 m2 slope on a 160 m2 base), less the tunnel that the
     # stage at 0.05 s removes: a 5 m circle (19.63 m2) drawn as chords within 1e-3 of the
