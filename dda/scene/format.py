@@ -22,6 +22,7 @@ The run-size limits (``analysis.max_steps``) are checked when a run starts
 
 from __future__ import annotations
 
+import difflib
 import logging
 import math
 import re
@@ -934,8 +935,27 @@ def _build_scene(
     )
     _check_intact(chk, scene)
     _check_restitution(chk, scene)
+    _check_default_name(chk, scene, raw.get("joints", {}))
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene
+
+
+def _check_default_name(chk: Checker, scene: Scene, declared: Mapping[str, Any]) -> None:
+    """Refuse a joint that nothing names whose name is a near miss of ``default`` where
+    no ``[joints.default]`` is given (``[joints.defualt]``): every edge that names no
+    joint then takes the frictionless default, silently, instead of the joint meant."""
+    if "default" in declared:
+        return
+    named = {scene.fracture.joint, *(i.joint for i in scene.interfaces)}
+    for block in scene.blocks:
+        named.update(block.edge_joints or ())
+    for name in declared:
+        if name not in named and difflib.get_close_matches(name, ["default"], cutoff=0.6):
+            chk.fail(
+                join_key("joints", name),
+                "names no edge, interface or crack, and the edges that name no joint take "
+                "the default joint, frictionless as none is given: did you mean 'default'?",
+            )
 
 
 def _check_restitution(chk: Checker, scene: Scene) -> None:

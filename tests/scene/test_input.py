@@ -95,3 +95,36 @@ def test_an_unknown_material_in_a_scene_without_materials_says_so():
     with pytest.raises(dda.SceneError) as caught:
         dda.load_scene(raw)
     assert str(caught.value).endswith("unknown material 'x'; the scene defines no material")
+
+
+def _block_on_plane(joints: dict) -> dict:
+    rock = {"density": 2600.0, "young": 1e9, "poisson": 0.25}
+    base = [[0, -1], [10, -1], [10, 0], [0, 0]]
+    return {
+        "materials": {"rock": rock},
+        "joints": joints,
+        "blocks": [
+            {"name": "base", "material": "rock", "fixed": True, "vertices": base},
+            {"name": "b", "material": "rock", "vertices": [[4, 0], [5, 0], [5, 1], [4, 1]]},
+        ],
+    }
+
+
+def test_a_misspelt_default_joint_is_refused_not_left_frictionless():
+    """An audit's ``[joints.defualt]``: nothing named it, every edge took the implicit
+    frictionless default, and a block that should stand slid 2 m without a word."""
+    raw = _block_on_plane({"defualt": {"friction_angle": 35.0}})
+    with pytest.raises(dda.SceneError) as caught:
+        dda.load_scene(raw)
+    assert "joints.defualt: names no edge" in str(caught.value)
+    assert str(caught.value).endswith("did you mean 'default'?")
+
+
+def test_a_joint_near_default_is_accepted_where_named_or_a_default_is_given():
+    named = _block_on_plane({"defaults": {"friction_angle": 35.0}})
+    named["interfaces"] = [{"blocks": ["base", "b"], "joint": "defaults"}]
+    assert dda.load_scene(named).interfaces[0].joint == "defaults"
+    both = _block_on_plane({"default": {"friction_angle": 30.0}, "defualt": {}})
+    assert dda.load_scene(both).joints["default"].friction_angle == 30.0
+    unrelated = _block_on_plane({"bedding": {"friction_angle": 35.0}})  # a library entry
+    assert "bedding" in dda.load_scene(unrelated).joints
