@@ -102,7 +102,7 @@ def run_cut(args: argparse.Namespace) -> int:
                 if path is not None:
                     _check_output(path, option, Path(args.scene), args.overwrite)
             cut, scene = _cut(props, args.max_blocks, bar, drawing)
-            _check_loadable(scene, str(props))
+            _check_loadable(_files_from(scene, props, None), str(props))
         except (SceneError, OutputError) as exc:
             bar.close()
             log.debug("refused: %s", exc)
@@ -113,7 +113,7 @@ def run_cut(args: argparse.Namespace) -> int:
         blocks = scene.get("blocks", [])  # the cut ones and those the scene draws itself
         fixed = sum(bool(block.get("fixed", False)) for block in blocks)
         header = f"# Blocks cut from {origin} by `dda cut`: {len(blocks)} blocks.\n"
-        text = header + dumps(scene)
+        text = header + dumps(_files_from(scene, props, output.parent))
         if png is not None:  # the picture first: a drawing that fails leaves no scene behind
             from dda.io.fonts import unicode_text
             from dda.scene.rockmass.picture import draw_cut
@@ -211,6 +211,22 @@ def _cut(
             "file": str(drawing.absolute()),
         }
     return cut_rock_mass(raw, str(path), progress)
+
+
+def _files_from(scene: dict, source: Path, folder: Path | None) -> dict:
+    """``scene`` with the file its ``[seismic]`` reads (relative to the folder of the
+    scene file ``source``, as the loader reads it) named from ``folder``, where the
+    written scene will be, or absolute (``folder`` None): a scene cut into another
+    folder runs there as it is."""
+    seismic = scene.get("seismic")
+    if not (isinstance(seismic, dict) and isinstance(seismic.get("file"), str)):
+        return scene
+    record = (source.parent / seismic["file"]).absolute()
+    try:
+        file = record if folder is None else Path(os.path.relpath(record, folder.absolute()))
+    except ValueError:  # another drive (Windows): no relative path
+        file = record
+    return {**scene, "seismic": {**seismic, "file": file.as_posix()}}
 
 
 def _check_loadable(scene: dict, source: str) -> None:

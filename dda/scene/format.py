@@ -22,7 +22,6 @@ The run-size limits (``analysis.max_steps``) are checked when a run starts
 
 from __future__ import annotations
 
-import difflib
 import logging
 import math
 import re
@@ -950,12 +949,29 @@ def _check_default_name(chk: Checker, scene: Scene, declared: Mapping[str, Any])
     for block in scene.blocks:
         named.update(block.edge_joints or ())
     for name in declared:
-        if name not in named and difflib.get_close_matches(name, ["default"], cutoff=0.6):
+        if name not in named and _misspelt_default(name):
             chk.fail(
                 join_key("joints", name),
                 "names no edge, interface or crack, and the edges that name no joint take "
                 "the default joint, frictionless as none is given: did you mean 'default'?",
             )
+
+
+def _misspelt_default(name: str) -> bool:
+    """True for ``default`` mistyped: the same first letter, within two letters typed
+    wrong, left out, added or swapped (case aside; ``fault`` and ``defect`` are names)."""
+    word, target = name.casefold(), "default"
+    if name == target or not word.startswith("d"):
+        return False
+    rows = [list(range(len(target) + 1))]
+    for i, a in enumerate(word, 1):
+        row = [i]
+        for j, b in enumerate(target, 1):
+            row.append(min(rows[-1][j] + 1, row[j - 1] + 1, rows[-1][j - 1] + (a != b)))
+            if i > 1 and j > 1 and a == target[j - 2] and word[i - 2] == b:
+                row[j] = min(row[j], rows[-2][j - 2] + 1)  # two letters swapped
+        rows.append(row)
+    return rows[-1][-1] <= 2
 
 
 def _check_restitution(chk: Checker, scene: Scene) -> None:

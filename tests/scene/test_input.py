@@ -126,5 +126,8 @@ def test_a_joint_near_default_is_accepted_where_named_or_a_default_is_given():
     assert dda.load_scene(named).interfaces[0].joint == "defaults"
     both = _block_on_plane({"default": {"friction_angle": 30.0}, "defualt": {}})
     assert dda.load_scene(both).joints["default"].friction_angle == 30.0
-    unrelated = _block_on_plane({"bedding": {"friction_angle": 35.0}})  # a library entry
-    assert "bedding" in dda.load_scene(unrelated).joints
+    for name in ("bedding", "fault", "defect"):  # library entries, not typos
+        unrelated = _block_on_plane({name: {"friction_angle": 35.0}})
+        assert name in dda.load_scene(unrelated).joints
+    with pytest.raises(dda.SceneError, match="did you mean 'default'"):
+        dda.load_scene(_block_on_plane({"Default": {"friction_angle": 35.0}}))

@@ -499,6 +499,29 @@ def test_cut_command_makes_missing_folders_and_refuses_to_overwrite_its_scene(tm
     assert out.is_file() and png.stat().st_size > 1000
 
 
+def test_a_scene_cut_into_another_folder_reads_its_record_from_there(tmp_path, monkeypatch):
+    """An audit: ``[seismic] file`` beside the scene was written unchanged, so the cut
+    scene in another folder could not read its record (and the cut's own check read it
+    from the working folder)."""
+    here = tmp_path / "here"
+    here.mkdir()
+    (here / "quake.csv").write_text("0, 0, 0\n0.1, 1.0, 0\n0.2, 0, 0\n")
+    raw = base_scene(
+        joint_sets=[{"dip": 30.0, "spacing": 1.5, "joint": "bed"}], fix=[{"sides": ["bottom"]}]
+    )
+    raw["analysis"] = {**raw.get("analysis", {}), "mode": "dynamic"}
+    raw["seismic"] = {"file": "quake.csv"}
+    scene = write_scene(here / "mass.toml", raw)
+    monkeypatch.chdir(tmp_path)  # neither the scene's folder nor the output's
+    out = tmp_path / "other" / "deeper" / "blocks.toml"
+    assert run_cli("cut", str(scene), "-o", str(out), "--no-png") == 0
+    written = tomllib.loads(out.read_text())
+    assert written["seismic"]["file"] == "../../here/quake.csv"
+    from dda.scene import load_scene
+
+    assert load_scene(out).seismic is not None
+
+
 def test_cut_counts_the_blocks_the_scene_draws_itself_too(tmp_path, capsys):
     """cases/tunnel_deep.toml draws its fixed base by hand beside the cut mass: the line
     and the file's header count it (they said "358 blocks, 0 fixed" of 359 and 1)."""
