@@ -102,6 +102,7 @@ def run_cut(args: argparse.Namespace) -> int:
                 if path is not None:
                     _check_output(path, option, Path(args.scene), args.overwrite)
             cut, scene = _cut(props, args.max_blocks, bar, drawing)
+            scene = _without_set_draws(scene, args.scene)
             _check_loadable(_files_from(scene, props, None), str(props))
         except (SceneError, OutputError) as exc:
             bar.close()
@@ -211,6 +212,32 @@ def _cut(
             "file": str(drawing.absolute()),
         }
     return cut_rock_mass(raw, str(path), progress)
+
+
+def _without_set_draws(scene: dict, source: str) -> dict:
+    """``scene`` without the ``[[ensemble.vary]]`` draws of its joint sets (the cut
+    scene's blocks are cut once; ``dda ensemble`` on the rock-mass scene cuts them anew
+    in every realisation), said on stderr; without ``[ensemble]`` when no draw is left."""
+    ensemble = scene.get("ensemble")
+    vary = ensemble.get("vary") if isinstance(ensemble, dict) else None
+    if not isinstance(vary, list):
+        return scene
+    kept = [d for d in vary if not str(d.get("key", "")).startswith("joint_sets[")]
+    if len(kept) == len(vary):
+        return scene
+    for k, draw in enumerate(vary):
+        if draw not in kept:
+            log.warning(
+                "ensemble.vary[%d] (%s) left out of the cut scene: its blocks are cut once; "
+                "dda ensemble %s draws the joint sets anew in each realisation",
+                k, draw.get("key"), source,
+            )  # fmt: skip
+    out = dict(scene)
+    if kept:
+        out["ensemble"] = {**ensemble, "vary": kept}
+    else:
+        del out["ensemble"]
+    return out
 
 
 def _files_from(scene: dict, source: Path, folder: Path | None) -> dict:

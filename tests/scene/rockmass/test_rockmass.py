@@ -522,6 +522,26 @@ def test_a_scene_cut_into_another_folder_reads_its_record_from_there(tmp_path, m
     assert load_scene(out).seismic is not None
 
 
+def test_the_shipped_ensemble_cuts_without_its_joint_set_draws(tmp_path, caplog):
+    """An audit: ``dda cut cases/jointed_slope_ensemble.toml`` was refused, "no joint set
+    0": the draw of the bedding's spacing named a set the cut scene no longer has."""
+    case = Path(__file__).resolve().parents[3] / "cases" / "jointed_slope_ensemble.toml"
+    out = tmp_path / "ensemble.toml"
+    with caplog.at_level(logging.WARNING):
+        assert run_cli("cut", str(case), "-o", str(out), "--no-png") == 0
+    assert "ensemble.vary[2] (joint_sets[0].spacing) left out of the cut scene" in caplog.text
+    from dda.scene import load_scene
+
+    keys = [draw.key for draw in load_scene(out).ensemble.vary]
+    assert keys == ["joints.bedding.friction_angle", "joints.bedding.cohesion"]
+    raw = base_scene(joint_sets=[{"dip": 30.0, "spacing": 1.5, "joint": "bed"}])
+    raw["ensemble"] = {"vary": [{"key": "joint_sets[0].dip", "distribution": "uniform",
+                                 "low": 25.0, "high": 35.0}]}  # fmt: skip
+    scene = write_scene(tmp_path / "mass.toml", raw)
+    assert run_cli("cut", str(scene), "-o", str(tmp_path / "only.toml"), "--no-png") == 0
+    assert "ensemble" not in tomllib.loads((tmp_path / "only.toml").read_text())
+
+
 def test_cut_counts_the_blocks_the_scene_draws_itself_too(tmp_path, capsys):
     """cases/tunnel_deep.toml draws its fixed base by hand beside the cut mass: the line
     and the file's header count it (they said "358 blocks, 0 fixed" of 359 and 1)."""
