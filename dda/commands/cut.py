@@ -122,8 +122,14 @@ def run_cut(args: argparse.Namespace) -> int:
             bar.update(stages["toml"], "picture")
             png.parent.mkdir(parents=True, exist_ok=True)
             title = str(scene.get("title", "")) or Path(args.scene).stem
+            cut_names = set(cut.names)
+            drawn = [block for block in blocks if block.get("name") not in cut_names]
+            units = scene.get("units", {})
             with atomic_path(png) as tmp, unicode_text():
-                draw_cut(cut, tmp, title=title, removed=removed_by_stages(scene))
+                draw_cut(
+                    cut, tmp, title=title, removed=removed_by_stages(scene), drawn=drawn,
+                    length_unit=str(units.get("length", "m")),
+                )  # fmt: skip
             log.info("wrote %s", png)
         output.parent.mkdir(parents=True, exist_ok=True)
         write_text(output, text)

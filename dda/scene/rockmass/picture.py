@@ -3,7 +3,7 @@ blocks a stage removes hatched (matplotlib, Agg)."""
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -28,13 +28,31 @@ def draw_cut(
     title: str = "",
     dpi: int = 150,
     removed: Collection[str] = (),
+    drawn: Sequence[Mapping] = (),
+    length_unit: str = "m",
 ) -> Path:
-    """Write a PNG of the cut blocks (``removed``: the names of blocks a stage excavates,
-    drawn hatched); returns the path written."""
+    """Write a PNG of :func:`cut_figure`; returns the path written."""
+    fig = cut_figure(cut, title, removed, drawn, length_unit)
+    path = Path(path)
+    fig.savefig(path, dpi=dpi)
+    return path
+
+
+def cut_figure(
+    cut: CutRockMass,
+    title: str = "",
+    removed: Collection[str] = (),
+    drawn: Sequence[Mapping] = (),
+    length_unit: str = "m",
+) -> Figure:
+    """The cut blocks (``removed``: the names of blocks a stage excavates, drawn hatched)
+    and the blocks the scene draws itself beside them (``drawn``: its ``[[blocks]]``
+    tables, edges black), axes in ``length_unit``."""
     fig = Figure(figsize=(8, 6), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    handles = _fill_blocks(ax, cut) + _hatch_removed(ax, cut, removed) + _draw_edges(ax, cut)
+    handles = _fill_blocks(ax, cut, drawn) + _hatch_removed(ax, cut, removed)
+    handles += _draw_edges(ax, cut, drawn)
     fig.legend(
         handles=handles,
         loc="outside lower center",
@@ -44,22 +62,23 @@ def draw_cut(
     )
     ax.set_aspect("equal")
     ax.autoscale_view()
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title(title or f"{len(cut.names)} blocks")
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    return path
+    ax.set_xlabel(f"x ({length_unit})")
+    ax.set_ylabel(f"y ({length_unit})")
+    ax.set_title(title or f"{len(cut.names) + len(drawn)} blocks")
+    return fig
 
 
-def _fill_blocks(ax, cut: CutRockMass) -> list:
-    materials = sorted(set(cut.materials))
+def _fill_blocks(ax, cut: CutRockMass, drawn: Sequence[Mapping]) -> list:
+    kinds = [*zip(cut.materials, cut.fixed, strict=True)]
+    kinds += [(block["material"], bool(block.get("fixed", False))) for block in drawn]
+    materials = sorted({m for m, fixed in kinds if not fixed})
     fill = {m: FILLS[i % len(FILLS)] for i, m in enumerate(materials)}
-    colours = [FIXED_FILL if f else fill[m] for m, f in zip(cut.materials, cut.fixed, strict=True)]
+    colours = [FIXED_FILL if fixed else fill[m] for m, fixed in kinds]
     polygons = [cut.blocks.polygon(i) for i in range(len(cut.names))]
+    polygons += [np.asarray(block["vertices"], float) for block in drawn]
     ax.add_collection(PolyCollection(polygons, facecolors=colours, edgecolors="none"))
     handles = [Patch(facecolor=fill[m], label=m) for m in materials]
-    if cut.fixed.any():
+    if any(fixed for _, fixed in kinds):
         handles.append(Patch(facecolor=FIXED_FILL, label="fixed"))
     return handles
 
@@ -78,14 +97,17 @@ def _hatch_removed(ax, cut: CutRockMass, removed: Collection[str]) -> list:
                   label="excavated by a stage")]  # fmt: skip
 
 
-def _draw_edges(ax, cut: CutRockMass) -> list:
-    """Block edges: black on boundaries, in one colour per joint set, joint line name or
-    drawing layer (traces of one name share it)."""
+def _draw_edges(ax, cut: CutRockMass, drawn: Sequence[Mapping]) -> list:
+    """Block edges: black on boundaries and around the blocks the scene draws itself, in
+    one colour per joint set, joint line name or drawing layer (traces of one name share
+    it)."""
     b = cut.blocks
     segments = np.stack([b.vertices, b.vertices[next_vertex_index(b.offsets)]], axis=1)
     handles = []
     boundary = b.edge_source < 0
     ax.add_collection(LineCollection(segments[boundary], colors="black", linewidths=0.6))
+    outlines = [np.vstack([v, v[:1]]) for v in (np.asarray(k["vertices"], float) for k in drawn)]
+    ax.add_collection(LineCollection(outlines, colors="black", linewidths=0.6))
     handles.append(Line2D([], [], color="black", lw=0.8, label="boundary / default"))
     names = list(dict.fromkeys(cut.traces.names))  # in order, once each
     for k, name in enumerate(names):

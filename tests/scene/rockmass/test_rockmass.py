@@ -845,3 +845,26 @@ def test_joints_drawn_to_end_on_the_face_or_a_joint_cut_at_map_coordinates(offse
     out = expand_rock_mass(raw, "<test>")
     assert len(out["blocks"]) == 9
     assert_tiles(polygons(out), shapely.Polygon(slope))
+
+
+def test_the_cut_picture_draws_the_blocks_the_scene_draws_and_its_length_unit():
+    """An audit: the picture of a cut left out a hand-drawn fixed base (and its "fixed"
+    entry), and labelled its axes in m whatever the scene's [units] length."""
+    from matplotlib.collections import PolyCollection
+
+    from dda.scene.rockmass.expand import cut_rock_mass
+    from dda.scene.rockmass.picture import cut_figure
+
+    base = {"name": "base", "material": "rock", "fixed": True,
+            "vertices": [[0.0, -2.0], [10.0, -2.0], [10.0, 0.0], [0.0, 0.0]]}  # fmt: skip
+    raw = base_scene(joint_sets=[{"dip": 30.0, "spacing": 2.0}], blocks=[base])
+    raw["units"] = {"length": "ft"}
+    cut, scene = cut_rock_mass(raw, "mass.toml")
+    drawn = [b for b in scene["blocks"] if b["name"] not in set(cut.names)]
+    assert [b["name"] for b in drawn] == ["base"]
+    ax = cut_figure(cut, drawn=drawn, length_unit="ft").axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (ft)", "y (ft)")
+    fills = next(c for c in ax.collections if isinstance(c, PolyCollection))
+    assert len(fills.get_paths()) == len(scene["blocks"])
+    assert "fixed" in [t.get_text() for t in ax.figure.legends[0].get_texts()]
+    assert ax.get_ylim()[0] < -1.9  # the base is in view
