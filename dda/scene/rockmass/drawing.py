@@ -495,17 +495,38 @@ def _closed(shapes: list[Shape], layer: str, path: Path) -> list[Shape]:
         if len(shape.points) < (3 if shape.closed else 2):
             raise SceneError(str(path), f"layer {layer}", f"{shape.what} has no area (a point, "
                              "or a circle of radius 0): remove it")  # fmt: skip
-    rings, left = _rings([s for s in found if not s.closed], layer)
-    for shape in left:
-        (x0, y0), (x1, y1) = shape.points[0], shape.points[-1]
-        raise SceneError(
-            str(path),
-            f"layer {layer}",
-            f"{shape.what} is open (from ({x0:.6g}, {y0:.6g}) to ({x1:.6g}, {y1:.6g})) and "
-            "closes no ring with the layer's other open shapes: a block or an excavation "
-            "is a closed polyline",
-        )
+    opened = [s for s in found if not s.closed]
+    rings, left = _rings(opened, layer)
+    if left:
+        raise SceneError(str(path), f"layer {layer}", _open_reason(left, opened))
     return [s for s in found if s.closed] + rings
+
+
+def _open_reason(left: list[Shape], opened: list[Shape]) -> str:
+    """Why the open shapes ``left`` close no ring: a loose end of their chains (an end
+    no other open shape of the layer meets, within :data:`CLOSED` of their extent) and
+    the nearest other loose end, with the gap between them; else the first shape."""
+    points = np.concatenate([s.points for s in opened])
+    grid = CLOSED * float(np.ptp(points, axis=0).max() or 1.0)
+    ends = [(s, s.points[k]) for s in left for k in (0, -1)]
+    cells = [tuple(np.round(np.asarray(p) / grid).astype(np.int64)) for _, p in ends]
+    loose = [e for e, c in zip(ends, cells, strict=True) if cells.count(c) == 1]
+    note = ": a block or an excavation is a closed polyline"
+    if len(loose) < 2:
+        shape = left[0]
+        (x0, y0), (x1, y1) = shape.points[0], shape.points[-1]
+        return (f"{shape.what} is open (from ({x0:.6g}, {y0:.6g}) to ({x1:.6g}, {y1:.6g})) "
+                f"and closes no ring with the layer's other open shapes{note}")  # fmt: skip
+    (shape, end), others = loose[0], loose[1:]
+    gaps = [float(np.hypot(*(np.asarray(p) - end))) for _, p in others]
+    (other, near), gap = others[int(np.argmin(gaps))], min(gaps)
+    if other is shape:
+        return (f"{shape.what} is open: its ends ({end[0]:.6g}, {end[1]:.6g}) and "
+                f"({near[0]:.6g}, {near[1]:.6g}) are {gap:.3g} apart{note}")  # fmt: skip
+    return (f"{shape.what} has a loose end at ({end[0]:.6g}, {end[1]:.6g}), which no "
+            "other shape of "
+            f"the layer meets; the nearest loose end is {other.what}'s at ({near[0]:.6g}, "
+            f"{near[1]:.6g}), {gap:.3g} away: join them{note}")  # fmt: skip
 
 
 def _rings(shapes: list[Shape], layer: str) -> tuple[list[Shape], list[Shape]]:

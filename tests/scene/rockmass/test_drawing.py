@@ -153,6 +153,18 @@ def _toml(value) -> str:
 SQUARE = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]
 
 
+def _lines_with_a_gap(path: Path, gap: float) -> None:
+    """The square on BLOCKS as four LINEs (an exploded polyline), the last ending ``gap``
+    short of the first's start (an audit: the error named the intact first line)."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    corners = [*SQUARE, (0.0, gap)]
+    for start, end in zip(corners[:-1], corners[1:], strict=True):
+        document.modelspace().add_line(start, end, dxfattribs={"layer": "BLOCKS"})
+    document.saveas(path)
+
+
 def _overlapping(path: Path) -> None:
     """Two squares on BLOCKS that overlap (the cut refuses the regions they become)."""
     drawings.drawing_with(path, "BLOCKS", SQUARE, closed=True)
@@ -170,9 +182,14 @@ def _overlapping(path: Path) -> None:
     ("make", "drawing", "message"),
     [
         (lambda p: drawings.drawing_with(p, "BLOCKS", SQUARE, closed=False), {},
-         "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 30) is open "
-         "(from (0, 0) to (0, 10)) and closes no ring with the layer's other open shapes: a "
-         "block or an excavation is a closed polyline"),
+         "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 30) is open: its "
+         "ends (0, 0) and (0, 10) are 10 apart: a block or an excavation is a closed "
+         "polyline"),
+        (lambda p: _lines_with_a_gap(p, 0.001), {},
+         "scene.toml: drawing.file: {dxf}: layer BLOCKS: LINE (handle 2F) has a loose end at "
+         "(0, 0), which no other shape of the layer meets; the nearest loose end is LINE "
+         "(handle 32)'s at (0, 0.001), 0.001 away: join them: a block or an excavation is a "
+         "closed polyline"),
         (lambda p: drawings.drawing_with(p, "ROCK", SQUARE, closed=True), {},
          "scene.toml: drawing.blocks: no layer 'BLOCKS' in the drawing {dxf} (its layers: 0, "
          "Defpoints, ROCK)"),
@@ -196,8 +213,8 @@ def _overlapping(path: Path) -> None:
          "layer do not cross"),
         (lambda p: None, {}, "scene.toml: drawing.file: no such file "),
     ],
-    ids=["open polyline", "no blocks layer", "a named layer missing", "units", "not DXF",
-         "cut short", "broken DXF", "no shape", "overlap", "no file"],
+    ids=["open polyline", "lines with a gap", "no blocks layer", "a named layer missing",
+         "units", "not DXF", "cut short", "broken DXF", "no shape", "overlap", "no file"],
 )  # fmt: skip
 def test_a_bad_drawing_is_refused_in_one_line(tmp_path, monkeypatch, capsys, make, drawing,
                                               message):  # fmt: skip
