@@ -771,6 +771,7 @@ def _warnings(state: _Run) -> list[str]:
     )
     augmented = m.contact is not None and m.contact.law.augmented
     found = [
+        *m.scene.load_warnings,  # a drawing's left-out shapes, joint lines that cut nothing
         in_situ_warning(*state.in_situ_change),
         in_situ_slip_warning(*state.in_situ_slip, length),
         *state.unbalanced,

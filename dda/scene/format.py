@@ -26,7 +26,8 @@ import logging
 import math
 import re
 import tomllib
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -242,6 +243,9 @@ class Scene:
     # stability (dda.scene.stability): dda fos and dda ensemble
     fos: FosSettings = field(default_factory=FosSettings)
     ensemble: EnsembleSettings | None = None
+    # what loading said as warnings (a drawing's left-out shapes, joint lines that cut
+    # nothing): the run's summary repeats them
+    load_warnings: tuple[str, ...] = ()
 
     @property
     def block_names(self) -> tuple[str, ...]:
@@ -897,7 +901,9 @@ def _build_scene(
     """Validate a raw nested mapping section by section into a Scene."""
     chk = Checker(source)
     written = raw
-    raw = chk.table(_expand_rock_mass(raw, source, progress), "", _TOP_KEYS)
+    said: list[str] = []
+    with _warnings_said(said):
+        raw = chk.table(_expand_rock_mass(raw, source, progress), "", _TOP_KEYS)
     title = chk.text(raw.get("title", ""), "title")
     analysis = _analysis(chk, raw)
     contact = _contact(chk, raw)
@@ -931,12 +937,35 @@ def _build_scene(
         **engineering,
         **in_situ,
         **parse_stability(chk, raw, written, blocks, groups),
+        load_warnings=tuple(said),
     )
     _check_intact(chk, scene)
     _check_restitution(chk, scene)
     _check_default_name(chk, scene, raw.get("joints", {}))
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
     return scene
+
+
+class _Said(logging.Handler):
+    """Keeps the messages of the warnings logged while it is attached."""
+
+    def __init__(self, into: list[str]) -> None:
+        super().__init__(logging.WARNING)
+        self.into = into
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.into.append(record.getMessage())
+
+
+@contextmanager
+def _warnings_said(into: list[str]) -> Iterator[None]:
+    """Collect into ``into`` the warnings that :mod:`dda.scene` logs meanwhile."""
+    handler, scene_log = _Said(into), logging.getLogger("dda.scene")
+    scene_log.addHandler(handler)
+    try:
+        yield
+    finally:
+        scene_log.removeHandler(handler)
 
 
 def _check_default_name(chk: Checker, scene: Scene, declared: Mapping[str, Any]) -> None:

@@ -389,6 +389,9 @@ def test_a_joint_snapped_to_a_curved_boundary_cuts(tmp_path, caplog):
     (said,) = [r.getMessage() for r in caplog.records if "cuts nothing" in r.getMessage()]
     assert "joint_lines[1] ('JOINTS', from (60, -0.161" in said  # drawn on to the base
     assert "to (60, 39.5)) cuts nothing: it ends inside the rock" in said
+    assert scene.load_warnings == (said,)  # an audit: the run's summary did not say it
+    summary = dda.simulate(scene, stop=lambda: True).summary
+    assert said in summary["warnings"]
 
 
 def test_an_exploded_outline_is_read_as_the_shape_it_closes(tmp_path):
