@@ -43,6 +43,7 @@ from dda.run.run_warnings import (
     in_situ_slip_warning,
     in_situ_warning,
     penetration_warning,
+    restitution_step_warning,
     restitution_warning,
     smallest_free_size,
     static_motion_warning,
@@ -787,20 +788,28 @@ def _warnings(state: _Run) -> list[str]:
         cut_steps_warning(state.cut_steps, state.step, state.smallest_cut_dt, m.max_time_step),
         _last_motion_warning(state, length),
         _fracture_warning(state, length),
-        _restitution_warning(m),
+        *_restitution_warnings(m, state.blocks),
     ]
     return [text for text in found if text is not None]
 
 
-def _restitution_warning(model: Model) -> str | None:
-    """:func:`restitution_warning` of the model's joints with ``restitution``."""
+def _restitution_warnings(model: Model, blocks: BlockSet) -> list[str | None]:
+    """:func:`restitution_warning` and :func:`restitution_step_warning` of the model's
+    joints with ``restitution``."""
     cm = model.contact
     if cm is None or not cm.joints.has_restitution or model.static:  # no dashpot in static
-        return None
+        return []
     rest = [cm.joints.names[k] for k in np.flatnonzero(np.isfinite(cm.joints.restitution))]
     young = min(material.young for material in model.scene.materials.values())
     units = model.scene.units
-    return restitution_warning(rest, cm.initial_penalty, young, units.force, units.length)
+    free = ~blocks.fixed
+    masses = model.inertia.masses(blocks)[free, 0, 0]
+    omega = float(np.sqrt(2.0 * cm.initial_penalty / masses.min())) if len(masses) else 0.0
+    gamma = model.scene.analysis.newmark_gamma
+    return [
+        restitution_warning(rest, cm.initial_penalty, young, units.force, units.length),
+        restitution_step_warning(rest, omega, model.max_time_step, gamma, units.time),
+    ]
 
 
 def _fracture_warning(state: _Run, length: str) -> str | None:
