@@ -132,3 +132,15 @@ def carry_stress(blocks: BlockSet, contacts: ContactSet, field: StressField) -> 
     )
     out.shear_multiplier = np.where(carries, shear, contacts.shear_multiplier)
     return out
+
+
+def with_carried_forces(contacts: ContactSet) -> ContactSet:
+    """``contacts`` with the forces their multipliers carry on the touching ones,
+    N = λn + p g and F = λt (:func:`carry_stress` sets the multipliers, not the forces a
+    solve records): what their springs hold at t = 0, for the energy account."""
+    out = contacts.copy()
+    touching = contacts.state != OPEN
+    carried = contacts.normal_multiplier + contacts.penalty * contacts.penetration
+    out.normal_force = np.where(touching, carried, contacts.normal_force)
+    out.shear_force = np.where(touching, contacts.shear_multiplier, contacts.shear_force)
+    return out

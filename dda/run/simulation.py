@@ -16,7 +16,7 @@ from dda.contact.contact_set import ContactSet
 from dda.contact.formulas import normal_trial
 from dda.contact.law import friction_bound
 from dda.contact.pipeline import refresh_contacts
-from dda.contact.preload import carry_stress
+from dda.contact.preload import carry_stress, with_carried_forces
 from dda.contact.push_out import pay_for_the_push
 from dda.contact.rows import contact_rows
 from dda.effects.base import StepContext
@@ -334,7 +334,7 @@ def _touching_at_start(run: _Run) -> None:
     field = run.model.scene.in_situ
     if field is not None and run.model.contact is not None:
         run.contacts = carry_stress(run.blocks, run.contacts, field)
-        run.energy.initial = run.energy.measure(run.blocks, run.contacts)
+        run.energy.initial = run.energy.measure(run.blocks, with_carried_forces(run.contacts))
         run.in_situ_slip = _beyond_strength(run.model, run.blocks, run.contacts, run.origin)
 
 
