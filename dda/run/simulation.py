@@ -836,8 +836,14 @@ def _energy_warning(state: _Run) -> str | None:
         corners = blocks.vertices[blocks.offsets[k] : blocks.offsets[k + 1]]
         half = 0.5 * np.linalg.norm(np.diff(corners, axis=0, append=corners[:1]), axis=1).sum()
         fastest = (blocks.names[k], float(speed.max()), float(half**2 / blocks.area[k]))
+        spin = np.abs(blocks.velocity[free, 2])
+        k = free[int(np.argmax(spin))]
+        turning = (blocks.names[k], float(spin.max()), float(spin.max()) * state.dt)
     history, initial = state.history, state.energy.initial.total
-    return energy_warning(history, initial, state.pushed_steps, fastest, (units.length, units.time))
+    return energy_warning(
+        history, initial, state.pushed_steps, fastest, (units.length, units.time),
+        turning if len(free) else None,
+    )  # fmt: skip
 
 
 def _last_motion_warning(state: _Run, length: str) -> str | None:
