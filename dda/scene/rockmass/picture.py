@@ -51,7 +51,7 @@ def cut_figure(
     fig = Figure(figsize=(8, 6), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    handles = _fill_blocks(ax, cut, drawn) + _hatch_removed(ax, cut, removed)
+    handles = _fill_blocks(ax, cut, drawn) + _hatch_removed(ax, cut, removed, drawn)
     handles += _draw_edges(ax, cut, drawn)
     fig.legend(
         handles=handles,
@@ -83,12 +83,15 @@ def _fill_blocks(ax, cut: CutRockMass, drawn: Sequence[Mapping]) -> list:
     return handles
 
 
-def _hatch_removed(ax, cut: CutRockMass, removed: Collection[str]) -> list:
-    """Hatching over the blocks a stage removes, and its legend entry."""
-    rows = [i for i, name in enumerate(cut.names) if name in set(removed)]
-    if not rows:
+def _hatch_removed(
+    ax, cut: CutRockMass, removed: Collection[str], drawn: Sequence[Mapping] = ()
+) -> list:
+    """Hatching over the blocks a stage removes (cut or drawn), and its legend entry."""
+    gone = set(removed)
+    polygons = [cut.blocks.polygon(i) for i, name in enumerate(cut.names) if name in gone]
+    polygons += [np.asarray(b["vertices"], float) for b in drawn if b.get("name") in gone]
+    if not polygons:
         return []
-    polygons = [cut.blocks.polygon(i) for i in rows]
     ax.add_collection(
         PolyCollection(polygons, facecolors="none", edgecolors=REMOVED_HATCH, hatch="////",
                        linewidths=0.0)

@@ -868,3 +868,6 @@ def test_the_cut_picture_draws_the_blocks_the_scene_draws_and_its_length_unit():
     assert len(fills.get_paths()) == len(scene["blocks"])
     assert "fixed" in [t.get_text() for t in ax.figure.legends[0].get_texts()]
     assert ax.get_ylim()[0] < -1.9  # the base is in view
+    dug = cut_figure(cut, removed={"base"}, drawn=drawn).axes[0]  # a drawn block dug out
+    labels = [t.get_text() for t in dug.figure.legends[0].get_texts()]
+    assert "excavated by a stage" in labels
