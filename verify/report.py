@@ -48,9 +48,15 @@ def format_console(results: list[CaseResult], errors: list[CaseError] = ()) -> s
 
 
 def _markdown_table(header: list[str], rows: list[list[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    """A Markdown table; a ``|`` in a cell (a contact row's "base|lower") escaped, so that
+    it does not split the cell."""
+    lines = ["| " + " | ".join(_cells(header)) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_cells(row)) + " |" for row in rows]
     return lines
+
+
+def _cells(row: list[str]) -> list[str]:
+    return [str(cell).replace("|", "\\|") for cell in row]
 
 
 def case_section(result: CaseResult, image: str | None) -> list[str]:

@@ -778,7 +778,18 @@ def test_cli_refuses_a_bad_expectation_file_in_one_line(tmp_path, capsys):
         (lambda t: t.replace("[fem]", "[fem]\nsise = 0.1"), "fem.sise: unknown key"),
         (lambda t: t.split("[checks.")[0], "checks: the case checks nothing"),
         (lambda t: t.replace("tolerance = 1e-3", 'tolerance = "x"', 1),
-         "tolerance: must be a number >= 0, got 'x'"),
+         "tolerance: must be a finite number >= 0, got 'x'"),
+        # an audit's (each ran, then failed, crashed or passed checking nothing)
+        (lambda t: t.replace("tolerance = 1e-3", "tolerance = inf", 1),
+         "tolerance: must be a finite number >= 0, got inf"),
+        (lambda t: t.replace("[fem]", "[fem]\nsize = 0", 1) if "size" not in t
+         else t.replace("size = ", "size = -", 1), "fem.size: must be a length > 0"),
+        (lambda t: t.replace("[checks.centroid]", '[checks.centroid]\ncomponents = "uy"'),
+         "checks.centroid.components: must be a list of names, got 'uy'"),
+        (lambda t: t + '\n[dda_closed_form]\n"block.szz" = 1.0\n',
+         "dda_closed_form.block.szz: expected BLOCK.COMPONENT"),
+        (lambda t: t + '\n[dda_closed_form]\n"block.syy" = "abc"\n',
+         "dda_closed_form.block.syy: must be a number, got 'abc'"),
     ],
 )  # fmt: skip
 def test_an_expectation_that_cannot_be_used_is_refused_by_its_key(tmp_path, capsys, edit, message):
@@ -927,3 +938,11 @@ def test_a_study_that_raises_is_an_error_too(tmp_path, monkeypatch):
         {"name": "block refinement study", "message": "LinAlgError: Singular matrix"}
     ]
     assert [c["name"] for c in report["cases"]] == ["self_weight"]
+
+
+def test_report_markdown_escapes_the_bar_of_contact_rows():
+    """An audit: "base|lower" split its cell in report.md and shifted the row."""
+    from verify.report import _markdown_table
+
+    header, row = _markdown_table(["item", "error"], [["base|lower", "1e-3"]])[::2]
+    assert row == "| base\\|lower | 1e-3 |" and header == "| item | error |"

@@ -54,12 +54,10 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from verify.comparison.dda_side import DdaSide
-from verify.comparison.expect import Expectation
+from verify.comparison.expect import STRAIN, STRESS, Expectation, ExpectationError
 from verify.fem import fields
 from verify.fem.statics import FemSolution, contact_tolerance_of
 
-STRESS = ("sxx", "syy", "sxy")
-STRAIN = ("exx", "eyy", "gxy")
 VECTOR = ("ux", "uy")
 FORCE = ("fx", "fy")
 
@@ -237,9 +235,11 @@ def closed_form_rows(dda: DdaSide, fem: FemSolution, maker: RowMaker) -> list[Ro
     }
     rows = []
     tables = ((maker.expectation.closed_form, True), (maker.expectation.dda_closed_form, False))
-    for table, both in tables:
+    for (table, both), where in zip(tables, ("closed_form", "dda_closed_form"), strict=True):
         for key, value in table.items():
             name, component = key.rsplit(".", 1)
+            if name not in maker.names:
+                raise ExpectationError(f"{where}.{key}: the scene has no block {name!r}")
             names = STRESS if component in STRESS else STRAIN
             on_dda, on_fem = sides[names]
             i, k = maker.names.index(name), names.index(component)

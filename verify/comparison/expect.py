@@ -45,6 +45,7 @@ Every check states why; a tolerance above 1 % must say why it is that large
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -105,6 +106,10 @@ TOP_KEYS = (
     "time_steps", "order",
 )  # fmt: skip
 FEM_KEYS = ("size", "order", "turn", "about")
+# the components a block's [closed_form] row may give: its stress, its strain
+STRESS = ("sxx", "syy", "sxy")
+STRAIN = ("exx", "eyy", "gxy")
+TENSOR_COMPONENTS = STRESS + STRAIN
 CHECK_KEYS = ("tolerance", "why", "blocks", "components")
 
 
@@ -188,17 +193,59 @@ def _check(path: Path, name: str, table: object) -> Check:
     if "tolerance" not in table:
         raise ExpectationError(f"{path}: checks.{name}: 'tolerance' is required")
     tolerance = table["tolerance"]
-    if isinstance(tolerance, bool) or not isinstance(tolerance, int | float) or tolerance < 0:
+    if not _number(tolerance) or tolerance < 0:  # nan would fail, inf pass, any engine
         raise ExpectationError(
-            f"{path}: checks.{name}.tolerance: must be a number >= 0, got {tolerance!r}"
+            f"{path}: checks.{name}.tolerance: must be a finite number >= 0, got {tolerance!r}"
         )
     return Check(
         name,
         float(tolerance),
         str(table["why"]).strip(),
-        tuple(table.get("blocks", ())),
-        tuple(table.get("components", ())),
+        _names(path, table, f"checks.{name}", "blocks"),
+        _names(path, table, f"checks.{name}", "components"),
     )
+
+
+def _number(value: object) -> bool:
+    """A finite TOML number (not a boolean)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _names(path: Path, table: dict, where: str, key: str) -> tuple[str, ...]:
+    """``table[key]``: a list of names (a string alone would be read letter by letter)."""
+    value = table.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise ExpectationError(f"{path}: {where}.{key}: must be a list of names, got {value!r}")
+    return tuple(value)
+
+
+def _fem(path: Path, raw: dict) -> dict:
+    """The ``[fem]`` table: a mesh size > 0 and an element order 1 or 2 where given."""
+    fem = _known_keys(path, raw.get("fem", {}), "fem", FEM_KEYS)
+    size = fem.get("size")
+    if size is not None and not (_number(size) and size > 0):
+        raise ExpectationError(f"{path}: fem.size: must be a length > 0, got {size!r}")
+    if fem.get("order", 2) not in (1, 2) or isinstance(fem.get("order"), bool):
+        raise ExpectationError(f"{path}: fem.order: must be 1 or 2, got {fem['order']!r}")
+    return fem
+
+
+def _values(path: Path, raw: dict, key: str, components: tuple[str, ...] | None) -> dict:
+    """The table ``key`` of numbers by row; with ``components``, rows "BLOCK.COMPONENT" of
+    one of them (``[closed_form]``: a block's stress or strain)."""
+    table = raw.get(key, {})
+    if not isinstance(table, dict):
+        raise ExpectationError(f"{path}: {key}: must be a table")
+    for row, value in table.items():
+        if not _number(value):
+            raise ExpectationError(f"{path}: {key}.{row}: must be a number, got {value!r}")
+        component = row.rsplit(".", 1)[-1] if "." in row else ""
+        if components is not None and component not in components:
+            raise ExpectationError(
+                f"{path}: {key}.{row}: expected BLOCK.COMPONENT, the component one of "
+                f"{', '.join(components)}"
+            )
+    return {row: float(value) for row, value in table.items()}
 
 
 def _checks(path: Path, raw: dict) -> dict[str, Check]:
@@ -240,18 +287,22 @@ def load_expectation(path: Path) -> Expectation:
     kind = str(raw.get("kind", "static"))
     if kind not in KINDS:
         raise ExpectationError(f"{path}: kind: {kind!r} is not one of {KINDS}")
-    fem = _known_keys(path, raw.get("fem", {}), "fem", FEM_KEYS)
+    fem = _fem(path, raw)
     if kind == "motion":
         _check_motion(path, raw)
     environment = _environment(path, raw.get("environment", {}))
     checks = _checks(path, raw)
     try:
-        return _expectation(raw, kind, fem, checks, environment)
+        return _expectation(path, raw, kind, fem, checks, environment)
+    except ExpectationError:
+        raise
     except (TypeError, ValueError) as exc:  # a value of the wrong type
         raise ExpectationError(f"{path}: {exc}") from exc
 
 
-def _expectation(raw: dict, kind: str, fem: dict, checks: dict, environment) -> Expectation:
+def _expectation(
+    path: Path, raw: dict, kind: str, fem: dict, checks: dict, environment
+) -> Expectation:
     """The :class:`Expectation` of the checked file ``raw``."""
     return Expectation(
         summary=str(raw.get("summary", "")),
@@ -265,9 +316,9 @@ def _expectation(raw: dict, kind: str, fem: dict, checks: dict, environment) -> 
         fem_turn=float(fem.get("turn", 0.0)),
         fem_about=tuple(float(x) for x in fem.get("about", (0.0, 0.0))),
         checks=checks,
-        offsets={k: float(v) for k, v in raw.get("offsets", {}).items()},
-        closed_form={k: float(v) for k, v in raw.get("closed_form", {}).items()},
-        dda_closed_form={k: float(v) for k, v in raw.get("dda_closed_form", {}).items()},
+        offsets=_values(path, raw, "offsets", None),
+        closed_form=_values(path, raw, "closed_form", TENSOR_COMPONENTS),
+        dda_closed_form=_values(path, raw, "dda_closed_form", TENSOR_COMPONENTS),
         notes={k: str(v).strip() for k, v in raw.get("notes", {}).items()},
         reference=str(raw.get("reference", "")),
         time_steps=tuple(int(f) for f in raw.get("time_steps", (1,))),
