@@ -123,6 +123,8 @@ def _cases_dir_problem(cases_dir: str | None) -> str | None:
     if cases_dir is None:
         return None
     folder = Path(cases_dir)
+    if folder.exists() and not folder.is_dir():
+        return "is a file, not a folder of cases"
     if not folder.is_dir():
         return "no such folder"
     if not any(folder.glob("*.expect.toml")):

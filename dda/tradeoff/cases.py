@@ -262,6 +262,9 @@ def get_case(name: str) -> Case:
         return BUILT_IN[name]()
     if Path(name).is_file():
         return scene_file(name)
+    if name.endswith(".toml"):  # a scene file meant (was "unknown case 'x.toml'")
+        why = "is not a file" if Path(name).exists() else "no such file"
+        raise ValueError(f"{name}: {why}")
     raise ValueError(f"unknown case {name!r}: use {', '.join(BUILT_IN)} or a scene file")
 
 

@@ -122,11 +122,15 @@ def parse_grid(text: str, defaults: dict[str, list] | None = None) -> dict[str, 
         (whether the scene takes it is :func:`dda.tradeoff.checks.check_settings`'s).
     """
     values = {k: list(v) for k, v in (defaults or {}).items()}
+    given: set[str] = set()
     for part in filter(None, (p.strip() for p in text.split(";"))):
         key, _, items = part.partition("=")
         key = key.strip()
         if key not in KEYS:
             raise ValueError(f"unknown grid key {key!r}; expected one of {', '.join(KEYS)}")
+        if key in given:  # the second list silently replaced the first
+            raise ValueError(f"grid key {key!r} is given twice: give its values in one list")
+        given.add(key)
         words = [w.strip() for w in items.split(",") if w.strip()]
         if not words:
             raise ValueError(f"grid key {key!r} has no values")

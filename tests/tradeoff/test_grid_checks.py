@@ -76,3 +76,15 @@ def test_a_reference_run_the_scene_refuses_is_named_as_the_fine_run(tmp_path, ca
         "analysis.duration: 0.1 s at time_step 5e-09 s is at least 2e+07 steps"
     )
     assert err.count("\n") == 1
+
+
+def test_a_grid_key_given_twice_and_a_missing_scene_file_are_refused(tmp_path):
+    """An audit: "time_step=0.01;time_step=0.003" ran 0.003 alone, and a missing scene
+    file was "unknown case 'missing.toml'"."""
+    with pytest.raises(ValueError, match="grid key 'time_step' is given twice"):
+        parse_grid("time_step=0.01;time_step=0.003", get_case("sliding_block").grid)
+    with pytest.raises(ValueError, match=r"^missing\.toml: no such file$"):
+        get_case("missing.toml")
+    (tmp_path / "x.toml").mkdir()
+    with pytest.raises(ValueError, match=r"x\.toml: is not a file$"):
+        get_case(str(tmp_path / "x.toml"))

@@ -790,6 +790,8 @@ def test_cli_refuses_a_bad_expectation_file_in_one_line(tmp_path, capsys):
          "dda_closed_form.block.szz: expected BLOCK.COMPONENT"),
         (lambda t: t + '\n[dda_closed_form]\n"block.syy" = "abc"\n',
          "dda_closed_form.block.syy: must be a number, got 'abc'"),
+        (lambda t: t.replace('kind = "static"', 'kind = "motion"') if 'kind = "static"' in t
+         else 'kind = "motion"\n' + t, "reference: required for kind = 'motion'"),
     ],
 )  # fmt: skip
 def test_an_expectation_that_cannot_be_used_is_refused_by_its_key(tmp_path, capsys, edit, message):
@@ -806,6 +808,15 @@ def test_an_expectation_that_cannot_be_used_is_refused_by_its_key(tmp_path, caps
     error = capsys.readouterr().err.strip().splitlines()[-1]
     assert "mine.expect.toml" in error and message in error
     assert not (tmp_path / "out").exists()
+
+
+def test_a_file_given_as_the_cases_folder_is_refused_as_such(tmp_path, capsys):
+    from verify.cli import main
+
+    (tmp_path / "afile").write_text("")
+    assert main(["--cases-dir", str(tmp_path / "afile"), "-o", str(tmp_path / "out")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert error.endswith("afile: is a file, not a folder of cases")
 
 
 def test_a_cases_folder_without_cases_is_refused(tmp_path, capsys):

@@ -265,6 +265,10 @@ def _checks(path: Path, raw: dict) -> dict[str, Check]:
 def _check_motion(path: Path, raw: dict) -> None:
     """A motion case names a known closed form and time-step factors that include 1."""
     reference = raw.get("reference")
+    if reference is None:
+        raise ExpectationError(
+            f"{path}: reference: required for kind = 'motion' (one of {MOTION_REFERENCES})"
+        )
     if reference not in MOTION_REFERENCES:
         raise ExpectationError(
             f"{path}: reference: {reference!r} is not one of {MOTION_REFERENCES}"
