@@ -87,11 +87,20 @@ def table(measurements: Iterable[Measurement]) -> str:
             _figure(m.ms_per_step), _figure(m.ms_per_later_step),
             _figure(m.block_steps_per_second, ",.0f"), _figure(m.iterations_per_step),
             _figure(m.newton_iterations_per_step), str(m.factorisations),
-            *(_figure(m.stage_ms_per_step(s)) for s in STAGES),
+            *(_stage(m, s) for s in STAGES),
             _figure(m.peak_memory_mib, ".0f"), m.status[:40],
         ]  # fmt: skip
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _stage(m: Measurement, stage: str) -> str:
+    """A stage's ms per step; "(in solve)" for the factorisations of a run that made some
+    but timed none apart (band systems: the compiled loop factorises inside "solve")."""
+    seconds = m.stage_seconds.get(stage, 0.0)
+    if stage == "factorisation" and m.factorisations > 0 and seconds == 0.0:
+        return "(in solve)"
+    return _figure(m.stage_ms_per_step(stage))
 
 
 def _figure(value: float, spec: str = ".2f") -> str:

@@ -55,6 +55,10 @@ def test_the_table_names_its_counts_and_the_stages_units():
     assert cells[names.index("factor ms/step")] == "2.50"  # 10 ms over 4 steps
     assert {"search ms/step", "law ms/step", "output ms/step"} <= set(names)
     assert "factor." not in names and "factor" not in names
+    # an audit: band systems factorise inside the compiled loop, timed as "solve"
+    band = Measurement(3, 3, "penalty", 4, 10, 0.2, 12, 5, stage_seconds={"solve": 0.01})
+    cells = [cell.strip() for cell in table([band]).splitlines()[2].strip("|").split("|")]
+    assert cells[names.index("factor ms/step")] == "(in solve)"
 
 
 def test_the_walls_start_as_users_runs_do_and_report_the_start():
