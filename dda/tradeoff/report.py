@@ -42,13 +42,17 @@ EXACT_COLUMNS = ("value", "reference")
 
 
 def write_csv(rows: list[dict], path: Path) -> Path:
-    """Every run, one line each, sorted by method then time."""
+    """Every run, one line each, sorted by method then time; the penalty method's rows
+    leave the tolerance empty (it ignores it; the grid's value is no setting of theirs)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as stream:
         writer = csv.DictWriter(stream, COLUMNS, extrasaction="ignore")
         writer.writeheader()
         for row in sorted(rows, key=lambda r: (r["method"], r["seconds"])):
-            writer.writerow({k: _cell(row.get(k), k in EXACT_COLUMNS) for k in COLUMNS})
+            cells = {k: _cell(row.get(k), k in EXACT_COLUMNS) for k in COLUMNS}
+            if row.get("method") == "penalty":
+                cells["tolerance"] = ""
+            writer.writerow(cells)
     return path
 
 

@@ -35,6 +35,14 @@ def test_the_csv_values_recompute_the_errors_of_the_sliding_block(tmp_path):
         again = abs(float(line["value"]) - float(line["reference"])) / abs(exact)
         assert np.isclose(again, row["error"], rtol=1e-6, atol=0)
 
+    # an audit: the penalty method's rows gave the grid's tolerance, which they ignore
+    add_errors(mixed := [run_row(exact), run_row(exact, method="augmented-lagrangian")],
+               case, case.reference)  # fmt: skip
+    write_csv(mixed, tmp_path / "mixed.csv")
+    with (tmp_path / "mixed.csv").open() as stream:
+        tolerances = {line["method"]: line["tolerance"] for line in csv.DictReader(stream)}
+    assert tolerances == {"penalty": "", "augmented-lagrangian": "0.0001"}
+
 
 WALL_TITLE = (
     "wall: block displacements at 0.1 s (error / largest displacement), against a "
