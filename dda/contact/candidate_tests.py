@@ -221,3 +221,17 @@ def geometrically_sound(far, penetration, boundary, to_block, tolerance, slack):
     near_enough = (far <= boundary + slack) | (penetration <= 0.0)
     inside = (penetration <= tolerance) | (to_block <= slack)
     return near_enough & inside
+
+
+@formula
+def moving_in(motion_x, motion_y, edge_motion_x, edge_motion_y, nx, ny):
+    """(m_P1 − m_edge)·n: how far the vertex moves into the edge's line over the coming
+    step, against the edge's own block (< 0: it enters), m the motions of the two."""
+    return (motion_x - edge_motion_x) * nx + (motion_y - edge_motion_y) * ny
+
+
+@formula
+def enters_less(approach, deepest):
+    """A tied pairing left out for another that enters: it enters by less than half of
+    the deepest entry ``deepest`` (< 0) among the tied, or not at all."""
+    return (deepest < 0.0) & (approach > 0.5 * deepest)

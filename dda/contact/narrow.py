@@ -50,12 +50,14 @@ from dda.contact.candidate_tests import (
     edge_along,
     edge_depth,
     edge_parameter,
+    enters_less,
     face_to_face,
     fan_clears,
     fan_separation,
     inside_corner,
     line_depth,
     meet_at_reflex,
+    moving_in,
     nested_in_corner,
     off_edge,
     projects_inside,
@@ -187,6 +189,7 @@ def detect(
     previous_keys: np.ndarray | None = None,
     gap: float | None = None,
     last: LastStep | None = None,
+    motion: np.ndarray | None = None,
 ) -> Detected:
     """Vertex-edge and vertex-vertex contacts for candidate block pairs.
 
@@ -208,13 +211,16 @@ def detect(
     ``last``: the last step's sliding and closed contacts
     (:func:`dda.contact.line_continuation.last_step`; None: none): a corner that slid
     along a face onto the next face of its line keeps to that line.
+    ``motion``: (N, 2) each vertex's motion over the coming step (None: none known): a
+    vertex-vertex tie that neither its depths nor the last step decides goes to the
+    pairing whose vertex moves into its edge (:func:`_entering_less`).
     """
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
         return Detected(empty, empty, np.zeros(0, bool), np.zeros(0, bool))
     if compiled(_detect_kernel):
         return _detect_compiled(
-            blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last
+            blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last, motion
         )
     fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(
         blocks, pairs, search, vertex_radius, search if gap is None else gap
@@ -223,7 +229,7 @@ def detect(
     vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
     slack = OUTSIDE_FRACTION * search
     vv_vertex, vv_edge, vv_shared = _resolve_vertex_vertex(
-        blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys, last
+        blocks, fans, vv_vertex, vv_edge, slack, inside_depth, previous_keys, last, motion
     )
     vertex_all = np.concatenate([ve_vertex, vv_vertex])
     edge_all = np.concatenate([ve_edge, vv_edge])
@@ -235,19 +241,21 @@ def detect(
 
 
 def _detect_compiled(
-    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last=None
-):
+    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last=None,
+    motion=None,
+):  # fmt: skip
     """:func:`detect` in one compiled call (:func:`_detect`): the same contacts, in the
     same order, as the numpy path's and the compiled pieces' it strings together."""
     arguments = detect_arguments(
-        blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last
+        blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last, motion
     )
     return Detected(*_detect_kernel(*arguments))
 
 
 def detect_arguments(
-    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last=None
-):
+    blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last=None,
+    motion=None,
+):  # fmt: skip
     """The arguments of the compiled narrow phase (:func:`_detect`) for :func:`detect`'s."""
     known = np.zeros(0, np.int64) if previous_keys is None else np.sort(previous_keys)
     partner_ptr, partner_edges = previous_partners(blocks, last)
@@ -265,6 +273,7 @@ def detect_arguments(
         partner_ptr,
         partner_edges,
         held,
+        np.zeros((0, 2)) if motion is None else np.ascontiguousarray(motion, np.float64),
         float(vertex_radius),
         float(search),
         float(search if gap is None else gap),
@@ -274,7 +283,7 @@ def detect_arguments(
 
 def _detect(
     pairs, offsets, v, nxt, prv, owner, area, parts, known, partner_ptr, partner_edges, held,
-    vertex_radius, search, gap, inside,
+    motion, vertex_radius, search, gap, inside,
 ):  # fmt: skip
     """Compiled :func:`detect`: fans, screen, corners separated at filled nodes,
     vertex-vertex resolution and one row per pairing, the kernels of each stage."""
@@ -307,7 +316,7 @@ def _detect(
         vv_v, vv_e, vv_s = _resolve_kernel(
             vv_v[close], vv_e[close], v, nxt, prv, to_next, to_prev, outward, reflex, parts,
             known, (partner_ptr, partner_edges, held), OUTSIDE_FRACTION * search, inside, ANGLE_TIE,
-            KEY_SCALE,
+            KEY_SCALE, motion,
         )  # fmt: skip
     vertex = np.concatenate((ve_v, vv_v))
     edge = np.concatenate((ve_e, vv_e))
@@ -491,8 +500,9 @@ def _outward_normal(blocks: BlockSet, fans: VertexFans, edge: np.ndarray) -> np.
 
 
 def _resolve_vertex_vertex(
-    blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys, last=None
-):
+    blocks, fans, p1, p2, slack: float, inside_depth: float, previous_keys, last=None,
+    motion=None,
+):  # fmt: skip
     """Pick, for each coincident vertex pair (p1, p2), the edge to be entered.
 
     Candidates: the two edges at p2 (vertex p1 enters them) and the two edges
@@ -511,6 +521,11 @@ def _resolve_vertex_vertex(
     corners of a regular wall, where every candidate ties, swapped pairings
     with round-off from step to step (more than half of the contacts of a
     10 x 10 wall got new keys every step) and lost their history.
+    Where no pairing of the last step decides either, the one whose vertex moves into
+    its edge over the coming step (``motion``: each vertex's, None: unknown) wins over
+    those that enter by less than half as much: two corners that meet exactly, at rest,
+    tie in every pairing (a beam laid corner to corner on two pillars rested on the
+    top face of one and met the side face of the other, and tipped).
 
     Returns (vertex, edge, shared line) of each pairing: the last whether the
     vertex's block has an edge along the corner's other edge, facing the same way
@@ -549,7 +564,10 @@ def _resolve_vertex_vertex(
     tied &= _on_their_edges(off, tied)
     least = np.where(tied, depth, np.inf).min(axis=1, keepdims=True)
     near = tied & (depth <= least + inside_depth)
-    tied &= _persisting(blocks, candidates, near, previous_keys)
+    keep, decided = _persisting(blocks, candidates, near, previous_keys)
+    tied &= keep
+    if motion is not None and len(motion):
+        tied &= ~_entering_less(verts, edges, motion, fans.outward, near, decided)
     best = np.argmin(np.where(tied, depth, np.inf), axis=1)
     # at a reflex corner a vertex is inside the block once it is behind either edge
     # line: it then belongs to the edge it is behind (the other one's line is no guide)
@@ -615,7 +633,7 @@ _shares_line = kernel(_shares_line) or _shares_line  # the compiled resolver cal
 
 def _resolve(
     p1, p2, v, nxt, prv, to_next, to_prev, outward, reflex, parts, known, partners, slack,
-    inside, tie, scale,
+    inside, tie, scale, motion,
 ):  # fmt: skip
     """Compiled :func:`_resolve_vertex_vertex` (the same rules, candidate by candidate)."""
     k = p1.shape[0]
@@ -691,6 +709,7 @@ def _resolve(
         near = 0
         for c in range(4):
             near += tied[c] and depth[c] <= least + inside
+        decided = False
         if near > 1 and known.shape[0] > 0:
             was_any = False
             was = np.zeros(4, np.bool_)
@@ -701,8 +720,23 @@ def _resolve(
                     was[c] = at < known.shape[0] and known[at] == key
                     was_any |= was[c]
             if was_any:
+                decided = True
                 for c in range(4):
                     tied[c] &= was[c]
+        if near > 1 and not decided and motion.shape[0] > 0:
+            approach = np.zeros(4)
+            deepest = 0.0
+            for c in range(4):
+                if tied[c] and depth[c] <= least + inside:
+                    vert, ed = verts[c], edges[c]
+                    approach[c] = moving_in(
+                        motion[vert, 0], motion[vert, 1], motion[ed, 0], motion[ed, 1],
+                        outward[ed, 0], outward[ed, 1],
+                    )  # fmt: skip
+                    deepest = min(deepest, approach[c])
+            for c in range(4):
+                if tied[c] and depth[c] <= least + inside:
+                    tied[c] &= not enters_less(approach[c], deepest)
         best = 0
         lowest = np.inf
         for c in range(4):
@@ -795,19 +829,38 @@ def _on_their_edges(off: np.ndarray, tied: np.ndarray) -> np.ndarray:
     return np.where(usable, on_edge, True)
 
 
-def _persisting(blocks: BlockSet, candidates, tied: np.ndarray, previous_keys) -> np.ndarray:
-    """(k, 4) mask: the tied candidates that were pairings last step, where there is
-    one among the tied (else every candidate)."""
+def _persisting(
+    blocks: BlockSet, candidates, tied: np.ndarray, previous_keys
+) -> tuple[np.ndarray, np.ndarray]:
+    """((k, 4) mask: the tied candidates that were pairings last step, where there is
+    one among the tied (else every candidate); (k,): where one was)."""
     keep = np.ones_like(tied)
+    decided = np.zeros(len(tied), bool)
     rows = np.flatnonzero(tied.sum(axis=1) > 1)
     if previous_keys is None or len(previous_keys) == 0 or len(rows) == 0:
-        return keep
+        return keep, decided
     vert = np.concatenate([c[0][rows] for c in candidates])
     edge = np.concatenate([c[1][rows] for c in candidates])
     was = np.isin(contact_keys(blocks, vert, edge), previous_keys).reshape(4, -1).T
     was &= tied[rows]
-    keep[rows] = np.where(was.any(axis=1, keepdims=True), was, True)
-    return keep
+    decided[rows] = was.any(axis=1)
+    keep[rows] = np.where(decided[rows, None], was, True)
+    return keep, decided
+
+
+def _entering_less(verts, edges, motion, outward, near, decided) -> np.ndarray:
+    """(k, 4): the near-tied pairings of the rows that no earlier pairing decided, with
+    more than one, that enter their edge by less than half of the deepest entry among
+    them (:func:`enters_less`; ``motion``: each vertex's over the coming step)."""
+    normal = outward[edges]
+    approach = moving_in(
+        motion[verts, 0], motion[verts, 1], motion[edges, 0], motion[edges, 1],
+        normal[..., 0], normal[..., 1],
+    )  # fmt: skip
+    open_rows = (near.sum(axis=1) > 1) & ~decided
+    considered = near & open_rows[:, None]
+    deepest = np.minimum(np.where(considered, approach, 0.0).min(axis=1, keepdims=True), 0.0)
+    return considered & enters_less(approach, deepest)
 
 
 def _depth(blocks: BlockSet, fans: VertexFans, vertex: np.ndarray, edge: np.ndarray):

@@ -40,6 +40,7 @@ def refresh_contacts(
     settings,
     kept_pairs: KeptPairs | None = None,
     gap: float | None = None,
+    motion: np.ndarray | None = None,
 ) -> ContactSet:
     """Contacts at the start of a step, keeping what persists from ``previous``.
 
@@ -65,14 +66,16 @@ def refresh_contacts(
     contact's ``shear_multiplier`` (:mod:`dda.contact.law`). ``kept_pairs``: the
     run's broad-phase list, kept between steps (the same pairs as a new search,
     found faster). ``gap``: the widest gap a new or open contact may have
-    (default the search distance; :mod:`dda.contact.reach`).
+    (default the search distance; :mod:`dda.contact.reach`). ``motion``: each vertex's
+    motion over the coming step, which decides the vertex-vertex ties nothing else does
+    (:func:`dda.contact.narrow.detect`; None: unknown).
     """
     if kept_pairs is None:
         pairs = candidate_pairs(blocks, settings.search_distance)
     else:
         pairs = kept_pairs.pairs(blocks, settings.search_distance)
     if len(pairs) and compiled(_refresh_kernel):
-        return _refresh_compiled(blocks, previous, settings, pairs, gap)
+        return _refresh_compiled(blocks, previous, settings, pairs, gap, motion)
     found = detect(
         blocks,
         pairs,
@@ -82,6 +85,7 @@ def refresh_contacts(
         previous.key,
         gap,
         last_step(previous),
+        motion,
     )
     tolerance, slack = settings.touch_tolerance, OUTSIDE_FRACTION * settings.search_distance
     sift = _sift_compiled if compiled(_sift_kernel) else _sift_numpy
@@ -205,13 +209,13 @@ def _sift(vertex, edge, shared, v, nxt, owner, offsets, parts, previous_keys, se
 _sift_kernel = kernel(_sift)
 
 
-def _refresh_compiled(blocks, previous, settings, pairs, gap) -> ContactSet:
+def _refresh_compiled(blocks, previous, settings, pairs, gap, motion=None) -> ContactSet:
     """:func:`refresh_contacts` after its broad phase in one compiled call
     (:func:`_refresh`); from the shapely test on in Python when a pairing asks for it."""
     search, depth = settings.search_distance, settings.law.tolerance
     last = last_step(previous)
     arguments = detect_arguments(
-        blocks, pairs, search, settings.vertex_radius, depth, previous.key, gap, last
+        blocks, pairs, search, settings.vertex_radius, depth, previous.key, gap, last, motion
     )
     narrow = NarrowInput(*arguments)
     rules = SiftRules(
@@ -252,8 +256,8 @@ def _refresh(narrow, rules, carried, new):
     n = narrow
     vertex, edge, _, shared = _detect_kernel(
         n.pairs, n.offsets, n.vertices, n.next_vertex, n.previous_vertex, n.owner, n.area,
-        n.parts, n.known, n.partner_ptr, n.partner_edges, n.held, n.vertex_radius, n.search,
-        n.gap, n.inside,
+        n.parts, n.known, n.partner_ptr, n.partner_edges, n.held, n.motion, n.vertex_radius,
+        n.search, n.gap, n.inside,
     )  # fmt: skip
     penetration, parameter, keys, previous_rows, plausible, to_block, asked = _sift_kernel(
         vertex, edge, shared, n.vertices, n.next_vertex, n.owner, n.offsets, n.parts,

@@ -24,6 +24,8 @@ pairs of K's pattern, the broad phase's kept list).
 
 from __future__ import annotations
 
+import numpy as np
+
 GROWTH = 4.0  # the next step may move this many times as far as the last one
 FLOOR = 1.0 / 64.0  # of the largest displacement a step may make: the smallest reach
 
@@ -38,3 +40,18 @@ def beyond(moved: float, reach: float, allowed: float) -> bool:
     """True when a step moved some vertex further than the reach its search assumed
     (only possible while the reach is below u_max: above it the step is cut instead)."""
     return reach < allowed and moved > reach * (1.0 + 1e-9)
+
+
+def coming_motion(blocks, dt: float, gravity) -> np.ndarray:
+    """(N, 2) each vertex's motion over a coming step of ``dt`` as its block would move
+    free: its rigid velocity, v + ω × (x − c), times Δt, and ½ g Δt² on the free
+    blocks. What the contact search reads it for is a direction: which edge of a corner
+    met exactly a vertex is about to enter (:func:`dda.contact.narrow.detect`)."""
+    owner = blocks.vertex_owner
+    velocity, arm = blocks.velocity[owner], blocks.vertices - blocks.centroid[owner]
+    motion = np.empty_like(blocks.vertices)
+    motion[:, 0] = (velocity[:, 0] - velocity[:, 2] * arm[:, 1]) * dt
+    motion[:, 1] = (velocity[:, 1] + velocity[:, 2] * arm[:, 0]) * dt
+    free = ~blocks.fixed[owner]
+    motion[free] += 0.5 * dt * dt * np.asarray(gravity, float)
+    return motion

@@ -30,6 +30,7 @@ class NarrowInput(NamedTuple):
     partner_ptr: np.ndarray  # each vertex's (line, via) rows of the lines it moved along
     partner_edges: np.ndarray  # last step, (k, 2) (line_continuation.previous_partners)
     held: np.ndarray  # the sorted keys of the last step's closed contacts (LastStep)
+    motion: np.ndarray  # (N, 2) each vertex's motion over the coming step, or (0, 2)
     vertex_radius: float
     search: float  # the search distance
     gap: float  # the widest gap of a new or open contact

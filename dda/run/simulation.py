@@ -346,7 +346,10 @@ def _search(run: _Run, previous: ContactSet) -> None:
         return
     with run.timer("contact_search"):
         gap = SEARCH_FACTOR * run.reach
-        run.contacts = refresh_contacts(run.blocks, previous, m.contact, run.kept_pairs, gap)
+        motion = reach.coming_motion(run.blocks, run.dt, m.scene.analysis.gravity)
+        run.contacts = refresh_contacts(
+            run.blocks, previous, m.contact, run.kept_pairs, gap, motion
+        )
 
 
 def _step_length(dt: float, remaining: float) -> float:

@@ -165,15 +165,12 @@ def test_a_block_sliding_towards_a_wall_standing_at_the_joint_stops_at_it():
     assert slid(result) == pytest.approx(0.005, abs=1e-5)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="a corner at rest on the joint itself: every pairing of its node ties and no "
-    "line has carried it yet, so the block meets a wall (docs/contact.md)",
-)
 def test_a_block_starting_at_rest_at_the_joint_slides_across_it():
     """Released from rest with its front corner on the joint, pushed at 1.5 times its
-    friction: it slides 0 mm of the 0.127 m of ½ (0.5 tan φ g) t² in 0.3 s. A known
-    limit."""
+    friction: ½ (0.5 tan φ g) t² = 0.127 m in 0.3 s. Every pairing of the corner's node
+    ties and no line has carried it yet; the corner's motion over the coming step (the
+    push) decides the tie for the face it slides along (it met the far block as a wall
+    and did not move while ties went by the order of the vertices)."""
     result = dda.simulate(dda.load_scene(flush_joint(1e-3, 0.3, 0.0, push=1.5)))
     expected = 0.5 * (0.5 * np.tan(np.radians(FRICTION)) * G) * 0.3**2
     assert slid(result) == pytest.approx(expected, rel=1e-3)
