@@ -66,6 +66,57 @@ def within_reach(depth, gap, deepest):
 
 
 @formula
+def closes_on(wx, wy, mx, my, radius):
+    """min over τ in [0, 1] of |w + τ m| ≤ radius: P1, moving by m against P2 over the
+    coming step (m = m_P1 − m_P2, the two vertices' motions), comes within ``radius`` of
+    P2 (two corners that meet head-on within the step)."""
+    squared = np.maximum(mx * mx + my * my, 1e-300)
+    tau = np.minimum(np.maximum(-(wx * mx + wy * my) / squared, 0.0), 1.0)
+    rx, ry = wx + tau * mx, wy + tau * my
+    return rx * rx + ry * ry <= radius * radius
+
+
+@formula
+def beside_corner(wx, wy, next_x, next_y, prev_x, prev_y, edge_end):
+    """A point at w from a corner C projects inside neither of C's edges (by more than
+    ``edge_end`` of it), (next) and (prev) the vectors from C to its two neighbours: it
+    faces the corner, not a face."""
+    along_next = (wx * next_x + wy * next_y) / (next_x * next_x + next_y * next_y)
+    along_prev = (wx * prev_x + wy * prev_y) / (prev_x * prev_x + prev_y * prev_y)
+    inside = projects_inside(along_next, edge_end) | projects_inside(along_prev, edge_end)
+    return np.logical_not(inside)
+
+
+@formula
+def enters_corner(wx, wy, mx, my, next_x, next_y, prev_x, prev_y):
+    """P1, at w from a corner P2 and moving by m against it, lies outside the line of one
+    of P2's edges and moves into it ((next), (prev): the vectors from P2 to its
+    neighbours; the block counter-clockwise). Depth behind an edge e from P2 is
+    (e × w) / |e| (paper eq. 9), behind the edge into P2, (−prev) × (w + prev) / |prev|."""
+    outside_next = next_x * wy - next_y * wx < 0.0
+    into_next = next_x * my - next_y * mx > 0.0
+    outside_prev = prev_x * wy - prev_y * wx > 0.0
+    into_prev = prev_x * my - prev_y * mx < 0.0
+    return (outside_next & into_next) | (outside_prev & into_prev)
+
+
+@formula
+def corners_meet(wx, wy, mx, my, radius, b_next, b_prev, a_next, a_prev, edge_end):
+    """Corner P1, at w from corner P2 of the other block and moving by m against it over
+    the coming step, meets it head-on within the step: each from outside an edge line at
+    the other moves into it (:func:`enters_corner`: not a corner beyond a block) and comes
+    within ``radius`` of P2 (:func:`closes_on`), while neither corner faces an edge of the
+    other (:func:`beside_corner`: that is a vertex-edge candidate). ``b_next``, ``b_prev``:
+    the vectors (x, y) from P2 to its neighbours; ``a_next``, ``a_prev``: from P1 to its."""
+    meet = closes_on(wx, wy, mx, my, radius)
+    meet = meet & enters_corner(wx, wy, mx, my, b_next[0], b_next[1], b_prev[0], b_prev[1])
+    meet = meet & enters_corner(-wx, -wy, -mx, -my, a_next[0], a_next[1], a_prev[0], a_prev[1])
+    faces_b = beside_corner(wx, wy, b_next[0], b_next[1], b_prev[0], b_prev[1], edge_end)
+    faces_a = beside_corner(-wx, -wy, a_next[0], a_next[1], a_prev[0], a_prev[1], edge_end)
+    return meet & faces_b & faces_a
+
+
+@formula
 def fan_separation(next_x, next_y, prev_x, prev_y, nx, ny):
     """min(u_next·n, u_prev·n): ≥ 0 when P1's fan stays outside the edge's line."""
     return np.minimum(next_x * nx + next_y * ny, prev_x * nx + prev_y * ny)

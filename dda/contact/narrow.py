@@ -11,7 +11,9 @@ when P1 lies on the inner side of the edge.
   the other block within ``ANGLE_TOLERANCE`` (the angle test). The tests are
   written once in :mod:`dda.contact.candidate_tests`.
 * Vertex-vertex (V-V): P1 within the vertex radius of a vertex P2 of the
-  other block. The radius of a pair is the smaller of the two vertices'
+  other block, or, given the vertices' motion over the coming step, meeting it
+  head-on within the step (``corners_meet``: corners in line, a gap wider than the
+  radius closed in one step). The radius of a pair is the smaller of the two vertices'
   radii, each at most ``VERTEX_RADIUS_FRACTION`` of the shortest edge at the
   vertex (a search distance larger than a small block's edges must not pair
   vertices across the block); the V-E test excludes the same zones. One
@@ -44,6 +46,7 @@ import numpy as np
 from dda.blocks import BlockSet
 from dda.contact.candidate_tests import (
     beyond_ends,
+    corners_meet,
     deeper_of_opposed,
     deeper_than_corner,
     deepest_candidate,
@@ -211,9 +214,10 @@ def detect(
     ``last``: the last step's sliding and closed contacts
     (:func:`dda.contact.line_continuation.last_step`; None: none): a corner that slid
     along a face onto the next face of its line keeps to that line.
-    ``motion``: (N, 2) each vertex's motion over the coming step (None: none known): a
-    vertex-vertex tie that neither its depths nor the last step decides goes to the
-    pairing whose vertex moves into its edge (:func:`_entering_less`).
+    ``motion``: (N, 2) each vertex's motion over the coming step (None: none known):
+    corners that meet head-on within it are a vertex-vertex pair, and a vertex-vertex
+    tie that neither its depths nor the last step decides goes to the pairing whose
+    vertex moves into its edge (:func:`_entering_less`).
     """
     empty = np.zeros(0, dtype=np.int64)
     if len(pairs) == 0:
@@ -223,7 +227,7 @@ def detect(
             blocks, pairs, search, vertex_radius, inside_depth, previous_keys, gap, last, motion
         )
     fans, (ve_vertex, ve_edge, vv_vertex, vv_edge) = _screened(
-        blocks, pairs, search, vertex_radius, search if gap is None else gap
+        blocks, pairs, search, vertex_radius, search if gap is None else gap, motion
     )
     apart = _at_filled_nodes(blocks, fans, vv_vertex, vv_edge, inside_depth)
     vv_vertex, vv_edge = vv_vertex[~apart], vv_edge[~apart]
@@ -307,8 +311,8 @@ def _detect(
         directed[k, 0], directed[k, 1] = pairs[k, 0], pairs[k, 1]
         directed[count + k, 0], directed[count + k, 1] = pairs[k, 1], pairs[k, 0]
     ve_v, ve_e, vv_v, vv_e = _screen_kernel(
-        directed, offsets, v, nxt, reflex, to_next, to_prev, radius, area, lo, hi,
-        search, gap, ANGLE_TOLERANCE, EDGE_END,
+        directed, offsets, v, nxt, prv, reflex, to_next, to_prev, radius, area, lo, hi,
+        search, gap, motion, ANGLE_TOLERANCE, EDGE_END,
     )  # fmt: skip
     vv_s = np.zeros(0, np.bool_)
     if vv_v.shape[0]:
@@ -329,13 +333,18 @@ def _detect(
     return vertex[keep], edge[keep], kind[keep], shared[keep]
 
 
-def _screened(blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float, gap: float):
+def _screened(
+    blocks: BlockSet, pairs: np.ndarray, search: float, vertex_radius: float, gap: float,
+    motion: np.ndarray | None = None,
+):  # fmt: skip
     """(fans, (V-E vertex, edge, V-V vertex, edge)): the candidates that pass the tests
-    (V-E: a vertex at most ``gap`` outside the edge's line)."""
+    (V-E: a vertex at most ``gap`` outside the edge's line; V-V: within the vertex radius,
+    or, with the vertices' ``motion`` over the coming step, meeting head-on in it)."""
     fans = VertexFans(blocks)
     radius = np.minimum(vertex_radius, VERTEX_RADIUS_FRACTION * fans.shortest)
     screen = _screen_compiled if compiled(_screen_kernel) else _screen_numpy
-    return fans, screen(blocks, fans, pairs, search, radius, gap)
+    motion = np.zeros((0, 2)) if motion is None else np.ascontiguousarray(motion, np.float64)
+    return fans, screen(blocks, fans, pairs, search, radius, gap, motion)
 
 
 def _at_filled_nodes(blocks: BlockSet, fans: VertexFans, p1, p2, tight: float) -> np.ndarray:
@@ -372,7 +381,7 @@ def _grown_boxes(blocks: BlockSet, search: float) -> tuple[np.ndarray, np.ndarra
     return lo, hi
 
 
-def _screen_numpy(blocks, fans, pairs, search, radius, gap):
+def _screen_numpy(blocks, fans, pairs, search, radius, gap, motion):
     """(V-E vertex, edge, V-V vertex, edge) candidates that pass the tests (numpy)."""
     a, b, vertex, edge = _vertex_edge_candidates(blocks, pairs, _box_margin(radius, gap))
     v = blocks.vertices
@@ -397,10 +406,19 @@ def _screen_numpy(blocks, fans, pairs, search, radius, gap):
         & fan_clears(fans.separation(vertex, outward), ANGLE_TOLERANCE)
     )
     vv = (a < b) & (r2 <= radius2)
+    if len(motion):
+        m = motion[vertex] - motion[edge]
+        corner_a, corner_b = v[vertex], v[edge]
+        b_next, b_prev = (v[fans.next[edge]] - corner_b).T, (v[fans.prev[edge]] - corner_b).T
+        a_next, a_prev = (v[fans.next[vertex]] - corner_a).T, (v[fans.prev[vertex]] - corner_a).T
+        meet = corners_meet(
+            w[:, 0], w[:, 1], m[:, 0], m[:, 1], radius2, b_next, b_prev, a_next, a_prev, EDGE_END
+        )
+        vv |= (a < b) & meet
     return vertex[ve], edge[ve], vertex[vv], edge[vv]
 
 
-def _screen_compiled(blocks, fans, pairs, search, radius, gap):
+def _screen_compiled(blocks, fans, pairs, search, radius, gap, motion):
     """The same candidates as :func:`_screen_numpy`, in the same order (numba)."""
     lo, hi = _grown_boxes(blocks, _box_margin(radius, gap))
     directed = np.concatenate([pairs, pairs[:, ::-1]]).astype(np.int64)
@@ -409,6 +427,7 @@ def _screen_compiled(blocks, fans, pairs, search, radius, gap):
         blocks.offsets.astype(np.int64),
         np.ascontiguousarray(blocks.vertices, dtype=np.float64),
         fans.next.astype(np.int64),
+        fans.prev.astype(np.int64),
         fans.reflex,
         np.ascontiguousarray(fans.to_next),
         np.ascontiguousarray(fans.to_prev),
@@ -418,6 +437,7 @@ def _screen_compiled(blocks, fans, pairs, search, radius, gap):
         np.ascontiguousarray(hi),
         float(search),
         float(gap),
+        motion,
         ANGLE_TOLERANCE,
         EDGE_END,
     )
@@ -429,6 +449,7 @@ def _screen(
     offsets,
     v,
     nxt,
+    prv,
     reflex,
     to_next,
     to_prev,
@@ -438,6 +459,7 @@ def _screen(
     hi,
     search,
     gap,
+    motion,
     angle_tolerance,
     edge_end,
 ):
@@ -467,7 +489,10 @@ def _screen(
                 length = np.sqrt(ex * ex + ey * ey)
                 r2 = np.sqrt(wx * wx + wy * wy)
                 radius2 = min(radius[vertex], radius[edge])
-                if a < b and r2 <= radius2:
+                if a < b and (
+                    r2 <= radius2
+                    or _meet_kernel(v, nxt, prv, motion, vertex, edge, r2, radius2, edge_end)
+                ):
                     vv_v[nvv] = vertex
                     vv_e[nvv] = edge
                     nvv += 1
@@ -491,6 +516,27 @@ def _screen(
     return ve_v[:nve].copy(), ve_e[:nve].copy(), vv_v[:nvv].copy(), vv_e[:nvv].copy()
 
 
+def _meet(v, nxt, prv, motion, vertex, corner, apart, radius, edge_end):
+    """:func:`corners_meet` of ``vertex`` and the other block's ``corner``, ``apart`` from
+    each other (False without ``motion``, and at once where their relative motion is
+    shorter than ``apart`` less ``radius``)."""
+    if motion.shape[0] == 0:
+        return False
+    mx, my = motion[vertex, 0] - motion[corner, 0], motion[vertex, 1] - motion[corner, 1]
+    if mx * mx + my * my < (apart - radius) * (apart - radius):
+        return False
+    x, y = v[vertex], v[corner]
+    return corners_meet(
+        x[0] - y[0], x[1] - y[1], mx, my, radius,
+        (v[nxt[corner], 0] - y[0], v[nxt[corner], 1] - y[1]),
+        (v[prv[corner], 0] - y[0], v[prv[corner], 1] - y[1]),
+        (v[nxt[vertex], 0] - x[0], v[nxt[vertex], 1] - x[1]),
+        (v[prv[vertex], 0] - x[0], v[prv[vertex], 1] - x[1]),
+        edge_end,
+    )  # fmt: skip
+
+
+_meet_kernel = kernel(_meet)
 _screen_kernel = kernel(_screen)
 
 

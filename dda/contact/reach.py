@@ -45,8 +45,9 @@ def beyond(moved: float, reach: float, allowed: float) -> bool:
 def coming_motion(blocks, dt: float, gravity) -> np.ndarray:
     """(N, 2) each vertex's motion over a coming step of ``dt`` as its block would move
     free: its rigid velocity, v + ω × (x − c), times Δt, and ½ g Δt² on the free
-    blocks. What the contact search reads it for is a direction: which edge of a corner
-    met exactly a vertex is about to enter (:func:`dda.contact.narrow.detect`)."""
+    blocks. The contact search reads it for which corners meet head-on within the step
+    and which edge of a corner met exactly a vertex is about to enter
+    (:func:`dda.contact.narrow.detect`)."""
     owner = blocks.vertex_owner
     velocity, arm = blocks.velocity[owner], blocks.vertices - blocks.centroid[owner]
     motion = np.empty_like(blocks.vertices)

@@ -236,15 +236,16 @@ def pairings_after_a_nudge(blocks, pairs, c, scale: float = 1e-9):
     ],
     ids=["wall", "jittered-wall", "tunnel", "jittered-tunnel", "ells", "jittered-ells"],
 )
-@pytest.mark.parametrize("moving", [False, True], ids=["at-rest", "moving"])
+@pytest.mark.parametrize("moving", [0.0, 1e-4, 3e-2], ids=["at-rest", "moving", "fast"])
 def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make, moving):
     """The compiled narrow phase (one call: screen, corners at filled nodes,
     vertex-vertex resolution, pairings kept — one a vertex-edge pair, the shallower of
     opposed edges) gives the numpy path's contacts (with and without the compiled screen),
     with last step's keys (from a nudged copy) for half of the pairings, a third of them
     sliding, a third locked (the corners that keep to a line), the others decided by
-    position, and the contact tolerance as the inside depth. The L's and
-    the tunnel's blocks around the opening have reflex vertices."""
+    position, and the contact tolerance as the inside depth; the vertices at rest, moving
+    by 1e-4 m (it decides ties) or by 3 cm a step (corners that meet head-on are paired).
+    The L's and the tunnel's blocks around the opening have reflex vertices."""
     model, blocks = make()
     c = model.contact
     pairs = candidate_pairs(blocks, c.search_distance)
@@ -255,7 +256,7 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make, moving):
     last = LastStep(vertex[sliding], edge[sliding], closed)
     motion = None  # each vertex's motion over the coming step: it decides open ties
     if moving:
-        motion = np.random.default_rng(11).normal(scale=1e-4, size=blocks.vertices.shape)
+        motion = np.random.default_rng(11).normal(scale=moving, size=blocks.vertices.shape)
     args = (blocks, pairs, c.search_distance, c.vertex_radius, c.law.tolerance, previous, None,
             last, motion)  # fmt: skip
     first = detect(*args)  # one compiled call
@@ -269,6 +270,36 @@ def test_narrow_phase_compiled_and_numpy_paths_agree(monkeypatch, make, moving):
         np.testing.assert_array_equal(first.edge, found.edge)
         np.testing.assert_array_equal(first.vertex_vertex, found.vertex_vertex)
         np.testing.assert_array_equal(first.shared_line, found.shared_line)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_corners_that_meet_head_on_within_the_step_are_paired(monkeypatch, compiled):
+    """A 1 m block 1 cm above a fixed 5 mm plate, its bottom corners in line with the
+    plate's top corners: each projects onto an end of the plate's top edge (no vertex-edge
+    candidate) and lies further than the pair's vertex radius (1.25 mm, a quarter of the
+    plate's 5 mm edges) from the plate's corner. Falling 2 cm in the coming step (20 m/s
+    at Δt = 1e-3 s) they meet there: one vertex-vertex pair at each corner. Falling 5 mm,
+    at rest, or sliding sideways by 2 cm, none."""
+    if not compiled:
+        monkeypatch.setattr(narrow, "_detect_kernel", None)
+        monkeypatch.setattr(narrow, "_screen_kernel", None)
+    plate = block("plate", rectangle(0.0, -0.005, 1.0, 0.0), fixed=True)
+    falling = block("block", rectangle(0.0, 0.01, 1.0, 1.01))
+    model = build(dda.load_scene(scene([plate, falling], {"steps": 1, "gravity": [0, 0]})))
+    blocks, c = model.blocks, model.contact
+    pairs = np.array([[0, 1]])
+    mine = blocks.vertex_owner == 1
+
+    def corner_pairs(motion_of_block) -> int:
+        motion = np.zeros_like(blocks.vertices)
+        motion[mine] = motion_of_block
+        found = detect(blocks, pairs, 0.05, c.vertex_radius, c.law.tolerance, motion=motion)
+        return int(found.vertex_vertex.sum())
+
+    assert corner_pairs([0.0, -0.02]) == 2
+    assert corner_pairs([0.0, -0.005]) == 0
+    assert corner_pairs([0.0, 0.0]) == 0
+    assert corner_pairs([0.02, 0.0]) == 0
 
 
 def _beam_on_pillars(mirrored: bool, start: str) -> dict:
