@@ -79,10 +79,10 @@ def closes_on(wx, wy, mx, my, radius):
 @formula
 def beside_corner(wx, wy, next_x, next_y, prev_x, prev_y, edge_end):
     """A point at w from a corner C projects inside neither of C's edges (by more than
-    ``edge_end`` of it), (next) and (prev) the vectors from C to its two neighbours: it
-    faces the corner, not a face."""
-    along_next = (wx * next_x + wy * next_y) / (next_x * next_x + next_y * next_y)
-    along_prev = (wx * prev_x + wy * prev_y) / (prev_x * prev_x + prev_y * prev_y)
+    ``edge_end`` of it, :func:`edge_parameter`), (next) and (prev) the vectors from C to
+    its two neighbours: it faces the corner, not a face."""
+    along_next = edge_parameter(wx, wy, next_x, next_y, np.sqrt(next_x * next_x + next_y * next_y))
+    along_prev = edge_parameter(wx, wy, prev_x, prev_y, np.sqrt(prev_x * prev_x + prev_y * prev_y))
     inside = projects_inside(along_next, edge_end) | projects_inside(along_prev, edge_end)
     return np.logical_not(inside)
 
@@ -91,12 +91,13 @@ def beside_corner(wx, wy, next_x, next_y, prev_x, prev_y, edge_end):
 def enters_corner(wx, wy, mx, my, next_x, next_y, prev_x, prev_y):
     """P1, at w from a corner P2 and moving by m against it, lies outside the line of one
     of P2's edges and moves into it ((next), (prev): the vectors from P2 to its
-    neighbours; the block counter-clockwise). Depth behind an edge e from P2 is
-    (e × w) / |e| (paper eq. 9), behind the edge into P2, (−prev) × (w + prev) / |prev|."""
-    outside_next = next_x * wy - next_y * wx < 0.0
-    into_next = next_x * my - next_y * mx > 0.0
-    outside_prev = prev_x * wy - prev_y * wx > 0.0
-    into_prev = prev_x * my - prev_y * mx < 0.0
+    neighbours; the block counter-clockwise): the sign of :func:`edge_depth` of w and of
+    m behind the edge from P2 to its next corner, and behind the one from its previous
+    corner, taken from P2 along −prev (the same line)."""
+    outside_next = edge_depth(wx, wy, next_x, next_y, 1.0) < 0.0
+    into_next = edge_depth(mx, my, next_x, next_y, 1.0) > 0.0
+    outside_prev = edge_depth(wx, wy, -prev_x, -prev_y, 1.0) < 0.0
+    into_prev = edge_depth(mx, my, -prev_x, -prev_y, 1.0) > 0.0
     return (outside_next & into_next) | (outside_prev & into_prev)
 
 
