@@ -18,10 +18,20 @@ EDGE_TOLERANCE = 1e-9
 
 
 class BoundaryStresses(PointLoads):
-    """F_i += T_i(x)ᵀ f at the two ends of every loaded outer edge piece (dead loads: the
-    forces the traction σ·n gives them where the scene draws them,
-    :meth:`dda.scene.in_situ.StressField.segment_forces`, applied at material points
-    that move with the block), each set on from ``on`` to ``off``."""
+    """F_i += T_i(x)ᵀ R f at the two ends of every loaded outer edge piece, each set on
+    from ``on`` to ``off``: f the forces the traction σ·n gives them where the scene draws
+    them (:meth:`dda.scene.in_situ.StressField.segment_forces`), applied at material
+    points that move with the block, and R the rigid turn of the loaded boundary as a
+    whole since then (:func:`rigid_turn` of the points from ``anchors``, where f was
+    given).
+
+    The far field holds a model by its boundary alone; it has no frame but the model's.
+    So the forces turn with the boundary's rigid turn, and a model that they balance stays
+    balanced when it turns (their sum turns with it, their moment stays zero). Forces of
+    fixed directions would make that turn unstable: under compression their moment
+    θ Σ f·(x − c) grows a turn θ (a free 3 m × 1 m block under 1-2 MPa, at about 37 /s).
+    Against the blocks' own deformation the forces are dead: an edge that bends away
+    keeps its force's direction."""
 
     name = "boundary_stresses"
 
@@ -37,12 +47,23 @@ class BoundaryStresses(PointLoads):
         super().__init__(points, force, [None] * len(points), exact_rotation)
         self.on, self.off = np.asarray(on, float), np.asarray(off, float)
         self.tolerance = TIME_TOLERANCE * time_step
+        self.anchors = self.points.positions.copy()
+
+    def turned_forces(self) -> np.ndarray:
+        """R f: the forces turned by the boundary's rigid turn since ``anchors``."""
+        cos, sin = rigid_turn(self.anchors, self.points.positions)
+        fx, fy = self.force[:, 0], self.force[:, 1]
+        return np.column_stack([cos * fx - sin * fy, sin * fx + cos * fy])
+
+    def current_forces(self, time: float) -> np.ndarray:
+        return self.turned_forces() * self.factors(time)[:, None]
 
     def on_blocks_replaced(self, old, new, parent_of: np.ndarray) -> None:
         """Blocks were split or removed (``parent_of[k]``: the old row of new block k): the
         loads of a removed block's edges go with it; an edge piece of a block that broke is
         split where the pieces' outlines cross it, each part loaded by its share of the
         traction (:func:`split_segment_forces`), the rest follow their blocks."""
+        self.force = self.turned_forces()  # f as turned now, from the points as they are
         kept = np.isin(self.points.rows, parent_of)
         if not kept.all():
             self._keep(kept)
@@ -53,6 +74,7 @@ class BoundaryStresses(PointLoads):
         super().on_blocks_replaced(old, new, parent_of)
         if len(broken):
             self._split(broken, old_rows, new, parent_of)
+        self.anchors = self.points.positions.copy()
 
     def _keep(self, kept: np.ndarray) -> None:
         """Keep the points ``kept`` (both ends of a piece: they share its block)."""
@@ -103,6 +125,19 @@ class BoundaryStresses(PointLoads):
         return (begun & (time <= self.off + self.tolerance)).astype(float)
 
 
+def rigid_turn(anchors: np.ndarray, positions: np.ndarray) -> tuple[float, float]:
+    """(cos θ, sin θ) of the rigid turn θ that best takes the points ``anchors`` to
+    ``positions`` (least squares, each about its mean: tan θ = Σ a × p / Σ a · p);
+    (1, 0) for fewer than two points."""
+    if len(anchors) < 2:
+        return 1.0, 0.0
+    a, p = anchors - anchors.mean(axis=0), positions - positions.mean(axis=0)
+    dot = float(np.sum(a * p))
+    cross = float(np.sum(a[:, 0] * p[:, 1] - a[:, 1] * p[:, 0]))
+    size = np.hypot(dot, cross)
+    return (dot / size, cross / size) if size > 0.0 else (1.0, 0.0)
+
+
 def split_segment_forces(
     f_start: np.ndarray, f_end: np.ndarray, a: np.ndarray, b: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -150,9 +185,10 @@ def crossed_intervals(
 def boundary_stress_loads(scene, fixed: np.ndarray, exact_rotation: bool) -> BoundaryStresses:
     """The effect of ``scene.boundary_stresses``: for each, the outer edge pieces of the
     free blocks there at its time (:func:`dda.scene.edge_cover.outer_pieces`) whose
-    midpoints lie in its box, loaded by σ·n at their ends."""
+    midpoints lie in its box, loaded by σ·n at their ends. The points are every piece's
+    start, then every piece's end, in the same order (piece k: points k and count + k)."""
     polygons = [np.asarray(b.vertices, float) for b in scene.blocks]
-    rows, points, forces, on, off = [], [], [], [], []
+    blocks, starts, ends, f_starts, f_ends, on, off = [], [], [], [], [], [], []
     for stress in scene.boundary_stresses:
         gone = {n for s in scene.stages if s.time <= stress.on for n in s.remove}
         present = np.array([b.name not in gone for b in scene.blocks], bool)
@@ -161,14 +197,16 @@ def boundary_stress_loads(scene, fixed: np.ndarray, exact_rotation: bool) -> Bou
             np.flatnonzero(stress.selects(pieces.midpoint) & ~fixed[pieces.block])
         )
         f_start, f_end = stress.field.segment_forces(pieces.start, pieces.end, pieces.normal)
-        count = 2 * len(pieces.block)
-        rows.append(np.concatenate([pieces.block, pieces.block]))
-        points.append(np.concatenate([pieces.start, pieces.end]))
-        forces.append(np.concatenate([f_start, f_end]))
-        on.append(np.full(count, stress.on))
-        off.append(np.full(count, stress.off))
+        blocks.append(pieces.block)
+        starts.append(pieces.start)
+        ends.append(pieces.end)
+        f_starts.append(f_start)
+        f_ends.append(f_end)
+        on.append(np.full(len(pieces.block), stress.on))
+        off.append(np.full(len(pieces.block), stress.off))
+    rows, on, off = (np.tile(np.concatenate(v), 2) for v in (blocks, on, off))
     return BoundaryStresses(
-        MaterialPoints(np.concatenate(rows), np.concatenate(points)),
-        np.concatenate(forces), np.concatenate(on), np.concatenate(off), exact_rotation,
+        MaterialPoints(rows, np.concatenate(starts + ends).reshape(-1, 2)),
+        np.concatenate(f_starts + f_ends).reshape(-1, 2), on, off, exact_rotation,
         scene.analysis.time_step,
     )  # fmt: skip

@@ -65,8 +65,8 @@ log = logging.getLogger(__name__)
 # 6: the solver's state by the names of ReusingSolver.learned; 7: a block pattern's
 # inverse numbering, dda.solve.assembly.BlockPattern; 9: a static run's largest vertex
 # move of the step before the last; 10: the water's drawn table and the ground that
-# carries it)
-FORMAT = 11
+# carries it; 12: the boundary stresses' anchors, from which their rigid turn is found)
+FORMAT = 12
 META = "meta.json"
 DEFAULT_SECONDS = 600.0  # wall seconds between checkpoints when no step count is given
 NOT_SAVED = ("model", "linear")  # run attributes rebuilt from the scene, or saved apart

@@ -124,7 +124,7 @@ class _Run:
         self.in_situ_change = (0.0, "", "")  # what the start changed of the in-situ field
         self.in_situ_given = None  # a static run's field at t = 0, while it is measured
         self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
-        self.unbalanced_force = (0.0, 0.0)  # ... and the net force the last one said
+        self.unbalanced_force = (0.0, 0.0, 0.0)  # ... and the net force and moment it said
         self.misplaced_bolts: list[str] = []  # stage bolts with an end off their block
         self.pushed_steps = 0  # steps whose push-out removed an overlap
         self.deepest_overlap: Overlap | None = None  # two blocks' at the saved frames

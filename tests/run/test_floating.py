@@ -3,9 +3,9 @@ blocks balance the weight of the whole section; a stage that excavates a block l
 its weight W_c as a net upward force, and the section accelerates as a whole.
 
 Closed form: the momentum of the blocks, Σ m_i ü_i = Σ F_ext = W_c (the contact forces
-act in pairs, the boundary stresses are dead loads): the mass-weighted mean of the
-centroids rises by ½ (W_c / M) (t − t_s)² after the stage at t_s, M the blocks' mass
-that is left.
+act in pairs; the boundary stresses turn only with the section's rigid turn, nil here by
+symmetry): the mass-weighted mean of the centroids rises by ½ (W_c / M) (t − t_s)² after
+the stage at t_s, M the blocks' mass that is left.
 """
 
 from __future__ import annotations
@@ -127,3 +127,27 @@ def test_a_section_in_water_that_nothing_holds_is_said_without_a_drift():
     assert len(said) == 1 and "at the start" in said[0], result.summary["warnings"]
     assert "the water's uplift changes as it moves" in said[0]
     assert "by the run's end" not in said[0]
+
+
+def test_a_net_moment_is_said_and_turns_the_model_as_a_rigid_body(caplog):
+    """A free unit block whose two sides alone carry a shear traction τ = 0.1 MPa: no net
+    force, a couple M = τ · 1 m · 1 m = 1e5 N·m (per metre). The run says so at the start
+    (before, only a net force was looked for: nothing was said), and the block turns at
+    ω = M t / I, I = ρ / 6 (the forces turn with it, so the couple stays M)."""
+    blocks = [{"name": "b", "material": "rock", "vertices": square(0.0, 0.0, 1.0, 1.0)}]
+    raw = scene(
+        blocks,
+        duration=0.05,
+        boundary_stresses=[{"stress": [0.0, 0.0, 1.0e5], "box": [-0.5, 0.2, 1.5, 0.8]}],
+    )
+    raw["analysis"]["save_every"] = 1
+    result = dda.simulate(dda.load_scene(raw))
+    said = [text for text in result.summary["warnings"] if "nothing fixed holds" in text]
+    inertia = RHO / 6.0
+    assert len(said) == 1 and "at the start" in said[0]
+    assert "a net moment 1e+05 N·m" in said[0] and "net force" not in said[0]
+    assert f"turns it at {1.0e5 / inertia:.3g} rad/s²" in said[0]
+    assert "nothing fixed holds" in caplog.text
+    final = result.final
+    spin = 1.0e5 / inertia * final.time
+    assert final.velocities[0, 2] == pytest.approx(spin, rel=1e-9)
