@@ -920,7 +920,8 @@ def _build_scene(
     units = _units(chk, raw)
     engineering = parse_engineering(chk, raw, blocks, groups, analysis, loads)
     stages = engineering.get("stages", ())
-    in_situ = parse_in_situ(chk, raw, blocks, stages, joints, interfaces)
+    young = {name: m.young for name, m in materials.items()}
+    in_situ = parse_in_situ(chk, raw, blocks, stages, joints, interfaces, young)
     scene = Scene(
         title=title,
         analysis=analysis,

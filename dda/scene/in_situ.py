@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from dda.scene.checks import Checker, Spec, checked_fields, require, table_list, vector
+from dda.scene.checks import Checker, Spec, checked_fields, require, vector
 from dda.scene.edge_cover import EdgePieces, covered_pieces, outer_pieces
 
 IN_SITU_KEYS = ("in_situ", "boundary_stresses")
@@ -130,26 +130,34 @@ def boundary_stress(chk: Checker, value: object, key: str, on: float = 0.0) -> B
 
 
 def parse_in_situ(chk: Checker, raw: Mapping[str, Any], blocks: Sequence[Any],
-                  stages: Sequence[Any], joints: Mapping[str, Any],
-                  interfaces: Sequence[Any]) -> dict[str, Any]:  # fmt: skip
+                  stages: Sequence[Any], joints: Mapping[str, Any], interfaces: Sequence[Any],
+                  young: Mapping[str, float]) -> dict[str, Any]:  # fmt: skip
     """The Scene fields ``in_situ`` and ``boundary_stresses`` (every one, those of the
-    stages included, with the times they are on), checked against the blocks."""
+    stages included, with the times they are on), checked against the blocks (``young``:
+    each material's Young's modulus, which no stress of the field may reach)."""
     in_situ = None
     if "in_situ" in raw:
         in_situ = _stress_field(chk, raw["in_situ"], "in_situ", {})["field"]
+    listed = (
+        chk.listed(raw["boundary_stresses"], "boundary_stresses")
+        if "boundary_stresses" in raw
+        else ()
+    )
     given = [
-        boundary_stress(chk, value, f"boundary_stresses[{k}]")
-        for k, value in enumerate(table_list(chk, raw, "boundary_stresses"))
+        boundary_stress(chk, value, f"boundary_stresses[{k}]") for k, value in enumerate(listed)
     ]
     timeline = _timeline(chk, given, stages)
     if not (in_situ or timeline):
         return {"in_situ": None, "boundary_stresses": ()}
     polygons = [np.asarray(b.vertices, float) for b in blocks]
     fixed = np.array([bool(b.fixed) for b in blocks])
+    moduli = np.array([young[b.material] for b in blocks])
     for stress, key in timeline:
         present = _present_at(blocks, stages, stress.on)
         _check_selects(chk, stress, key, polygons, present, fixed)
+        _check_magnitude(chk, stress.field, key, blocks, polygons, moduli)
     if in_situ is not None:
+        _check_magnitude(chk, in_situ, "in_situ", blocks, polygons, moduli)
         _check_tension(chk, in_situ, blocks, polygons, joints, interfaces)
     return {"in_situ": in_situ, "boundary_stresses": tuple(s for s, _ in timeline)}
 
@@ -163,8 +171,12 @@ def _timeline(chk: Checker, given: list[BoundaryStress], stages: Sequence[Any]):
         _unique(chk, stress.name, key, where)
         where[stress.name] = k
     for i, stage in enumerate(stages):
+        removed = set()
         for name in stage.remove_boundary_stresses:
             key = f"stages[{i}].remove_boundary_stresses"
+            if name in removed:
+                chk.fail(key, f"lists {name!r} twice")
+            removed.add(name)
             if name not in where or entries[where[name]][0].off != math.inf:
                 chk.fail(key, f"{name!r} is no boundary stress in force before this stage")
             stress, old_key = entries[where[name]]
@@ -196,6 +208,24 @@ def _check_selects(chk, stress: BoundaryStress, key: str, polygons, present, fix
         chk.fail(f"{key}.box", "holds the midpoint of no outer edge (an edge that touches "
                  "no other block) of the free blocks there at that time (a fixed block "
                  "takes no boundary stress)")  # fmt: skip
+
+
+def _check_magnitude(chk, field: StressField, key: str, blocks, polygons, moduli) -> None:
+    """Refuse a field that reaches a block's Young's modulus at one of its corners (the
+    field is linear in y: its extremes on a block are at corners): a strain of 1 or more,
+    no stress rock stands in (and beyond the floating-point range, numbers overflow)."""
+    for k, ring in enumerate(polygons):
+        with np.errstate(over="ignore", invalid="ignore"):
+            values = np.abs(field.at(ring[:, 1]))
+        if not values.max() >= moduli[k]:
+            continue
+        corner = int(np.argmax(values.max(axis=1)))
+        x, y = ring[corner]
+        bad = "gradient" if np.abs(field.stress).max() < moduli[k] else "stress"
+        chk.fail(f"{key}.{bad}", f"gives {values[corner].max():.3g} at ({x:.6g}, {y:.6g}), a "
+                 f"corner of block {blocks[k].name!r}: as large as the Young's modulus "
+                 f"{moduli[k]:.3g} of its material {blocks[k].material!r} (a strain of 1 or "
+                 "more), no stress rock stands in")  # fmt: skip
 
 
 def _check_tension(chk, field: StressField, blocks, polygons, joints, interfaces) -> None:

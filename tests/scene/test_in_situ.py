@@ -339,10 +339,37 @@ def refused(raw, key, words):
             "stages[0].remove_boundary_stresses",
             "'far' is no boundary stress",
         ),  # fmt: skip
+        (  # was refused as "'far' is no boundary stress in force", which it is
+            {
+                "boundary_stresses": [
+                    {"stress": [-1.0, -1.0, 0.0], "box": [-2, -2, 5, 5], "name": "far"}
+                ],
+                "stages": [{"time": 0.05, "remove_boundary_stresses": ["far", "far"]}],
+            },
+            "stages[0].remove_boundary_stresses",
+            "lists 'far' twice",
+        ),  # fmt: skip
+        ({"boundary_stresses": []}, "boundary_stresses", "is empty"),  # as a stage's is
+        (  # was accepted: the run "finished" with nan energies
+            {"in_situ": {"stress": [-1.0e308, -1.0e308, 0.0]}},
+            "in_situ.stress",
+            "as large as the Young's modulus 1e+10 of its material 'rock'",
+        ),  # fmt: skip
+        (
+            {"in_situ": {"stress": [-1.0e6, -1.0e6, 0.0], "gradient": [0.0, 1.0e308, 0.0]}},
+            "in_situ.gradient",
+            "a strain of 1 or more",
+        ),  # fmt: skip
     ],
 )
 def test_bad_fields_are_refused_with_their_key(section, key, words):
     refused(scene(uniform("ring"), duration=0.1, **section), key, words)
+
+
+def test_a_boundary_stress_as_large_as_young_s_modulus_is_refused():
+    far = {"stress": [-2.0e10, 0.0, 0.0], "box": [-2, -2, 5, 5]}
+    raw = scene(uniform("boundary stresses"), duration=0.1, boundary_stresses=[far])
+    refused(raw, "boundary_stresses[0].stress", "no stress rock stands in")
 
 
 def test_in_situ_tension_across_a_joint_without_tensile_strength_is_refused():
