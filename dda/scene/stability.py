@@ -112,6 +112,12 @@ _KINDS = {
 _VARY_KEYS = ("key", "distribution", "mean", "std", "kappa", "low", "high")
 _SET_KEY = re.compile(r"joint_sets\[(\d+)\]\.(\w+)$")
 
+# the decimals a factor of safety search rounds its trial factors to, so that a rerun asks
+# for the very same ones (dda.stability.search)
+DIGITS = 9
+# the narrowest bracket a search is asked for, well above that rounding (a tolerance of
+# 1e-10 asked for factors it already had, for ever)
+MIN_FOS_TOLERANCE = 1e-6
 _FOS: dict[str, Spec] = {
     "lower": real(POSITIVE),
     "upper": real(POSITIVE),
@@ -155,6 +161,12 @@ def _fos(
     settings = FosSettings(**{**values, "blocks": ()})
     if settings.lower >= settings.upper:
         chk.fail("fos.upper", f"must exceed fos.lower ({settings.lower:g}), got {settings.upper:g}")
+    if settings.tolerance < MIN_FOS_TOLERANCE:
+        chk.fail(
+            "fos.tolerance",
+            f"must be at least {MIN_FOS_TOLERANCE:g} (the search keeps its trial factors to "
+            f"{DIGITS} decimals), got {settings.tolerance:g}",
+        )
     if settings.tolerance >= settings.upper - settings.lower:
         chk.fail(
             "fos.tolerance",

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
-DIGITS = 9  # trial factors are rounded so that a rerun asks for the very same ones
+from dda.scene.stability import DIGITS  # trial factors' decimals
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,8 @@ def next_factors(
     if stands is None or fails is None or fails - stands <= tolerance:
         return []
     step = (fails - stands) / (width + 1)
-    return [round(stands + step * k, DIGITS) for k in range(1, width + 1)]
+    inside = {round(stands + step * k, DIGITS) for k in range(1, width + 1)}
+    return sorted(f for f in inside if f not in known)  # none: as narrow as DIGITS allow
 
 
 def outcome(known: Mapping[float, bool]) -> Outcome:

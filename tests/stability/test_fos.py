@@ -77,6 +77,20 @@ def test_three_workers_cut_the_bracket_in_four():
     assert next_factors({1.0: False, 2.0: True}, 1.0, 2.0, 0.01, 3) == [1.25, 1.5, 1.75]
 
 
+def test_a_bracket_as_narrow_as_the_factors_decimals_ends_the_search():
+    """A tolerance below the trial factors' rounding (9 decimals) asked for the factor it
+    already had, for ever (`dda fos --tolerance 1e-10`: 1.77 million reused trials in 60 s):
+    the search ends where no new factor is left, and such a tolerance is refused."""
+    known: dict[float, bool] = {}
+    rounds = 0
+    while factors := next_factors(known, 0.25, 4.0, 1e-12, 1):
+        known.update({f: f > 1.2345 for f in factors})
+        rounds += 1
+        assert rounds < 100
+    stands, fails = bracket(known)
+    assert fails - stands == pytest.approx(1e-9, rel=1e-3)
+
+
 def test_outside_the_bounds():
     assert outcome({0.25: True, 4.0: True}).verdict == "below"
     assert outcome({0.25: False, 4.0: False}).verdict == "above"
@@ -230,6 +244,7 @@ REFUSED = [
     (None, ["--window", "0"], "fos.window: must be in (0, 1], got 0"),
     (None, ["--velocity", "-1"], "fos.velocity: must be > 0, got -1"),
     (None, ["--tolerance", "5"], "fos.tolerance: must be below upper - lower"),
+    (None, ["--tolerance", "1e-10"], "fos.tolerance: must be at least 1e-06 (the search keeps"),
     (None, ["--blocks", "nope"], "fos.blocks[0]: unknown block or group 'nope'"),
     # checked before a trial runs (was a SceneError after fos.csv was begun, exit 1)
     (None, ["--duration", "1e9"], "analysis.duration: 1e+09 s at time_step"),
