@@ -459,11 +459,19 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
     from dda.io.disk_space import check_disk_space
     from dda.io.output_paths import OutputError
     from dda.io.run_writer import RunWriter
-    from dda.run.checkpoint import check_scene, read_checkpoint
+    from dda.run.checkpoint import check_scene, differing_sections, read_checkpoint
 
     checkpoint = None
     if args.resume:
         if folder.previous.status == "finished":
+            stored = folder.previous.fingerprint
+            differ = [] if stored is None else differing_sections(stored, scene)
+            if differ:
+                print(f"dda run: {folder.outdir / 'summary.json'}: the finished run there is "
+                      f"of another scene ({', '.join(differ)} differ from {scene.source}); "
+                      "--overwrite replaces it", file=sys.stderr)  # fmt: skip
+                folder.abandon()
+                return EXIT_INPUT
             print(f"dda run: {folder.outdir}: the run finished already; nothing to resume")
             return EXIT_OK
         checkpoint = read_checkpoint(folder.checkpoint_path)

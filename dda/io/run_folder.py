@@ -58,6 +58,7 @@ class PreviousRun:
     status: str | None  # the summary's status ("running" left by a killed run)
     steps: int | None
     has_checkpoint: bool
+    fingerprint: dict | None = None  # the summary's scene_fingerprint (of the run's scene)
 
     def describe(self) -> str:
         """E.g. ``"run 20240101-120000-ab12cd (interrupted at step 400)"``."""
@@ -264,6 +265,9 @@ def _previous_run(outdir: Path, record: dict[str, Any]) -> PreviousRun | None:
         status=summary.get("status"),
         steps=steps if isinstance(steps, int) else None,
         has_checkpoint=(outdir / CHECKPOINT_NAME).is_file(),
+        fingerprint=summary.get("scene_fingerprint")
+        if isinstance(summary.get("scene_fingerprint"), dict)
+        else None,
     )
 
 

@@ -180,6 +180,17 @@ def scene_fingerprint(scene: Any) -> dict[str, str]:
     return parts
 
 
+def differing_sections(stored: dict[str, str], scene: Any) -> list[str]:
+    """The sections of ``scene`` (as a run holds it: in its local frame, its preset
+    applied) whose hashes differ from the fingerprint ``stored`` (:func:`scene_fingerprint`
+    of a run's scene, in its checkpoint or its summary)."""
+    from dda.scene.local_frame import local_origin, translated
+    from dda.scene.presets import apply_preset
+
+    current = scene_fingerprint(apply_preset(translated(scene, local_origin(scene))))
+    return sorted(k for k in set(stored) | set(current) if stored.get(k) != current.get(k))
+
+
 def check_scene(checkpoint: Checkpoint, scene: Any) -> None:
     """Refuse a checkpoint written for another scene, naming the sections that differ.
 
@@ -187,13 +198,7 @@ def check_scene(checkpoint: Checkpoint, scene: Any) -> None:
     ------
     CheckpointError
     """
-    from dda.scene.local_frame import local_origin, translated
-    from dda.scene.presets import apply_preset
-
-    stored = checkpoint.meta.get("scene", {})
-    local = translated(scene, local_origin(scene))  # as the run holds it
-    current = scene_fingerprint(apply_preset(local))
-    differ = sorted(k for k in set(stored) | set(current) if stored.get(k) != current.get(k))
+    differ = differing_sections(checkpoint.meta.get("scene", {}), scene)
     if differ:
         raise CheckpointError(
             checkpoint.source,

@@ -27,7 +27,7 @@ from dda.geometry import block_sizes
 from dda.jit import compile_seconds, run_work
 from dda.model import SEARCH_FACTOR, Model, build
 from dda.result import OPEN, FractureEvent, Frame, Result
-from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore
+from dda.run.checkpoint import Checkpoint, CheckpointPlan, check_scene, restore, scene_fingerprint
 from dda.run.deep_overlap import Overlap, deeper, deepest_overlap, overlap_warning
 from dda.run.energy import TERMS, EnergyAccount
 from dda.run.environment import environment
@@ -760,6 +760,7 @@ def _summary(state: _Run, wall: float, status: str) -> dict:
         "initial_energy": state.energy.initial.total,
         "external_work": state.energy.work,
         "environment": environment(),
+        "scene_fingerprint": scene_fingerprint(m.scene),  # what --resume compares
         **_engineering_summary(state),
         "warnings": _warnings(state),
     }

@@ -265,6 +265,27 @@ def test_a_finished_run_is_kept_unless_overwritten(tmp_path, monkeypatch, capsys
     assert "finished already; nothing to resume" in capsys.readouterr().out
 
 
+def test_resuming_a_finished_run_of_another_scene_is_refused(tmp_path, monkeypatch, capsys):
+    """It said "the run finished already; nothing to resume" and exited 0, as if the
+    folder held this scene's results; a run-control key (save_every) may still differ."""
+    monkeypatch.chdir(tmp_path)
+    scene = slope_file(tmp_path, 3)
+    assert cli.main(["run", str(scene), "-o", "out", "-q"]) == 0
+    before = Path("out/summary.json").read_text()
+    other = tmp_path / "other.toml"
+    other.write_text(SLOPE.read_text().replace("duration = 2.0", "steps = 4"))
+    capsys.readouterr()
+    assert cli.main(["run", str(other), "-o", "out", "-q", "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "out/summary.json: the finished run there is of another scene (analysis differ" in err
+    assert Path("out/summary.json").read_text() == before
+    same = tmp_path / "same.toml"
+    same.write_text(slope_file(tmp_path, 3, save_every=5).read_text())
+    assert cli.main(["run", str(same), "-o", "out", "-q", "--resume"]) == 0
+    assert "finished already; nothing to resume" in capsys.readouterr().out
+
+
 # ------------------------------------------------------------------ dda run: signals
 
 
