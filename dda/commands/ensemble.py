@@ -12,7 +12,7 @@ from typing import Any
 
 from dda.commands.cli import EXIT_FAILURE, output_path
 from dda.commands.cluster_options import add_cluster_options, count
-from dda.commands.fos import EXIT_INPUT, add_fos_options, prepare
+from dda.commands.fos import EXIT_INPUT, add_fos_options, add_overwrite_option, prepare
 
 BASE_COLUMNS = ("realisation", "seed")
 OUTCOME_COLUMNS = ("failed", "speed", "limit", "fos", "steps", "seconds", "host", "status")
@@ -41,6 +41,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--fos", action="store_true", help="give every realisation its own factor of safety"
     )
+    add_overwrite_option(p, "realisations")
     add_fos_options(p)
     add_cluster_options(p)
     p.set_defaults(func=ensemble_command)
@@ -50,7 +51,7 @@ def ensemble_command(args: argparse.Namespace) -> int:
     """Run the realisations; return the exit code (0 done, 1 every realisation refused,
     2 bad input, 130 interrupted)."""
     from dda.parallel import ClusterError, Workers
-    from dda.stability.store import RowStore, scene_hash
+    from dda.stability.store import RowStore, refuse_foreign, scene_hash
 
     prepared = prepare(args, "ensemble", reduced=args.fos, edit=_ensemble_overrides(args))
     if isinstance(prepared, str):
@@ -65,14 +66,17 @@ def ensemble_command(args: argparse.Namespace) -> int:
     keys = [d.key for d in ensemble.vary]
     columns = (*BASE_COLUMNS, *keys, *OUTCOME_COLUMNS)
     unsized = {**raw, "ensemble": {k: v for k, v in raw["ensemble"].items() if k != "realisations"}}
+    store = RowStore(outdir / "ensemble.csv", columns, scene_hash(unsized, source, args.fos))
+    refused = refuse_foreign(store, "ensemble", "realisation(s)", args.overwrite)
+    if refused is not None:
+        print(refused, file=sys.stderr)
+        return EXIT_INPUT
     try:
         with Workers(cluster) as workers:  # connected before anything is written
             args.kept_on_interrupt = (
                 f"the finished realisations are in {outdir / 'ensemble.csv'}: the same "
                 "command reuses them"
             )
-            digest = scene_hash(unsized, source, args.fos)
-            store = RowStore(outdir / "ensemble.csv", columns, digest)
             rows = {r["realisation"]: r for r in store.open(lambda row: _parse(row, keys))}
             for note in store.notes():
                 print(f"dda ensemble: {note}", file=sys.stderr)

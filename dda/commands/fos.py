@@ -59,9 +59,19 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "-o", "--outdir", type=output_path, help="output folder (default out/fos_<scene>)"
     )
+    add_overwrite_option(p, "trials")
     add_fos_options(p)
     add_cluster_options(p)
     p.set_defaults(func=fos_command)
+
+
+def add_overwrite_option(p: Any, rows: str) -> None:
+    """``--overwrite``: replace the folder's rows of another scene, seed or option."""
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help=f"replace the folder's {rows} of another scene, seed or option (else refused)",
+    )
 
 
 def add_fos_options(p: Any) -> None:
@@ -144,7 +154,7 @@ def fos_command(args: argparse.Namespace) -> int:
     """Run the search; return the exit code (0 done, 2 bad input, 130 interrupted)."""
     from dda.parallel import ClusterError, Workers
     from dda.stability.search import search
-    from dda.stability.store import RowStore, scene_hash
+    from dda.stability.store import RowStore, refuse_foreign, scene_hash
     from dda.stability.strength_reduction import brittle_note
 
     prepared = prepare(args, "fos")
@@ -152,6 +162,11 @@ def fos_command(args: argparse.Namespace) -> int:
         print(prepared, file=sys.stderr)
         return EXIT_INPUT
     raw, scene, criterion, source, outdir, cluster = prepared
+    store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
+    refused = refuse_foreign(store, "fos", "trial(s)", args.overwrite)
+    if refused is not None:
+        print(refused, file=sys.stderr)
+        return EXIT_INPUT
     fos = scene.fos
     print(
         f"{source}: strength reduction F in [{fos.lower:g}, {fos.upper:g}] to {fos.tolerance:g}; "
@@ -167,7 +182,6 @@ def fos_command(args: argparse.Namespace) -> int:
             args.kept_on_interrupt = (
                 f"the finished trials are in {outdir / 'fos.csv'}: the same command reuses them"
             )
-            store = RowStore(outdir / "fos.csv", COLUMNS, scene_hash(raw, source))
             runner = _Runner(raw, source, store, scene.units.velocity)
             runner.workers = workers
             outcome = search(runner.run, fos.lower, fos.upper, fos.tolerance, workers.size)

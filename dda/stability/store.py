@@ -25,6 +25,16 @@ HASH_COLUMN = "scene_hash"
 T = TypeVar("T")
 
 
+def refuse_foreign(store: RowStore, command: str, what: str, overwrite: bool) -> str | None:
+    """The one-line refusal of a ``store`` that holds rows of another scene, seed or option
+    (``what``: "trial(s)", "realisation(s)"), unless ``overwrite``; else None."""
+    foreign = 0 if overwrite else store.foreign()
+    if not foreign:
+        return None
+    return (f"dda {command}: {store.path}: holds {foreign} {what} of another scene, seed or "
+            "option; --overwrite replaces them (or give another -o)")  # fmt: skip
+
+
 def scene_hash(raw: Mapping[str, Any], *extra: object) -> str:
     """A short digest of a raw scene and anything else that changes the answers."""
     text = json.dumps([raw, *extra], sort_keys=True, default=str)
@@ -39,6 +49,10 @@ class RowStore:
         self.columns = [*columns, HASH_COLUMN]
         self.digest = digest
         self.dropped = self.damaged = 0  # rows :meth:`open` left out
+
+    def foreign(self) -> int:
+        """How many rows of the file are of another scene, seed or option (read only)."""
+        return sum(1 for r in self._read() if r.get(HASH_COLUMN) != self.digest)
 
     def open(self, parse: Callable[[dict[str, str]], T]) -> list[T]:
         """The rows of an earlier run of the same scene, each read by ``parse``; the file

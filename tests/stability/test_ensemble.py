@@ -227,7 +227,11 @@ def test_a_damaged_row_is_run_again_and_another_seed_s_pictures_go(tmp_path, cap
     stale = tmp_path / "out" / "failing_99.png"  # as an earlier seed's picture
     stale.write_bytes(b"png")
     write_scene(tmp_path / "slope.toml", slope_ensemble(6, seed=7))
-    assert cli.main(["ensemble", "slope.toml", "-o", "out", "--serial"]) == 0
+    kept = table.read_text()
+    assert cli.main(["ensemble", "slope.toml", "-o", "out", "--serial"]) == 2  # not unasked
+    assert "holds 6 realisation(s) of another scene, seed or option" in capsys.readouterr().err
+    assert table.read_text() == kept and stale.exists()
+    assert cli.main(["ensemble", "slope.toml", "-o", "out", "--serial", "--overwrite"]) == 0
     err = capsys.readouterr().err
     assert "ensemble.csv: 6 row(s) of another scene, seed or option dropped" in err
     assert not stale.exists()

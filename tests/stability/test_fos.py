@@ -196,10 +196,17 @@ def test_dda_fos_writes_and_reuses(tmp_path, capsys, monkeypatch):
     assert moving["name"] == "b0" and moving["speed"] > summary["criterion"]["velocity"]
     assert summary["criterion"]["blocks"] == ["b0"]  # the free block, watched by default
     assert rerun["moving_blocks"] == summary["moving_blocks"]
-    # another scene in the same folder starts afresh
+    # another scene in the same folder is refused (its trials were dropped, with a warning
+    # only, and fos.json replaced), unless --overwrite: it then starts afresh
     scene["joints"]["default"]["friction_angle"] = phi_for(30.0, 1.6)
     write_scene(tmp_path / "slope.toml", scene)
-    assert cli.main(args) == 0
+    kept = (tmp_path / "out/fos.csv").read_text()
+    assert cli.main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"holds {trials} trial(s) of another scene" in err
+    assert "--overwrite replaces them" in err
+    assert (tmp_path / "out/fos.csv").read_text() == kept
+    assert cli.main([*args, "--overwrite"]) == 0
     assert "reused" not in capsys.readouterr().err
     assert abs(json.loads((tmp_path / "out/fos.json").read_text())["fos"] - 1.6) <= TOLERANCE
 
