@@ -124,9 +124,12 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
     if isinstance(where, str):
         return where
     try:
-        raw = with_overrides(read_scene_file(path), args)
+        written = read_scene_file(path)
+        raw = with_overrides(written, args)
         if edit is not None:
             edit(raw)
+        if _replaced(written, raw):  # the scene's own values are checked too (docs/scene.md)
+            load_with_progress(written, source=str(path))
         scene = load_with_progress(raw, source=str(path))  # a bar while a long cut runs
         criterion = criterion_of(scene)
         if reduced:
@@ -135,6 +138,17 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
     except dda.SceneError as exc:
         return f"dda {command}: {exc}"
     return (raw, scene, criterion, str(path), *where)
+
+
+def _replaced(written: dict, raw: dict) -> bool:
+    """True when the options replaced a value the scene's ``[fos]`` or ``[ensemble]``
+    table gives (a value ``dda run`` would refuse must not pass unseen)."""
+    for section in ("fos", "ensemble"):
+        given, used = written.get(section), raw.get(section)
+        if isinstance(given, dict) and isinstance(used, dict):
+            if any(key in used and used[key] != value for key, value in given.items()):
+                return True
+    return False
 
 
 def output_and_cluster(args: argparse.Namespace, command: str, outdir: Path):

@@ -366,3 +366,16 @@ def test_a_fos_outside_the_bounds_is_counted_not_dropped(tmp_path, capsys, monke
     found = [f for f in fos if not math.isnan(f)]
     assert summary["fos_mean"] == pytest.approx(sum(found) / len(found))
     assert f"{outside} with FoS outside the search's bounds" in said
+
+
+def test_a_refused_scene_value_is_refused_though_an_option_replaces_it(
+    tmp_path, capsys, monkeypatch
+):
+    """`[ensemble] realisations = 0`, which dda run refuses, ran with --realisations 2."""
+    monkeypatch.chdir(tmp_path)
+    write_scene(tmp_path / "slope.toml", slope_ensemble(0))
+    options = ["ensemble", "slope.toml", "-o", "out", "--serial", "--realisations", "2"]
+    assert cli.main(options) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "ensemble.realisations: must be a positive integer" in err
+    assert not (tmp_path / "out").exists()

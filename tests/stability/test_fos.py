@@ -239,7 +239,14 @@ def no_gravity(scene: dict) -> dict:
     return scene
 
 
+def bad_lower(scene: dict) -> dict:
+    scene.setdefault("fos", {})["lower"] = -1.0
+    return scene
+
+
 REFUSED = [
+    # the scene's own value, which dda run refuses, was hidden by the option that replaced it
+    (bad_lower, ["--lower", "0.5"], "fos.lower: must be > 0, got -1"),
     (frictionless, [], "joints: nothing can fail by strength reduction"),
     (all_fixed_watched, [], "fos.blocks: every watched block is fixed: a trial could never fail"),
     (none_watched, [], "fos.blocks: is empty: list at least one (an empty list would do"),
