@@ -545,3 +545,21 @@ def test_run_prints_the_run_warnings_quiet_or_not(tmp_path, monkeypatch, capsys)
     assert "dda run: warning: the time step was cut at" in captured.err
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["warnings"] and summary["warnings"][0].startswith("the time step was cut")
+
+
+def test_the_process_s_own_command_line_ignores_ctrl_c_once_the_command_ends():
+    """A Ctrl-C that came as `dda fos` ended broke dask's clean-up at exit with a
+    traceback (its atexit hook closing the cluster); a call with arguments (a test's, a
+    script's) leaves the handler alone."""
+    probe = (
+        "import signal, sys\n"
+        "from dda.commands import cli\n"
+        "cli.main(['cases'])\n"
+        "before = signal.getsignal(signal.SIGINT) is signal.SIG_IGN\n"
+        "sys.argv = ['dda', 'cases']\n"
+        "cli.main()\n"
+        "print(before, signal.getsignal(signal.SIGINT) is signal.SIG_IGN)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1] == "False True"
