@@ -537,3 +537,19 @@ def test_the_energy_account_starts_with_the_springs_that_carry_the_field(mode, s
     initial = result.summary["initial_energy"]
     assert initial == pytest.approx(100.0 + 5.0, rel=1e-9)  # σ² / 2E of the block, springs
     assert abs(energy_excess(result.history, initial)[0]) <= 1e-9 * initial
+
+
+def test_outer_pieces_end_at_the_corners_of_the_blocks_that_cover_the_rest():
+    """A 3 m base with a 1 m block on its middle: the base's top is outer on [0, 1] and
+    [2, 3], to the corner (they ended 3e-9 m short, the grown polygons' margin, and a far
+    field's forces on the outline summed to 0.012 N of 3 MN instead of round-off)."""
+    base, top = np.array(square(0, 0, 3, 1), float), np.array(square(1, 1, 2, 2), float)
+    pieces = outer_pieces([base, top])
+    on_top = (pieces.block == 0) & (pieces.start[:, 1] == 1.0) & (pieces.end[:, 1] == 1.0)
+    ends = np.sort(np.column_stack([pieces.start[on_top, 0], pieces.end[on_top, 0]]), axis=1)
+    assert ends[np.argsort(ends[:, 0])] == pytest.approx(
+        np.array([[0.0, 1.0], [2.0, 3.0]]), abs=1e-14
+    )
+    field = StressField((-1.0e6, -2.0e6, 0.2e6))
+    f_start, f_end = field.segment_forces(pieces.start, pieces.end, pieces.normal)
+    assert np.abs((f_start + f_end).sum(axis=0)).max() <= 1e-15 * 3.0e6 * len(f_start)
