@@ -122,7 +122,7 @@ def tradeoff_command(args: argparse.Namespace) -> int:
     if isinstance(prepared, str):
         print(f"dda tradeoff: {prepared}", file=sys.stderr)
         return 2
-    case, grid, tasks, reference = prepared
+    case, grid, tasks, reference, longest = prepared
     cluster = Cluster(
         args.scheduler, args.scheduler_file, local_workers(args), getattr(args, "verbose", 0) > 0
     )
@@ -132,6 +132,9 @@ def tradeoff_command(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     print(_grid_line(grid, args.grid), file=sys.stderr)
+    if longest is not None:  # a run's own progress is not shown: say what the longest takes
+        steps, setting = longest
+        print(f"the longest run: {steps:,} steps ({setting.label})", file=sys.stderr)
     try:
         rows, fine_row = sweep(tasks, reference, cluster, serial=args.serial, progress=_progress)
     except SweepInterrupted as stopped:
@@ -175,7 +178,7 @@ def _prepare(args: argparse.Namespace):
         grid = parse_grid(args.grid, case.grid)
         settings = expand(grid)
         fine = fine_setting(grid) if case.reference is None else None
-        check_settings(case, settings, fine)
+        longest = check_settings(case, settings, fine)
     except ValueError as exc:  # a SceneError of a scene file, a GridError
         return str(exc)
     if not (args.serial or _has_dask()):
@@ -187,7 +190,7 @@ def _prepare(args: argparse.Namespace):
     reference = None
     if fine is not None:
         reference = Task(case.name, case.scene(fine), case.measure, fine, args.threads, 1)
-    return case, grid, tasks, reference
+    return case, grid, tasks, reference, longest
 
 
 def _grid_line(grid: dict[str, list], text: str) -> str:

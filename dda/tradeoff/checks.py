@@ -13,7 +13,7 @@ printed or any worker starts.
 from __future__ import annotations
 
 import dda
-from dda.scene.limits import check_run_size
+from dda.scene.limits import check_run_size, estimated_steps
 from dda.tradeoff.cases import Case
 from dda.tradeoff.grid import KEYS, Setting, value_text
 
@@ -34,8 +34,11 @@ class GridError(ValueError):
     value (or the whole setting), the scene's key and the reason."""
 
 
-def check_settings(case: Case, settings: list[Setting], fine: Setting | None = None) -> None:
-    """Load the scene of every setting (and of the ``fine`` reference run) as its run will.
+def check_settings(
+    case: Case, settings: list[Setting], fine: Setting | None = None
+) -> tuple[int, Setting] | None:
+    """Load the scene of every setting (and of the ``fine`` reference run) as its run will;
+    return the most steps a run takes and its setting (None without settings).
 
     Raises
     ------
@@ -43,16 +46,19 @@ def check_settings(case: Case, settings: list[Setting], fine: Setting | None = N
         At the first setting whose scene :func:`dda.load_scene` or the run's size
         check refuses.
     """
-    for setting in settings:
-        _check(case, setting, fine=False)
+    runs = [(_check(case, setting, fine=False), setting) for setting in settings]
     if fine is not None:
-        _check(case, fine, fine=True)
+        runs.append((_check(case, fine, fine=True), fine))
+    return max(runs, key=lambda run: run[0], default=None)
 
 
-def _check(case: Case, setting: Setting, fine: bool) -> None:
-    """Refuse ``setting`` of ``case`` (``fine``: the reference run the grid's extremes make)."""
+def _check(case: Case, setting: Setting, fine: bool) -> int:
+    """Refuse ``setting`` of ``case`` (``fine``: the reference run the grid's extremes make);
+    else its run's steps."""
     try:
-        check_run_size(dda.load_scene(case.scene(setting)))
+        scene = dda.load_scene(case.scene(setting))
+        check_run_size(scene)
+        return estimated_steps(scene)
     except dda.SceneError as exc:
         said = _named(setting, exc.key, fine)
         raise GridError(f"{said}: {exc.key}: {exc.reason}") from None

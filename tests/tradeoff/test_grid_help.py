@@ -60,6 +60,9 @@ def test_the_plan_counts_the_settings_the_user_did_not_name(tmp_path, capsys, mo
     err = capsys.readouterr().err
     assert "sliding_block: 24 settings × 3 repeats = 72 runs\n" in err
     assert "(penalty, tolerance, ratio: the case's defaults)" in err
+    # a run's own progress is not shown: the plan says how long the longest run is (a
+    # setting of 1e7 steps ran for hours without a word)
+    assert "the longest run: 100 steps (augmented-lagrangian p=0.1E" in err
 
 
 def test_the_table_counts_settings_and_runs():
