@@ -28,7 +28,7 @@ import re
 import tomllib
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from types import MappingProxyType
@@ -943,8 +943,33 @@ def _build_scene(
     _check_intact(chk, scene)
     _check_restitution(chk, scene)
     _check_default_name(chk, scene, raw.get("joints", {}))
+    idle = _idle_keys(scene, raw)
+    for sentence in idle:
+        logger.warning("%s: %s", source, sentence)
     logger.debug("loaded scene %s: %d blocks", source, len(blocks))
-    return scene
+    return replace(scene, load_warnings=(*scene.load_warnings, *idle)) if idle else scene
+
+
+def _idle_keys(scene: Scene, raw: Mapping[str, Any]) -> list[str]:
+    """Sentences for keys the scene gives that do nothing in it: a static analysis's
+    ``newmark_gamma`` and initial velocities (each step starts at rest), and ``[fracture]``
+    where no block's material is breakable."""
+    said = []
+    at_rest = "a static analysis starts each step at rest"
+    if scene.analysis.mode == "static":
+        if "newmark_gamma" in raw.get("analysis", {}):
+            said.append(f"analysis.newmark_gamma: {at_rest} and updates no velocity; the key "
+                        "does nothing")  # fmt: skip
+        moving = [i for i, b in enumerate(scene.blocks) if any(v != 0.0 for v in b.velocity)]
+        if moving:
+            said.append(f"blocks[{moving[0]}].velocity: {at_rest}; the initial velocity of "
+                        f"{len(moving)} block(s) does nothing")  # fmt: skip
+    breakable = any(scene.materials[b.material].breakable for b in scene.blocks)
+    if "fracture" in raw and not breakable:
+        said.append("fracture: no block's material is breakable (it needs cohesion, "
+                    "friction_angle and tensile_strength, docs/scene.md); nothing will "
+                    "break")  # fmt: skip
+    return said
 
 
 class _Said(logging.Handler):

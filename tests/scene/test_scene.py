@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from dda import simulate
 from dda.errors import SceneError
 from dda.scene import Block, Joint, Scene, load_scene
 
@@ -806,3 +807,34 @@ def test_a_block_of_collinear_vertices_is_named_so_and_a_bow_tie_self_intersecti
 ):
     error = refused(edited(("blocks", 0, "vertices"), vertices))
     assert error.key == "blocks[0].vertices" and reason in str(error)
+
+
+IDLE_BASE = {
+    "analysis": {"mode": "static", "steps": 3},
+    "materials": {"r": {"density": 2000.0, "young": 1e9, "poisson": 0.2}},
+    "blocks": [
+        {"name": "a", "material": "r", "fixed": True,
+         "vertices": [[0, -1], [2, -1], [2, 0], [0, 0]]},
+        {"name": "b", "material": "r", "vertices": [[0, 0], [1, 0], [1, 1], [0, 1]]},
+    ],
+}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("change", "said"),
+    [
+        (lambda s: s["analysis"].update(newmark_gamma=0.6), "analysis.newmark_gamma: a static"),
+        (lambda s: s["blocks"][1].update(velocity=[1.0, 0.0, 0.0]), "blocks[1].velocity: a static"),
+        (lambda s: s.update(fracture={}), "fracture: no block's material is breakable"),
+    ],
+)
+def test_keys_that_do_nothing_in_the_scene_are_said(change, said):
+    """They were accepted without a word: a static analysis's Newmark γ and initial
+    velocities, and [fracture] with no breakable material."""
+    raw = copy.deepcopy(IDLE_BASE)
+    change(raw)
+    scene = load_scene(raw)
+    assert len(scene.load_warnings) == 1 and scene.load_warnings[0].startswith(said)
+    result = simulate(scene)
+    assert result.summary["warnings"][0].startswith(said)
+    assert load_scene(copy.deepcopy(IDLE_BASE)).load_warnings == ()
