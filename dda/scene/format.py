@@ -401,6 +401,11 @@ _UNITS: dict[str, Spec] = {"length": Checker.text, "force": Checker.text, "time"
 
 # γ of the velocity update: unconditionally stable with β = ½ for ½ ≤ γ ≤ 2β = 1
 NEWMARK_GAMMA = Interval(0.5, 1.0, low_closed=True, high_closed=True)
+# the least γ at which no step was measured to create energy where contacts close and
+# open (a block dropped onto a base at Δt = 2e-3 to 1e-4 s: γ = 0.5 and 0.55 gain up to
+# 1.6e-2 and 3.1e-4 of E0, 0.6 to 1 nothing; docs/contact.md, Energy): below it a scene is
+# told so as it loads
+GAMMA_ENERGY_SAFE = 0.6
 # a fraction of critical damping: none to critical
 DAMPING_RATIO = Interval(0.0, 1.0, low_closed=True, high_closed=True)
 
@@ -953,7 +958,8 @@ def _build_scene(
 def _idle_keys(scene: Scene, raw: Mapping[str, Any]) -> list[str]:
     """Sentences for keys the scene gives that do nothing in it: a static analysis's
     ``newmark_gamma`` and initial velocities (each step starts at rest), and ``[fracture]``
-    where no block's material is breakable."""
+    where no block's material is breakable; and for a dynamic ``newmark_gamma`` below
+    :data:`GAMMA_ENERGY_SAFE`."""
     said = []
     at_rest = "a static analysis starts each step at rest"
     if scene.analysis.mode == "static":
@@ -964,6 +970,11 @@ def _idle_keys(scene: Scene, raw: Mapping[str, Any]) -> list[str]:
         if moving:
             said.append(f"blocks[{moving[0]}].velocity: {at_rest}; the initial velocity of "
                         f"{len(moving)} block(s) does nothing")  # fmt: skip
+    if scene.analysis.mode == "dynamic" and scene.analysis.newmark_gamma < GAMMA_ENERGY_SAFE:
+        said.append(f"analysis.newmark_gamma = {scene.analysis.newmark_gamma:g}: below "
+                    f"{GAMMA_ENERGY_SAFE:g} the velocity update can create energy where a "
+                    "contact opens (it carries the contact's last force into the velocity: "
+                    "docs/contact.md, Energy); 0.9 damps a rocking mode without it")  # fmt: skip
     breakable = any(scene.materials[b.material].breakable for b in scene.blocks)
     if "fracture" in raw and not breakable:
         said.append("fracture: no block's material is breakable (it needs cohesion, "
