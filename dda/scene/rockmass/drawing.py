@@ -579,7 +579,21 @@ def _openings(rock: list[Shape], path: Path) -> tuple[set[int], dict[int, Any]]:
             ": closed shapes on the blocks layer do not cross (one inside another is an "
             "opening in it)",
         )
-    outer, inner = tree.query(polygons, predicate="contains_properly")  # outer ⊃ inner
+    # outer ⊇ inner, a shape that touches the one around it from inside too (an island on
+    # its opening's floor, a notch in the outline: contains_properly left them out)
+    outer, inner = tree.query(polygons, predicate="covers")
+    itself = outer == inner
+    outer, inner = outer[~itself], inner[~itself]
+    pairs = set(zip(outer.tolist(), inner.tolist(), strict=True))
+    twin = next(((i, j) for i, j in pairs if (j, i) in pairs), None)
+    if twin is not None:
+        i, j = twin
+        raise SceneError(
+            str(path),
+            f"layer {rock[i].layer}",
+            f"{rock[max(i, j)].what} is drawn again as {rock[min(i, j)].what} (the same "
+            "closed shape twice): delete one",
+        )
     depth = np.bincount(inner, minlength=len(polygons))
     openings = {int(k) for k in np.flatnonzero(depth % 2 == 1)}
     holes: dict[int, Any] = {}

@@ -568,6 +568,45 @@ def test_a_shape_inside_another_on_the_blocks_layer_is_an_opening(tmp_path):
     assert rock.contains(shapely.Point(2.0, 2.0))
 
 
+def _nested_squares(path: Path, *squares, joint: bool = False) -> None:
+    """A drawing of closed squares (x0, y0, x1, y1) on BLOCKS; ``joint``: a joint line
+    across them at y = 6 (two blocks, the lower one fixed by the scene's bottom side)."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    for x0, y0, x1, y1 in squares:
+        corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+        space.add_lwpolyline(corners, close=True, dxfattribs={"layer": "BLOCKS"})
+    if joint:
+        space.add_line((-1.0, 6.0), (21.0, 6.0), dxfattribs={"layer": "JOINTS"})
+    document.saveas(path)
+
+
+@pytest.mark.parametrize(
+    ("squares", "area", "inside"),
+    [  # an island standing on its opening's floor: it vanished without a word (140 m²)
+        (((0, 0, 20, 10), (5, 2, 15, 8), (8, 2, 12, 4)), 200 - 60 + 8, (10, 3)),
+        # a notch opening in the outline's floor: refused as overlapping the outline
+        (((0, 0, 20, 10), (8, 0, 12, 3)), 200 - 12, (2, 2)),
+    ],
+)
+def test_a_shape_that_touches_the_one_around_it_is_nested_in_it(tmp_path, squares, area, inside):
+    _nested_squares(tmp_path / "cad.dxf", *squares, joint=True)
+    scene = dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
+    rock = shapely.union_all([shapely.Polygon(b.vertices) for b in scene.blocks])
+    assert rock.area == pytest.approx(area, rel=1e-12)
+    assert rock.contains(shapely.Point(*inside))
+
+
+def test_a_closed_shape_drawn_twice_is_refused(tmp_path):
+    """It was refused as "overlaps ... by 200 of area (regions must not)"."""
+    _nested_squares(tmp_path / "cad.dxf", (0, 0, 20, 10), (0, 0, 20, 10))
+    words = "LWPOLYLINE (handle 30) is drawn again as LWPOLYLINE (handle 2F) (the same closed"
+    with pytest.raises(dda.SceneError, match=re.escape(words)):
+        dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
+
+
 @pytest.mark.parametrize(
     ("extra", "words"),
     [('blocks = "ROCK"\nfixed = "ROCK"\n',
