@@ -153,6 +153,8 @@ def _say_idle_lines(mass: RockMass, cut: CutRockMass, source: str) -> None:
     used = set(np.unique(cut.blocks.edge_source).tolist())
     first = len(mass.joint_sets)
     idle = [line for k, line in enumerate(mass.joint_lines) if first + k not in used]
+    cutting = [line for k, line in enumerate(mass.joint_lines) if first + k in used]
+    idle = _not_drawn_again(idle, cutting, source)
     for line in idle[:IDLE_LINES_SAID]:
         (x0, y0), (x1, y1) = line.points[0], line.points[-1]
         log.warning(
@@ -163,6 +165,29 @@ def _say_idle_lines(mass: RockMass, cut: CutRockMass, source: str) -> None:
         )  # fmt: skip
     if len(idle) > IDLE_LINES_SAID:
         log.warning("%s: %d more joint lines cut nothing", source, len(idle) - IDLE_LINES_SAID)
+
+
+def _not_drawn_again(idle: list, used: list, source: str) -> list:
+    """The ``idle`` joint lines less those that lie along a ``used`` one (drawn twice: the
+    block edges there name the other), each of those said as such."""
+    if not idle or not used:
+        return idle
+    shapes = [shapely.LineString(line.points) for line in used]
+    points = np.concatenate([line.points for line in idle + used])
+    size = max(float(np.ptp(points, axis=0).max()), 1.0)
+    near = shapely.STRtree(shapes)
+    left = []
+    for line in idle:
+        trace = shapely.LineString(line.points)
+        twins = [int(k) for k in near.query(trace, predicate="dwithin", distance=1e-9 * size)
+                 if shapes[int(k)].buffer(1e-9 * size).covers(trace)]  # fmt: skip
+        if not twins:
+            left.append(line)
+            continue
+        other = used[twins[0]]
+        log.warning("%s: %s (%r) lies along %s (%r): drawn twice, the cut has one joint there",
+                    source, line.key, line.name, other.key, other.name)  # fmt: skip
+    return left
 
 
 def _faces(

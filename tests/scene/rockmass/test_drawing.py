@@ -599,6 +599,24 @@ def test_a_shape_that_touches_the_one_around_it_is_nested_in_it(tmp_path, square
     assert rock.contains(shapely.Point(*inside))
 
 
+def test_a_joint_line_drawn_twice_is_said_so_not_said_to_cut_nothing(tmp_path, caplog):
+    """The copy was said to cut nothing ("it ends inside the rock"): the block edges name
+    the other, and the joint is in the model."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    space.add_lwpolyline(SQUARE, close=True, dxfattribs={"layer": "BLOCKS"})
+    for _ in range(2):
+        space.add_line((-1.0, 3.0), (11.0, 5.0), dxfattribs={"layer": "JOINTS"})
+    document.saveas(tmp_path / "cad.dxf")
+    with caplog.at_level(logging.WARNING):
+        scene = dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
+    assert len(scene.blocks) == 2
+    assert "cuts nothing" not in caplog.text
+    assert "lies along joint_lines[" in caplog.text and "drawn twice" in caplog.text
+
+
 def test_a_closed_shape_drawn_twice_is_refused(tmp_path):
     """It was refused as "overlaps ... by 200 of area (regions must not)"."""
     _nested_squares(tmp_path / "cad.dxf", (0, 0, 20, 10), (0, 0, 20, 10))
