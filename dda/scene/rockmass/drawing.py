@@ -512,6 +512,11 @@ def _open_reason(left: list[Shape], opened: list[Shape]) -> str:
     cells = [tuple(np.round(np.asarray(p) / grid).astype(np.int64)) for _, p in ends]
     loose = [e for e, c in zip(ends, cells, strict=True) if cells.count(c) == 1]
     note = ": a block or an excavation is a closed polyline"
+    overlap = _overlapping_pair(left)
+    if overlap is not None:
+        one, other, length = overlap
+        return (f"{one.what} overlaps {other.what} along {length:.3g} of their length: "
+                f"draw them end to end{note}")  # fmt: skip
     if len(loose) < 2:
         shape = left[0]
         (x0, y0), (x1, y1) = shape.points[0], shape.points[-1]
@@ -529,6 +534,19 @@ def _open_reason(left: list[Shape], opened: list[Shape]) -> str:
             f"{near[1]:.6g}), {gap:.3g} away: join them{note}")  # fmt: skip
 
 
+def _overlapping_pair(shapes: list[Shape]) -> tuple[Shape, Shape, float] | None:
+    """Two open shapes that lie along each other over a length (collinear pieces drawn
+    over one another), and that length; None where none do."""
+    lines = [shapely.LineString(s.points) for s in shapes]
+    tree = shapely.STRtree(lines)
+    for i, j in zip(*tree.query(lines, predicate="intersects"), strict=True):
+        if i < j:
+            common = shapely.intersection(lines[i], lines[j])
+            if common.length > 0.0:
+                return shapes[int(i)], shapes[int(j)], float(common.length)
+    return None
+
+
 def _rings(shapes: list[Shape], layer: str) -> tuple[list[Shape], list[Shape]]:
     """(the closed rings that ``shapes``, all open, make end to end, each named by its
     pieces; the shapes no ring takes). Ends within :data:`CLOSED` of the shapes' extent
@@ -540,7 +558,13 @@ def _rings(shapes: list[Shape], layer: str) -> tuple[list[Shape], list[Shape]]:
     lines = shapely.set_precision(
         np.array([shapely.LineString(s.points) for s in shapes], dtype=object), grid
     )
-    polygons = shapely.get_parts(shapely.polygonize(lines))
+    # a shape drawn twice (a CAD leftover) is one: polygonize closes no ring through a
+    # doubled edge, so each copy after the first is left out of it and taken with it
+    first = {}
+    for k, line in enumerate(lines):
+        first.setdefault(shapely.normalize(line).wkb, k)
+    single = np.array(sorted(first.values()), dtype=np.int64)
+    polygons = shapely.get_parts(shapely.polygonize(lines[single]))
     rings, used = [], np.zeros(len(shapes), bool)
     for polygon in polygons:
         edge = polygon.exterior

@@ -617,6 +617,46 @@ def test_a_joint_line_drawn_twice_is_said_so_not_said_to_cut_nothing(tmp_path, c
     assert "lies along joint_lines[" in caplog.text and "drawn twice" in caplog.text
 
 
+def _exploded_outline(path: Path, extra: list) -> None:
+    """The 20 × 10 outline as four LINEs, the ``extra`` LINEs ((x0, y0), (x1, y1)), and a
+    joint across it at y = 6 (two blocks, the lower one fixed by the bottom side)."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    corners = [(0.0, 0.0), (20.0, 0.0), (20.0, 10.0), (0.0, 10.0)]
+    for a, b in [*zip(corners, corners[1:] + corners[:1], strict=True), *extra]:
+        space.add_line(a, b, dxfattribs={"layer": "BLOCKS"})
+    space.add_line((-1.0, 6.0), (21.0, 6.0), dxfattribs={"layer": "JOINTS"})
+    document.saveas(path)
+
+
+def test_a_line_drawn_twice_in_an_exploded_outline_is_read_once(tmp_path):
+    """The bottom LINE drawn again (a CAD leftover) was refused as "LINE (handle 30) is
+    open ... and closes no ring", naming the line that closes it."""
+    _exploded_outline(tmp_path / "cad.dxf", [((20.0, 0.0), (0.0, 0.0))])
+    scene = dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
+    rock = shapely.union_all([shapely.Polygon(b.vertices) for b in scene.blocks])
+    assert rock.area == pytest.approx(200.0, rel=1e-12)
+
+
+def test_lines_that_overlap_in_an_outline_are_named_as_overlapping(tmp_path):
+    """The bottom drawn as two LINEs overlapping by 4: the message said to join two loose
+    ends 4 apart, a gap there is not."""
+    import ezdxf
+
+    document = ezdxf.new("R2010")
+    space = document.modelspace()
+    path = [((0, 0), (12, 0)), ((8, 0), (20, 0)), ((20, 0), (20, 10)), ((20, 10), (0, 10)),
+            ((0, 10), (0, 0))]  # fmt: skip
+    for a, b in path:
+        space.add_line(a, b, dxfattribs={"layer": "BLOCKS"})
+    document.saveas(tmp_path / "cad.dxf")
+    words = "LINE (handle 2F) overlaps LINE (handle 30) along 4 of their length: draw them end"
+    with pytest.raises(dda.SceneError, match=re.escape(words)):
+        dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
+
+
 def test_a_closed_shape_drawn_twice_is_refused(tmp_path):
     """It was refused as "overlaps ... by 200 of area (regions must not)"."""
     _nested_squares(tmp_path / "cad.dxf", (0, 0, 20, 10), (0, 0, 20, 10))
