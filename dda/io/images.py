@@ -202,6 +202,7 @@ def compose(
         for ax, frame, title, value in zip(axes, frames, titles, values, strict=True):
             mappable = _draw_frame(ax, frame, value, scale, show_contacts, force_max)
             ax.set_title(title or default_title(frame), fontsize=11)
+            ax.ticklabel_format(useOffset=False, style="plain")  # map coordinates read whole
             ax.set_xlabel(f"x ({length})")
             ax.set_ylabel(f"y ({length})")
         _share_view(axes, frames if view is None else None, view)

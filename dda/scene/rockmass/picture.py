@@ -62,6 +62,7 @@ def cut_figure(
     )
     ax.set_aspect("equal")
     ax.autoscale_view()
+    ax.ticklabel_format(useOffset=False, style="plain")  # map coordinates read whole
     ax.set_xlabel(f"x ({length_unit})")
     ax.set_ylabel(f"y ({length_unit})")
     ax.set_title(title or f"{len(cut.names) + len(drawn)} blocks")
