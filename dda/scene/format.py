@@ -957,9 +957,9 @@ def _build_scene(
 
 def _idle_keys(scene: Scene, raw: Mapping[str, Any]) -> list[str]:
     """Sentences for keys the scene gives that do nothing in it: a static analysis's
-    ``newmark_gamma`` and initial velocities (each step starts at rest), and ``[fracture]``
-    where no block's material is breakable; and for a dynamic ``newmark_gamma`` below
-    :data:`GAMMA_ENERGY_SAFE`."""
+    ``newmark_gamma`` and initial velocities (each step starts at rest); and for a dynamic
+    ``newmark_gamma`` below :data:`GAMMA_ENERGY_SAFE`. (``[fracture]`` that can break
+    nothing is said by the run: dda.run.run_warnings.)"""
     said = []
     at_rest = "a static analysis starts each step at rest"
     if scene.analysis.mode == "static":
@@ -975,11 +975,6 @@ def _idle_keys(scene: Scene, raw: Mapping[str, Any]) -> list[str]:
                     f"{GAMMA_ENERGY_SAFE:g} the velocity update can create energy where a "
                     "contact opens (it carries the contact's last force into the velocity: "
                     "docs/contact.md, Energy); 0.9 damps a rocking mode without it")  # fmt: skip
-    breakable = any(scene.materials[b.material].breakable for b in scene.blocks)
-    if "fracture" in raw and not breakable:
-        said.append("fracture: no block's material is breakable (it needs cohesion, "
-                    "friction_angle and tensile_strength, docs/scene.md); nothing will "
-                    "break")  # fmt: skip
     return said
 
 

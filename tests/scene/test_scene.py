@@ -825,12 +825,11 @@ IDLE_BASE = {
     [
         (lambda s: s["analysis"].update(newmark_gamma=0.6), "analysis.newmark_gamma: a static"),
         (lambda s: s["blocks"][1].update(velocity=[1.0, 0.0, 0.0]), "blocks[1].velocity: a static"),
-        (lambda s: s.update(fracture={}), "fracture: no block's material is breakable"),
     ],
 )
 def test_keys_that_do_nothing_in_the_scene_are_said(change, said):
     """They were accepted without a word: a static analysis's Newmark γ and initial
-    velocities, and [fracture] with no breakable material."""
+    velocities."""
     raw = copy.deepcopy(IDLE_BASE)
     change(raw)
     scene = load_scene(raw)
