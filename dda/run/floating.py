@@ -40,8 +40,7 @@ def net_load(model: Model, blocks: BlockSet, ctx: StepContext) -> tuple[np.ndarr
     blocks' force magnitudes and moments over the model's size (the scale)."""
     free = ~blocks.fixed
     net, scale, size = np.zeros(3), 0.0, max(model_size(blocks), 1e-300)
-    masses = blocks.masses(model.material_density)[free]
-    arm = blocks.centroid[free] - masses @ blocks.centroid[free] / max(masses.sum(), 1e-300)
+    _, arm = _masses_and_arms(model, blocks)
     for effect in model.effects:
         if effect.name not in EXTERNAL:
             continue
@@ -50,8 +49,8 @@ def net_load(model: Model, blocks: BlockSet, ctx: StepContext) -> tuple[np.ndarr
             continue
         translation = forces[free, 0:2]
         net[:2] += translation.sum(axis=0)
-        net[2] += float(np.sum(forces[free, 2] + arm[:, 0] * translation[:, 1]))
-        net[2] -= float(np.sum(arm[:, 1] * translation[:, 0]))
+        turning = arm[:, 0] * translation[:, 1] - arm[:, 1] * translation[:, 0]
+        net[2] += float(np.sum(forces[free, 2] + turning))
         scale += float(np.hypot(translation[:, 0], translation[:, 1]).sum())
         scale += float(np.abs(forces[free, 2]).sum()) / size
     return net, scale
@@ -62,10 +61,17 @@ def turning_inertia(model: Model, blocks: BlockSet) -> float:
     their centre of mass (I about each centroid, of the block's mass area)."""
     free = ~blocks.fixed
     density = model.material_density[blocks.material[free]] * blocks.density_ratio[free]
-    masses = blocks.masses(model.material_density)[free]
-    arm = blocks.centroid[free] - masses @ blocks.centroid[free] / max(masses.sum(), 1e-300)
+    masses, arm = _masses_and_arms(model, blocks)
     own = density * (blocks.ixx[free] + blocks.iyy[free])
     return float(np.sum(own + masses * np.sum(arm * arm, axis=1)))
+
+
+def _masses_and_arms(model: Model, blocks: BlockSet) -> tuple[np.ndarray, np.ndarray]:
+    """(m_i, c_i − C) of the free blocks, C their centre of mass."""
+    free = ~blocks.fixed
+    masses = blocks.masses(model.material_density)[free]
+    centre = masses @ blocks.centroid[free] / max(masses.sum(), 1e-300)
+    return masses, blocks.centroid[free] - centre
 
 
 def model_size(blocks: BlockSet) -> float:
