@@ -142,6 +142,13 @@ def to_jsonable(value: Any) -> Any:
     Any
         ``dict``/``list``/``str``/``int``/``float``/``bool``/``None`` only.
     """
+    kind = type(value)  # the plain kinds first: a big scene's values are mostly these
+    if kind is float:
+        return value if math.isfinite(value) else None
+    if kind is int or kind is str or kind is bool or value is None:
+        return value
+    if kind is list or kind is tuple:
+        return [to_jsonable(v) for v in value]
     if isinstance(value, np.ndarray | np.generic):
         return to_jsonable(value.tolist())
     if isinstance(value, bool | int | str) or value is None:
@@ -153,7 +160,9 @@ def to_jsonable(value: Any) -> Any:
     if hasattr(value, "_asdict"):  # NamedTuple
         return to_jsonable(value._asdict())
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return to_jsonable(dataclasses.asdict(value))
+        # field by field, not dataclasses.asdict: its deep copy of every value took
+        # 0.39 s of the 60 x 60 wall's scene fingerprint, against 0.1 s (the same text)
+        return {f.name: to_jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, list | tuple | set | frozenset):
         return [to_jsonable(v) for v in value]
     if isinstance(value, os.PathLike):
