@@ -843,10 +843,10 @@ def _energy_warning(state: _Run) -> str | None:
         spin = np.abs(blocks.velocity[free, 2])
         k = free[int(np.argmax(spin))]
         turning = (blocks.names[k], float(spin.max()), float(spin.max()) * state.dt)
-    history, initial = state.history, state.energy.initial.total
+    history, initial = state.history, state.energy.initial
     return energy_warning(
-        history, initial, state.pushed_steps, fastest, (units.length, units.time),
-        turning if len(free) else None,
+        history, initial.total, state.pushed_steps, fastest, (units.length, units.time),
+        turning if len(free) else None, initial.as_dict(),
     )  # fmt: skip
 
 

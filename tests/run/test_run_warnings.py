@@ -181,6 +181,26 @@ def test_energy_made_after_a_stage_removed_blocks_is_said():
     assert text is not None and "rose 2 above" in text and "2 %" in text
 
 
+def test_energy_made_beside_contacts_loaded_at_the_start_is_said():
+    """An audit: two bonded blocks spun at 4 rad/s gained 352 J, said alone and unsaid
+    beside a block pressed on a floor (C0 = 1,348 J at the start: the blocks' energy was
+    judged against E0 with C0 in it, and the springs' 1,348 J counted as energy that
+    moved). Here C0 = 1,000 stays in the springs while the blocks gain 2 (2 % of the 102
+    that moved): said. Springs that give C0 back to the blocks, or whose energy rises
+    above C0 as a block settles, are no source."""
+    start = {"contact": 1000.0}
+    kept = _history([100.0, 50.0, 102.0], [1000.0, 1050.0, 1000.0])
+    assert energy_excess(kept, 1100.0, False)[0] < 0.0  # C0 not told: the gain hidden
+    excess, moved, _ = energy_excess(kept, 1100.0, False, start)
+    assert (excess, moved) == (pytest.approx(2.0), pytest.approx(102.0))
+    text = energy_warning(kept, 1100.0, start=start)
+    assert text is not None and "rose 2 above" in text and "2 %" in text
+    given_back = _history([100.0, 600.0, 1100.0], [1000.0, 500.0, 0.0])
+    assert energy_warning(given_back, 1100.0, start=start) is None
+    settling = _history([100.0, 50.0, 100.0], [1000.0, 1200.0, 1300.0])
+    assert energy_warning(settling, 1100.0, start=start) is None
+
+
 def test_the_energy_warning_gives_the_evidence_for_its_cause():
     """The steps the push-out acted at, when it did; the fastest block at the end, a
     sliver called one; the advice of a smaller time step."""
