@@ -37,13 +37,14 @@ import numpy as np
 
 from dda.jit import formula, select
 from dda.result import LOCKED, OPEN, SLIDING
+from dda.scene.joints import MOBILISED_CAP_DEGREES
 
 # pieces of a contact's terms (shear: which side of the friction bound, or stuck)
 NORMAL_LIMIT, NORMAL_ELASTIC = 0, 1  # at the limit −T (open when T = 0) / elastic spring
 SLIP_BACK, STICK, SLIP_FORWARD = -1, 0, 1
 
 UNBOUNDED = 1e300  # the friction bound of a contact whose normal force is not known yet
-MOBILISED_CAP = math.radians(70.0)
+MOBILISED_CAP = math.radians(MOBILISED_CAP_DEGREES)
 TINY = 1e-300  # keeps the logarithm of σn = 0 and of a Coulomb joint's JCS = 0 finite
 
 
@@ -250,11 +251,15 @@ def grown_penalty(
 @formula
 def bond_lost(normal_base, penalty, tension, shear_base, shear_penalty, bound, g, s):
     """A bond (of a contact with one to lose) goes at its tensile strength (the normal
-    force at its limit −T, T > 0) or when it slips."""
+    force at its limit −T, T > 0) or when it slips: its shear trial at the bound b, but
+    not a trial of 0 at b = 0 (a joint in tension without cohesion, carrying no shear,
+    is on the kink that the pieces count as slipping; nothing slips there: an audit's
+    block hung from a roof by such a joint fell at once)."""
     normal = normal_piece(normal_base, penalty, tension, g)
     shear = shear_piece(shear_base, shear_penalty, bound, s)
     at_tension = (normal != NORMAL_ELASTIC) & (tension > 0.0)
-    slipping = (shear != STICK) & (shear_penalty > 0.0)
+    moving = (bound > 0.0) | (shear_trial(shear_base, shear_penalty, s) != 0.0)
+    slipping = (shear != STICK) & (shear_penalty > 0.0) & moving
     return at_tension | slipping
 
 

@@ -909,24 +909,24 @@ def _build_scene(
     said: list[str] = []
     with _warnings_said(said):
         raw = chk.table(_expand_rock_mass(raw, source, progress), "", _TOP_KEYS)
-    title = chk.text(raw.get("title", ""), "title")
-    analysis = _analysis(chk, raw)
-    contact = _contact(chk, raw)
-    materials = _materials(chk, raw)
-    joints = parse_joints(chk, raw)
-    blocks = _blocks(chk, raw, materials, joints)
-    _check_speeds(chk, blocks, analysis)
-    names = frozenset(b.name for b in blocks)
-    by_name = {b.name: b for b in blocks}
-    loads = _loads(chk, raw, by_name)
-    interfaces = _interfaces(chk, raw, names, joints)
-    fracture = _fracture(chk, raw, joints)
-    groups = _groups(chk, raw, names)
-    units = _units(chk, raw)
-    engineering = parse_engineering(chk, raw, blocks, groups, analysis, loads)
-    stages = engineering.get("stages", ())
-    young = {name: m.young for name, m in materials.items()}
-    in_situ = parse_in_situ(chk, raw, blocks, stages, joints, interfaces, young)
+        title = chk.text(raw.get("title", ""), "title")
+        analysis = _analysis(chk, raw)
+        contact = _contact(chk, raw)
+        materials = _materials(chk, raw)
+        joints = parse_joints(chk, raw)
+        blocks = _blocks(chk, raw, materials, joints)
+        _check_speeds(chk, blocks, analysis)
+        names = frozenset(b.name for b in blocks)
+        by_name = {b.name: b for b in blocks}
+        loads = _loads(chk, raw, by_name)
+        interfaces = _interfaces(chk, raw, names, joints)
+        fracture = _fracture(chk, raw, joints)
+        groups = _groups(chk, raw, names)
+        units = _units(chk, raw)
+        engineering = parse_engineering(chk, raw, blocks, groups, analysis, loads)
+        stages = engineering.get("stages", ())
+        young = {name: m.young for name, m in materials.items()}
+        in_situ = parse_in_situ(chk, raw, blocks, stages, joints, interfaces, young)
     scene = Scene(
         title=title,
         analysis=analysis,

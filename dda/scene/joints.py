@@ -15,6 +15,7 @@ its speed (a dashpot beside the contact's spring); without it the contact has no
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -33,9 +34,14 @@ from dda.scene.checks import (
     real,
 )
 
+log = logging.getLogger(__name__)
+
 MODELS = ("coulomb", "barton-bandis")
 JRC = Interval(0.0, 20.0, low_closed=True, high_closed=True)  # Barton's roughness profiles
 RESTITUTION = Interval(0.0, 1.0, low_closed=True, high_closed=True)
+# the largest friction angle the Barton–Bandis law mobilises, degrees (Barton's cap of
+# φr + JRC log10(JCS/σn); dda.contact.formulas.barton_bandis_tangent)
+MOBILISED_CAP_DEGREES = 70.0
 
 
 @dataclass(frozen=True)
@@ -113,6 +119,11 @@ def joint(chk: Checker, name: str, value: object) -> Joint:
         for needed in _BARTON_BANDIS:
             if needed not in values:
                 chk.fail(join_key(key, needed), "is required by model = 'barton-bandis'")
+        if values["residual_friction_angle"] >= MOBILISED_CAP_DEGREES:
+            chk.fail(join_key(key, "residual_friction_angle"),
+                     f"{values['residual_friction_angle']:g} is not below "
+                     f"{MOBILISED_CAP_DEGREES:g}°, the largest angle the Barton–Bandis law "
+                     "mobilises (φr + JRC log10(JCS/σn) is capped there)")  # fmt: skip
         for other in _ONLY_COULOMB:
             if other in values:
                 why = "a barton-bandis joint takes jrc, jcs and residual_friction_angle"
@@ -126,6 +137,15 @@ def joint(chk: Checker, name: str, value: object) -> Joint:
                 chk.fail(join_key(key, residual), f"{values[residual]:g} is above the peak "
                          f"{peak} ({values.get(peak, 0.0):g}): a joint loses strength as it "
                          "slips")  # fmt: skip
+        tension = values.get("tensile_strength", 0.0)
+        brittle = values.get("residual_tensile_strength", 0.0) < tension
+        if tension > 0.0 and brittle and values.get("cohesion", 0.0) == 0.0:
+            log.warning(
+                "%s: %s: a joint without cohesion has no shear strength in tension, so the "
+                "least shear there slips it and breaks its bond, its tension with it "
+                "(give it a cohesion, or residual_tensile_strength to keep the tension)",
+                chk.source, join_key(key, "tensile_strength"),
+            )  # fmt: skip
     return Joint(name=name, **values)
 
 

@@ -565,3 +565,50 @@ def test_a_block_hung_on_a_joint_holding_one_and_a_half_times_its_weight(start, 
     }  # fmt: skip
     drop = -dda.simulate(scene).final.displacements[1, 1]
     assert (drop < 1e-5) == holds, drop
+
+
+def hung_block(poisson: float, joint: dict) -> dict:
+    """A 1 m × 0.5 m block (W = 13,243.5 N/m) hung under a fixed roof by ``joint``,
+    ν = ``poisson``, 0.05 s at Δt = 1 ms from the equilibrium start."""
+    return {
+        "analysis": {"time_step": 1e-3, "duration": 0.05, "gravity": [0.0, -9.81],
+                     "save_every": 10**6},
+        "materials": {"rock": {"density": 2700.0, "young": 5e9, "poisson": poisson}},
+        "joints": {"default": joint},
+        "blocks": [
+            {"name": "roof", "material": "rock", "fixed": True,
+             "vertices": [[0, 0], [5, 0], [5, 1], [0, 1]]},
+            {"name": "b", "material": "rock", "vertices": [[2, -0.5], [3, -0.5], [3, 0], [2, 0]]},
+        ],
+    }  # fmt: skip
+
+
+def test_a_joint_in_tension_without_cohesion_holds_what_carries_no_shear_and_says_why_not_more(
+    caplog,
+):
+    """An audit: a block hung by a brittle joint of tensile strength T l = 2 W and no
+    cohesion fell at once (½ g t² = 12.26 mm in 0.05 s), no shear on it: in tension its
+    friction bound is c l = 0, and a shear trial of 0 on the bound 0 counted as slipping,
+    which breaks the bond. Nothing slips there: with ν = 0 (no shear) it holds. With
+    ν = 0.25 the block's contraction shears the joint, which has no shear strength in
+    tension (the Coulomb envelope with c = 0 ends at σ = 0): it slips, the bond breaks,
+    the block falls; the scene says so as it loads."""
+    joint = {"friction_angle": 30.0, "tensile_strength": 26487.0}
+    held = dda.simulate(hung_block(0.0, joint))
+    assert abs(held.final.displacements[1, 1]) < 1e-9
+    scene = dda.load_scene(hung_block(0.25, joint))
+    said = [w for w in scene.load_warnings if "joints.default.tensile_strength" in w]
+    assert said and "no shear strength in tension" in said[0]
+    fallen = dda.simulate(scene)
+    assert fallen.final.displacements[1, 1] == pytest.approx(-0.5 * 9.81 * 0.05**2, rel=1e-3)
+    kept = dda.load_scene(hung_block(0.25, {**joint, "cohesion": 1000.0}))
+    assert not [w for w in kept.load_warnings if "tensile_strength" in w]
+
+
+def test_a_barton_bandis_residual_angle_at_the_cap_is_refused():
+    """An audit: φr = 75° was taken and capped to 70° unsaid (a block pushed with 0.9 W
+    tan φr slid 0.12 m in 0.2 s): the law mobilises no angle above 70°."""
+    with pytest.raises(SceneError) as caught:
+        dda.load_scene(slab_and_block(30.0, 1.0, 0.5, {**BB, "residual_friction_angle": 75.0}))
+    assert caught.value.key == "joints.default.residual_friction_angle"
+    assert "not below 70°" in str(caught.value)
