@@ -400,3 +400,21 @@ def unsettled_start_warning(newton_iterations: int, seconds: float) -> str:
         "may creep or slip where friction is nearly used up (analysis.start = "
         '"unloaded" starts so at once)'
     )
+
+
+def skipped_stages_warning(
+    left: Sequence[float], steps: int, end: float, time: str = "s"
+) -> str | None:
+    """The sentence when a run given ``analysis.steps`` ended at ``end`` before the stages
+    at the times ``left``: a step cut short to end at a stage's time grows back by 1.5×
+    a step, so ``steps`` steps end before steps × time_step (an audit: a stage at 0.09 s of
+    a run of 10 steps of 0.01 s never happened, unsaid; the run ended at 0.0821 s)."""
+    if not len(left):
+        return None
+    first = float(left[0])
+    return (
+        f"{len(left)} stage(s) never applied: the run's {steps} steps ended at t = {end:.6g} "
+        f"{time}, before the stage at t = {first:.6g} {time} (steps cut short to end at a "
+        "stage's time take the run's time with them); give analysis.duration instead of "
+        "analysis.steps to reach every stage"
+    )

@@ -45,6 +45,7 @@ from dda.run.run_warnings import (
     penetration_warning,
     restitution_step_warning,
     restitution_warning,
+    skipped_stages_warning,
     smallest_free_size,
     static_motion_warning,
     unsettled_start_warning,
@@ -793,8 +794,18 @@ def _warnings(state: _Run) -> list[str]:
         _last_motion_warning(state, length),
         _fracture_warning(state, length),
         *_restitution_warnings(m, state.blocks),
+        _skipped_stages_warning(state),
     ]
     return [text for text in found if text is not None]
+
+
+def _skipped_stages_warning(state: _Run) -> str | None:
+    """:func:`skipped_stages_warning` of a finished run given ``analysis.steps``."""
+    plan, steps = state.model.stages, state.model.steps
+    if plan is None or steps is None or not state.finished():
+        return None
+    left = plan.times[state.stages_done :]
+    return skipped_stages_warning(left, steps, state.shown_time, state.model.scene.units.time)
 
 
 def _restitution_warnings(model: Model, blocks: BlockSet) -> list[str | None]:

@@ -28,6 +28,24 @@ def stack(mode: str = "static", steps: int = 40, stages=None) -> dict:
     }  # fmt: skip
 
 
+def test_a_stage_the_steps_never_reach_is_said():
+    """An audit: with ``steps``, a stage at 0.003 s cuts a step short and Δt grows back by
+    1.5× a step, so ten steps of 0.01 s end at 0.0821 s and the stage at 0.09 s, which
+    the scene took (0.09 < 10 × 0.01), never happened, unsaid. The run says so; with
+    ``duration`` both stages apply."""
+    stages = [{"time": 0.003, "remove": ["b2"]}, {"time": 0.09, "remove": ["b1"]}]
+    scene = stack("dynamic", 10, stages)
+    result = dda.simulate(scene, keep_frames=False)
+    assert result.summary["stages_done"] == 1
+    said = [w for w in result.summary["warnings"] if "never applied" in w]
+    assert said and "before the stage at t = 0.09 s" in said[0], result.summary["warnings"]
+    scene["analysis"] = {**scene["analysis"], "duration": 0.1}
+    del scene["analysis"]["steps"]
+    timed = dda.simulate(scene, keep_frames=False)
+    assert timed.summary["stages_done"] == 2
+    assert not [w for w in timed.summary["warnings"] if "never applied" in w]
+
+
 def test_the_removed_block_is_gone_and_the_rest_carries_on():
     """Before the stage the floor carries three blocks, after it two; the step before the
     stage is cut to end at 0.155 s exactly."""
