@@ -32,12 +32,19 @@ def refuse_foreign(store: RowStore, command: str, what: str, overwrite: bool) ->
     if not foreign:
         return None
     return (f"dda {command}: {store.path}: holds {foreign} {what} of another scene, seed or "
-            "option; --overwrite replaces them (or give another -o)")  # fmt: skip
+            "option (or of a scene in another folder); --overwrite replaces them (or give "
+            "another -o)")  # fmt: skip
 
 
-def scene_hash(raw: Mapping[str, Any], *extra: object) -> str:
-    """A short digest of a raw scene and anything else that changes the answers."""
-    text = json.dumps([raw, *extra], sort_keys=True, default=str)
+def scene_hash(raw: Mapping[str, Any], source: str, *extra: object) -> str:
+    """A short digest of a raw scene read from ``source``, and anything else that changes
+    the answers. Of ``source`` only its folder counts, resolved: the files a scene names
+    (a drawing, a seismic record) are read from there, and however its path is written
+    (relative, absolute, a shipped case's name) the same scene file is the same scene
+    (an audit: ``dda fos cp/s.toml`` then ``dda fos /tmp/aw/cp/s.toml`` was refused as
+    another scene)."""
+    folder = source if source.startswith("<") else str(Path(source).resolve().parent)
+    text = json.dumps([raw, folder, *extra], sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

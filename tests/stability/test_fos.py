@@ -222,6 +222,9 @@ def test_dda_fos_writes_and_reuses(tmp_path, capsys, monkeypatch):
     assert len((tmp_path / "out/fos.csv").read_text().splitlines()) == trials + 1
     rerun = json.loads((tmp_path / "out/fos.json").read_text())
     assert rerun["fos"] == summary["fos"]
+    # ... the same file by its absolute path too (an audit: refused as another scene)
+    assert cli.main(["fos", str(tmp_path / "slope.toml"), *args[2:]]) == 0
+    assert capsys.readouterr().err.count("reused") == trials
     # the block that moves at the first failing F, faster than the limit (a reused trial
     # is run again for it)
     [moving] = summary["moving_blocks"]
