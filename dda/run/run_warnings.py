@@ -358,6 +358,24 @@ def in_situ_slip_warning(
     )
 
 
+def initial_stress_warning(change: float, block: str) -> str | None:
+    """The sentence when the equilibrium start changed a free block's own initial stress
+    (``[[blocks]] stress``, no ``[in_situ]``) by more than :data:`IN_SITU_KEPT` of the
+    largest given (``change``, at ``block``): a stress that the contacts and the fixed
+    blocks do not hold relaxes there, the block keeping its shape (an audit: a free
+    block given −2 MPa started at 0, unsaid, where the same field as ``[in_situ]`` was
+    said)."""
+    if change <= IN_SITU_KEPT:
+        return None
+    return (
+        f"the equilibrium start changed the initial stress of block {block!r} (its "
+        f"blocks[].stress) by {100.0 * change:.0f} % of the largest given: a stress the "
+        "contacts and the fixed blocks do not hold relaxes at the start, the block keeping "
+        "its shape (hold it with neighbours, fixed blocks or [[boundary_stresses]], or "
+        'release it as a motion with analysis.start = "unloaded")'
+    )
+
+
 def in_situ_warning(
     change: float, block: str, cause: str = "", by: str = "the equilibrium start"
 ) -> str | None:

@@ -42,6 +42,7 @@ from dda.run.run_warnings import (
     fracture_warning,
     in_situ_slip_warning,
     in_situ_warning,
+    initial_stress_warning,
     penetration_warning,
     restitution_step_warning,
     restitution_warning,
@@ -123,6 +124,7 @@ class _Run:
         self.start_seconds = 0.0  # its wall time, the search at t = 0 included
         self.start_compile_seconds = 0.0  # ... and its share of compile_seconds()
         self.in_situ_change = (0.0, "", "")  # what the start changed of the in-situ field
+        self.initial_stress_relaxed: str | None = None  # ... or of the blocks' own stresses
         self.in_situ_given = None  # a static run's field at t = 0, while it is measured
         self.unbalanced: list[str] = []  # dda.run.floating's warnings, as they were said
         self.unbalanced_force = (0.0, 0.0, 0.0)  # ... and the net force and moment it said
@@ -245,6 +247,11 @@ def _equilibrium_start(run: _Run, report=None, stop=None) -> None:
     run.contacts = settled.contacts
     if m.scene.in_situ is not None:
         run.in_situ_change = _in_situ_change(run, settled.stress)
+    elif np.any(run.blocks.stress[~run.blocks.fixed] != 0.0):  # the blocks' own stresses
+        largest, name, _ = _in_situ_change(run, settled.stress, say=False)
+        run.initial_stress_relaxed = initial_stress_warning(largest, name)
+        if run.initial_stress_relaxed is not None:  # at once too: a long run may be stopped
+            log.warning(run.initial_stress_relaxed)
     run.blocks.stress = settled.stress
     run.energy.initial = run.energy.measure(run.blocks, run.contacts)
     run.probes = _probes(m, run.blocks, run.contacts)  # step 0's row, loaded
@@ -779,6 +786,7 @@ def _warnings(state: _Run) -> list[str]:
     found = [
         *m.scene.load_warnings,  # a drawing's left-out shapes, joint lines that cut nothing
         in_situ_warning(*state.in_situ_change),
+        state.initial_stress_relaxed,
         in_situ_slip_warning(*state.in_situ_slip, length),
         *state.unbalanced,
         *state.misplaced_bolts,

@@ -613,6 +613,20 @@ def _blocks(
     return tuple(Block(**values) for values in blocks)
 
 
+def _check_stresses(chk: Checker, blocks: Sequence[Block], materials: Mapping[str, Any]) -> None:
+    """Refuse a block's initial ``stress`` as large as its material's Young's modulus (a
+    strain of 1 or more, no stress rock stands in), as an ``[in_situ]`` field is refused
+    (an audit: −1e12 Pa on a block of E = 5e9 ran to its end, unsaid)."""
+    for i, block in enumerate(blocks):
+        young = materials[block.material].young
+        largest = max(abs(value) for value in block.stress)
+        if largest >= young:
+            chk.fail(f"blocks[{i}].stress", f"{largest:.3g} on block {block.name!r} is as "
+                     f"large as the Young's modulus {young:.3g} of its material "
+                     f"{block.material!r} (a strain of 1 or more), no stress rock stands "
+                     "in")  # fmt: skip
+
+
 def _check_speeds(chk: Checker, blocks: Sequence[Block], analysis: Analysis) -> None:
     """Refuse an initial velocity that moves a block more than ``MAX_SIZES_PER_STEP``
     model sizes in one time step (1e10 m/s for 10 m/s, a unit mix-up): no step could
@@ -916,6 +930,7 @@ def _build_scene(
         joints = parse_joints(chk, raw)
         blocks = _blocks(chk, raw, materials, joints)
         _check_speeds(chk, blocks, analysis)
+        _check_stresses(chk, blocks, materials)
         names = frozenset(b.name for b in blocks)
         by_name = {b.name: b for b in blocks}
         loads = _loads(chk, raw, by_name)

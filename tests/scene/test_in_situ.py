@@ -553,3 +553,31 @@ def test_outer_pieces_end_at_the_corners_of_the_blocks_that_cover_the_rest():
     field = StressField((-1.0e6, -2.0e6, 0.2e6))
     f_start, f_end = field.segment_forces(pieces.start, pieces.end, pieces.normal)
     assert np.abs((f_start + f_end).sum(axis=0)).max() <= 1e-15 * 3.0e6 * len(f_start)
+
+
+def test_a_blocks_own_stress_the_start_relaxes_is_said_and_one_beyond_e_refused(caplog):
+    """An audit: a free block given `stress = [-2e6, 0, 0]` started at 0 (the equilibrium
+    start relaxes what nothing holds, the block keeping its shape), unsaid, where the same
+    field as `[in_situ]` is said; and −1e12 Pa on a block of E = 5e9 ran. Now the first is
+    said (at once and among the warnings; not by the unloaded start, which releases it as
+    a motion), the second refused as the field is."""
+
+    def alone(stress, start="equilibrium"):
+        return {
+            "analysis": {"time_step": 1e-3, "duration": 0.002, "start": start},
+            "materials": {"rock": {"density": 2700.0, "young": 5e9, "poisson": 0.25}},
+            "blocks": [{"name": "c", "material": "rock", "stress": stress,
+                        "vertices": [[3, 0], [5, 0], [5, 1], [3, 1]]}],
+        }  # fmt: skip
+
+    relaxed = dda.simulate(alone([-2e6, 0.0, 0.0]))
+    assert abs(relaxed.frames[0].stresses[0][0]) < 1.0
+    assert "changed the initial stress of block 'c'" in caplog.text
+    assert any("initial stress of block 'c'" in w for w in relaxed.summary["warnings"])
+    released = dda.simulate(alone([-2e6, 0.0, 0.0], "unloaded"))
+    assert released.frames[0].stresses[0][0] == -2e6
+    assert not any("initial stress" in w for w in released.summary["warnings"])
+    with pytest.raises(dda.SceneError) as caught:
+        dda.load_scene(alone([-1e12, 0.0, 0.0]))
+    assert caught.value.key == "blocks[0].stress"
+    assert "as large as the Young's modulus" in str(caught.value)
