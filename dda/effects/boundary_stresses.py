@@ -58,6 +58,11 @@ class BoundaryStresses(PointLoads):
     def current_forces(self, time: float) -> np.ndarray:
         return self.turned_forces() * self.factors(time)[:, None]
 
+    def step_forces(self, start: float, end: float) -> np.ndarray:
+        """The forces in force at the step's end: they switch on and off at stages, whose
+        times the steps end at."""
+        return self.current_forces(end)
+
     def on_blocks_replaced(self, old, new, parent_of: np.ndarray) -> None:
         """Blocks were split or removed (``parent_of[k]``: the old row of new block k): the
         loads of a removed block's edges go with it; an edge piece of a block that broke is

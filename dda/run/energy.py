@@ -219,19 +219,21 @@ def spring_energy(springs: FixedPoints | None) -> float:
     return float(0.5 * springs.stiffness_value * np.sum(gap * gap))
 
 
-def load_work(loads: PointLoads | None, blocks: BlockSet, d: np.ndarray, time: float) -> float:
-    """Work of the point loads over one step: Σ F(t)·T(x) D.
+def load_work(
+    loads: PointLoads | None, blocks: BlockSet, d: np.ndarray, time: float, start: float
+) -> float:
+    """Work of the point loads over the step from ``start`` to ``time``: Σ F·T(x) D.
 
-    The engine applies each load with its factor at the end of the step and
-    at the point's position at the start (F_i += Tᵀ F), so this is exactly
-    the work that enters the step's equations.
+    The engine applies each load with its step's force (:meth:`PointLoads.step_forces`)
+    at the point's position at the start (F_i += Tᵀ F), so this is exactly the work
+    that enters the step's equations.
     """
     if loads is None or not len(loads.points):
         return 0.0
     rows = loads.points.rows
     t = displacement_matrices(loads.points.positions, blocks.centroid[rows])
     moved = np.einsum("mkr,mr->mk", t, d[rows])
-    return float(np.sum(loads.current_forces(time) * moved))
+    return float(np.sum(loads.step_forces(start, time) * moved))
 
 
 def ground_work(
@@ -278,6 +280,7 @@ class EnergyAccount:
 
     def __init__(self, model, blocks: BlockSet) -> None:
         self.density_table = model.material_density
+        self.static = model.static  # its loads at each step's end (PointLoads.forces)
         self.elastic = model.elastic
         gravity = _effect(model.effects, Gravity)
         self.gravity = None if gravity is None else np.asarray(gravity.gravity, float)
@@ -327,32 +330,30 @@ class EnergyAccount:
         terms = self.measure(blocks, ContactSet.empty())
         return terms.potential + terms.elastic
 
-    def load_work(self, blocks: BlockSet, d: np.ndarray, time: float) -> float:
+    def load_work(self, blocks: BlockSet, d: np.ndarray, time: float, start: float) -> float:
         """The work of the loads (point loads, boundary stresses) over ``d`` from
-        ``blocks``."""
-        return sum(load_work(loads, blocks, d, time) for loads in self.loads)
+        ``blocks``, in the step from ``start`` to ``time``."""
+        return sum(load_work(loads, blocks, d, time, start) for loads in self.loads)
 
     def add_step_work(
         self,
         blocks: BlockSet,
         d: np.ndarray,
         time: float,
-        contacts: ContactSet | None = None,
-        prescribed: np.ndarray | None = None,
-        start: float | None = None,
+        contacts: ContactSet | None,
+        prescribed: np.ndarray | None,
+        start: float,
     ) -> float:
-        """Add the external work over the accepted step ``d`` (before the blocks move):
-        the loads' and, when fixed blocks moved by ``prescribed`` (part of ``d``), the
-        ground's through ``contacts`` (their forces at the step's end). The water's
-        pressure is a potential (``potential``), not work, but where the ground carries
-        its table (``[seismic]``) the potential it gains at the blocks' place over the
-        step, V(x₀, t₁) − V(x₀, t₀), is (``start``: t₀, the step's start; required then)."""
-        w = self.load_work(blocks, d, time)
+        """Add the external work over the accepted step ``d`` from ``start`` to ``time``
+        (before the blocks move): the loads' and, when fixed blocks moved by
+        ``prescribed`` (part of ``d``), the ground's through ``contacts`` (their forces at
+        the step's end). The water's pressure is a potential (``potential``), not work,
+        but where the ground carries its table (``[seismic]``) the potential it gains at
+        the blocks' place over the step, V(x₀, t₁) − V(x₀, t₀), is."""
+        w = self.load_work(blocks, d, time, time if self.static else start)
         if prescribed is not None:
             w += ground_work(blocks, contacts, self.bolts, d, prescribed)
         if self.water is not None and self.water.ground is not None:
-            if start is None:
-                raise ValueError("the water's work over a step needs the step's start time")
             after = self.water.energy_at(blocks, time)  # the step's wet edges, kept
             w += after - self.water.energy_at(blocks, start)
             self.water.follow(time)  # back where the step's end has it

@@ -610,7 +610,7 @@ def _pay_for_the_push(run: _Run, before: BlockSet, d, pushed, dt: float, time: f
     without the push (``before``, the blocks at the step's start, is stepped so, in
     place), less the loads' work over it."""
     m, energy = run.model, run.energy
-    work = energy.load_work(before, pushed, time)
+    work = energy.load_work(before, pushed, time, time - dt)
     apply_step(before, d - pushed, dt, m.elastic, m.static, m.exact_rotation,
                gamma=m.scene.analysis.newmark_gamma)  # fmt: skip
     cost = energy.stored(run.blocks) - energy.stored(before) - work
