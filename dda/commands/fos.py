@@ -130,14 +130,33 @@ def prepare(args: argparse.Namespace, command: str, reduced: bool = True, edit=N
             edit(raw)
         if _replaced(written, raw):  # the scene's own values are checked too (docs/scene.md)
             load_with_progress(written, source=str(path))
+    except dda.SceneError as exc:
+        return f"dda {command}: {exc}"
+    try:
         scene = load_with_progress(raw, source=str(path))  # a bar while a long cut runs
         criterion = criterion_of(scene)
         if reduced:
             check_reducible(scene)
         check_run_size(trial_scene(scene, 1.0))  # before any row is written
     except dda.SceneError as exc:
+        option = _option_of(exc.key, args)
+        if option is not None:  # the option's value, not the file's
+            return f"dda {command}: argument {option}: {exc.reason}"
         return f"dda {command}: {exc}"
     return (raw, scene, criterion, str(path), *where)
+
+
+def _option_of(key: str, args: argparse.Namespace) -> str | None:
+    """The command-line option whose value the scene key ``key`` took (``fos.upper`` from
+    ``--upper``, ``ensemble.seed`` from ``--seed``), or None: a value refused is then
+    said of the option, not of the scene file the user did not change (an audit)."""
+    section, _, name = key.partition(".")
+    name = name.split("[")[0].split(".")[0]
+    given = {"fos": [*OVERRIDES, "blocks", "intact"], "ensemble": ["realisations", "seed"]}
+    value = getattr(args, name, None)
+    if name not in given.get(section, ()) or value is None or value is False:
+        return None
+    return f"--{name}"
 
 
 def _replaced(written: dict, raw: dict) -> bool:

@@ -286,15 +286,15 @@ REFUSED = [
     (all_fixed_watched, [], "fos.blocks: every watched block is fixed: a trial could never fail"),
     (none_watched, [], "fos.blocks: is empty: list at least one (an empty list would do"),
     # nothing to weaken: --intact did nothing, silently
-    (None, ["--intact"], "fos.intact: no block's material is breakable"),
+    (None, ["--intact"], "argument --intact: no block's material is breakable"),
     (static, [], "analysis.mode: a strength-reduction trial needs a dynamic run"),
     (no_gravity, [], "fos.velocity: is required without gravity"),
-    (None, ["--lower", "2", "--upper", "1"], "fos.upper: must exceed fos.lower (2), got 1"),
-    (None, ["--window", "0"], "fos.window: must be in (0, 1], got 0"),
-    (None, ["--velocity", "-1"], "fos.velocity: must be > 0, got -1"),
-    (None, ["--tolerance", "5"], "fos.tolerance: must be below upper - lower"),
-    (None, ["--tolerance", "1e-10"], "fos.tolerance: must be at least 1e-06 (the search keeps"),
-    (None, ["--blocks", "nope"], "fos.blocks[0]: unknown block or group 'nope'"),
+    (None, ["--lower", "2", "--upper", "1"], "argument --upper: must exceed fos.lower (2), got 1"),
+    (None, ["--window", "0"], "argument --window: must be in (0, 1], got 0"),
+    (None, ["--velocity", "-1"], "argument --velocity: must be > 0, got -1"),
+    (None, ["--tolerance", "5"], "argument --tolerance: must be below upper - lower"),
+    (None, ["--tolerance", "1e-10"], "argument --tolerance: must be at least 1e-06 (the search"),
+    (None, ["--blocks", "nope"], "argument --blocks: unknown block or group 'nope'"),
     # checked before a trial runs (was a SceneError after fos.csv was begun, exit 1)
     (None, ["--duration", "1e9"], "analysis.duration: 1e+09 s at time_step"),
 ]
@@ -310,7 +310,10 @@ def test_bad_input_is_one_line_exit_2_nothing_written(
     assert cli.main(["fos", "slope.toml", "-o", "out", "--serial", *options]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert err.startswith("dda fos: slope.toml: ")
+    # the file named for its own values, the option for the values it gave (an audit: the
+    # file was blamed for --upper)
+    prefix = "argument --" if message.startswith("argument --") else "slope.toml: "
+    assert err.startswith(f"dda fos: {prefix}")
     assert message in err
     assert not (tmp_path / "out").exists()
 
