@@ -86,7 +86,10 @@ def ensemble_plot(
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: 1, 2, 3, never 1.25
     ax.legend(fontsize=8)
     order = np.sort(values)
-    cdf.step(order, np.arange(1, len(order) + 1) / len(order), where="post")
+    if len(order):  # from 0 at the smallest value up (an audit: drawn from 1/n, it misread)
+        fractions = np.arange(len(order) + 1) / len(order)
+        cdf.step(np.concatenate([order[:1], order]), fractions, where="post")
+    cdf.set_ylim(0.0, 1.02)
     if factor_of_safety:
         below = float(np.mean(values < 1.0))
         cdf.axvline(1.0, color="C3", lw=1.0, ls="--", label=f"F = 1 (fraction below: {below:.3g})")
