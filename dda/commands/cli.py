@@ -542,7 +542,7 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
         print(_stopped_sentence(summary, stop.name, args, folder), file=sys.stderr)
         return stop.exit_code
     if not args.quiet:
-        print(summary_paragraph(summary, folder.outdir))
+        print(summary_paragraph(summary, folder.outdir, scene.label))
     for text in summary.get("warnings") or ():  # quiet or not: the user should know
         print(f"dda run: warning: {text}", file=sys.stderr)
     return EXIT_OK
@@ -659,7 +659,7 @@ def _write_failed(exc: OSError, writer, scene, folder, args: argparse.Namespace)
     return EXIT_FAILURE
 
 
-def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
+def summary_paragraph(summary: dict[str, Any], outdir: Path, label: str = "run") -> str:
     """A few lines for the terminal: what ran, how long, how well, where the files are.
 
     Parameters
@@ -668,13 +668,15 @@ def summary_paragraph(summary: dict[str, Any], outdir: Path) -> str:
         The run summary (see :class:`dda.Result`).
     outdir
         The output directory.
+    label
+        What the run is called where its scene has no title (:attr:`Scene.label`).
 
     Returns
     -------
     str
         The paragraph.
     """
-    title = summary.get("title") or "run"
+    title = summary.get("title") or label
     parts = [
         f"{title}: {summary.get('status', 'finished')} after "
         f"{counted(summary.get('steps', '?'), 'step')}",

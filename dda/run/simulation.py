@@ -718,7 +718,7 @@ def _progress_reporter(progress, model: Model, state: _Run, resumed: bool):
         return compile_seconds() + (0.0 if resumed else started)  # (resumed: the first run's)
 
     # the ETA leaves out what will not come again: the compiling and the start
-    bar = ProgressBar(1.0, label=model.scene.title or "dda", aside=aside)
+    bar = ProgressBar(1.0, label=model.scene.label, aside=aside)
 
     class _Bar:
         def __call__(self, fraction: float, info: dict) -> None:

@@ -248,6 +248,14 @@ class Scene:
     load_warnings: tuple[str, ...] = ()
 
     @property
+    def label(self) -> str:
+        """What progress and the closing line call the run: the title, else the scene
+        file's name without its suffix, else ``"scene"`` (text or a dict)."""
+        if self.title:
+            return self.title
+        return "scene" if self.source.startswith("<") else Path(self.source).stem
+
+    @property
     def block_names(self) -> tuple[str, ...]:
         return tuple(b.name for b in self.blocks)
 
