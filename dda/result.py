@@ -92,12 +92,15 @@ class FractureEvent(NamedTuple):
 
 
 class BoltEvent(NamedTuple):
-    """A rock bolt breaking: its tension ``force`` exceeded its capacity after ``step``."""
+    """A rock bolt breaking: its tension ``force`` exceeded its capacity after ``step``;
+    ``energy``: what it held then, f0 e + ½ k e², which goes with it (dissipated by the
+    break, not by the numerics)."""
 
     step: int
     time: float
     bolt: str
     force: float
+    energy: float = 0.0
 
 
 @dataclass

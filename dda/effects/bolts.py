@@ -93,9 +93,12 @@ class RockBolts(Effect):
 
     def energy(self) -> float:
         """Σ f0 e + ½ k e² of the bolts in place: the potential of their forces."""
-        e = (self.lengths() - self.rest_length)[self.active]
-        f0, k = self.pretension[self.active], self.axial_stiffness[self.active]
-        return float(np.sum(f0 * e + 0.5 * k * e * e))
+        return float(np.sum(self.energies()[self.active]))
+
+    def energies(self) -> np.ndarray:
+        """f0 e + ½ k e² of every bolt, in place or not."""
+        e = self.lengths() - self.rest_length
+        return self.pretension * e + 0.5 * self.axial_stiffness * e * e
 
     def linearised(self, blocks: BlockSet):
         """(i, j, r_i, r_j, e0) of the bolts in place at the step start (module docstring;
@@ -180,10 +183,11 @@ class RockBolts(Effect):
         self.ends.move(blocks, d, self.exact_rotation)
         force = self.tension()
         broken = np.flatnonzero(self.active & (force > self.capacity))
+        held = self.energies()
         for k in broken:
-            self.events.append(
-                BoltEvent(int(ctx.step), float(ctx.time), self.names[k], float(force[k]))
-            )
+            self.events.append(BoltEvent(
+                int(ctx.step), float(ctx.time), self.names[k], float(force[k]), float(held[k])
+            ))  # fmt: skip
             log.info("step %d: bolt %s broke at %.6g", ctx.step, self.names[k], force[k])
         self.active[broken] = False
 

@@ -928,6 +928,7 @@ def _engineering_summary(state: _Run) -> dict:
         out["bolts"] = len(m.bolts)
         out["bolt_names"] = list(m.bolts.names)  # the bolt ids of the frames and files
         out["bolt_events"] = list(m.bolts.events)
+        out["bolt_break_energy"] = sum(event.energy for event in m.bolts.events)
     if m.stages is not None:
         out["stages_done"] = state.stages_done
         out["excavated_energy"] = state.excavated_energy

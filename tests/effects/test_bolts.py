@@ -56,6 +56,10 @@ def test_a_bolt_weaker_than_that_breaks_and_the_block_slides():
     assert result.frames[0].bolts.shape == (1, 2, 2) and result.final.bolts.shape == (0, 2, 2)
     strong = dda.simulate(held_by_a_bolt(20.0, 30.0, capacity=1.05 * limit_force(20.0, 30.0)))
     assert strong.bolt_events == []
+    # what it held as it broke, T²/(2k) from no pretension, goes with it, booked (an
+    # audit: the springs' energy fell by it in one step, in no column or entry)
+    assert event.energy == pytest.approx(event.force**2 / (2 * 1e7), rel=1e-12)
+    assert result.summary["bolt_break_energy"] == event.energy
 
 
 def test_pictures_draw_the_bolts(tmp_path):
