@@ -189,18 +189,17 @@ def crossed_intervals(
 
 def boundary_stress_loads(scene, fixed: np.ndarray, exact_rotation: bool) -> BoundaryStresses:
     """The effect of ``scene.boundary_stresses``: for each, the outer edge pieces of the
-    free blocks there at its time (:func:`dda.scene.edge_cover.outer_pieces`) whose
-    midpoints lie in its box, loaded by σ·n at their ends. The points are every piece's
-    start, then every piece's end, in the same order (piece k: points k and count + k)."""
+    blocks there at its time (:func:`dda.scene.edge_cover.outer_pieces`) that it loads
+    (:meth:`dda.scene.in_situ.BoundaryStress.loads`), by σ·n at their ends. The points
+    are every piece's start, then every piece's end, in the same order (piece k: points k
+    and count + k)."""
     polygons = [np.asarray(b.vertices, float) for b in scene.blocks]
     blocks, starts, ends, f_starts, f_ends, on, off = [], [], [], [], [], [], []
     for stress in scene.boundary_stresses:
         gone = {n for s in scene.stages if s.time <= stress.on for n in s.remove}
         present = np.array([b.name not in gone for b in scene.blocks], bool)
         pieces = outer_pieces(polygons, present)
-        pieces = pieces.subset(
-            np.flatnonzero(stress.selects(pieces.midpoint) & ~fixed[pieces.block])
-        )
+        pieces = pieces.subset(np.flatnonzero(stress.loads(pieces, polygons, present, fixed)))
         f_start, f_end = stress.field.segment_forces(pieces.start, pieces.end, pieces.normal)
         blocks.append(pieces.block)
         starts.append(pieces.start)

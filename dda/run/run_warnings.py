@@ -382,7 +382,8 @@ def in_situ_warning(
     """The sentence when the equilibrium start changed a free block's in-situ stress by
     more than :data:`IN_SITU_KEPT` of the field (``change``, the largest, at ``block``),
     with its likely ``cause``: ``"slipped"`` (joints that carry less shear than the
-    field puts on them, said apart), ``"bounded"`` (the model has boundary stresses: joints
+    field puts on them, said apart), ``"opening"`` (openings drawn in the mass, whose
+    walls hold no stress), ``"bounded"`` (the model has boundary stresses: joints
     weaker than the field, in tension too, or boundary stresses that do not hold it), else
     no boundary stresses."""
     if change <= IN_SITU_KEPT:
@@ -395,6 +396,13 @@ def in_situ_warning(
         return said + (
             "joints slip under the field's shear at t = 0 (the in-situ slip warning "
             "says where), and the blocks move until they hold"
+        )
+    if cause == "opening":
+        return said + (
+            "the field is not in equilibrium with the walls of the opening(s) drawn in the "
+            "mass, which hold no stress: the start finds the stress around them, as "
+            "excavating them at t = 0 would (excavate them by a stage to start from the "
+            "field as given: docs/engineering.md)"
         )
     if cause == "bounded":
         return said + (

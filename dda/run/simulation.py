@@ -54,6 +54,7 @@ from dda.run.run_warnings import (
 from dda.run.stages import apply_due_stages, set_strengths
 from dda.run.stop import StopOnSignal
 from dda.scene import Scene
+from dda.scene.edge_cover import opening_walls
 from dda.scene.limits import check_run_size
 from dda.scene.local_frame import local_origin, translated
 from dda.solve.linsolve import single_threaded_blas
@@ -313,12 +314,22 @@ def _in_situ_change(
     change = np.abs(settled[free] - given[free]).max(axis=1) / scale
     k = int(np.argmax(change))
     largest, name = float(change[k]), blocks.names[free[k]]
-    bounded = bool(run.model.scene.boundary_stresses)
-    cause = "slipped" if run.in_situ_slip[0] else "bounded" if bounded else ""
+    cause = ""
+    if largest > IN_SITU_KEPT:  # why (the openings asked only then: a union of the blocks)
+        bounded = bool(run.model.scene.boundary_stresses)
+        cause = "slipped" if run.in_situ_slip[0] else "opening" if _has_openings(blocks) else ""
+        cause = cause or ("bounded" if bounded else "")
     said = in_situ_warning(largest, name, cause) if say else None
     if said is not None:  # at once, as well as in the summary: a long run may be stopped
         log.warning(said)
     return largest, name, cause
+
+
+def _has_openings(blocks: BlockSet) -> bool:
+    """True where the blocks' union has holes: openings drawn in the mass
+    (:func:`dda.scene.edge_cover.opening_walls`)."""
+    polygons = [blocks.polygon(i) for i in range(blocks.count)]
+    return opening_walls(polygons) is not None
 
 
 def _static_in_situ_change(run: _Run) -> None:

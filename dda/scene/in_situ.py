@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from dda.scene.checks import Checker, Spec, checked_fields, require, vector
-from dda.scene.edge_cover import EdgePieces, covered_pieces, outer_pieces
+from dda.scene.edge_cover import EdgePieces, covered_pieces, on_openings, outer_pieces
 
 IN_SITU_KEYS = ("in_situ", "boundary_stresses")
 # tension across a joint up to this fraction of the field's largest component is round-off
@@ -87,11 +87,25 @@ class BoundaryStress:
     box: tuple[float, float, float, float]
     on: float = 0.0
     off: float = math.inf
+    # the walls of the openings in the mass (holes in the blocks' union) are loaded too: a
+    # support pressure; by default a far field loads the model's outline only
+    openings: bool = False
 
     def selects(self, points: np.ndarray) -> np.ndarray:
         x0, y0, x1, y1 = self.box
         x, y = points[:, 0], points[:, 1]
         return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+
+    def loads(self, pieces: EdgePieces, polygons, present, fixed) -> np.ndarray:
+        """Which outer edge ``pieces`` of the ``present`` blocks it loads: those of free
+        blocks whose midpoints lie in its box, an opening's walls only with
+        ``openings`` (an audit: a box over a section with an excavation drawn in it
+        pressed the far field onto the opening's walls, which then held it, unsaid)."""
+        midpoint = pieces.midpoint
+        chosen = self.selects(midpoint) & ~np.asarray(fixed, bool)[pieces.block]
+        if not self.openings and chosen.any():
+            chosen &= ~on_openings(polygons, present, midpoint)
+        return chosen
 
     def shifted(self, dx: float, dy: float) -> BoundaryStress:
         x0, y0, x1, y1 = self.box
@@ -124,9 +138,11 @@ def _name(chk: Checker, value: object, key: str) -> str:
 
 def boundary_stress(chk: Checker, value: object, key: str, on: float = 0.0) -> BoundaryStress:
     """One ``[[boundary_stresses]]`` table (in the scene or in a stage starting at ``on``)."""
-    values = _stress_field(chk, value, key, {"box": _box, "name": _name})
+    specs = {"box": _box, "name": _name, "openings": Checker.boolean}
+    values = _stress_field(chk, value, key, specs)
     require(chk, values, key, ("box",))
-    return BoundaryStress(values.get("name", key), values["field"], values["box"], on)
+    return BoundaryStress(values.get("name", key), values["field"], values["box"], on,
+                          openings=values.get("openings", False))  # fmt: skip
 
 
 def parse_in_situ(chk: Checker, raw: Mapping[str, Any], blocks: Sequence[Any],
@@ -204,10 +220,11 @@ def _check_selects(chk, stress: BoundaryStress, key: str, polygons, present, fix
     """Refuse a box that loads nothing: no outer edge of a free block there at that time
     (a fixed block takes no boundary stress)."""
     outer = outer_pieces(polygons, present)
-    if not np.any(stress.selects(outer.midpoint) & ~fixed[outer.block]):
+    if not np.any(stress.loads(outer, polygons, present, fixed)):
         chk.fail(f"{key}.box", "holds the midpoint of no outer edge (an edge that touches "
                  "no other block) of the free blocks there at that time (a fixed block "
-                 "takes no boundary stress)")  # fmt: skip
+                 "takes no boundary stress; the walls of an opening only with openings = "
+                 "true)")  # fmt: skip
 
 
 def _check_magnitude(chk, field: StressField, key: str, blocks, polygons, moduli) -> None:

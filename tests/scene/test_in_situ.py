@@ -581,3 +581,52 @@ def test_a_blocks_own_stress_the_start_relaxes_is_said_and_one_beyond_e_refused(
         dda.load_scene(alone([-1e12, 0.0, 0.0]))
     assert caught.value.key == "blocks[0].stress"
     assert "as large as the Young's modulus" in str(caught.value)
+
+
+def opening_scene(box: list, **extra) -> dict:
+    """A 12 m square of rock cut by two joint sets, a 2 m circular opening drawn at its
+    centre ([[excavations]]), a fixed base, and a far field as a boundary stress over
+    ``box``."""
+    field = {"stress": [-3.0e6, -2.0e6, 0.0]}
+    return {
+        "analysis": {"duration": 0.002},
+        "materials": {"rock": {"density": 2600.0, "young": 2.0e10, "poisson": 0.25}},
+        "joints": {"default": {"friction_angle": 40.0}},
+        "in_situ": field,
+        "boundary_stresses": [{**field, "box": box, **extra}],
+        "regions": [{"polygon": [[-6, -6], [6, -6], [6, 6], [-6, 6]]}],
+        "excavations": [{"center": [0.0, 0.0], "radius": 2.0}],
+        "joint_sets": [{"dip": 20.0, "spacing": 3.0, "offset": 0.3},
+                       {"dip": 110.0, "spacing": 3.0, "offset": 0.7}],
+        "blocks": [{"name": "base", "material": "rock", "fixed": True,
+                    "vertices": [[-6, -8], [6, -8], [6, -6], [-6, -6]]}],
+    }  # fmt: skip
+
+
+def test_a_far_field_over_a_drawn_opening_leaves_its_walls_out_unless_asked():
+    """An audit: a boundary-stress box over a whole section with an opening drawn in it
+    pressed the far field onto the opening's walls, which then held it: the opening did
+    nothing (the wall's radial stress the field's, 2e-13 m of motion). A far field loads
+    the model's outline; the walls of an opening (a hole in the blocks' union) only with
+    `openings = true` (a support pressure). A box over the opening alone then loads
+    nothing, and is refused saying so."""
+    from dda.effects.boundary_stresses import boundary_stress_loads
+
+    def loaded_radii(scene):
+        loads = boundary_stress_loads(scene, np.array([b.fixed for b in scene.blocks]), False)
+        return np.hypot(*loads.points.positions.T)
+
+    far = dda.load_scene(opening_scene([-7, -7, 7, 7]))
+    assert loaded_radii(far).min() > 5.9  # on the outline (|x| or |y| = 6) only
+    pressed = dda.load_scene(opening_scene([-7, -7, 7, 7], openings=True))
+    walls = loaded_radii(pressed)
+    assert np.any(np.abs(walls - 2.0) < 0.2) and walls.max() > 5.9
+    with pytest.raises(dda.SceneError) as caught:
+        dda.load_scene(opening_scene([-2.5, -2.5, 2.5, 2.5]))
+    assert caught.value.key == "boundary_stresses[0].box"
+    assert "the walls of an opening only with openings = true" in str(caught.value)
+    support = dda.load_scene(opening_scene([-2.5, -2.5, 2.5, 2.5], openings=True))
+    assert np.all(np.abs(loaded_radii(support) - 2.0) < 0.2)
+    # the field then changes round the opening as the start finds its stress, said so
+    said = " ".join(dda.simulate(far, keep_frames=False).summary["warnings"])
+    assert "not in equilibrium with the walls of the opening(s) drawn in the mass" in said
