@@ -159,21 +159,31 @@ def test_tension_splits_across_the_pull():
         assert abs(start[1] - end[1]) == pytest.approx(4.0)
 
 
-@pytest.mark.parametrize(
-    "min_area",
-    [
-        2.0,  # 'b' (6.4 ft²) is cut, but its pieces are too small to stand alone
-        3.3,  # 'b' is smaller than two pieces of min_area: not even cut
-    ],
-)
-def test_fixed_blocks_and_too_small_blocks_stay_whole(min_area):
+def test_fixed_blocks_and_too_small_blocks_stay_whole():
+    """'b' (6.4 ft²) is smaller than two pieces of min_area = 3.3: not even cut."""
     raw = effect_scene()
     raw["blocks"][0]["fixed"] = True
-    raw["fracture"]["min_area"] = min_area
+    raw["fracture"]["min_area"] = 3.3
     effect, blocks, _ = effect_and_blocks(raw)
     blocks.stress[:2] = [0.0, -2.0 * C0, 0.0]
     new, events = effect.after_step(blocks, CTX)
     assert events == [] and new is blocks
+
+
+def test_a_block_whose_four_shear_pieces_are_too_small_breaks_along_one_plane():
+    """'b' (6.4 ft²) at min_area = 2.0: its four shear pieces (1.4 to 1.8) are below it
+    and merged back into the whole block, which stayed beyond its strength (an audit);
+    it breaks along one shear plane alone, into two pieces of 3.2."""
+    raw = effect_scene()
+    raw["blocks"][0]["fixed"] = True
+    raw["fracture"]["min_area"] = 2.0
+    effect, blocks, _ = effect_and_blocks(raw)
+    blocks.stress[:2] = [0.0, -2.0 * C0, 0.0]
+    new, events = effect.after_step(blocks, CTX)
+    (event,) = events
+    assert event.mode == "shear" and len(event.children) == 2
+    pieces = [new.names.index(name) for name in event.children]
+    assert new.area[pieces] == pytest.approx([3.2, 3.2], rel=1e-9)
 
 
 # ------------------------------------------------------ runs through the engine

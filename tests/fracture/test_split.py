@@ -120,6 +120,17 @@ def test_cut_within_snapping_distance_of_a_vertex_reuses_the_vertex():
     assert len(corners) == 4
 
 
+def test_shear_pieces_too_small_together_split_along_one_plane():
+    """An audit: a 1 x 2 block in compression, shear planes at ±60°, min_area 0.6: the four
+    pieces (0.43 and 0.57 each) merged back one by one into the whole block, which then
+    stayed beyond its strength. Split along one plane alone, it gives two pieces of 1."""
+    planes = [-math.pi / 3, math.pi / 3]
+    result = split_polygon_detailed(SQUARE, [0.5, 1.0], planes, min_area=0.6)
+    assert result.split and len(result.pieces) == 2
+    assert_clean(result.pieces, 0.6)
+    assert sorted(Polygon(p).area for p in result.pieces) == pytest.approx([1.0, 1.0])
+
+
 def test_all_pieces_too_small_keeps_the_parent():
     result = split_polygon_detailed(SQUARE, [0.5, 1.0], [0.3, -0.3], min_area=10.0)
     assert not result.split
