@@ -11,6 +11,7 @@ slopes 1 and 2). The field pictures of static cases are pyvista's
 from __future__ import annotations
 
 import logging
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -141,6 +142,9 @@ FAIL_COLOUR = "#d7301f"  # a check beyond its tolerance
 
 
 SUMMARY_MIN_WIDTH = 8.0  # inches: the colour bar's ten decade labels side by side
+# characters of a group's label a column holds (0.62 inch at 9 pt, bold): a longer label
+# wraps (two one-column groups side by side printed over each other)
+GROUP_CHARACTERS = 8
 
 
 def summary_chart(results: list[CaseResult], path: Path) -> Path:
@@ -178,14 +182,16 @@ def summary_chart(results: list[CaseResult], path: Path) -> Path:
     ax.set_yticks(np.arange(-0.5, len(results)), minor=True)
     ax.grid(which="minor", color="white", linewidth=1.5)
     ax.tick_params(which="minor", length=0)
-    start = 0
+    start, lines = 0, 1
     for name, count in groups:
         if start:
             ax.axvline(start - 0.5, color="black", linewidth=1.5)
-        ax.text(start + count / 2 - 0.5, len(results) - 0.2, name, ha="center", va="top",
+        label = textwrap.fill(name, max(GROUP_CHARACTERS, GROUP_CHARACTERS * count))
+        lines = max(lines, label.count("\n") + 1)  # a group of one column: a word a line
+        ax.text(start + count / 2 - 0.5, len(results) - 0.2, label, ha="center", va="top",
                 fontsize=9, fontweight="bold")  # fmt: skip
         start += count
-    ax.set_ylim(len(results) + 0.9, -0.5)
+    ax.set_ylim(len(results) + 0.4 + 0.6 * lines, -0.5)
     ax.set_title("DDA against FEM or a closed form: every check of every case", pad=12)
     # the colour bar in its own strip under the table: 0.25 inch thick and 0.6 of the
     # figure long whatever the rows (beside the table, one row made it a sliver of
