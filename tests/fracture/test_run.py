@@ -159,14 +159,20 @@ def test_tension_splits_across_the_pull():
         assert abs(start[1] - end[1]) == pytest.approx(4.0)
 
 
-def test_fixed_blocks_and_too_small_blocks_stay_whole():
-    """'b' (6.4 ft²) is smaller than two pieces of min_area = 3.3: not even cut."""
+def compressed_beside_a_fixed_block(min_area: float):
+    """(blocks, blocks after the effect's step, events): the effect scene's 'a' fixed, both
+    blocks at 2 C0 in compression, ``min_area`` the smallest piece."""
     raw = effect_scene()
     raw["blocks"][0]["fixed"] = True
-    raw["fracture"]["min_area"] = 3.3
+    raw["fracture"]["min_area"] = min_area
     effect, blocks, _ = effect_and_blocks(raw)
     blocks.stress[:2] = [0.0, -2.0 * C0, 0.0]
-    new, events = effect.after_step(blocks, CTX)
+    return blocks, *effect.after_step(blocks, CTX)
+
+
+def test_fixed_blocks_and_too_small_blocks_stay_whole():
+    """'b' (6.4 ft²) is smaller than two pieces of min_area = 3.3: not even cut."""
+    blocks, new, events = compressed_beside_a_fixed_block(3.3)
     assert events == [] and new is blocks
 
 
@@ -174,12 +180,7 @@ def test_a_block_whose_four_shear_pieces_are_too_small_breaks_along_one_plane():
     """'b' (6.4 ft²) at min_area = 2.0: its four shear pieces (1.4 to 1.8) are below it
     and merged back into the whole block, which stayed beyond its strength (an audit);
     it breaks along one shear plane alone, into two pieces of 3.2."""
-    raw = effect_scene()
-    raw["blocks"][0]["fixed"] = True
-    raw["fracture"]["min_area"] = 2.0
-    effect, blocks, _ = effect_and_blocks(raw)
-    blocks.stress[:2] = [0.0, -2.0 * C0, 0.0]
-    new, events = effect.after_step(blocks, CTX)
+    _, new, events = compressed_beside_a_fixed_block(2.0)
     (event,) = events
     assert event.mode == "shear" and len(event.children) == 2
     pieces = [new.names.index(name) for name in event.children]
