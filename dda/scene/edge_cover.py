@@ -205,22 +205,26 @@ def opening_walls(polygons: Sequence[np.ndarray], present: np.ndarray | None = N
     there is none): the holes in the union of the present blocks (its interior rings, the
     polygons grown by ``TOUCH`` of the model's extent so that blocks that share an edge
     make one region), as an excavation drawn in the mass leaves; not the model's outline."""
-    present = np.ones(len(polygons), bool) if present is None else np.asarray(present, bool)
-    margin = TOUCH * _edges(polygons).extent
-    kept = [shapely.Polygon(p) for p, here in zip(polygons, present, strict=True) if here]
-    union = shapely.union_all(shapely.buffer(kept, margin, join_style="mitre"))
-    holes = [ring for part in shapely.get_parts(union) for ring in part.interiors]
-    if not holes:
-        return None
-    return shapely.multilinestrings([np.asarray(ring.coords) for ring in holes])
+    return _walls(polygons, present, TOUCH * _edges(polygons).extent)
 
 
 def on_openings(
     polygons: Sequence[np.ndarray], present: np.ndarray | None, points: np.ndarray
 ) -> np.ndarray:
     """Which ``points`` lie on the wall of an opening (:func:`opening_walls`)."""
-    walls = opening_walls(polygons, present)
-    if walls is None or not len(points):
-        return np.zeros(len(points), bool)
     margin = TOUCH * _edges(polygons).extent
+    walls = _walls(polygons, present, margin) if len(points) else None
+    if walls is None:
+        return np.zeros(len(points), bool)
     return shapely.distance(walls, shapely.points(points)) <= 4.0 * margin
+
+
+def _walls(polygons: Sequence[np.ndarray], present: np.ndarray | None, margin: float):
+    """:func:`opening_walls` with the polygons grown by ``margin``."""
+    present = np.ones(len(polygons), bool) if present is None else np.asarray(present, bool)
+    kept = [shapely.Polygon(p) for p, here in zip(polygons, present, strict=True) if here]
+    union = shapely.union_all(shapely.buffer(kept, margin, join_style="mitre"))
+    holes = [ring for part in shapely.get_parts(union) for ring in part.interiors]
+    if not holes:
+        return None
+    return shapely.multilinestrings([np.asarray(ring.coords) for ring in holes])
