@@ -58,7 +58,13 @@ computes something else. The faults:
     the displacement that removes an overlap found at a new contact
     (dda.contact.push_out, a rarely run correction) counted in the velocity;
 ``children_unstressed``
-    the pieces of a broken block start unstressed instead of with its stress.
+    the pieces of a broken block start unstressed instead of with its stress;
+``fracture_slope_root``
+    the fracture criterion's slope N = tan²(45° + φ/2) taken as tan(45° + φ/2);
+``tension_cutoff_doubled``
+    the fracture criterion's tensile strength T0 taken as 2 T0;
+``crack_planes_complement``
+    the shear cracks cut at ±(45° + φ/2) to σ1 instead of ±(45° − φ/2).
 
 ``UNCAUGHT`` lists the faults no verification case catches yet (none now), with
 the reason in docs/verification.md; they are not in ``FAULTS`` (which the tests
@@ -73,6 +79,8 @@ from collections.abc import Callable
 import numpy as np
 
 import dda.contact.law as contact_law
+import dda.fracture.criterion as criterion
+import dda.fracture.effect as fracture_effect
 import dda.fracture.fragments as fragments
 import dda.run.simulation as simulation
 import dda.solve.step as step
@@ -354,6 +362,35 @@ def _children_unstressed(monkeypatch) -> None:
     monkeypatch.setattr(fragments, "children_state", unstressed)
 
 
+def _fracture_slope_root(monkeypatch) -> None:
+    strength_numbers = criterion.strength_numbers
+
+    def root_slope(cohesion, friction_angle, tensile_strength):
+        n_phi, c0, _ = strength_numbers(cohesion, friction_angle, tensile_strength)
+        n_root = np.sqrt(n_phi)
+        return n_root, c0, -c0 + np.asarray(tensile_strength, dtype=float) * n_root
+
+    monkeypatch.setattr(criterion, "strength_numbers", root_slope)
+
+
+def _tension_cutoff_doubled(monkeypatch) -> None:
+    evaluate = fracture_effect.evaluate
+
+    def doubled(stress, cohesion, friction_angle, tensile_strength):
+        return evaluate(stress, cohesion, friction_angle, 2.0 * np.asarray(tensile_strength))
+
+    monkeypatch.setattr(fracture_effect, "evaluate", doubled)
+
+
+def _crack_planes_complement(monkeypatch) -> None:
+    plane_directions = criterion.plane_directions
+
+    def complement(mode, angle1, friction_angle):  # π/4 − (−φ)/2 = π/4 + φ/2
+        return plane_directions(mode, angle1, -np.asarray(friction_angle, dtype=float))
+
+    monkeypatch.setattr(criterion, "plane_directions", complement)
+
+
 # faults patched into the engine's modules (not into a built model)
 ENGINE_FAULTS: dict[str, Callable[[object], None]] = {
     "stress_x1.05": _scaled_frame,
@@ -366,6 +403,9 @@ ENGINE_FAULTS: dict[str, Callable[[object], None]] = {
     "stress_rotated_backwards": _stress_rotated_backwards,
     "pushout_in_velocity": _pushout_in_velocity,
     "children_unstressed": _children_unstressed,
+    "fracture_slope_root": _fracture_slope_root,
+    "tension_cutoff_doubled": _tension_cutoff_doubled,
+    "crack_planes_complement": _crack_planes_complement,
 }
 # faults no verification case catches yet (docs/verification.md would say why): none
 UNCAUGHT: tuple[str, ...] = ()

@@ -63,6 +63,7 @@ KNOWN_CHECKS = (
     "stress_history",
     "onset",
     "children",
+    "crack",
     "motion",
     "area",
     "order",

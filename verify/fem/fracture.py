@@ -64,6 +64,22 @@ def fails(stress: np.ndarray, strength: Strength) -> bool:
     return bool(s3 >= strength.tensile_strength)
 
 
+def crack_planes(stress: np.ndarray, strength: Strength) -> list[float]:
+    """Directions (degrees from the x axis, in [0, 180)) of the planes the criterion cuts a
+    failing block along (paper §4, after eq. 25): in shear two planes at ±(45° − φ/2) to
+    the σ1 direction θ1, in tension one plane containing σ1 (normal to σ3); none if the
+    stress does not fail. θ1 = ½ atan2(2 sxy, sxx − syy) + 90°, σ1 the most compressive."""
+    if not fails(stress, strength):
+        return []
+    sxx, syy, sxy = stress
+    theta1 = np.degrees(0.5 * np.arctan2(2.0 * sxy, sxx - syy)) + 90.0
+    s1, _ = principal(stress)
+    if s1 >= -strength.uniaxial + strength.tensile_strength * strength.slope:  # eq. 25
+        return [float(theta1 % 180.0)]
+    half = 45.0 - strength.friction_angle / 2.0
+    return sorted(float((theta1 + sign * half) % 180.0) for sign in (1.0, -1.0))
+
+
 def strength_of(scene: Scene, block: int) -> Strength | None:
     """The block's material strength (None: unbreakable)."""
     material = scene.materials[scene.blocks[block].material]
@@ -79,6 +95,11 @@ class Onset:
     factors: dict[int, float]
     base: FemSolution  # the loads at factor 0
     unit: FemSolution  # the loads at factor 1
+
+    def stress_at(self, block: int, factor: float) -> np.ndarray:
+        """Block ``block``'s average stress at load factor ``factor``: σ(0) + f (σ(1) − σ(0))."""
+        s0 = fields.block_average_stress(self.base)[block]
+        return s0 + factor * (fields.block_average_stress(self.unit)[block] - s0)
 
 
 def onset_factors(scene: Scene, options: FemOptions, largest: float) -> Onset:

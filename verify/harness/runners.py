@@ -26,13 +26,22 @@ import numpy as np
 
 import dda
 from dda import Result, Scene
+from verify.comparison.breaks import (
+    broken_factors,
+    children_rows,
+    common_factor,
+    crack_rows,
+    frame_before_break,
+    onset_rows,
+    planned_largest_factor,
+)
 from verify.comparison.compare import STRESS, VECTOR, Row, compare, tensor_in_frame, vector_in_frame
 from verify.comparison.dda_side import DdaSide
-from verify.comparison.expect import Expectation, ExpectationError
+from verify.comparison.expect import Expectation
 from verify.fem.dynamics import FemHistory, integrate
 from verify.fem.fracture import Onset, onset_factors
 from verify.fem.in_situ import excavated
-from verify.fem.statics import FemOptions, FemSolution, load_factor_at, solve_fem
+from verify.fem.statics import FemOptions, FemSolution, solve_fem
 from verify.fem.turn import turned_scene
 from verify.references.al_rate import al_update_rows
 from verify.references.block import free_block
@@ -171,85 +180,26 @@ def history_rows(
     return rows, series
 
 
-def common_factor(scene: Scene, time: float) -> float:
-    """The one load factor of all loads at ``time`` (the case's loads share a history)."""
-    factors = load_factor_at(scene, time)
-    if not len(factors) or np.ptp(factors) > 1e-12 * max(1.0, abs(factors).max()):
-        raise ExpectationError(
-            f"{scene.source}: loads: a fracture case needs loads with one common history"
-        )
-    return float(factors[0])
-
-
 def run_fracture(
     scene: Scene, expectation: Expectation, options: FemOptions, reference=None
 ) -> KindResult:
     """Load factor at the first break against the FEM's onset factor."""
     watch = Stopwatch()
     result = watch.run("dda", dda.simulate, scene)
-    ends = [f.time for f in result.frames]
-    largest = max(common_factor(scene, t) for t in ends)
+    largest = planned_largest_factor(scene)  # the scene's, not where the engine broke
     onset: Onset = reference or watch.run("fem", onset_factors, scene, options, largest)
     before = frame_before_break(result)
     side = DdaSide.from_result(result, scene, before)
     factor = common_factor(scene, result.frames[before].time)
     fem = watch.run("fem", solve_fem, scene, options, load_factor=factor)
     rows = compare(side, fem, expectation) + onset_rows(result, scene, onset, expectation)
-    rows += children_rows(result)
+    rows += children_rows(result) + crack_rows(result, scene, onset)
     series = {
         "onset": {scene.blocks[i].name: f for i, f in onset.factors.items()},
         "broke": broken_factors(result, scene),
         "factor_before": factor,
     }
     return KindResult(side, fem, rows, watch.seconds, onset, series)
-
-
-def children_rows(result: Result) -> list[Row]:
-    """Rows ``children``: each piece of the first break in the first frame at or after
-    its step against the stress its parent met the criterion with (they start with it:
-    a DDA block's stress is constant, docs/fracture.md); scale the largest of that."""
-    if not result.fracture_events:
-        return []
-    event = result.fracture_events[0]
-    frame = next((f for f in result.frames if f.step >= event.step), None)
-    parent = np.asarray(event.stress, float)
-    if frame is None or parent.size != 3:
-        return []
-    scale = float(np.abs(parent).max()) or 1.0
-    rows = []
-    for child in event.children:
-        stress = frame.stresses[frame.block(child)]
-        rows += [Row("children", child, name, float(value), float(expected), scale)
-                 for name, value, expected in zip(STRESS, stress, parent, strict=True)]  # fmt: skip
-    return rows
-
-
-def frame_before_break(result: Result) -> int:
-    """Index of the last frame before the first fracture event (the last frame if none)."""
-    if not result.fracture_events:
-        return len(result.frames) - 1
-    step = result.fracture_events[0].step
-    return max(k for k, f in enumerate(result.frames) if f.step < step)
-
-
-def broken_factors(result: Result, scene: Scene) -> dict[str, float]:
-    """Load factor at the step each scene block first broke."""
-    out: dict[str, float] = {}
-    for event in result.fracture_events:
-        if event.parent not in out:
-            out[event.parent] = common_factor(scene, event.time)
-    return out
-
-
-def onset_rows(result: Result, scene: Scene, onset: Onset, expectation: Expectation) -> list[Row]:
-    """Row ``onset`` per breakable block: DDA break factor against the FEM's onset factor."""
-    broke = broken_factors(result, scene)
-    rows = []
-    for i, factor in onset.factors.items():
-        name = scene.blocks[i].name
-        row = Row("onset", name, "factor", broke.get(name, float("nan")), factor, factor)
-        rows.append(row.with_offset(expectation.offsets))
-    return rows
 
 
 def run_motion(

@@ -96,7 +96,10 @@ def header(plotter, title: str, width: int, has_fixed: bool) -> None:
     """The case's verdict (left) and what the grey blocks are (right), drawn as they are below."""
     plotter.subplot(0, 0)
     lines = title.count("\n")
-    plotter.add_text(title, position=(12, HEADER // 2 - 10 - 11 * lines), font_size=14)
+    if lines < 2:
+        plotter.add_text(title, position=(12, HEADER // 2 - 10 - 11 * lines), font_size=14)
+    else:  # three lines or more (a fracture case's onsets): smaller, from the bottom up
+        plotter.add_text(title, position=(12, 4), font_size=11)
     swatch = np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 22.0], [0.0, 22.0]])
     left = width - 240
     if has_fixed:

@@ -47,12 +47,12 @@ def case_title(result: CaseResult) -> str:
     """The name and verdict; a fracture case's onsets (second line); the components' frame."""
     title = f"{result.case.name}: {'PASS' if result.passed else 'FAIL'}"
     if result.expectation.kind == "fracture":
-        onset, broke = result.series["onset"], result.series["broke"]
-        title += "\nonset factor " + ", ".join(
-            f"{n}: FEM {f:.4g}, DDA broke at {broke.get(n, float('nan')):.4g}"
+        onset, broke, nan = result.series["onset"], result.series["broke"], float("nan")
+        title += f", the state before the break (load factor {result.series['factor_before']:.4g})"
+        title += "".join(
+            f"\n{n}: onset at load factor {f:.4g} (FEM), broke at {broke.get(n, nan):.4g} (DDA)"
             for n, f in onset.items()
         )
-        title += f" (state before the break, factor {result.series['factor_before']:.4g})"
     e = result.expectation
     if e.fem_turn:
         title += f"; compared at rest, the scene turned by {e.fem_turn:.4g}° about {e.fem_about}"
