@@ -14,6 +14,7 @@ lying inside a polygon.
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 from collections.abc import Mapping, Sequence
@@ -397,8 +398,12 @@ def _seismic(
         key = "seismic.file"
     else:
         key = "seismic.acceleration"
-        rows = [chk.vector(r, f"{key}[{k}]", len(r)) for k, r in enumerate(values["acceleration"])]
+        rows = [
+            chk.vector(r, f"{key}[{k}]", len(chk.sequence(r, f"{key}[{k}]")))
+            for k, r in enumerate(values["acceleration"])
+        ]
     record = _record(chk, rows, key, values.get("component"))
+    _say_record_fit(record, analysis, key)
     moving = _named_blocks(chk, values.get("blocks"), "seismic.blocks", geometry, groups)
     if values.get("blocks") is None:
         moving = tuple(n for n, f in zip(geometry.names, geometry.fixed, strict=True) if f)
@@ -411,6 +416,27 @@ def _seismic(
                 f"{name!r} is not fixed: only fixed blocks follow the ground",
             )
     return Seismic(record, values.get("scale", 1.0), moving, values.get("file"))
+
+
+log = logging.getLogger(__name__)
+
+
+def _say_record_fit(record: Sequence[Sequence[float]], analysis: Any, key: str) -> None:
+    """Warn where the run cannot see the record as written: it ends before the record's
+    first time (a row index read as time), or before its second (times in ms, say). The
+    run's end is ``duration``, or ``steps`` at the longest ``time_step``."""
+    end = analysis.duration
+    if end is None:
+        end = analysis.steps * analysis.time_step
+    first, second = record[0][0], record[1][0]
+    if first >= end:
+        log.warning("%s: the record starts at t = %g s, after the run ends (%g s): the "
+                    "ground never moves (is the first column a time in seconds?)",
+                    key, first, end)  # fmt: skip
+    elif second >= end:
+        log.warning("%s: the run ends (%g s) before the record's second time (%g s): it "
+                    "sees one segment of the record (are its times in seconds?)",
+                    key, end, second)  # fmt: skip
 
 
 RECORD_SEPARATORS = re.compile(r"[,;\s]+")  # between a record's numbers
@@ -427,17 +453,37 @@ def _read_record(chk: Checker, name: str) -> list[list[float]]:
         lines = read_text(path, "a record is rows of numbers").splitlines()
     except UnreadableText as exc:
         chk.fail("seismic.file", f"{str(path)!r} {exc}")
-    rows = []
+    rows: list[list[float]] = []
     for number, line in enumerate(lines, start=1):
         text = line.split("#", 1)[0].strip()
         if not text:
             continue
+        where = f"{name} line {number}"
+        if _decimal_comma(text):
+            chk.fail("seismic.file", f"{where}: a comma inside a number, {line.strip()!r}: "
+                     "write decimal points (commas may only separate numbers)")  # fmt: skip
         try:
-            rows.append([float(x) for x in RECORD_SEPARATORS.split(text.strip(",; \t"))])
+            row = [float(x) for x in RECORD_SEPARATORS.split(text.strip(",; \t"))]
         except ValueError:
             if rows or not HEADER_WORD.search(text):
-                chk.fail("seismic.file", f"{name} line {number}: not numbers: {line.strip()!r}")
+                chk.fail("seismic.file", f"{where}: not numbers: {line.strip()!r}")
+            continue
+        if rows and len(row) != len(rows[0]):
+            chk.fail("seismic.file", f"{where}: {len(row)} numbers where the rows above hold "
+                     f"{len(rows[0])}: {line.strip()!r}")  # fmt: skip
+        rows.append(row)
     return rows
+
+
+DECIMAL_COMMA = re.compile(r"\d,\d")
+
+
+def _decimal_comma(text: str) -> bool:
+    """Whether a record line writes numbers with decimal commas: it separates its numbers
+    by spaces, tabs or semicolons and one of them holds a comma between digits
+    (``0 0,5`` or ``0,1;2,5``; ``0.1,2.5`` separates by the comma)."""
+    parts = re.split(r"[;\s]+", text.strip(",; \t"))
+    return len(parts) > 1 and any(DECIMAL_COMMA.search(part) for part in parts)
 
 
 def _record(

@@ -123,6 +123,10 @@ REFUSED = [
      "times must increase strictly"),
     (("seismic", "acceleration"), [[0.0, 1.0, 2.0], [1.0, 2.0]], "seismic.acceleration",
      "every row must hold"),
+    (("seismic", "acceleration"), [0.0, 1.0, 0.1, 2.0], "seismic.acceleration[0]",
+     "expected a list, got the number 0.0"),
+    (("seismic", "acceleration"), [[0.0, 1.0], True], "seismic.acceleration[1]",
+     "expected a list, got"),
     (("seismic", "file"), "missing.csv", "seismic", "give the record as"),
     (("seismic",), {"file": "missing.csv"}, "seismic.file", "cannot read"),
     (("seismic", "blocks"), ["a"], "seismic.blocks[0]", "'a' is not fixed"),
@@ -236,6 +240,50 @@ def test_a_bad_first_row_of_a_record_is_refused_by_its_line(tmp_path):
     (tmp_path / "s.toml").write_text(tomli_w.dumps(raw))
     with pytest.raises(SceneError, match=r"quake.csv line 2: not numbers: '0,1.5x'"):
         dda.load_scene(tmp_path / "s.toml")
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("0 0,0\n1 2,0\n2 2,0\n", r"line 1: a comma inside a number, '0 0,0': write decimal"),
+        ("0,0;0,5\n0,2;1,5\n", r"line 1: a comma inside a number"),
+        ("0.0 0.0\n0.1 2.0 5.0\n0.3 0.0\n", r"line 2: 3 numbers where the rows above hold 2"),
+    ],
+    ids=["decimal comma and spaces", "decimal comma and semicolons", "a row too long"],
+)
+def test_a_record_row_that_cannot_be_meant_is_refused_by_its_line(tmp_path, text, message):
+    """A decimal-comma file was read as three columns (t, ax, ay) and ran; a row of 3
+    numbers among rows of 2 was refused without its line."""
+    import tomli_w
+
+    (tmp_path / "rec.txt").write_text(text)
+    raw = base_scene()
+    raw["seismic"] = {"file": "rec.txt", "blocks": ["floor"]}
+    (tmp_path / "s.toml").write_text(tomli_w.dumps(raw))
+    with pytest.raises(SceneError, match="rec.txt " + message):
+        dda.load_scene(tmp_path / "s.toml")
+
+
+@pytest.mark.parametrize(
+    ("record", "said"),
+    [
+        ([[0, 0.0], [100, 2.0], [200, 0.0]], "before the record's second time (100 s)"),
+        ([[1, 0.0], [2, 2.0], [3, 0.0]], "the record starts at t = 1 s, after the run ends"),
+        ([[0, 0.0], [0.5, 2.0], [3, 0.0]], None),
+    ],
+    ids=["times in ms", "a row index as time", "a record longer than the run"],
+)
+def test_a_record_the_run_cannot_see_is_warned(record, said):
+    """A record in ms, or one whose first column was a row index, ran with the ground
+    still (0.21 mm for 0.10 m), unsaid."""
+    raw = base_scene()
+    raw["analysis"]["mode"] = "dynamic"
+    raw["seismic"] = {"acceleration": record}
+    warnings = dda.load_scene(raw).load_warnings
+    if said is None:
+        assert not any("seismic" in w for w in warnings)
+    else:
+        assert any(w.startswith("seismic.acceleration: ") and said in w for w in warnings)
 
 
 @pytest.mark.parametrize(
