@@ -176,18 +176,25 @@ def _finish(outdir, raw, source, scene, rows, frames, keys, with_fos) -> None:
     values = [r["fos"] for r in judged] if with_fos else [r[first] for r in judged]
     label = "factor of safety" if with_fos else _label(first, scene.units)
     failed = [bool(r["failed"]) for r in judged]
+    # a FoS outside the search's bounds: below them if the realisation fails at F = 1
+    below = sum(not math.isfinite(v) and f for v, f in zip(values, failed, strict=True))
     outside = sum(not math.isfinite(v) for v in values) if with_fos else 0
     title = (
         f"{scene.title}\nP(failure) = {p:.3f}, 95 % Wilson interval [{low:.3f}, {high:.3f}], "
         f"n = {len(judged)}"
-        + (f" ({outside} with FoS outside the search's bounds, not drawn)" if outside else "")
+        + (
+            f"; FoS below the search's bounds {below}, above {outside - below} (in the CDF "
+            "beyond its ends, not in the histogram)"
+            if outside
+            else ""
+        )  # fmt: skip
     )
     written = ["ensemble.csv"]
     if judged:
         keep = [(v, f) for v, f in zip(values, failed, strict=True) if math.isfinite(v)]
         if keep:
             ensemble_plot(*zip(*keep, strict=True), label, outdir / "ensemble.png", title,
-                          factor_of_safety=with_fos)  # fmt: skip
+                          factor_of_safety=with_fos, outside=(below, outside - below))  # fmt: skip
             written.append("ensemble.png")
     written += _failure_pictures(outdir, raw, source, scene, rows, frames, keys)
     summary = {
@@ -245,12 +252,11 @@ def _with_unit(value: float, unit: str) -> str:
 def _failure_pictures(outdir, raw, source, scene, rows, frames, keys) -> list[str]:
     """The first three failing realisations at the end of their run, by displacement:
     ``failing_K.png``, K the realisation's index (as in ensemble.csv)."""
-    from dda.io.images import render_frame
+    from dda.io.images import render_frame, scene_look
     from dda.stability.ensemble import Realisation, run_realisation
 
     failing = sorted(k for k, r in rows.items() if r["failed"])[:PICTURES]
     names = []
-    units = {"length": scene.units.length, "force": scene.units.force, "time": scene.units.time}
     for k in failing:
         frame = frames.get(k)
         if frame is None:  # a reused realisation: run it again for its picture
@@ -259,8 +265,7 @@ def _failure_pictures(outdir, raw, source, scene, rows, frames, keys) -> list[st
             continue
         drawn = _drawn(rows[k], keys, scene.units)
         render_frame(frame, outdir / f"failing_{k}.png", scalars="displacement",
-                     title=f"realisation {k}: {drawn}", scene_title=scene.title,
-                     units=units)  # fmt: skip
+                     title=f"realisation {k}: {drawn}", **scene_look(scene))  # fmt: skip
         names.append(f"failing_{k}.png")
     for stale in outdir.glob("failing_*.png"):  # of an earlier ensemble (another seed)
         if stale.name not in names:

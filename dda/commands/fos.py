@@ -291,7 +291,7 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
     """fos.png, failure.png (the first failing trial, blocks by displacement), fos.json
     (with the blocks that move at the first failing F)."""
     from dda.io.atomic import write_text
-    from dda.io.images import render_frame
+    from dda.io.images import render_frame, scene_look
     from dda.stability.criterion import criterion_record
     from dda.stability.report import fos_plot
     from dda.stability.trial import Trial, run_trial
@@ -310,9 +310,7 @@ def _finish(outdir: Path, runner: _Runner, outcome, scene, criterion) -> None:
             render_frame(
                 frame, outdir / "failure.png", scalars="displacement",
                 title=f"first failing trial: F = {outcome.fails:.6g}, t = {frame.time:.4g} "
-                f"{scene.units.time}", scene_title=scene.title,
-                units={"length": scene.units.length, "force": scene.units.force,
-                       "time": scene.units.time},
+                f"{scene.units.time}", **scene_look(scene),
             )  # fmt: skip
             written.append("failure.png")
     summary = {

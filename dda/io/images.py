@@ -104,6 +104,21 @@ def render_frame(
     )  # fmt: skip
 
 
+def scene_look(scene: Any) -> dict[str, Any]:
+    """The keywords of :func:`render_frame` that a scene fixes: its title, its units, and
+    its phreatic line with the blocks that carry it (``[seismic] blocks``), for the
+    pictures a command draws from its runs (``dda fos``, ``dda ensemble``)."""
+    units = scene.units
+    look: dict[str, Any] = {
+        "scene_title": scene.title,
+        "units": {"length": units.length, "force": units.force, "time": units.time},
+    }
+    if scene.water is not None:
+        look["water_table"] = [list(point) for point in scene.water.table]
+        look["water_follows"] = tuple(scene.seismic.blocks) if scene.seismic else ()
+    return look
+
+
 def render_side_by_side(
     frames: Sequence[Frame],
     titles: Sequence[str | None],

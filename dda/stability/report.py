@@ -68,11 +68,14 @@ def ensemble_plot(
     path: Path,
     title: str,
     factor_of_safety: bool = False,
+    outside: tuple[int, int] = (0, 0),
 ) -> Path:
     """Histogram of a drawn value (standing and failing realisations stacked; whole
     realisations on the count axis) and its empirical CDF; ``factor_of_safety``: the values
     are the realisations' factors of safety, and the CDF marks F = 1 (below it a
-    realisation fails)."""
+    realisation fails). ``outside``: how many realisations have a factor of safety below
+    and above the search's bounds (not in ``values``): the CDF counts them, starting at the
+    fraction below and ending short of 1 by the fraction above."""
     from matplotlib.ticker import MaxNLocator
 
     plt = _pyplot()
@@ -86,12 +89,14 @@ def ensemble_plot(
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: 1, 2, 3, never 1.25
     ax.legend(fontsize=8)
     order = np.sort(values)
+    below_bounds, above_bounds = outside
+    total = len(order) + below_bounds + above_bounds
     if len(order):  # from 0 at the smallest value up (an audit: drawn from 1/n, it misread)
-        fractions = np.arange(len(order) + 1) / len(order)
+        fractions = (below_bounds + np.arange(len(order) + 1)) / total
         cdf.step(np.concatenate([order[:1], order]), fractions, where="post")
     cdf.set_ylim(0.0, 1.02)
     if factor_of_safety:
-        below = float(np.mean(values < 1.0))
+        below = (below_bounds + int(np.count_nonzero(values < 1.0))) / total
         cdf.axvline(1.0, color="C3", lw=1.0, ls="--", label=f"F = 1 (fraction below: {below:.3g})")
         cdf.legend(fontsize=8, loc="lower right")
     cdf.set_xlabel(label)

@@ -253,3 +253,22 @@ def test_render_frame_refuses_what_dda_render_refuses(tmp_path, name, clim, mess
     with pytest.raises(ValueError, match=message):
         render_frame(make_frame(), tmp_path / name, clim=clim)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_pictures_of_fos_and_ensemble_take_the_scenes_look():
+    """failure.png and failing_K.png left out the phreatic line that final.png draws: both
+    commands now draw with :func:`dda.io.images.scene_look`."""
+    import inspect
+
+    import dda
+    import dda.commands.ensemble as ensemble
+    import dda.commands.fos as fos
+    from dda.io.images import scene_look
+
+    wet = scene_look(dda.load_scene("cases/wet_slope.toml"))
+    assert wet["water_table"][0] == [-17.470508075689, -9.740192378865]
+    assert wet["water_follows"] == () and wet["units"]["length"] == "m"
+    dry = scene_look(dda.load_scene("cases/jointed_slope_fos.toml"))
+    assert "water_table" not in dry and dry["scene_title"]
+    for module in (fos, ensemble):
+        assert "**scene_look(scene)" in inspect.getsource(module)

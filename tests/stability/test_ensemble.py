@@ -171,6 +171,14 @@ def test_the_ensemble_picture_counts_whole_realisations_and_marks_f_1(tmp_path, 
     assert all(float(t).is_integer() for t in histogram.get_yticks())
     assert any(list(line.get_xdata()) == [1.0, 1.0] for line in cdf.get_lines())
     assert "F = 1 (fraction below: 0.2)" in [t.get_text() for t in cdf.get_legend().get_texts()]
+    # two realisations below the search's bounds and one above, of eight: the CDF starts at
+    # 2/8 and ends at 7/8, and 3 of 8 lie below F = 1 (it read 1 of the 5 drawn: 0.2;
+    # an audit's 2 of 6 failing read 0)
+    ensemble_plot(values, failed, "factor of safety", tmp_path / "o.png", "t", True, (2, 1))
+    cdf = figures[-1].axes[1]
+    steps = next(line for line in cdf.get_lines() if len(line.get_ydata()) == 6)
+    assert steps.get_ydata()[0] == 2 / 8 and steps.get_ydata()[-1] == 7 / 8
+    assert "F = 1 (fraction below: 0.375)" in [t.get_text() for t in cdf.get_legend().get_texts()]
 
 
 @pytest.mark.slow
