@@ -93,7 +93,7 @@ def with_overrides(raw: dict, args: argparse.Namespace) -> dict:
         for name in OVERRIDES:
             if getattr(args, name) is not None:
                 table[name] = getattr(args, name)
-        if args.blocks:
+        if args.blocks is not None:  # "" too: the scene check refuses an empty list
             table["blocks"] = [b.strip() for b in args.blocks.split(",") if b.strip()]
         if args.intact:
             table["intact"] = True

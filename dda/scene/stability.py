@@ -109,6 +109,9 @@ _KINDS = {
     "uniform": ("low", "high"),
     "von_mises": ("mean", "kappa"),
 }
+# a normal law whose std exceeds this many times its cut range is flat over it: the cut
+# inverse F⁻¹(F(low) + u (F(high) − F(low))) then draws its mean alone (round-off)
+FLAT_NORMAL = 1e6
 _VARY_KEYS = ("key", "distribution", "mean", "std", "kappa", "low", "high")
 _SET_KEY = re.compile(r"joint_sets\[(\d+)\]\.(\w+)$")
 
@@ -248,6 +251,10 @@ def _distribution(
             chk.fail(join_key(key, "mean"), f"{target} must be {allowed.describe()}"
                      f"{between}, got {mean:g}")  # fmt: skip
         low, high = max(low, allowed.low), min(high, allowed.high)
+        if kind == "normal" and given["std"] > FLAT_NORMAL * (high - low):
+            chk.fail(join_key(key, "std"), f"{given['std']:g} is over {FLAT_NORMAL:g} times the "
+                     f"range {low:g} to {high:g}: the normal is flat there and its cut inverse "
+                     "draws the mean alone; draw it uniform")  # fmt: skip
     return Distribution(key=target, kind=kind, **{**given, "low": low, "high": high})
 
 

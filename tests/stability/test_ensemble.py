@@ -272,6 +272,14 @@ def jrc_of_a_coulomb_joint(raw: dict) -> dict:  # refused by every realisation, 
     return raw
 
 
+def flat_normal(raw: dict) -> dict:  # drew its mean alone, every realisation
+    raw["ensemble"] = {
+        "vary": [{"key": "joints.default.friction_angle", "distribution": "normal",
+                  "mean": 31.0, "std": 1e30}]
+    }  # fmt: skip
+    return raw
+
+
 def nothing_drawn(raw: dict) -> dict:
     raw.pop("ensemble", None)
     return raw
@@ -282,6 +290,7 @@ def nothing_drawn(raw: dict) -> dict:
     [
         (negative_spacing, "ensemble.vary[0].low: joint_sets[0].spacing must be > 0, got -1"),
         (nothing_drawn, "ensemble.vary: the scene draws no value"),
+        (flat_normal, "ensemble.vary[0].std: 1e+30 is over 1e+06 times the range 0 to 90"),
         (
             jrc_of_a_coulomb_joint,
             "ensemble.vary[0].key: jrc is a key of model = 'barton-bandis'; joints.default is "

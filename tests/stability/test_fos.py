@@ -291,6 +291,7 @@ REFUSED = [
     (no_gravity, [], "fos.velocity: is required without gravity"),
     (None, ["--lower", "2", "--upper", "1"], "argument --upper: must exceed fos.lower (2), got 1"),
     (None, ["--window", "0"], "argument --window: must be in (0, 1], got 0"),
+    (None, ["--blocks", ""], "argument --blocks: is empty: list at least one"),
     (None, ["--velocity", "-1"], "argument --velocity: must be > 0, got -1"),
     (None, ["--tolerance", "5"], "argument --tolerance: must be below upper - lower"),
     (None, ["--tolerance", "1e-10"], "argument --tolerance: must be at least 1e-06 (the search"),
