@@ -462,7 +462,7 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
     """Run ``scene`` into the claimed ``folder`` (new, overwritten or resumed)."""
     from dda.io.disk_space import check_disk_space
     from dda.io.output_paths import OutputError
-    from dda.io.run_writer import RunWriter
+    from dda.io.run_writer import RunWriter, check_outputs_reach
     from dda.run.checkpoint import check_scene, differing_sections, read_checkpoint
 
     checkpoint = None
@@ -481,6 +481,8 @@ def _run_in(folder, scene, args: argparse.Namespace) -> int:
         checkpoint = read_checkpoint(folder.checkpoint_path)
         check_scene(checkpoint, scene)
     try:  # nothing written yet: a refusal gives the directory up as it was
+        if checkpoint is not None:
+            check_outputs_reach(folder.outdir, checkpoint.step, bool(scene.measure))
         check_disk_space(scene, folder.outdir, folder.reclaimable_bytes())
     except OutputError as exc:
         folder.abandon()

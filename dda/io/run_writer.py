@@ -313,6 +313,54 @@ def write_run(
     return RunWriter(outdir, **options).finish(result, scene)
 
 
+def check_outputs_reach(outdir: Path, step: int, measured: bool) -> None:
+    """Refuse to resume at ``step`` where the folder's tables end before the last frame it
+    keeps (the last in ``blocks.pvd`` at or before ``step``): ``history.csv`` holds the
+    rows of every kept frame, ``history_points.csv`` (with ``[[measure]]``) those of every
+    step up to the last frame; a resumed run writes the rest. A table cut short (written
+    without fsync before a power loss) or deleted would leave a gap the resumed run cannot
+    fill (it was resumed silently: rows 19 to 25 missing, or a history from step 30 only).
+
+    Raises
+    ------
+    OutputError
+        naming the table, where it ends and the frame it must reach.
+    """
+    from dda.io.output_paths import OutputError
+
+    index = outdir / "blocks.pvd"
+    entries = read_pvd_entries(index) if index.is_file() else []
+    last = max((step_of_file(f) for f, _ in entries if step_of_file(f) <= step), default=-1)
+    if last < 0:
+        return
+    for name in ("history.csv", POINTS_NAME) if measured else ("history.csv",):
+        path = outdir / name
+        if not path.is_file():
+            raise OutputError(path, f"is missing: its rows up to step {last} (the last frame "
+                              "kept) are lost and a resumed run cannot write them; "
+                              "--overwrite runs it again")  # fmt: skip
+        ends = _last_row_step(path)
+        if ends < last:
+            raise OutputError(path, f"ends at step {ends}, before step {last} (the last frame "
+                              "kept): the rows in between are lost and a resumed run cannot "
+                              "write them; --overwrite runs it again")  # fmt: skip
+
+
+def _last_row_step(path: Path) -> int:
+    """The step of the last whole row of a table whose rows start with their step (-1:
+    none)."""
+    last = -1
+    with open(path, "rb") as stream:
+        for number, line in enumerate(stream):
+            if number == 0 or not line.endswith(b"\n"):
+                continue
+            try:
+                last = int(line.split(b",", 1)[0])
+            except ValueError:
+                break
+    return last
+
+
 def _truncate_run(outdir: Path, step: int) -> tuple[list, list, list]:
     """Cut the outputs in ``outdir`` back to ``step``; return the index entries kept (of
     ``blocks.pvd``, ``contacts.pvd`` and ``bolts.pvd``)."""

@@ -481,3 +481,36 @@ def test_a_resumed_run_writes_the_measurements_of_the_uninterrupted_one(tmp_path
     assert cli.main(["run", str(path), "-o", str(tmp_path / "out"), "-q", "--resume"]) == 0
     for name in ("history_points.csv", "history.csv"):
         assert (tmp_path / "out" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes()
+
+
+@pytest.mark.parametrize("damage", ["cut", "deleted", "points cut"])
+def test_a_folder_whose_tables_end_before_the_checkpoint_is_not_resumed(
+    tmp_path, capsys, damage
+):
+    """A history.csv cut short (written without fsync before a power loss) or deleted was
+    resumed silently, leaving a gap (rows 19-25 missing, or a history from step 30 only);
+    now refused, exit 2, the folder as it was."""
+    import tomli_w
+
+    path = tmp_path / "s.toml"
+    path.write_text(tomli_w.dumps(engineering_scene(30)))
+    scene = dda.load_scene(path)
+    out = tmp_path / "out"
+    writer = RunWriter(out, image=False, scene=scene)
+    plan = CheckpointPlan(out / "checkpoint.npz", None, None)
+    first = dda.simulate(scene, on_frame=writer.add_frame, stop=stop_after(17), checkpoints=plan)
+    writer.finish(first, scene)
+    name = "history_points.csv" if damage == "points cut" else "history.csv"
+    table = out / name
+    if damage == "deleted":
+        table.unlink()
+    else:
+        lines = table.read_text().splitlines(keepends=True)
+        table.write_text("".join(lines[:4]))  # the header and steps 1-3 (points: 0-2)
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    capsys.readouterr()
+    assert cli.main(["run", str(path), "-o", str(out), "-q", "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert f"{table}: " in err and "--overwrite runs it again" in err
+    assert ("is missing" if damage == "deleted" else "ends at step ") in err
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
