@@ -775,6 +775,11 @@ def _add_render(subparsers: Any) -> None:
         "--size", type=picture_side, nargs=2, default=(1200, 900), metavar=("W", "H"),
         help="picture size in pixels (default: 1200 900)",
     )  # fmt: skip
+    p.add_argument(
+        "--view", type=float, nargs=4, metavar=("XMIN", "YMIN", "XMAX", "YMAX"),
+        help="show this part of the model (a zoom, in its length unit); the colour range "
+        "and the force marks follow the blocks and contacts in it (default: every block)",
+    )  # fmt: skip
     p.set_defaults(func=render_command)
 
 
@@ -807,6 +812,7 @@ def render_command(args: argparse.Namespace) -> int:
 
     try:
         clim = checked_range(args)
+        view = checked_view(args.view)
         if args.step is not None and Path(args.source).is_file():
             raise ValueError(
                 f"--step {args.step}: a VTU file is one frame (its own step); give the "
@@ -817,6 +823,14 @@ def render_command(args: argparse.Namespace) -> int:
         check_png(output)
         check_output_file(output)
         frame = read_found_frame(found)
+        if view is not None:
+            blocks = np.concatenate(frame.vertices)
+            low, high = blocks.min(axis=0), blocks.max(axis=0)
+            if np.any(view[1] < low) or np.any(view[0] > high):
+                raise ValueError(
+                    f"--view {' '.join(f'{v:g}' for v in args.view)}: holds no block (the "
+                    f"blocks lie in x {low[0]:g} to {high[0]:g}, y {low[1]:g} to {high[1]:g})"
+                )
     except (FileNotFoundError, ValueError, OutputError) as exc:
         print(f"dda render: {exc}", file=sys.stderr)
         return EXIT_INPUT
@@ -833,11 +847,25 @@ def render_command(args: argparse.Namespace) -> int:
         frame, output, scalars=args.scalars, show_contacts=not args.no_contacts,
         window_size=tuple(args.size), scene_title=run.get("title") or "",
         units=found.units(run), clim=clim, water_table=run.get("water_table"),
-        water_follows=run.get("water_follows") or (),
+        water_follows=run.get("water_follows") or (), view=view,
     )  # fmt: skip
     logger.info("wrote %s", output)
     print(output)
     return EXIT_OK
+
+
+def checked_view(view: Sequence[float] | None) -> np.ndarray | None:
+    """``--view XMIN YMIN XMAX YMAX`` as ``[[xmin, ymin], [xmax, ymax]]``, or a ValueError
+    naming it when it is not a finite box with its minima below its maxima."""
+    if view is None:
+        return None
+    box = np.asarray(view, dtype=float).reshape(2, 2)
+    if not np.isfinite(box).all() or np.any(box[0] >= box[1]):
+        raise ValueError(
+            f"--view {' '.join(f'{v:g}' for v in view)}: give XMIN YMIN XMAX YMAX, finite, "
+            "each minimum below its maximum"
+        )
+    return box
 
 
 def check_png(output: Path | str, option: str = "-o") -> None:

@@ -62,6 +62,7 @@ def render_frame(
     units: Mapping[str, str] | None = None,
     water_table: Sequence[Sequence[float]] | None = None,
     water_follows: Sequence[str] = (),
+    view: Sequence[Sequence[float]] | None = None,
 ) -> Path:
     """Render one frame to a PNG file.
 
@@ -91,6 +92,10 @@ def render_frame(
     water_follows
         The blocks that carry the line ([seismic] blocks): it is drawn moved by their
         displacement in the frame, as the run moves it with the ground.
+    view
+        ``[[x_min, y_min], [x_max, y_max]]``: the part of the model to show (a zoom);
+        the colour range and the longest force mark then follow the blocks and contacts
+        in it. Default: every block.
 
     Returns
     -------
@@ -100,7 +105,7 @@ def render_frame(
     return render_side_by_side(
         [frame], [title], path, scalars=scalars, show_contacts=show_contacts,
         window_size=window_size, clim=clim, scene_title=scene_title, units=units,
-        water_table=water_table, water_follows=water_follows,
+        water_table=water_table, water_follows=water_follows, view=view,
     )  # fmt: skip
 
 
@@ -131,6 +136,7 @@ def render_side_by_side(
     units: Mapping[str, str] | None = None,
     water_table: Sequence[Sequence[float]] | None = None,
     water_follows: Sequence[str] = (),
+    view: Sequence[Sequence[float]] | None = None,
 ) -> Path:
     """Render frames next to each other, with one shared colour range and view.
 
@@ -150,7 +156,7 @@ def render_side_by_side(
         Picture size; default 700 x 600 pixels per frame.
     clim
         Colour range; default: the range over all frames.
-    scene_title, units, water_table, water_follows
+    scene_title, units, water_table, water_follows, view
         As in :func:`render_frame`.
 
     Returns
@@ -167,6 +173,7 @@ def render_side_by_side(
     _check_picture(path, clim)
     figure = compose(
         frames, titles, scalars, show_contacts, window_size, clim, scene_title, units,
+        view=None if view is None else np.asarray(view, dtype=float),
         water_table=water_table, water_follows=water_follows,
     )  # fmt: skip
     path = Path(path)
@@ -205,10 +212,12 @@ def compose(
     info = SCALARS[scalars]
     values = [_without_round_off(v, info.dimension) for v in values]
     scale = clim if isinstance(clim, ColourScale) else None
-    scale = scale or colour_scale(np.concatenate(values), info.signed, clim)
+    seen = values if view is None else [np.where(_in_view(f, view), v, np.nan)
+                                        for f, v in zip(frames, values, strict=True)]  # fmt: skip
+    scale = scale or colour_scale(np.concatenate(seen), info.signed, clim)
     size = window_size or (700 * len(frames), 600)
     if force_max is None:
-        force_max = max((largest_force(f) for f in frames), default=0.0)
+        force_max = max((largest_force(f, view) for f in frames), default=0.0)
     with unicode_text():
         figure = _figure(size)
         axes = figure.subplots(1, len(frames), squeeze=False)[0]
@@ -261,11 +270,23 @@ def _without_round_off(values: np.ndarray, dimension: str) -> np.ndarray:
     return values
 
 
-def largest_force(frame: Frame) -> float:
-    """The largest compressive contact normal force of ``frame`` (0 without any)."""
+def largest_force(frame: Frame, view: np.ndarray | None = None) -> float:
+    """The largest compressive contact normal force of ``frame`` (0 without any); with
+    ``view``, of the contacts whose point lies in it."""
     force = np.asarray(frame.contacts.normal_force, dtype=float)
-    force = force[np.isfinite(force) & (force > 0.0)]
+    keep = np.isfinite(force) & (force > 0.0)
+    if view is not None and len(force):
+        points = np.asarray(frame.contacts.points, dtype=float)
+        keep &= np.all((points >= view[0]) & (points <= view[1]), axis=1)
+    force = force[keep]
     return float(force.max()) if force.size else 0.0
+
+
+def _in_view(frame: Frame, view: np.ndarray) -> np.ndarray:
+    """Which blocks of ``frame`` reach into ``view`` (their bounding box meets it)."""
+    low = np.array([v.min(axis=0) for v in frame.vertices])
+    high = np.array([v.max(axis=0) for v in frame.vertices])
+    return np.all((high >= view[0]) & (low <= view[1]), axis=1)
 
 
 def default_title(frame: Frame) -> str:
@@ -337,10 +358,15 @@ def _draw_frame(
 
 def _share_view(axes, frames: Sequence[Frame] | None, view: np.ndarray | None = None) -> None:
     """One view for all frames (motion between them shows), with a margin: the frames'
-    extent, or ``view``."""
-    corners = extent(frames) if view is None else np.asarray(view, dtype=float)
-    for ax in axes:
-        ax.update_datalim(corners)
+    extent, or ``view`` (which may be a part of them: a zoom)."""
+    if view is None:
+        for ax in axes:
+            ax.update_datalim(extent(frames))
+            ax.margins(0.05)
+            ax.autoscale_view()
+        return
+    for ax in axes:  # the data limits are the view: what lies beyond it is cut off
+        ax.dataLim.set_points(np.asarray(view, dtype=float))
         ax.margins(0.05)
         ax.autoscale_view()
 

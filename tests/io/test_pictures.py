@@ -272,3 +272,40 @@ def test_the_pictures_of_fos_and_ensemble_take_the_scenes_look():
     assert "water_table" not in dry and dry["scene_title"]
     for module in (fos, ensemble):
         assert "**scene_look(scene)" in inspect.getsource(module)
+
+
+def test_a_view_zooms_and_its_colours_follow_the_blocks_in_it(tmp_path, drawn):
+    """`dda render` had no zoom: a tunnel's opening was a few pixels of a section tens of
+    times wider. With ``view`` the axes show that part (with a 5 % margin), and the
+    colour range is that of the blocks reaching into it."""
+    frame = make_frame((4, 4, 4, 4))  # blocks at x 0-1, 1.2-2.2, 2.4-3.4, 3.6-4.6
+    stresses = np.zeros((4, 3))
+    stresses[:, 1] = [0.0, -1.0e6, -2.0e6, -8.0e6]  # block 0 is fixed (grey)
+    frame = dataclasses.replace(frame, stresses=stresses)
+    render_frame(frame, tmp_path / "all.png", scalars="syy")
+    render_frame(frame, tmp_path / "zoom.png", scalars="syy", view=[[1.0, 0.0], [3.0, 1.0]])
+    whole, zoom = drawn[-2].axes[0], drawn[-1].axes[0]
+    assert whole.get_xlim()[1] > 4.6 and zoom.get_xlim()[1] < 3.2  # the fourth block cut off
+    low, high = zoom.collections[0].get_clim()
+    assert (low, high) == pytest.approx((-2.0e6, -1.0e6))  # not the -8e6 outside the view
+
+
+def test_render_takes_a_view_and_refuses_one_that_holds_no_block(
+    tmp_path, monkeypatch, capsys, drawn
+):
+    from dda.commands import cli
+    from dda.io import RunWriter
+
+    monkeypatch.chdir(tmp_path)
+    writer = RunWriter("run", image=False)
+    writer.add_frame(make_frame((4, 4, 4)))
+    writer.finish()
+    assert cli.main(["render", "run", "-o", "z.png", "--view", "1", "0", "2.5", "1"]) == 0
+    assert drawn[-1].axes[0].get_xlim()[1] < 3.0
+    for view, message in (
+        (["9", "9", "10", "10"], "--view 9 9 10 10: holds no block (the blocks lie in x 0"),
+        (["1", "0", "0", "1"], "--view 1 0 0 1: give XMIN YMIN XMAX YMAX, finite, each minimum"),
+    ):
+        assert cli.main(["render", "run", "-o", "bad.png", "--view", *view]) == 2
+        assert capsys.readouterr().err.startswith(f"dda render: {message}")
+        assert not (tmp_path / "bad.png").exists()
