@@ -399,6 +399,7 @@ def _run_scene(args: argparse.Namespace):
     """The scene with the command line's overrides, checked for its size."""
     from dda.scene.limits import check_run_size
 
+    _refuse_a_drawing(args.case)
     scene = load_with_progress(scene_source(args.case), args.quiet)
     overrides = {
         "save_every": args.save_every,
@@ -424,6 +425,19 @@ def load_with_progress(scene, quiet: bool = False, source: str | None = None):
         loaded = dda.load_scene(scene, source, progress=bar)
         bar.finish()
     return loaded
+
+
+def _refuse_a_drawing(case: Path) -> None:
+    """A SceneError for ``dda run DRAWING.dxf``, pointing to the drawing's scene (it was
+    read as TOML: "Expected '=' after a key")."""
+    if case.suffix.lower() == ".dxf":
+        beside = case.with_suffix(".toml")
+        hint = f"dda run {beside}" if beside.is_file() else "dda run SCENE.toml"
+        raise dda.SceneError(
+            str(case), "<file>", f"a drawing runs through the scene of its materials and "
+            f"joints, whose [drawing] file names it: {hint} (docs/rock_masses.md, Drawings); "
+            "dda cut draws its blocks",
+        )  # fmt: skip
 
 
 def scene_source(case: Path):

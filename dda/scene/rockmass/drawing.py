@@ -252,7 +252,7 @@ def _scale(chk: Checker, table: Mapping, document: Any, raw: Mapping, path: Path
     if code not in INSUNITS:
         name, metres = OTHER_INSUNITS.get(code, (None, None))
         unit = f"in {name}" if name else "in no unit the DXF reference defines"
-        hint = f" ([drawing] scale = {metres:.10g} reads it in m)" if name else ""
+        hint = f" ([drawing] scale = {metres!r} reads it in m)" if name else ""
         raise SceneError(
             str(path),
             "$INSUNITS",
@@ -274,7 +274,7 @@ def _scale(chk: Checker, table: Mapping, document: Any, raw: Mapping, path: Path
             str(path),
             "$INSUNITS",
             f"the drawing is in {name} ($INSUNITS = {code}) and the scene in {length} "
-            f"([units] length): give [drawing] scale = {factor:g} to read it in {length}, "
+            f"([units] length): give [drawing] scale = {factor!r} to read it in {length}, "
             f"or set $INSUNITS to {length}",
         )
     return 1.0
@@ -414,7 +414,9 @@ def _flattened(
     keep = np.ones(len(points), bool)
     keep[1:] = np.any(np.abs(np.diff(points, axis=0)) > CLOSED * size, axis=1)
     points = points[keep]
-    closed = len(points) > 3 and bool(np.all(np.abs(points[0] - points[-1]) <= CLOSED * size))
+    # ends that meet close a shape of three points or more (two: a closed polyline
+    # of one segment, refused as having no area)
+    closed = len(points) >= 3 and bool(np.all(np.abs(points[0] - points[-1]) <= CLOSED * size))
     return Shape(layer, what, points[:-1] if closed else points, closed)
 
 

@@ -212,9 +212,14 @@ def _overlapping(path: Path) -> None:
          "LWPOLYLINE (handle 30) by 25 of area near (7.5, 7.5): closed shapes on the blocks "
          "layer do not cross"),
         (lambda p: None, {}, "scene.toml: drawing.file: no such file "),
+        # a closed polyline of one segment was "open (from (30, 0) to (30, 0))"
+        (lambda p: drawings.drawing_with(p, "BLOCKS", [(30.0, 0.0), (40.0, 0.0)], closed=True),
+         {}, "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 30) has no "
+         "area"),
     ],
     ids=["open polyline", "lines with a gap", "no blocks layer", "a named layer missing",
-         "units", "not DXF", "cut short", "broken DXF", "no shape", "overlap", "no file"],
+         "units", "not DXF", "cut short", "broken DXF", "no shape", "overlap", "no file",
+         "a closed segment"],
 )  # fmt: skip
 def test_a_bad_drawing_is_refused_in_one_line(tmp_path, monkeypatch, capsys, make, drawing,
                                               message):  # fmt: skip
@@ -471,7 +476,7 @@ def test_curves_are_drawn_within_the_arc_tolerance(tmp_path, curve, tolerance):
 @pytest.mark.parametrize(
     ("code", "words"),
     [(21, "in US survey feet ($INSUNITS = 21): give [drawing] scale, the scene's length unit "
-          "in one drawing unit ([drawing] scale = 0.3048006096 reads it in m)"),
+          "in one drawing unit ([drawing] scale = 0.3048006096012192 reads it in m)"),
      (13, "in microns ($INSUNITS = 13)"),
      (99, "in no unit the DXF reference defines ($INSUNITS = 99)")],
 )  # fmt: skip
@@ -723,3 +728,28 @@ def test_crossing_shapes_on_the_blocks_layer_are_refused_by_handle(tmp_path):
     words = "LWPOLYLINE (handle 31) crosses LWPOLYLINE (handle 30) by 10 of area near (9, 7.5)"
     with pytest.raises(dda.SceneError, match=re.escape(words)):
         dda.load_scene(_cad_scene(tmp_path, "", fix='sides = ["bottom"]'))
+
+
+def test_dda_run_of_a_drawing_points_to_its_scene(capsys):
+    """`dda run section.dxf` said "not valid TOML: Expected '=' after a key"."""
+    assert cli.main(["run", str(CASES / "drawing_example.dxf"), "-o", "never"]) == 2
+    err = capsys.readouterr().err
+    assert "a drawing runs through the scene of its materials and joints" in err
+    assert f"dda run {CASES / 'drawing_example.toml'}" in err
+    assert not Path("never").exists()
+
+
+def test_the_scale_a_refusal_suggests_is_given_in_full(tmp_path):
+    """An inch drawing in a scene in feet suggested scale = 0.0833333, which reads 240 in
+    as 19.999992 ft; the factor is now given to the last digit."""
+    import ezdxf
+
+    from dda.scene.checks import Checker
+    from dda.scene.rockmass.drawing import _scale
+
+    document = ezdxf.new("R2010")
+    document.header["$INSUNITS"] = 1  # inches
+    raw = {"units": {"length": "ft"}}
+    with pytest.raises(dda.SceneError, match=r"scale = 0\.08333333333333333 to read it in ft"):
+        _scale(Checker("s.toml"), {}, document, raw, tmp_path / "in.dxf")
+    assert 240 * 0.08333333333333333 == 20.0
