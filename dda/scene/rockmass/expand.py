@@ -146,12 +146,22 @@ def _cut(
 
 
 def _say_idle_lines(mass: RockMass, cut: CutRockMass, source: str) -> None:
-    """Warn of each joint line along which no block edge lies: it ends inside the rock
-    (a joint cuts the rock it crosses from side to side; one stopping a millimetre short
-    of another joint cuts nothing), lies outside it, or cut only blocks that were merged
-    away. Without a word it was a joint the user drew and the model does not have."""
+    """Warn of each joint set, and each joint line, along which no block edge lies (a
+    set of joints that end inside the rock, or that lies outside it, was silent). A line
+    ends inside the rock (a joint cuts the rock it crosses from side to side; one
+    stopping a millimetre short of another joint cuts nothing), lies outside it, or cut
+    only blocks that were merged away. Without a word it was a joint the user drew and
+    the model does not have."""
     used = set(np.unique(cut.blocks.edge_source).tolist())
     first = len(mass.joint_sets)
+    for k, js in enumerate(mass.joint_sets):
+        if k not in used:
+            log.warning(
+                "%s: %s (%r) cuts nothing: its traces miss the rock, or its joints end "
+                "inside it (a joint cuts the rock it crosses from side to side: with "
+                "trace_length, each must reach the outline or another joint), or it cut "
+                "blocks that were merged", source, js.key, js.name,
+            )  # fmt: skip
     idle = [line for k, line in enumerate(mass.joint_lines) if first + k not in used]
     cutting = [line for k, line in enumerate(mass.joint_lines) if first + k in used]
     idle = _not_drawn_again(idle, cutting, source)

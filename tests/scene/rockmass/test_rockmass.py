@@ -871,3 +871,23 @@ def test_the_cut_picture_draws_the_blocks_the_scene_draws_and_its_length_unit():
     dug = cut_figure(cut, removed={"base"}, drawn=drawn).axes[0]  # a drawn block dug out
     labels = [t.get_text() for t in dug.figure.legends[0].get_texts()]
     assert "excavated by a stage" in labels
+
+
+def test_a_joint_set_that_cuts_nothing_is_warned(caplog):
+    """Joints 5 m long with 1 m bridges on traces 2 m apart end inside the rock, and a set
+    100 m apart misses it: the cut was one block, unsaid (joint lines were warned)."""
+    raw = base_scene(
+        joint_sets=[
+            {"dip": 0.0, "spacing": 2.0, "offset": 1.0, "trace_length": 5.0,
+             "bridge_length": 1.0},
+            {"dip": 0.0, "spacing": 100.0, "offset": 50.0},
+        ]
+    )  # fmt: skip
+    with caplog.at_level(logging.WARNING):
+        out = expand_rock_mass(raw, "s.toml")
+    said = [r.getMessage() for r in caplog.records if "cuts nothing" in r.getMessage()]
+    assert [m.split(" cuts")[0] for m in said] == [
+        "s.toml: joint_sets[0] ('set1')",
+        "s.toml: joint_sets[1] ('set2')",
+    ]
+    assert len(out["blocks"]) == 1
