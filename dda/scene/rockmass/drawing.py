@@ -481,6 +481,7 @@ def _rock_mass(
     if fixed:
         out["fix"] = [*_list(raw, "fix"), *({"inside": s.points.tolist()} for s in fixed)]
     if holes:
+        _check_holes_remove_rock(holes, rock, fixed, openings, path)
         out.update(_excavation(chk, raw, table, holes))
     elif "excavation_time" in table:
         chk.fail("drawing.excavation_time", f"the drawing has no closed shape on layer "
@@ -575,6 +576,9 @@ def _rings(shapes: list[Shape], layer: str) -> tuple[list[Shape], list[Shape]]:
         what = " + ".join(shapes[k].what for k in pieces)
         rings.append(Shape(layer, what, np.asarray(edge.coords)[:-1], True))
     return rings, [s for s, taken in zip(shapes, used, strict=True) if not taken]
+
+
+AREA_SHARE = 1e-9  # an excavation sharing less of its area with the rock removes nothing
 
 
 def _polygon(shape: Shape, path: Path) -> shapely.Polygon:
@@ -735,6 +739,23 @@ def _material(chk: Checker, table: Mapping, raw: Mapping) -> str:
     if isinstance(materials, Mapping) and len(materials) == 1:
         return next(iter(materials))
     chk.fail("drawing.material", "missing: which [materials.NAME] the drawn rock is of")
+
+
+def _check_holes_remove_rock(
+    holes: list[Shape], rock: list[Shape], fixed: list[Shape], openings: set[int], path: Path
+) -> None:
+    """Refuse a shape on the excavation layer that lies outside the rock or in one of its
+    openings: it would remove nothing (it was refused as ``groups.excavation: selects no
+    block``, a key the user never wrote, naming no entity)."""
+    solid = [_polygon(s, path) for k, s in enumerate(rock) if k not in openings]
+    solid += [_polygon(s, path) for s in fixed]
+    hollow = [_polygon(rock[k], path) for k in openings]
+    mass = shapely.difference(shapely.union_all(solid), shapely.union_all(hollow))
+    for shape in holes:
+        polygon = _polygon(shape, path)
+        if shapely.intersection(polygon, mass).area <= AREA_SHARE * polygon.area:
+            raise SceneError(str(path), f"layer {shape.layer}", f"{shape.what} lies outside "
+                             "the rock or in one of its openings: it removes nothing")  # fmt: skip
 
 
 def _excavation(chk: Checker, raw: Mapping, table: Mapping, holes: list[Shape]) -> dict:

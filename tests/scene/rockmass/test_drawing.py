@@ -178,6 +178,16 @@ def _overlapping(path: Path) -> None:
     document.saveas(path)
 
 
+def _excavation_outside(path: Path) -> None:
+    """A square on BLOCKS and a circle on EXCAVATION beside it: it removes nothing."""
+    drawings.drawing_with(path, "BLOCKS", SQUARE, closed=True)
+    import ezdxf
+
+    document = ezdxf.readfile(path)
+    document.modelspace().add_circle((30.0, 5.0), 3.0, dxfattribs={"layer": "EXCAVATION"})
+    document.saveas(path)
+
+
 @pytest.mark.parametrize(
     ("make", "drawing", "message"),
     [
@@ -212,6 +222,9 @@ def _overlapping(path: Path) -> None:
          "LWPOLYLINE (handle 30) by 25 of area near (7.5, 7.5): closed shapes on the blocks "
          "layer do not cross"),
         (lambda p: None, {}, "scene.toml: drawing.file: no such file "),
+        # refused as "groups.excavation: selects no block", naming neither file nor entity
+        (_excavation_outside, {}, "scene.toml: drawing.file: {dxf}: layer EXCAVATION: CIRCLE "
+         "(handle 34) lies outside the rock or in one of its openings: it removes nothing"),
         # a closed polyline of one segment was "open (from (30, 0) to (30, 0))"
         (lambda p: drawings.drawing_with(p, "BLOCKS", [(30.0, 0.0), (40.0, 0.0)], closed=True),
          {}, "scene.toml: drawing.file: {dxf}: layer BLOCKS: LWPOLYLINE (handle 30) has no "
@@ -219,7 +232,7 @@ def _overlapping(path: Path) -> None:
     ],
     ids=["open polyline", "lines with a gap", "no blocks layer", "a named layer missing",
          "units", "not DXF", "cut short", "broken DXF", "no shape", "overlap", "no file",
-         "a closed segment"],
+         "an excavation outside", "a closed segment"],
 )  # fmt: skip
 def test_a_bad_drawing_is_refused_in_one_line(tmp_path, monkeypatch, capsys, make, drawing,
                                               message):  # fmt: skip
