@@ -3,7 +3,9 @@ the summary (``deepest_overlap``) and, where no contact holds them, in a warning
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
+import shapely
 
 import dda
 import dda.run.simulation as simulation
@@ -58,3 +60,34 @@ def test_a_run_that_misses_a_contact_says_so(monkeypatch):
     summary = result.summary
     assert summary["deepest_overlap"] > 0.05
     assert any("'base' and 'a'" in text for text in summary["warnings"])
+
+
+def test_blocks_that_share_an_edge_one_ulp_apart_share_no_area():
+    """Two blocks of a model at rest share an edge whose end differs by one ulp (y =
+    0.7313042213900082 and ...83): GEOS 3.14's intersection returned the whole of one
+    (3.77 m², "about 0.836 m deep", a warning on a model that had not moved)."""
+    from dda.scene.overlap import sharing_area
+
+    a = [
+        [9.43166760662, -2.1312624610300044],
+        [8.38977854062, 0.7313042213900082],
+        [5.3119301951199995, -1.0456923494099994],
+        [6.353819261119999, -3.9082590318299975],
+    ]
+    b = [[10.0, 1.6609660144200007], [8.38977854062, 0.7313042213900083],
+         [9.43166760662, -2.1312624610300044], [10.0, -1.803135600719996]]  # fmt: skip
+    vertices = np.array(a + b)
+    offsets = np.array([0, 4, 8])
+    polygons = np.array([shapely.Polygon(a), shapely.Polygon(b)])
+    areas = shapely.area(polygons)
+    left, right, shared = sharing_area(polygons, vertices, offsets, areas, 1e-9)
+    assert len(left) == 0
+    # and a real overlap is still measured: b moved 0.1 into a
+    moved = np.array(b) - [0.1, 0.0]
+    polygons = np.array([shapely.Polygon(a), shapely.Polygon(moved)])
+    vertices = np.array(a + moved.tolist())
+    left, right, shared = sharing_area(polygons, vertices, offsets, areas, 1e-9)
+    assert len(left) == 1
+    assert shapely.area(shared[0]) == pytest.approx(
+        shapely.intersection(polygons[0], polygons[1]).area, rel=1e-9
+    )
