@@ -167,6 +167,19 @@ def test_energy_the_blocks_gain_from_nowhere_is_said():
     assert energy_warning(loaded, 100.0) is None
 
 
+def test_round_off_of_a_large_energy_at_rest_is_no_creation():
+    """An audit: a 400-block mass held in its field by boundary stresses, nothing moving
+    beyond 1e-14 m, E0 = 3.6e5 J of strain energy, "created energy: rose 1.21e-06"
+    (3.4e-12 of E0, 100 % of the energy that moved). The allowance is 1e-10 of the
+    energies; 1e-4 J (2.8e-10 of E0) is still said."""
+    at_rest = _history([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    at_rest["elastic_energy"] = np.full(3, 3.6e5)
+    at_rest["total_energy"] = np.array([3.6e5, 3.6e5 + 1.21e-6, 3.6e5])
+    assert energy_warning(at_rest, 3.6e5, start={"elastic": 3.6e5}) is None
+    at_rest["total_energy"] = np.array([3.6e5, 3.6e5 + 1e-4, 3.6e5])
+    assert energy_warning(at_rest, 3.6e5, start={"elastic": 3.6e5}) is not None
+
+
 def test_energy_made_after_a_stage_removed_blocks_is_said():
     """A stage removes blocks holding 1,000 (X): the total falls by that, and energy the
     blocks gain after it is judged against E0 + W − X, not hidden below E0 (2 above
