@@ -274,13 +274,15 @@ def _check_magnitude(chk, field: StressField, key: str, blocks, polygons, moduli
     no stress rock stands in (and beyond the floating-point range, numbers overflow)."""
     for k, ring in enumerate(polygons):
         with np.errstate(over="ignore", invalid="ignore"):
-            values = np.abs(field.at(ring[:, 1]))
+            signed = field.at(ring[:, 1])
+            values = np.abs(signed)
         if not values.max() >= moduli[k]:
             continue
         corner = int(np.argmax(values.max(axis=1)))
         x, y = ring[corner]
+        largest = signed[corner, int(np.argmax(values[corner]))]  # with its sign
         bad = "gradient" if np.abs(field.stress).max() < moduli[k] else "stress"
-        chk.fail(f"{key}.{bad}", f"gives {values[corner].max():.3g} at ({x:.6g}, {y:.6g}), a "
+        chk.fail(f"{key}.{bad}", f"gives {largest:.3g} at ({x:.6g}, {y:.6g}), a "
                  f"corner of block {blocks[k].name!r}: as large as the Young's modulus "
                  f"{moduli[k]:.3g} of its material {blocks[k].material!r} (a strain of 1 or "
                  "more), no stress rock stands in")  # fmt: skip

@@ -355,6 +355,11 @@ def refused(raw, key, words):
             "in_situ.stress",
             "as large as the Young's modulus 1e+10 of its material 'rock'",
         ),  # fmt: skip
+        (  # said "gives 2e+10": the sign lost
+            {"in_situ": {"stress": [-2.0e10, -1.0e6, 0.0]}},
+            "in_situ.stress",
+            "gives -2e+10 at",
+        ),  # fmt: skip
         (
             {"in_situ": {"stress": [-1.0e6, -1.0e6, 0.0], "gradient": [0.0, 1.0e308, 0.0]}},
             "in_situ.gradient",

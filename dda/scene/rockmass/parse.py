@@ -15,7 +15,15 @@ from typing import Any
 import numpy as np
 import shapely
 
-from dda.scene.checks import ANY, NON_NEGATIVE, POSITIVE, Checker, Interval, suggest
+from dda.scene.checks import (
+    ANY,
+    MAX_COORDINATE,
+    NON_NEGATIVE,
+    POSITIVE,
+    Checker,
+    Interval,
+    suggest,
+)
 from dda.scene.rockmass.spec import (
     DEFAULT_MAX_BLOCKS,
     CuttingOptions,
@@ -184,6 +192,9 @@ def _excavation(chk: Checker, key: str, table: Any) -> Excavation:
         chk.fail(key, "needs polygon, or center and radius")
     cx, cy = chk.position(table["center"], f"{key}.center")
     radius = chk.real(table["radius"], f"{key}.radius", POSITIVE)
+    if radius > MAX_COORDINATE:  # its ring would overflow the geometry's arithmetic
+        chk.fail(f"{key}.radius", f"must be at most {MAX_COORDINATE:g} (as a coordinate), "
+                 f"got {radius:g}")  # fmt: skip
     n = chk.integer(table.get("segments", 36), f"{key}.segments", 3)
     if n > MAX_CIRCLE_SEGMENTS:
         chk.fail(f"{key}.segments", f"at most {MAX_CIRCLE_SEGMENTS}")

@@ -396,6 +396,8 @@ BAD = [
     ({"joint_sets": [{"dip": 0.0, "spacing": 1e-7}]}, "joint_sets[0].spacing"),
     ({"joint_sets": [{"dip": 0.0, "spacing": 1.0, "colour": "red"}]}, "joint_sets[0].colour"),
     ({"excavations": [{"center": [50.0, 50.0], "radius": 2.0}]}, "excavations[0]"),
+    # printed two RuntimeWarnings (overflow) before "excavations: remove all the rock"
+    ({"excavations": [{"center": [5.0, 3.0], "radius": 1e300}]}, "excavations[0].radius"),
     ({"excavations": [{"polygon": [[-1, -1], [11, -1], [11, 7], [-1, 7]]}]}, "excavations"),
     ({"regions": [{"polygon": [[0, 0], [4, 4], [4, 0], [0, 4]]}]}, "regions[0].polygon"),
     (
