@@ -559,8 +559,10 @@ def _run_with(writer, folder, scene, args: argparse.Namespace, checkpoint) -> in
         return stop.exit_code
     if not args.quiet:
         print(summary_paragraph(summary, folder.outdir, scene.label))
+    said = set(scene.load_warnings)  # logged as the scene loaded: not twice
     for text in summary.get("warnings") or ():  # quiet or not: the user should know
-        print(f"dda run: warning: {text}", file=sys.stderr)
+        if text not in said:
+            print(f"dda run: warning: {text}", file=sys.stderr)
     return EXIT_OK
 
 

@@ -385,6 +385,20 @@ def test_in_situ_tension_across_a_joint_without_tensile_strength_is_refused():
     assert dda.load_scene(raw).in_situ.stress == (1.0e3, -1.0e6, 0.0)
 
 
+def test_a_boundary_stress_that_pulls_the_mass_apart_is_said():
+    """An audit: a 3 x 3 jointed mass (T = 0) under a boundary stress of +1 MPa in x and
+    no [in_situ] ran silently, its outer columns leaving at 7.7 m/s (the same field as
+    [in_situ] is refused). A joint that carries the tension is no cause."""
+    box = {"stress": [1.0e6, -1.0e6, 0.0], "box": [-0.5, -0.5, 3.5, 3.5]}
+    warnings = dda.load_scene(scene(grid(3, 3), boundary_stresses=[box])).load_warnings
+    (said,) = [w for w in warnings if "pulls" in w]
+    assert said.startswith("boundary_stresses[0]: its field would put a tension of 1e+06 "
+                           "across joint 'default' (tensile_strength 0) between blocks")  # fmt: skip
+    raw = scene(grid(3, 3), boundary_stresses=[box])
+    raw["joints"]["default"]["tensile_strength"] = 2.0e6
+    assert not [w for w in dda.load_scene(raw).load_warnings if "pulls" in w]
+
+
 def test_tension_from_the_gradient_names_the_gradient():
     """A depth gradient of the wrong sign (stress 0, σyy = +ρ g y above y = 0: the
     overburden's sign flipped) is refused under in_situ.gradient, with the sign
