@@ -672,9 +672,12 @@ def solve_step(
     made = cache.solver.factorisations - factorisations_before + system.factorisations
     pushed = None
     if converged and overlap is not None:
-        after = gaps_after(rows, contacts.block_a, contacts.block_b, d)[0]
-        metric = _push_metric(model, blocks, ctx, base_k)
-        pushed = push_out_displacement(metric, blocks.fixed, contacts, rows, overlap, after, base_k)
+        with timer("push_out"):  # rare, but a dense solve: its time is said apart
+            after = gaps_after(rows, contacts.block_a, contacts.block_b, d)[0]
+            metric = _push_metric(model, blocks, ctx, base_k)
+            pushed = push_out_displacement(
+                metric, blocks.fixed, contacts, rows, overlap, after, base_k
+            )
         d = d + pushed
     return StepSolution(
         d, contacts, solves + chords, made, converged, max_pen, pushed, dissipated,
