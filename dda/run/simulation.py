@@ -638,10 +638,20 @@ def _frame(state: _Run, measured: dict | None, origin: tuple[float, float]) -> F
     tensions = None if placed is None else placed.tension()[placed.active]
     ids = None if placed is None else np.flatnonzero(placed.active)
     frame = make_frame(
-        state.blocks, state.contacts, state.shown_time, state.step, measured, bolts,
+        state.blocks, _shown_contacts(state), state.shown_time, state.step, measured, bolts,
         _plane_strain_poisson(state.model.scene, state.blocks), tensions, ids,
     )  # fmt: skip
     return shifted(frame, origin)
+
+
+def _shown_contacts(state: _Run) -> ContactSet:
+    """The contacts a frame shows: at step 0 of a run that did not take the equilibrium
+    start (static, unloaded, or a start that did not settle) in an in-situ field, with the
+    forces their multipliers carry (:func:`with_carried_forces`): a static run's first
+    frame showed every contact at 0 while each block held the field."""
+    if state.step == 0 and state.start != "equilibrium" and state.model.scene.in_situ:
+        return with_carried_forces(state.contacts)
+    return state.contacts
 
 
 def _plane_strain_poisson(scene, blocks) -> np.ndarray | None:

@@ -664,3 +664,19 @@ def test_a_field_pushing_on_free_outer_edges_nothing_loads_is_said_as_the_scene_
     assert "in_situ: the field pushes on" in said and "that no [[boundary_stresses]] loads" in said
     held = dda.load_scene(opening_scene([-7, -7, 7, 7]))
     assert not [w for w in held.load_warnings if "the field pushes on" in w]
+
+
+def test_a_static_run_s_first_frame_shows_the_forces_its_contacts_carry():
+    """An audit: a static run in its in-situ field wrote frame 0 with every contact's
+    normal force 0 while every block held the field (the contacts carried it as their
+    multipliers); the dynamic run's equilibrium start showed them. Both show them now,
+    equal to the next frame's where nothing moves."""
+    for mode in ("static", "dynamic"):
+        raw = scene(uniform("ring"), in_situ={"stress": [-1.0e6, -2.0e6, 0.0]}, duration=0.002)
+        raw["analysis"].update(mode=mode, save_every=1)
+        first, second = dda.simulate(dda.load_scene(raw)).frames[:2]
+        assert len(first.contacts) == len(second.contacts) > 0
+        np.testing.assert_allclose(
+            first.contacts.normal_force, second.contacts.normal_force, rtol=1e-9, atol=1e-3
+        )
+        assert first.contacts.normal_force.max() == pytest.approx(1.0e6)
