@@ -103,6 +103,7 @@ class _Run:
         self.smallest_cut_dt = np.inf  # the shortest step a cut made
         self.last_moves = None  # a static run's last step: (vertex moves, owners, names)
         self.move_before = 0.0  # a static run's largest vertex move in the step before
+        self.moves_before = None  # a static run's vertex moves of the step before
         # the in-situ field's contacts whose shear is beyond their joint's strength at
         # t = 0: (count, largest ratio, joint, vertex)
         self.in_situ_slip = (0, 0.0, "", (0.0, 0.0))
@@ -415,6 +416,7 @@ def _advance(run: _Run) -> None:
         run.smallest_cut_dt = min(run.smallest_cut_dt, dt)
     if m.static:
         run.move_before = _largest_move(run.last_moves)
+        run.moves_before = None if run.last_moves is None else run.last_moves[0]
         run.last_moves = (solution.moves, run.blocks.vertex_owner, run.blocks.names)
         run.static_held = _held_by_damping(m, run.blocks, solution, dt, run.energy.gravity)
     pushing = solution.pushed is not None and bool(np.any(solution.pushed))
@@ -903,8 +905,11 @@ def _last_motion_warning(state: _Run, length: str) -> str | None:
     name = state.blocks.names[row] if 0 <= row < state.blocks.count else ""
     of = "weight" if state.energy.gravity is not None else "load"
     held = (share, name, of)
+    before = state.moves_before
+    back = before is not None and before.shape == moves.shape  # no break between them
+    back = back and float(np.dot(moves[largest], before[largest])) < 0.0
     return static_motion_warning(
-        float(size[largest]), state.move_before, allowed, block, length, held
+        float(size[largest]), state.move_before, allowed, block, length, held, back
     )
 
 

@@ -76,6 +76,38 @@ def test_static_motion_warns_beyond_its_fraction_of_the_allowed_step():
     assert static_motion_warning(1e-15, 1e-15, 0.02, "a", "m") is None  # round-off
 
 
+def test_a_static_run_that_moves_to_and_fro_is_said_so_not_extrapolated():
+    """An audit: a bonded mass round an opening moved 4.51e-7 m at every step, back and
+    forth, said as "about 0.0143 m more at that rate" (ten times its whole convergence).
+    A last move back against the one before is said as the two states it alternates
+    between."""
+    from types import SimpleNamespace
+
+    from dda.run.simulation import _last_motion_warning
+
+    moved = 4.51e-7
+    text = static_motion_warning(moved, moved / 0.99968, 0.02, "s1_12", "m", back=True)
+    assert text.startswith(
+        "the static analysis ended moving to and fro: block 's1_12' moved 4.51e-07 m in "
+        "the last step, back against the step before"
+    )
+    assert "at that rate" not in text
+    last = np.array([[0.0, 0.0], [moved, 0.0]])
+
+    def state(before):
+        blocks = SimpleNamespace(names=("a", "b"), count=2)
+        return SimpleNamespace(
+            last_moves=(last, np.array([0, 1]), ("a", "b")), moves_before=before,
+            move_before=float(np.abs(before).max()), static_held=(0.0, -1), blocks=blocks,
+            model=SimpleNamespace(allowed_displacement=0.02),
+            energy=SimpleNamespace(gravity=None),
+        )  # fmt: skip
+
+    assert "to and fro" in _last_motion_warning(state(-last / 0.99968), "m")
+    onward = _last_motion_warning(state(last / 0.99968), "m")  # the same way: settling
+    assert "to and fro" not in onward and "more at that rate" in onward
+
+
 def test_a_block_without_support_in_a_static_analysis_is_said_to_move():
     """Static, gravity, a free block 2 m above a fixed one: each step moves it by its
     free fall over Δt (g Δt² / 2 = 4.9e-4 m), against 0 for a model that settles."""
