@@ -43,7 +43,7 @@ CHECKPOINT_NAME = "checkpoint.npz"
 SUMMARY_NAME = "summary.json"
 BOLTS_INDEX = "bolts.pvd"  # a run with [[bolts]]
 OUTPUTS = ("blocks.pvd", "contacts.pvd", BOLTS_INDEX, "history.csv", "history_points.csv",
-           SUMMARY_NAME, "final.png", CHECKPOINT_NAME)  # fmt: skip
+           "steps.csv", SUMMARY_NAME, "final.png", CHECKPOINT_NAME)  # fmt: skip
 FRAME_PATTERNS = ("blocks_*.vtu", "contacts_*.vtu", "bolts_*.vtu", f"*{TEMP_MARK}*")
 # drawn from a run: dda render's default PNGs, dda plot's folder, dda movie's file
 DRAWN_PATTERNS = ("blocks_[0-9]*_*.png", "plots/*.png", "movie.gif", "movie.mp4")

@@ -12,6 +12,7 @@ Layout of ``outdir``::
                                 frame, so none in place is an empty file, not a missing one)
     history.csv             one row per block per kept frame
     history_points.csv      one row per step of the [[measure]] quantities (with [[measure]])
+    steps.csv               one row per step: time, dt, solves, penetration, energy account
     summary.json            the run summary (status "running", "finished", "failed", ...)
     checkpoint.npz          the last checkpoint, while the run is not finished (dda.run.checkpoint)
     final.png               the last frame, coloured by a stress component
@@ -40,10 +41,12 @@ from dda.io.pvd import PvdIndex, read_pvd_entries, step_of_file
 from dda.io.run_folder import BOLTS_INDEX, FRAME_PATTERNS, SUMMARY_NAME, RunFolder
 from dda.io.tables import (
     POINTS_NAME,
+    STEPS_NAME,
     history_header,
     history_rows,
     points_header,
     points_rows,
+    steps_table,
     write_summary,
 )
 from dda.io.vtu import write_blocks_vtu, write_bolts_vtu, write_contacts_vtu
@@ -211,6 +214,8 @@ class RunWriter:
             final = self.last_frame
         summary = self._summary(result, status, error, final)
         self.close()
+        if result is not None and result.history:  # the energy account, a row a step
+            write_text(self.outdir / STEPS_NAME, steps_table(result.history))
         if self.image and final is not None:
             summary["image"] = self._render_final(final, summary)
         elif self.picture is not None:

@@ -12,7 +12,11 @@ velocity and ``sxx, syy, sxy`` the block stress.
 
     step,time,NAME.COMPONENT,...
 
-(docs/scene.md lists the components).
+(docs/scene.md lists the components). ``steps.csv`` has one row per step of the run's
+own history (:attr:`dda.Result.history`): its time, Δt, linear solves, deepest
+penetration and energy account::
+
+    step,time,dt,iterations,max_penetration,kinetic_energy,...,external_work,...
 """
 
 from __future__ import annotations
@@ -101,6 +105,21 @@ def points_rows(measured: dict[str, np.ndarray]) -> str:
         [step, *row] for step, row in zip(steps, values, strict=True)
     )
     return buffer.getvalue()
+
+
+STEPS_NAME = "steps.csv"
+
+
+def steps_table(history: Mapping[str, Any]) -> str:
+    """``steps.csv``: a header and one row per step (from 1) of ``history``'s columns,
+    floats with ``repr`` (exact); the header alone for a run of no step."""
+    names = list(history)
+    columns = [np.asarray(history[name], dtype=float) for name in names]
+    count = len(columns[0]) if columns else 0
+    lines = [",".join(["step", *names])]
+    for k in range(count):
+        lines.append(",".join([str(k + 1), *(repr(float(c[k])) for c in columns)]))
+    return "\n".join(lines) + "\n"
 
 
 def history_header() -> str:

@@ -479,7 +479,7 @@ def test_a_resumed_run_writes_the_measurements_of_the_uninterrupted_one(tmp_path
     first = dda.simulate(scene, on_frame=writer.add_frame, stop=stop_after(17), checkpoints=plan)
     writer.finish(first, scene)
     assert cli.main(["run", str(path), "-o", str(tmp_path / "out"), "-q", "--resume"]) == 0
-    for name in ("history_points.csv", "history.csv"):
+    for name in ("history_points.csv", "history.csv", "steps.csv"):
         assert (tmp_path / "out" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes()
 
 
@@ -514,3 +514,20 @@ def test_a_folder_whose_tables_end_before_the_checkpoint_is_not_resumed(
     assert f"{table}: " in err and "--overwrite runs it again" in err
     assert ("is missing" if damage == "deleted" else "ends at step ") in err
     assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+
+
+def test_a_run_writes_its_energy_account_a_row_a_step(tmp_path):
+    """The energy account was in Result.history alone: a command-line user could not
+    check E ≤ E0 + W from the files. steps.csv holds every step's row, exact."""
+    import csv
+
+    import dda.cases
+
+    out = tmp_path / "out"
+    assert cli.main(["run", "sliding_block", "-o", str(out), "-q", "--no-picture"]) == 0
+    rows = list(csv.DictReader((out / "steps.csv").open()))
+    result = dda.simulate(dda.load_scene(dda.cases.folder() / "sliding_block.toml"))
+    assert len(rows) == len(result.history["time"]) == result.summary["steps"]
+    assert [int(r["step"]) for r in rows[:2]] == [1, 2]
+    for name in ("total_energy", "external_work", "kinetic_energy", "time"):
+        assert [float(r[name]) for r in rows] == result.history[name].tolist(), name
