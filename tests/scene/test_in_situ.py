@@ -392,8 +392,10 @@ def test_a_boundary_stress_that_pulls_the_mass_apart_is_said():
     box = {"stress": [1.0e6, -1.0e6, 0.0], "box": [-0.5, -0.5, 3.5, 3.5]}
     warnings = dda.load_scene(scene(grid(3, 3), boundary_stresses=[box])).load_warnings
     (said,) = [w for w in warnings if "pulls" in w]
-    assert said.startswith("boundary_stresses[0]: its field would put a tension of 1e+06 "
-                           "across joint 'default' (tensile_strength 0) between blocks")  # fmt: skip
+    assert said.startswith(
+        "boundary_stresses[0]: its field would put a tension of 1e+06 across joint "
+        "'default' (tensile_strength 0) between blocks"
+    )
     raw = scene(grid(3, 3), boundary_stresses=[box])
     raw["joints"]["default"]["tensile_strength"] = 2.0e6
     assert not [w for w in dda.load_scene(raw).load_warnings if "pulls" in w]
