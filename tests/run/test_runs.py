@@ -484,9 +484,7 @@ def test_a_resumed_run_writes_the_measurements_of_the_uninterrupted_one(tmp_path
 
 
 @pytest.mark.parametrize("damage", ["cut", "deleted", "points cut"])
-def test_a_folder_whose_tables_end_before_the_checkpoint_is_not_resumed(
-    tmp_path, capsys, damage
-):
+def test_a_folder_whose_tables_end_before_the_checkpoint_is_not_resumed(tmp_path, capsys, damage):
     """A history.csv cut short (written without fsync before a power loss) or deleted was
     resumed silently, leaving a gap (rows 19-25 missing, or a history from step 30 only);
     now refused, exit 2, the folder as it was."""
