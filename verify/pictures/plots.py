@@ -135,7 +135,7 @@ QUANTITY_GROUPS = {
                            "order", "momentum", "ground"),
     "contact": ("contact_force", "contact_state", "penetration", "al_updates", "overlap",
                 "contact_time", "impact_time", "impact_speed", "rebound"),
-    "energy and fracture": ("energy", "dissipation", "onset"),
+    "energy and fracture": ("energy", "dissipation", "onset", "children", "crack"),
 }  # fmt: skip
 RATIO_DECADES = (-8, 1)  # the colour scale of error / tolerance: 1e-8 ... 10
 FAIL_COLOUR = "#d7301f"  # a check beyond its tolerance
