@@ -48,10 +48,6 @@ def case_row(name: str) -> tuple[str, str, str, str]:
         scene = dda.load_scene(Path(str(dda.cases.folder().joinpath(f"{name}.toml"))))
     except dda.SceneError as exc:
         return name, "?", "?", f"(refused: {exc})"
-    analysis = scene.analysis
-    if analysis.duration is not None:
-        duration = analysis.duration
-    else:
-        duration = analysis.steps * analysis.time_step
+    duration = scene.analysis.run_length
     blocks = f"{len(scene.blocks)} block{'s' if len(scene.blocks) != 1 else ''}"
     return name, blocks, f"{duration:g} {scene.units.time}", scene.title

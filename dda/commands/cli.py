@@ -840,8 +840,9 @@ def render_command(args: argparse.Namespace) -> int:
         check_output_file(output)
         frame = read_found_frame(found)
         if view is not None:
-            blocks = np.concatenate(frame.vertices)
-            low, high = blocks.min(axis=0), blocks.max(axis=0)
+            from dda.io.images import extent
+
+            low, high = extent([frame])
             if np.any(view[1] < low) or np.any(view[0] > high):
                 raise ValueError(
                     f"--view {' '.join(f'{v:g}' for v in args.view)}: holds no block (the "

@@ -284,8 +284,9 @@ def largest_force(frame: Frame, view: np.ndarray | None = None) -> float:
 
 def _in_view(frame: Frame, view: np.ndarray) -> np.ndarray:
     """Which blocks of ``frame`` reach into ``view`` (their bounding box meets it)."""
-    low = np.array([v.min(axis=0) for v in frame.vertices])
-    high = np.array([v.max(axis=0) for v in frame.vertices])
+    starts = np.cumsum([0] + [len(v) for v in frame.vertices[:-1]])
+    points = np.concatenate(frame.vertices)
+    low, high = np.minimum.reduceat(points, starts), np.maximum.reduceat(points, starts)
     return np.all((high >= view[0]) & (low <= view[1]), axis=1)
 
 

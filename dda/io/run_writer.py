@@ -28,6 +28,7 @@ the writer keeps no frame and no history in memory.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import os
 import time
@@ -354,16 +355,23 @@ def check_outputs_reach(outdir: Path, step: int, measured: bool) -> None:
 def _last_row_step(path: Path) -> int:
     """The step of the last whole row of a table whose rows start with their step (-1:
     none)."""
-    last = -1
+    return max((step for step, _ in _whole_rows(path)), default=-1)
+
+
+def _whole_rows(path: Path):
+    """(step, end offset) of each whole row of a table after its header, in order (rows
+    start with their step); a row cut short, or one whose step is no integer, ends them."""
     with open(path, "rb") as stream:
-        for number, line in enumerate(stream):
-            if number == 0 or not line.endswith(b"\n"):
-                continue
+        end = len(stream.readline())
+        for line in stream:
             try:
-                last = int(line.split(b",", 1)[0])
+                step = int(line.split(b",", 1)[0])
             except ValueError:
-                break
-    return last
+                return
+            if not line.endswith(b"\n"):
+                return
+            end += len(line)
+            yield step, end
 
 
 def _truncate_run(outdir: Path, step: int) -> tuple[list, list, list]:
@@ -413,14 +421,12 @@ def _truncate_history(path: Path, step: int, header: str | None = "") -> None:
         if header is not None:
             write_text(path, header)
         return
-    end = 0
     with open(path, "rb") as stream:
-        for number, line in enumerate(stream):
-            if not line.endswith(b"\n"):
-                break  # a row cut short
-            if number > 0 and int(line.split(b",", 1)[0]) > step:
-                break
-            end += len(line)
+        head = stream.readline()
+    end = 0
+    if head.endswith(b"\n"):  # a whole header, then the whole rows up to ``step``
+        kept = itertools.takewhile(lambda row: row[0] <= step, _whole_rows(path))
+        end = max((row_end for _, row_end in kept), default=len(head))
     if end == 0:
         if header is None:
             path.unlink()

@@ -114,12 +114,9 @@ def steps_table(history: Mapping[str, Any]) -> str:
     """``steps.csv``: a header and one row per step (from 1) of ``history``'s columns,
     floats with ``repr`` (exact); the header alone for a run of no step."""
     names = list(history)
-    columns = [np.asarray(history[name], dtype=float) for name in names]
-    count = len(columns[0]) if columns else 0
-    lines = [",".join(["step", *names])]
-    for k in range(count):
-        lines.append(",".join([str(k + 1), *(repr(float(c[k])) for c in columns)]))
-    return "\n".join(lines) + "\n"
+    table = np.column_stack([np.asarray(history[name], dtype=float) for name in names])
+    rows = (",".join([str(k), *map(repr, row)]) for k, row in enumerate(table.tolist(), 1))
+    return "\n".join([",".join(["step", *names]), *rows]) + "\n"
 
 
 def history_header() -> str:

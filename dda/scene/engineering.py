@@ -42,6 +42,8 @@ from dda.scene.checks import (
 from dda.scene.in_situ import BoundaryStress, boundary_stress
 from dda.scene.text_file import UnreadableText, read_text
 
+log = logging.getLogger(__name__)
+
 ENGINEERING_KEYS = ("bolts", "seismic", "water", "measure", "stages")
 ON_BLOCK = 1e-9  # a point within this fraction of a block's size lies on it
 POINT_QUANTITIES = {"displacement": ("ux", "uy"), "velocity": ("vx", "vy"),
@@ -418,16 +420,11 @@ def _seismic(
     return Seismic(record, values.get("scale", 1.0), moving, values.get("file"))
 
 
-log = logging.getLogger(__name__)
-
-
 def _say_record_fit(record: Sequence[Sequence[float]], analysis: Any, key: str) -> None:
     """Warn where the run cannot see the record as written: it ends before the record's
     first time (a row index read as time), or before its second (times in ms, say). The
     run's end is ``duration``, or ``steps`` at the longest ``time_step``."""
-    end = analysis.duration
-    if end is None:
-        end = analysis.steps * analysis.time_step
+    end = analysis.run_length
     first, second = record[0][0], record[1][0]
     if first >= end:
         log.warning("%s: the record starts at t = %g s, after the run ends (%g s): the "
@@ -582,8 +579,8 @@ def _stages(
         if analysis.duration is not None and time >= analysis.duration:
             chk.fail(f"{key}.time", f"{time:g} is not before the end of the run "
                      f"(analysis.duration = {analysis.duration:g})")  # fmt: skip
-        if analysis.steps is not None and time >= analysis.steps * analysis.time_step:
-            end = analysis.steps * analysis.time_step
+        if analysis.steps is not None and time >= analysis.run_length:
+            end = analysis.run_length
             chk.fail(f"{key}.time", f"{time:g} is not before the end of the run (analysis."
                      f"steps x time_step = {end:g}; give duration to end at a time)")  # fmt: skip
         if "intact" in values and "strength_factor" not in values:

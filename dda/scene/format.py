@@ -107,6 +107,12 @@ class Analysis:
     newmark_gamma: float = 1.0  # velocity update (dda.solve.integrator); 1: Shi's
     start: str = "equilibrium"  # "equilibrium" | "unloaded" (dda.run.equilibrium_start)
 
+    @property
+    def run_length(self) -> float:
+        """The simulated time of the run as planned: ``duration``, or ``steps`` ×
+        ``time_step`` (the longest step; a run that cuts steps ends earlier)."""
+        return self.duration if self.duration is not None else self.steps * self.time_step
+
 
 @dataclass(frozen=True)
 class ContactSettings:

@@ -175,11 +175,11 @@ def parse_in_situ(chk: Checker, raw: Mapping[str, Any], blocks: Sequence[Any],
         present = _present_at(blocks, stages, stress.on)
         _check_selects(chk, stress, key, polygons, present, fixed)
         _check_magnitude(chk, stress.field, key, blocks, polygons, moduli)
-    _say_pulling([s for s, _ in timeline], [k for _, k in timeline], blocks, polygons,
-                 joints, interfaces)  # fmt: skip
+    found = _Joints.of(blocks, polygons, joints, interfaces)
+    _say_pulling(timeline, found, blocks)
     if in_situ is not None:
         _check_magnitude(chk, in_situ, "in_situ", blocks, polygons, moduli)
-        _check_tension(chk, in_situ, blocks, polygons, joints, interfaces)
+        _check_tension(chk, in_situ, found, blocks)
         _say_unheld(chk, in_situ, [s for s, _ in timeline], blocks, polygons, fixed)
     return {"in_situ": in_situ, "boundary_stresses": tuple(s for s, _ in timeline)}
 
@@ -290,14 +290,29 @@ def _check_magnitude(chk, field: StressField, key: str, blocks, polygons, moduli
                  "more), no stress rock stands in")  # fmt: skip
 
 
-def _worst_tension(field: StressField, blocks, polygons, joints, interfaces):
-    """(where, σn, the joint, its tensile strength) of the largest tension over strength
-    the field puts across a joint between blocks (``where``: the two blocks' names and
-    the point), or None where every joint holds it."""
-    pieces = covered_pieces(polygons)
+@dataclass(frozen=True)
+class _Joints:
+    """The covered edge pieces between blocks (:func:`covered_pieces`), each with its
+    joint's name and tensile strength: found once for every field checked against them."""
+
+    pieces: EdgePieces
+    names: list[str]
+    tensile: np.ndarray
+
+    @classmethod
+    def of(cls, blocks, polygons, joints, interfaces) -> _Joints:
+        pieces = covered_pieces(polygons)
+        names = _piece_joints(pieces, blocks, joints, interfaces)
+        return cls(pieces, names, np.array([joints[n].tensile_strength for n in names]))
+
+
+def _worst_tension(field: StressField, found: _Joints, blocks):
+    """(where, σn, the joint, its tensile strength, the piece's normal, its y) of the
+    largest tension over strength the field puts across a joint between blocks
+    (``where``: the two blocks' names and the point), or None where every joint holds
+    it."""
+    pieces, tensile = found.pieces, found.tensile
     sigma = field.normal_stress(pieces.midpoint, pieces.normal)
-    strength = _piece_joints(pieces, blocks, joints, interfaces)
-    tensile = np.array([joints[name].tensile_strength for name in strength])
     scale = float(np.abs(field.at(pieces.midpoint[:, 1])).max(initial=0.0))
     over = sigma - tensile > TENSION_TOLERANCE * scale
     if not np.any(over):
@@ -306,13 +321,13 @@ def _worst_tension(field: StressField, blocks, polygons, joints, interfaces):
     x, y = pieces.midpoint[k]
     a, b = blocks[pieces.block[k]].name, blocks[pieces.other[k]].name
     where = f"between blocks {a!r} and {b!r} at ({x:.6g}, {y:.6g})"
-    return where, float(sigma[k]), strength[k], float(tensile[k]), pieces.normal[k], float(y)
+    return where, float(sigma[k]), found.names[k], float(tensile[k]), pieces.normal[k], float(y)
 
 
-def _check_tension(chk, field: StressField, blocks, polygons, joints, interfaces) -> None:
+def _check_tension(chk, field: StressField, found: _Joints, blocks) -> None:
     """Refuse in-situ tension across a joint whose tensile strength is below it, naming
     the part of the field that puts it there (:func:`_tension_key`)."""
-    worst = _worst_tension(field, blocks, polygons, joints, interfaces)
+    worst = _worst_tension(field, found, blocks)
     if worst is None:
         return
     where, sigma, joint, tensile, normal, y = worst
@@ -321,13 +336,13 @@ def _check_tension(chk, field: StressField, blocks, polygons, joints, interfaces
              f"{tensile:g}) {where}: the joint would open at t = 0{hint}")  # fmt: skip
 
 
-def _say_pulling(stresses, keys, blocks, polygons, joints, interfaces) -> None:
+def _say_pulling(timeline, found: _Joints, blocks) -> None:
     """Warn of a boundary stress whose field, as the mass's state, would put tension
     across a joint beyond its strength: it pulls the blocks it loads apart (an audit: 1 MPa
     of tension across joints of T = 0 sent two columns off at 7.7 m/s, unsaid, where the
     same field as [in_situ] is refused)."""
-    for stress, key in zip(stresses, keys, strict=True):
-        worst = _worst_tension(stress.field, blocks, polygons, joints, interfaces)
+    for stress, key in timeline:
+        worst = _worst_tension(stress.field, found, blocks)
         if worst is not None:
             where, sigma, joint, tensile, _, _ = worst
             log.warning("%s: its field would put a tension of %.6g across joint %r "

@@ -58,12 +58,6 @@ class Criterion:
         return self.start + self.duration * (1.0 - self.window)
 
 
-def run_length(scene: Scene) -> float:
-    """The simulated time of the scene's run (``duration``, or ``steps`` × ``time_step``)."""
-    a = scene.analysis
-    return a.duration if a.duration is not None else a.steps * a.time_step
-
-
 def criterion_of(scene: Scene) -> Criterion:
     """The criterion of ``scene``'s ``[fos]`` table (defaults resolved); for a scene with
     ``[[stages]]`` it starts at the end of the scene's run (:mod:`dda.stability.trial`).
@@ -82,7 +76,7 @@ def criterion_of(scene: Scene) -> Criterion:
             "velocities every step, so no block could be seen moving)",
         )
     fos = scene.fos
-    duration = fos.duration if fos.duration is not None else run_length(scene)
+    duration = fos.duration if fos.duration is not None else scene.analysis.run_length
     velocity = fos.velocity
     if velocity is None:
         g = math.hypot(*scene.analysis.gravity)
@@ -93,7 +87,7 @@ def criterion_of(scene: Scene) -> Criterion:
                 "is required without gravity (the default limit is a fraction of |g|)",
             )
         velocity = fos.acceleration * g * duration
-    start = run_length(scene) if scene.stages else 0.0
+    start = scene.analysis.run_length if scene.stages else 0.0
     ground = () if scene.seismic is None else tuple(scene.seismic.blocks)
     criterion = Criterion(duration, fos.window, velocity, fos.blocks, start, ground)
     _check_judged(scene, criterion)

@@ -46,13 +46,7 @@ def planned_largest_factor(scene: Scene) -> float:
     """The largest load factor the scene's run reaches as planned: its history's points up
     to the planned end (``duration``, or ``steps`` at the longest ``time_step``), and the
     end itself. It depends on the scene alone, not on where the engine broke."""
-    analysis = scene.analysis
-    if analysis.duration is not None:
-        end = analysis.duration
-    elif analysis.steps is not None:
-        end = analysis.steps * analysis.time_step
-    else:
-        end = 1.0
+    end = scene.analysis.run_length
     times = {0.0, end}
     for load in scene.loads:
         if load.history is not None:
