@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from dda import Result, Scene
+from dda import Frame, Result, Scene
 from verify.comparison.compare import STRESS, Row
 from verify.comparison.expect import Expectation, ExpectationError
 from verify.fem.fracture import Onset, crack_planes, strength_of
@@ -88,6 +88,11 @@ def onset_rows(result: Result, scene: Scene, onset: Onset, expectation: Expectat
     return rows
 
 
+def frame_of(result: Result, event) -> Frame | None:
+    """The first frame at or after ``event``'s step (the pieces just made), or None."""
+    return next((f for f in result.frames if f.step >= event.step), None)
+
+
 def children_rows(result: Result) -> list[Row]:
     """Rows ``children``: each piece of the first break in the first frame at or after
     its step against the stress its parent met the criterion with; scale the largest of
@@ -95,7 +100,7 @@ def children_rows(result: Result) -> list[Row]:
     if not result.fracture_events:
         return []
     event = result.fracture_events[0]
-    frame = next((f for f in result.frames if f.step >= event.step), None)
+    frame = frame_of(result, event)
     parent = np.asarray(event.stress, float)
     if frame is None or parent.size != 3:
         return []
@@ -150,12 +155,13 @@ def crack_rows(result: Result, scene: Scene, onset: Onset) -> list[Row]:
         i = names.index(event.parent)
         factor = onset.factors.get(i, np.nan)
         strength = strength_of(scene, i)
-        frame = next((f for f in result.frames if f.step >= event.step), None)
+        frame = frame_of(result, event)
         if frame is None or strength is None:
             continue
         measured = crack_directions([frame.vertices[frame.block(c)] for c in event.children])
         expected = crack_planes(onset.stress_at(i, factor), strength) if np.isfinite(factor) else []
-        rows.append(Row("crack", event.parent, "planes", len(measured), len(expected), 1.0))
+        count = Row("crack", event.parent, "planes", float(len(measured)), float(len(expected)), 1)
+        rows.append(count)
         for k, angle in enumerate(expected):
             nearest = min(measured, key=lambda m, a=angle: _angle_gap(m, a), default=np.inf)
             value = angle + _signed_gap(nearest, angle) if np.isfinite(nearest) else nearest
